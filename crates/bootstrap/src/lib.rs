@@ -1,0 +1,1 @@
+//! crashrig-bootstrap (being built; see docs/ARCHITECTURE.md).

@@ -1,0 +1,1 @@
+//! crashrig-camera (being built; see docs/ARCHITECTURE.md).

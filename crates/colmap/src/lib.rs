@@ -1,0 +1,1 @@
+//! crashrig-colmap (being built; see docs/ARCHITECTURE.md).

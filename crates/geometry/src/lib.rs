@@ -1,0 +1,1 @@
+//! crashrig-geometry (being built; see docs/ARCHITECTURE.md).

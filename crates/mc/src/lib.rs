@@ -1,0 +1,1 @@
+//! crashrig-mc (being built; see docs/ARCHITECTURE.md).

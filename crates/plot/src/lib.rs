@@ -1,0 +1,1 @@
+//! crashrig-plot (being built; see docs/ARCHITECTURE.md).

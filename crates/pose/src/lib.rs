@@ -1,0 +1,1 @@
+//! crashrig-pose (being built; see docs/ARCHITECTURE.md).

@@ -1,0 +1,1 @@
+//! crashrig-rig (being built; see docs/ARCHITECTURE.md).

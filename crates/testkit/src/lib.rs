@@ -1,0 +1,1 @@
+//! crashrig-testkit (being built; see docs/ARCHITECTURE.md).
