@@ -1,2 +1,158 @@
-//! stub
-fn main() {}
+//! `cargo xtask`: developer automation for crashrig (the cargo-xtask convention).
+//!
+//! Verbs: `ci`, `tidy`, `test [--slow]`, `paper [--out DIR]`, `interop`, `bench [--e2e]`,
+//! `fixtures`. Contributor-only work lives here; everything a user sees lives in `crashrig`.
+
+mod tidy;
+
+use anyhow::{Context, Result, bail};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const HELP: &str = "\
+cargo xtask <verb>
+
+verbs:
+  ci                 fmt --check, clippy -D warnings, the test suite, tidy
+  tidy               dependency DAG, module docs, ARCHITECTURE code map (also run by `cargo test`)
+  test [--slow]      the README test command; --slow adds the gated statistical tests (CRASHRIG_SLOW=1, release)
+  paper [--out DIR]  the main job: `crashrig paper` in release mode (default DIR: out/paper)
+  interop            COLMAP interop round trips against pycolmap (needs a Python with pycolmap; PYTHON=...)
+  bench [--e2e]      criterion benchmarks; --e2e adds whole-command timings
+  fixtures           regenerate the Python-generated fixtures (needs pycolmap + opencv; PYTHON=...)
+";
+
+fn main() -> Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let verb = args.first().map(String::as_str).unwrap_or("help");
+    let rest = &args[args.len().min(1)..];
+    match verb {
+        "ci" => ci(),
+        "tidy" => {
+            let problems = tidy::check(&project_root())?;
+            if problems.is_empty() {
+                println!("tidy: ok");
+                Ok(())
+            } else {
+                for p in &problems {
+                    eprintln!("tidy: {p}");
+                }
+                bail!("tidy found {} problem(s)", problems.len())
+            }
+        }
+        "test" => test(rest.iter().any(|a| a == "--slow")),
+        "paper" => paper(rest),
+        "interop" => interop(),
+        "bench" => bench(rest.iter().any(|a| a == "--e2e")),
+        "fixtures" => fixtures(),
+        "help" | "--help" | "-h" => {
+            print!("{HELP}");
+            Ok(())
+        }
+        other => {
+            eprint!("{HELP}");
+            bail!("unknown verb `{other}`")
+        }
+    }
+}
+
+/// The workspace root (the parent of this crate's manifest directory).
+pub fn project_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("xtask lives one level below the root").to_path_buf()
+}
+
+fn cargo() -> Command {
+    let mut c = Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()));
+    c.current_dir(project_root());
+    c
+}
+
+fn run(mut c: Command) -> Result<()> {
+    eprintln!("xtask: running {c:?}");
+    let status = c.status().with_context(|| format!("cannot start {c:?}"))?;
+    if !status.success() {
+        bail!("{c:?} failed with {status}");
+    }
+    Ok(())
+}
+
+fn ci() -> Result<()> {
+    let mut fmt = cargo();
+    fmt.args(["fmt", "--all", "--", "--check"]);
+    run(fmt)?;
+    let mut clippy = cargo();
+    clippy.args(["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"]);
+    run(clippy)?;
+    test(false)
+}
+
+fn test(slow: bool) -> Result<()> {
+    let mut t = cargo();
+    t.args(["test", "--workspace"]);
+    if slow {
+        t.env("CRASHRIG_SLOW", "1").arg("--release");
+    }
+    run(t)
+}
+
+fn paper(rest: &[String]) -> Result<()> {
+    let mut c = cargo();
+    c.args(["run", "--release", "--quiet", "--package", "crashrig-cli", "--bin", "crashrig", "--", "paper"]);
+    c.args(rest);
+    run(c)
+}
+
+fn python() -> String {
+    std::env::var("PYTHON").unwrap_or_else(|_| "python3".to_string())
+}
+
+fn build_release_cli() -> Result<PathBuf> {
+    let mut b = cargo();
+    b.args(["build", "--release", "--quiet", "--package", "crashrig-cli", "--bin", "crashrig"]);
+    run(b)?;
+    Ok(project_root().join("target/release/crashrig"))
+}
+
+fn interop() -> Result<()> {
+    let bin = build_release_cli()?;
+    let mut c = Command::new(python());
+    c.current_dir(project_root()).arg("fixtures/gen/colmap_interop.py").arg(&bin);
+    run(c)
+}
+
+fn bench(e2e: bool) -> Result<()> {
+    let mut c = cargo();
+    c.args(["bench", "--package", "crashrig-benches"]);
+    run(c)?;
+    if e2e {
+        let bin = build_release_cli()?;
+        let root = project_root();
+        let out = root.join("target/xtask-e2e");
+        for scenario in ["fixtures/scenarios/four_cameras_z0.toml"] {
+            let start = std::time::Instant::now();
+            let mut g = Command::new(&bin);
+            g.current_dir(&root).args(["grid", scenario, "--out"]).arg(&out);
+            run(g)?;
+            println!("e2e: crashrig grid {scenario}: {:.2} s", start.elapsed().as_secs_f64());
+        }
+    }
+    Ok(())
+}
+
+fn fixtures() -> Result<()> {
+    let root = project_root();
+    let mut scripts: Vec<PathBuf> = std::fs::read_dir(root.join("fixtures/gen"))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+            name.ends_with(".py") && !name.contains("interop") && !name.contains("bench")
+        })
+        .collect();
+    scripts.sort();
+    for s in scripts {
+        let mut c = Command::new(python());
+        c.current_dir(&root).arg(&s);
+        run(c)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,235 @@
+//! Checks that must always hold: the dependency DAG, module docs, the ARCHITECTURE code map.
+//!
+//! Run by `cargo xtask tidy` and, through the tests at the bottom, by plain `cargo test`.
+
+use anyhow::{Context, Result};
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
+use std::process::Command;
+
+/// Allowed normal-dependency edges between workspace packages (from → to). This table is the
+/// DAG of docs/ARCHITECTURE.md; adding an edge is a reviewed change to both.
+pub const ALLOWED: &[(&str, &[&str])] = &[
+    ("crashrig-geometry", &[]),
+    ("crashrig-stats", &[]),
+    ("crashrig-plot", &[]),
+    ("crashrig-camera", &["crashrig-geometry"]),
+    ("crashrig-colmap", &["crashrig-geometry", "crashrig-camera"]),
+    ("crashrig-rig", &["crashrig-geometry", "crashrig-colmap", "crashrig-stats"]),
+    ("crashrig-pose", &["crashrig-geometry", "crashrig-camera", "crashrig-stats"]),
+    ("crashrig-bootstrap", &["crashrig-stats"]),
+    ("crashrig-mc", &["crashrig-geometry", "crashrig-stats"]),
+    ("crashrig-testkit", &["crashrig-geometry", "crashrig-camera"]),
+    (
+        "crashrig-cli",
+        &[
+            "crashrig-geometry",
+            "crashrig-stats",
+            "crashrig-camera",
+            "crashrig-colmap",
+            "crashrig-rig",
+            "crashrig-pose",
+            "crashrig-bootstrap",
+            "crashrig-mc",
+            "crashrig-plot",
+        ],
+    ),
+    (
+        "crashrig-benches",
+        &[
+            "crashrig-geometry",
+            "crashrig-stats",
+            "crashrig-camera",
+            "crashrig-colmap",
+            "crashrig-pose",
+            "crashrig-bootstrap",
+            "crashrig-mc",
+        ],
+    ),
+    ("xtask", &[]),
+];
+
+/// Runs every check and returns the problems found (empty = tidy).
+pub fn check(root: &Path) -> Result<Vec<String>> {
+    let mut problems = check_dag(root)?;
+    problems.extend(check_module_docs(root)?);
+    problems.extend(check_code_map(root)?);
+    Ok(problems)
+}
+
+/// Workspace packages and their internal dependencies: name → (normal, dev).
+type Edges = BTreeMap<String, (BTreeSet<String>, BTreeSet<String>)>;
+
+fn workspace_edges(root: &Path) -> Result<Edges> {
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let out = Command::new(cargo)
+        .current_dir(root)
+        .args(["metadata", "--format-version", "1", "--no-deps", "--offline"])
+        .output()
+        .context("running cargo metadata")?;
+    anyhow::ensure!(out.status.success(), "cargo metadata failed: {}", String::from_utf8_lossy(&out.stderr));
+    let meta: serde_json::Value = serde_json::from_slice(&out.stdout).context("parsing cargo metadata")?;
+    let packages = meta["packages"].as_array().context("metadata without packages")?;
+    let names: BTreeSet<String> =
+        packages.iter().filter_map(|p| p["name"].as_str().map(str::to_string)).collect();
+    let mut edges = Edges::new();
+    for p in packages {
+        let name = p["name"].as_str().unwrap_or_default().to_string();
+        let entry = edges.entry(name).or_default();
+        for d in p["dependencies"].as_array().into_iter().flatten() {
+            let dep = d["name"].as_str().unwrap_or_default().to_string();
+            if !names.contains(&dep) {
+                continue;
+            }
+            match d["kind"].as_str() {
+                Some("dev") => entry.1.insert(dep),
+                _ => entry.0.insert(dep),
+            };
+        }
+    }
+    Ok(edges)
+}
+
+/// Normal edges must be in [`ALLOWED`]; `crashrig-testkit` only as a dev-dependency; dev edges
+/// must not create a cycle through normal edges (a dev-dependency on a crate that depends on you).
+pub fn check_dag(root: &Path) -> Result<Vec<String>> {
+    let allowed: BTreeMap<&str, BTreeSet<&str>> =
+        ALLOWED.iter().map(|(k, v)| (*k, v.iter().copied().collect())).collect();
+    let edges = workspace_edges(root)?;
+    let mut problems = Vec::new();
+    for (from, (normal, dev)) in &edges {
+        let Some(ok) = allowed.get(from.as_str()) else {
+            problems.push(format!("package `{from}` is not in the DAG table (xtask/src/tidy.rs, docs/ARCHITECTURE.md)"));
+            continue;
+        };
+        for to in normal {
+            if !ok.contains(to.as_str()) {
+                problems.push(format!("dependency edge `{from}` -> `{to}` is not in the DAG (docs/ARCHITECTURE.md)"));
+            }
+        }
+        if normal.contains("crashrig-testkit") {
+            problems.push(format!("`{from}` has crashrig-testkit as a normal dependency (dev-only)"));
+        }
+        for to in dev {
+            // testkit depends on the crates it serves by design; it is reached from tests only.
+            if to != "crashrig-testkit" && reaches(&edges, to, from) {
+                problems.push(format!("dev-dependency `{from}` -> `{to}` closes a cycle"));
+            }
+        }
+    }
+    Ok(problems)
+}
+
+/// Whether `from` reaches `target` through normal dependencies.
+fn reaches(edges: &Edges, from: &str, target: &str) -> bool {
+    if from == target {
+        return false; // a crate's dev-dependency on a crate depending on it is checked via others
+    }
+    let mut stack = vec![from.to_string()];
+    let mut seen = BTreeSet::new();
+    while let Some(n) = stack.pop() {
+        if n == target {
+            return true;
+        }
+        if seen.insert(n.clone()) {
+            if let Some((normal, _)) = edges.get(&n) {
+                stack.extend(normal.iter().cloned());
+            }
+        }
+    }
+    false
+}
+
+/// Every Rust source file under crates/, xtask/ and benches/ starts with a `//!` doc line.
+pub fn check_module_docs(root: &Path) -> Result<Vec<String>> {
+    let mut problems = Vec::new();
+    for dir in ["crates", "xtask/src", "benches"] {
+        let mut files = Vec::new();
+        collect_rs(&root.join(dir), &mut files)?;
+        for f in files {
+            let text = std::fs::read_to_string(&f).with_context(|| format!("reading {}", f.display()))?;
+            let first = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("");
+            if !first.starts_with("//!") {
+                let rel = f.strip_prefix(root).unwrap_or(&f);
+                problems.push(format!("{}: first line must be a `//!` module doc", rel.display()));
+            }
+        }
+    }
+    Ok(problems)
+}
+
+fn collect_rs(dir: &Path, out: &mut Vec<std::path::PathBuf>) -> Result<()> {
+    if !dir.exists() {
+        return Ok(());
+    }
+    for e in std::fs::read_dir(dir).with_context(|| format!("listing {}", dir.display()))? {
+        let p = e?.path();
+        if p.is_dir() {
+            let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+            if name != "target" && name != "test_data" {
+                collect_rs(&p, out)?;
+            }
+        } else if p.extension().is_some_and(|x| x == "rs") {
+            out.push(p);
+        }
+    }
+    Ok(())
+}
+
+/// Every crate under crates/ has a section in docs/ARCHITECTURE.md's code map.
+pub fn check_code_map(root: &Path) -> Result<Vec<String>> {
+    let arch = std::fs::read_to_string(root.join("docs/ARCHITECTURE.md")).context("reading docs/ARCHITECTURE.md")?;
+    let mut problems = Vec::new();
+    for e in std::fs::read_dir(root.join("crates"))? {
+        let p = e?.path();
+        if p.join("Cargo.toml").exists() {
+            let dir = p.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+            let needle = format!("### `crates/{dir}`");
+            if !arch.contains(&needle) {
+                problems.push(format!("docs/ARCHITECTURE.md has no code-map section `{needle}`"));
+            }
+        }
+    }
+    Ok(problems)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tidy_dag_has_only_allowed_edges() {
+        let problems = check_dag(&crate::project_root()).unwrap();
+        assert!(problems.is_empty(), "{problems:#?}");
+    }
+
+    #[test]
+    fn tidy_every_module_has_a_doc_line() {
+        let problems = check_module_docs(&crate::project_root()).unwrap();
+        assert!(problems.is_empty(), "{problems:#?}");
+    }
+
+    #[test]
+    fn tidy_architecture_code_map_lists_every_crate() {
+        let problems = check_code_map(&crate::project_root()).unwrap();
+        assert!(problems.is_empty(), "{problems:#?}");
+    }
+
+    #[test]
+    fn tidy_dag_table_is_acyclic() {
+        // The allowed table itself must be a DAG (a typo adding a back edge would hide a cycle).
+        let table: BTreeMap<&str, &[&str]> = ALLOWED.iter().copied().collect();
+        fn visit<'a>(n: &'a str, t: &BTreeMap<&'a str, &'a [&'a str]>, path: &mut Vec<&'a str>) -> bool {
+            if path.contains(&n) {
+                return false;
+            }
+            path.push(n);
+            let ok = t.get(n).into_iter().flat_map(|v| v.iter()).all(|m| visit(m, t, path));
+            path.pop();
+            ok
+        }
+        for n in table.keys() {
+            assert!(visit(n, &table, &mut Vec::new()), "cycle through {n}");
+        }
+    }
+}
