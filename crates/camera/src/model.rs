@@ -291,28 +291,15 @@ pub(crate) fn validate_params(model: ModelId, params: &[f64]) -> Result<(), Erro
             return Err(bad(i));
         }
     }
-    match model {
-        ModelId::Fov => {
-            if !(0.0..std::f64::consts::PI).contains(&params[4]) {
-                return Err(bad(4));
-            }
-        }
-        ModelId::Eucm => {
-            if !(0.0..=1.0).contains(&params[4]) {
-                return Err(bad(4));
-            }
-            if params[5] <= 0.0 {
-                return Err(bad(5));
-            }
-        }
-        ModelId::Equirectangular => {
-            for i in 0..2 {
-                if params[i] <= 0.0 {
-                    return Err(bad(i));
-                }
-            }
-        }
-        _ => {}
+    let bad_idx = match model {
+        ModelId::Fov if !(0.0..std::f64::consts::PI).contains(&params[4]) => Some(4),
+        ModelId::Eucm if !(0.0..=1.0).contains(&params[4]) => Some(4),
+        ModelId::Eucm if params[5] <= 0.0 => Some(5),
+        ModelId::Equirectangular => params.iter().position(|&v| v <= 0.0),
+        _ => None,
+    };
+    if let Some(i) = bad_idx {
+        return Err(bad(i));
     }
     Ok(())
 }
