@@ -12,7 +12,10 @@ pub fn exp(xi: &Vec6) -> Rigid3 {
     let v = Vec3::new(xi[3], xi[4], xi[5]);
     let r = so3::exp(&w);
     let t = so3::left_jacobian(&w) * v;
-    Rigid3::from_parts(Translation3::from(t), UnitQuaternion::from_rotation_matrix(&r))
+    Rigid3::from_parts(
+        Translation3::from(t),
+        UnitQuaternion::from_rotation_matrix(&r),
+    )
 }
 
 /// Logarithm map, inverse of [`exp`] (rotation angle in `[0, π]`).

@@ -15,7 +15,11 @@ pub fn hat(w: &Vec3) -> Mat3 {
 
 /// Inverse of [`hat`]: the vector of a skew-symmetric matrix (the antisymmetric part is used).
 pub fn vee(m: &Mat3) -> Vec3 {
-    Vec3::new(m[(2, 1)] - m[(1, 2)], m[(0, 2)] - m[(2, 0)], m[(1, 0)] - m[(0, 1)]) * 0.5
+    Vec3::new(
+        m[(2, 1)] - m[(1, 2)],
+        m[(0, 2)] - m[(2, 0)],
+        m[(1, 0)] - m[(0, 1)],
+    ) * 0.5
 }
 
 /// `sin θ / θ`, exact near 0.

@@ -1,0 +1,183 @@
+//! Forward intersection (triangulation) of one point from n ≥ 2 views by linear least squares.
+//!
+//! Each view contributes the two DLT rows `(u·r3 − r1)·X = t1 − u·t3` and
+//! `(v·r3 − r2)·X = t2 − v·t3`, where `r_i` are the rows of `R_cam_from_world`, `t` its
+//! translation and `(u, v)` the observation in normalized camera coordinates (x/z, y/z).
+
+use crate::tolerance::{DLT_MAX_CONDITION, DLT_MIN_HOMOGENEOUS_W};
+use crate::{Error, Mat3, Rigid3, Vec3};
+use nalgebra::{Matrix4, SymmetricEigen, Vector2, Vector4};
+
+/// One view of the point: the camera pose and the normalized image observation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct View {
+    /// `cam_from_world` (mm).
+    pub cam_from_world: Rigid3,
+    /// Observation in normalized camera coordinates `(x/z, y/z)`.
+    pub normalized: Vector2<f64>,
+}
+
+/// The two DLT rows `(a, b)` of a view: `a·X = b`.
+fn rows(view: &View) -> [(Vec3, f64); 2] {
+    let r = view
+        .cam_from_world
+        .rotation
+        .to_rotation_matrix()
+        .into_inner();
+    let t = view.cam_from_world.translation.vector;
+    let r1 = r.row(0).transpose();
+    let r2 = r.row(1).transpose();
+    let r3 = r.row(2).transpose();
+    let (u, v) = (view.normalized.x, view.normalized.y);
+    [(r3 * u - r1, t.x - u * t.z), (r3 * v - r2, t.y - v * t.z)]
+}
+
+fn check_views(views: &[View]) -> Result<(), Error> {
+    if views.len() < 2 {
+        return Err(Error::TooFewViews {
+            needed: 2,
+            found: views.len(),
+        });
+    }
+    let finite = views.iter().all(|v| {
+        v.normalized.iter().all(|x| x.is_finite())
+            && v.cam_from_world
+                .translation
+                .vector
+                .iter()
+                .all(|x| x.is_finite())
+            && v.cam_from_world
+                .rotation
+                .coords
+                .iter()
+                .all(|x| x.is_finite())
+    });
+    if finite {
+        Ok(())
+    } else {
+        Err(Error::NonFinite { what: "view" })
+    }
+}
+
+/// Normal matrix `AᵀA` and right-hand side `Aᵀb`.
+fn normal_equations(views: &[View]) -> (Mat3, Vec3) {
+    let mut n = Mat3::zeros();
+    let mut rhs = Vec3::zeros();
+    for view in views {
+        for (a, b) in rows(view) {
+            n += a * a.transpose();
+            rhs += a * b;
+        }
+    }
+    (n, rhs)
+}
+
+/// `N⁻¹` of the normal matrix after a condition check (cond(A) = √(λmax/λmin)).
+fn checked_inverse(n: &Mat3) -> Result<Mat3, Error> {
+    let eig = SymmetricEigen::new(*n);
+    let lmax = eig.eigenvalues.max();
+    let lmin = eig.eigenvalues.min();
+    let condition = if lmin > 0.0 {
+        (lmax / lmin).sqrt()
+    } else {
+        f64::INFINITY
+    };
+    if condition.is_nan() || condition > DLT_MAX_CONDITION {
+        return Err(Error::Degenerate {
+            what: "DLT rays (nearly) parallel",
+            condition,
+        });
+    }
+    // Inverse from the eigen-decomposition (N is symmetric positive definite here).
+    let inv_diag = eig.eigenvalues.map(|l| 1.0 / l);
+    Ok(eig.eigenvectors * Mat3::from_diagonal(&inv_diag) * eig.eigenvectors.transpose())
+}
+
+/// Linear least-squares intersection, inhomogeneous 3-unknown form (normal equations).
+///
+/// # Errors
+/// [`Error::TooFewViews`] for fewer than 2 views, [`Error::NonFinite`], and
+/// [`Error::Degenerate`] when the condition number of the design matrix exceeds
+/// [`DLT_MAX_CONDITION`] (parallel rays, all centres on one ray).
+pub fn dlt(views: &[View]) -> Result<Vec3, Error> {
+    check_views(views)?;
+    let (n, rhs) = normal_equations(views);
+    let inv = checked_inverse(&n)?;
+    Ok(inv * rhs)
+}
+
+/// Classic homogeneous DLT: the right singular vector of the 2n×4 matrix `[a | −b]` belonging
+/// to its smallest singular value (here via the eigenvectors of the 4×4 normal matrix).
+///
+/// # Errors
+/// As [`dlt`]; also [`Error::Degenerate`] when the solution is at infinity.
+pub fn dlt_homogeneous(views: &[View]) -> Result<Vec3, Error> {
+    check_views(views)?;
+    let mut n = Matrix4::<f64>::zeros();
+    for view in views {
+        for (a, b) in rows(view) {
+            let row = Vector4::new(a.x, a.y, a.z, -b);
+            n += row * row.transpose();
+        }
+    }
+    let eig = SymmetricEigen::new(n);
+    let mut order = [0usize, 1, 2, 3];
+    order.sort_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]));
+    let (l1, l3) = (eig.eigenvalues[order[1]], eig.eigenvalues[order[3]]);
+    // Singular values are √λ; a second-smallest one near 0 means a family of solutions.
+    let condition = if l1 > 0.0 {
+        (l3 / l1).sqrt()
+    } else {
+        f64::INFINITY
+    };
+    if condition.is_nan() || condition > DLT_MAX_CONDITION {
+        return Err(Error::Degenerate {
+            what: "homogeneous DLT: null space of dimension > 1",
+            condition,
+        });
+    }
+    let h = eig.eigenvectors.column(order[0]);
+    if h[3].abs() < DLT_MIN_HOMOGENEOUS_W {
+        return Err(Error::Degenerate {
+            what: "homogeneous DLT: point at infinity",
+            condition: h[3].abs(),
+        });
+    }
+    Ok(Vec3::new(h[0], h[1], h[2]) / h[3])
+}
+
+/// First-order covariance (mm²) of [`dlt`]'s point from independent isotropic noise of standard
+/// deviation `sigma_normalized` on every normalized coordinate.
+///
+/// `point` is where the Jacobian is evaluated (normally the [`dlt`] solution of `views`); the
+/// derivative is exact for the least-squares solution, residuals included:
+/// `∂X/∂u_i = −N⁻¹ (r3·ρ_i + a_i·z_i)` with ρ_i the row residual and z_i the depth.
+///
+/// # Errors
+/// As [`dlt`], and [`Error::NonFinite`] for a non-finite `point` or `sigma_normalized`.
+pub fn dlt_covariance(views: &[View], point: &Vec3, sigma_normalized: f64) -> Result<Mat3, Error> {
+    check_views(views)?;
+    if !sigma_normalized.is_finite() || point.iter().any(|v| !v.is_finite()) {
+        return Err(Error::NonFinite {
+            what: "point or sigma",
+        });
+    }
+    let (n, _) = normal_equations(views);
+    let inv = checked_inverse(&n)?;
+    let mut jjt = Mat3::zeros();
+    for view in views {
+        let rot = view
+            .cam_from_world
+            .rotation
+            .to_rotation_matrix()
+            .into_inner();
+        let r3_row = rot.row(2).transpose();
+        let depth = r3_row.dot(point) + view.cam_from_world.translation.vector.z;
+        for (a, b) in rows(view) {
+            let residual = a.dot(point) - b;
+            let col = -(inv * (r3_row * residual + a * depth));
+            jjt += col * col.transpose();
+        }
+    }
+    Ok(jjt * (sigma_normalized * sigma_normalized))
+}
