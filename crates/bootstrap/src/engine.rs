@@ -45,9 +45,7 @@ impl<T, E> Replicates<T, E> {
 /// This is exactly what [`run`] hands to the statistic, exposed so callers can reproduce it.
 pub fn resample(n_items: usize, seed: u64, replicate: usize) -> Vec<usize> {
     let mut rng = crashrig_stats::stream(seed, replicate as u64);
-    let mut idx: Vec<usize> = (0..n_items)
-        .map(|_| rng.random_range(0..n_items))
-        .collect();
+    let mut idx: Vec<usize> = (0..n_items).map(|_| rng.random_range(0..n_items)).collect();
     idx.sort_unstable();
     idx
 }
