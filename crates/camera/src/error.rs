@@ -46,6 +46,12 @@ pub enum Error {
         /// The offending value.
         value: f64,
     },
+    /// OpenCV `distCoeffs` must have 0, 4, 5, 8, 12 or 14 entries.
+    #[error("OpenCV distCoeffs must have 0, 4, 5, 8, 12 or 14 entries, got {found}")]
+    WrongOpenCvCoeffCount {
+        /// Number of coefficients given.
+        found: usize,
+    },
     /// The requested operation is not implemented for this model.
     #[error("camera model {} is not supported by this operation", model.name())]
     UnsupportedModel {

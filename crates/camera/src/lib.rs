@@ -16,8 +16,16 @@
 //! ```
 #![deny(missing_docs)]
 
+mod dual;
 mod error;
 mod model;
+mod opencv;
+mod project;
 
 pub use error::{Error, ProjectionReject, UndistortError};
 pub use model::{Camera, ModelId};
+pub use opencv::{
+    COLMAP_MINUS_OPENCV_PIXEL, OPENCV_UNDISTORT_MAX_ITERATIONS, OPENCV_UNDISTORT_STEP_SQ_TOL,
+    OpenCvCamera, colmap_from_opencv_pixel, opencv_from_colmap_pixel,
+};
+pub use project::{COLMAP_UNDISTORT_MAX_ITERATIONS, COLMAP_UNDISTORT_STEP_SQ_TOL, Undistorted};
