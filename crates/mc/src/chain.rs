@@ -1,0 +1,373 @@
+//! Propagation through the camera chain: Monte Carlo draws and first-order (linear) covariance.
+
+use crate::kernel::{exp_matrix, log_near_identity, rot_opk};
+use crate::scenario::{PoseSigma, RotationNoise, Scenario};
+use crate::{CHUNK, Error};
+use crashrig_stats::{Moments, stream};
+use nalgebra::{DMatrix, Matrix3, Matrix6, Vector3};
+use rand::RngExt;
+use rand_distr::StandardNormal;
+use rayon::prelude::*;
+
+/// A world pose: projection centre and `R_world_from_cam`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WorldPose {
+    /// Projection centre in the world (mm).
+    pub position_mm: Vector3<f64>,
+    /// `R_world_from_cam`.
+    pub rotation: Matrix3<f64>,
+}
+
+impl WorldPose {
+    /// ω, φ, κ (rad) of the rotation.
+    pub fn angles_rad(&self) -> Vector3<f64> {
+        let o = crashrig_geometry::opk::opk_from_rotation(
+            &crashrig_geometry::Rot3::from_matrix_unchecked(self.rotation),
+        );
+        Vector3::new(o.omega, o.phi, o.kappa)
+    }
+}
+
+#[derive(Debug, Clone)]
+struct Link {
+    parent: Option<usize>,
+    position_mm: Vector3<f64>,
+    angles_rad: Vector3<f64>,
+    rotation: Matrix3<f64>,
+    sigma: PoseSigma,
+}
+
+/// The camera chain of a scenario, ready for repeated draws.
+#[derive(Debug, Clone)]
+pub struct Chain {
+    names: Vec<String>,
+    links: Vec<Link>,
+    order: Vec<usize>,
+    noise: RotationNoise,
+    nominal: Vec<WorldPose>,
+}
+
+/// Monte Carlo statistics of one camera's world pose.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoseMc {
+    /// Camera name.
+    pub name: String,
+    /// Nominal world pose.
+    pub nominal: WorldPose,
+    /// Draws.
+    pub count: u64,
+    /// Mean projection centre (mm).
+    pub position_mean_mm: Vector3<f64>,
+    /// σ of the projection centre (mm, world axes).
+    pub position_sigma_mm: Vector3<f64>,
+    /// Mean ω φ κ (rad), wrap-safe (nominal + mean of the wrapped offsets).
+    pub angles_mean_rad: Vector3<f64>,
+    /// σ of ω φ κ of `R_world_from_cam` (rad); offsets from the nominal are wrapped to ±π
+    /// before accumulation, so a spread around ±180° is the small spread it is.
+    pub angles_sigma_rad: Vector3<f64>,
+    /// σ of the body-axis rotation error `log(R_nomᵀ R)` (rad).
+    pub tangent_sigma_rad: Vector3<f64>,
+    /// Covariance of (position mm, ω φ κ rad).
+    pub covariance: Matrix6<f64>,
+}
+
+/// First-order propagation of one camera's world pose.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoseLinear {
+    /// Camera name.
+    pub name: String,
+    /// Covariance of (position mm, body-axis rotation error rad).
+    pub covariance_tangent: Matrix6<f64>,
+    /// σ of the projection centre (mm).
+    pub position_sigma_mm: Vector3<f64>,
+    /// σ of the body-axis rotation error (rad).
+    pub tangent_sigma_rad: Vector3<f64>,
+    /// σ of ω φ κ (rad); `None` at gimbal lock.
+    pub angles_sigma_rad: Option<Vector3<f64>>,
+}
+
+/// Body angular-rate matrix `M` of ω φ κ: `R(a + dε) = R(a)·Exp(M dε)` to first order.
+pub(crate) fn opk_rate_matrix(a: &Vector3<f64>) -> Matrix3<f64> {
+    let (sp, cp) = a.y.sin_cos();
+    let (sk, ck) = a.z.sin_cos();
+    // Rzᵀ Ryᵀ e₁ = Rzᵀ (cφ, 0, sφ) = (cφ cκ, −cφ sκ, sφ); Rzᵀ e₂ = (sκ, cκ, 0).
+    Matrix3::new(cp * ck, sk, 0.0, -cp * sk, ck, 0.0, sp, 0.0, 1.0)
+}
+
+fn wrap_pi(a: f64) -> f64 {
+    crashrig_geometry::angles::wrap_pi(a)
+}
+
+impl Chain {
+    /// Builds the chain and its nominal world poses.
+    pub fn new(scenario: &Scenario) -> Self {
+        let links: Vec<Link> = scenario
+            .cameras
+            .iter()
+            .map(|c| Link {
+                parent: c.parent,
+                position_mm: c.position_mm,
+                angles_rad: c.angles_rad,
+                rotation: rot_opk(&c.angles_rad),
+                sigma: c.sigma,
+            })
+            .collect();
+        let mut chain = Chain {
+            names: scenario.cameras.iter().map(|c| c.name.clone()).collect(),
+            links,
+            order: scenario.order.clone(),
+            noise: scenario.rotation_noise,
+            nominal: Vec::new(),
+        };
+        let zeros = vec![0.0; 6 * chain.len()];
+        chain.nominal = chain.compose(&zeros);
+        chain
+    }
+
+    /// Number of cameras.
+    pub fn len(&self) -> usize {
+        self.links.len()
+    }
+
+    /// True when there is no camera.
+    pub fn is_empty(&self) -> bool {
+        self.links.is_empty()
+    }
+
+    /// Camera names in file order.
+    pub fn names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// Nominal world poses in file order.
+    pub fn nominal(&self) -> &[WorldPose] {
+        &self.nominal
+    }
+
+    /// World poses for standard-normal inputs `eps` (6 per camera in file order: position
+    /// x y z, then the three rotation components), scaled by each camera's σ.
+    pub fn compose(&self, eps: &[f64]) -> Vec<WorldPose> {
+        let mut out = vec![
+            WorldPose {
+                position_mm: Vector3::zeros(),
+                rotation: Matrix3::identity(),
+            };
+            self.len()
+        ];
+        self.compose_into(eps, &mut out);
+        out
+    }
+
+    #[inline]
+    fn compose_into(&self, eps: &[f64], out: &mut [WorldPose]) {
+        for &i in &self.order {
+            let l = &self.links[i];
+            let e = &eps[6 * i..6 * i + 6];
+            let p = l.position_mm
+                + l.sigma
+                    .position_mm
+                    .component_mul(&Vector3::new(e[0], e[1], e[2]));
+            let de = l
+                .sigma
+                .angles_rad
+                .component_mul(&Vector3::new(e[3], e[4], e[5]));
+            let r = match self.noise {
+                RotationNoise::Tangent => l.rotation * exp_matrix(&de),
+                RotationNoise::Euler => rot_opk(&(l.angles_rad + de)),
+            };
+            out[i] = match l.parent {
+                None => WorldPose {
+                    position_mm: p,
+                    rotation: r,
+                },
+                Some(pi) => {
+                    let parent = out[pi];
+                    WorldPose {
+                        position_mm: parent.position_mm + parent.rotation * p,
+                        rotation: parent.rotation * r,
+                    }
+                }
+            };
+        }
+    }
+
+    /// One joint draw of every camera: fills `eps` (6 normals per camera, drawn in
+    /// topological order) and `out`.
+    #[inline]
+    pub(crate) fn draw_into<R: rand::Rng>(
+        &self,
+        rng: &mut R,
+        eps: &mut [f64],
+        out: &mut [WorldPose],
+    ) {
+        for &i in &self.order {
+            for e in &mut eps[6 * i..6 * i + 6] {
+                *e = rng.sample(StandardNormal);
+            }
+        }
+        self.compose_into(eps, out);
+    }
+
+    /// Error of a drawn pose against the nominal of camera `i`: (δC world mm, body rotation
+    /// error rad) with `R = R_nom·Exp(θ)`.
+    #[inline]
+    pub(crate) fn error_of(&self, i: usize, drawn: &WorldPose) -> (Vector3<f64>, Vector3<f64>) {
+        let nom = &self.nominal[i];
+        (
+            drawn.position_mm - nom.position_mm,
+            log_near_identity(&(nom.rotation.transpose() * drawn.rotation)),
+        )
+    }
+
+    /// Monte Carlo propagation with `samples` joint draws of every camera and link.
+    ///
+    /// Draws are split in chunks of [`CHUNK`]; chunk `k` uses `crashrig_stats::stream(seed, k)`
+    /// and the chunks are merged in index order, so the result is bit-identical for any
+    /// number of threads.
+    pub fn monte_carlo(&self, samples: usize, seed: u64) -> Vec<PoseMc> {
+        let n = self.len();
+        let chunks = samples.div_ceil(CHUNK);
+        let parts: Vec<Vec<(Moments<6>, Moments<3>)>> = (0..chunks)
+            .into_par_iter()
+            .map(|k| {
+                let mut rng = stream(seed, k as u64);
+                let m = CHUNK.min(samples - k * CHUNK);
+                let mut acc = vec![(Moments::<6>::new(), Moments::<3>::new()); n];
+                let mut eps = vec![0.0; 6 * n];
+                let mut out = self.nominal.clone();
+                let nominal_angles: Vec<Vector3<f64>> =
+                    self.nominal.iter().map(|p| p.angles_rad()).collect();
+                for _ in 0..m {
+                    self.draw_into(&mut rng, &mut eps, &mut out);
+                    for i in 0..n {
+                        let a = out[i].angles_rad() - nominal_angles[i];
+                        let c = out[i].position_mm;
+                        acc[i]
+                            .0
+                            .push(&[c.x, c.y, c.z, wrap_pi(a.x), wrap_pi(a.y), wrap_pi(a.z)]);
+                        let (_, th) = self.error_of(i, &out[i]);
+                        acc[i].1.push(&[th.x, th.y, th.z]);
+                    }
+                }
+                acc
+            })
+            .collect();
+        let mut total = vec![(Moments::<6>::new(), Moments::<3>::new()); n];
+        for part in &parts {
+            for (t, p) in total.iter_mut().zip(part) {
+                t.0.merge(&p.0);
+                t.1.merge(&p.1);
+            }
+        }
+        total
+            .iter()
+            .enumerate()
+            .map(|(i, (m, t))| {
+                let nom_a = self.nominal[i].angles_rad();
+                let mean = m.mean();
+                let sd = m.std_dev();
+                PoseMc {
+                    name: self.names[i].clone(),
+                    nominal: self.nominal[i],
+                    count: m.count(),
+                    position_mean_mm: mean.fixed_rows::<3>(0).into_owned(),
+                    position_sigma_mm: sd.fixed_rows::<3>(0).into_owned(),
+                    angles_mean_rad: (nom_a + mean.fixed_rows::<3>(3)).map(wrap_pi),
+                    angles_sigma_rad: sd.fixed_rows::<3>(3).into_owned(),
+                    tangent_sigma_rad: t.std_dev(),
+                    covariance: m.covariance(),
+                }
+            })
+            .collect()
+    }
+
+    /// Jacobians `d(δC, θ)/dε` (6 × 6·len, file order) of every camera's world pose with
+    /// respect to the standard-normal inputs of [`Chain::compose`], at ε = 0.
+    pub fn jacobians(&self) -> Vec<DMatrix<f64>> {
+        let n = self.len();
+        let mut js: Vec<DMatrix<f64>> = vec![DMatrix::zeros(6, 6 * n); n];
+        for &i in &self.order {
+            let l = &self.links[i];
+            let mut j = DMatrix::<f64>::zeros(6, 6 * n);
+            let rot_cols = match self.noise {
+                RotationNoise::Tangent => Matrix3::from_diagonal(&l.sigma.angles_rad),
+                RotationNoise::Euler => {
+                    opk_rate_matrix(&l.angles_rad) * Matrix3::from_diagonal(&l.sigma.angles_rad)
+                }
+            };
+            let pos_cols = Matrix3::from_diagonal(&l.sigma.position_mm);
+            match l.parent {
+                None => {
+                    j.view_mut((0, 6 * i), (3, 3)).copy_from(&pos_cols);
+                    j.view_mut((3, 6 * i + 3), (3, 3)).copy_from(&rot_cols);
+                }
+                Some(p) => {
+                    let rp = self.nominal[p].rotation;
+                    let jp = &js[p];
+                    let jc = jp.rows(0, 3);
+                    let jt = jp.rows(3, 3);
+                    let lever = -rp * l.position_mm.cross_matrix();
+                    let new_c = jc + lever * jt;
+                    let new_t = l.rotation.transpose() * jt;
+                    j.rows_mut(0, 3).copy_from(&new_c);
+                    j.rows_mut(3, 3).copy_from(&new_t);
+                    let pc = rp * pos_cols;
+                    for r in 0..3 {
+                        for c in 0..3 {
+                            j[(r, 6 * i + c)] += pc[(r, c)];
+                            j[(3 + r, 6 * i + 3 + c)] += rot_cols[(r, c)];
+                        }
+                    }
+                }
+            }
+            js[i] = j;
+        }
+        js
+    }
+
+    /// First-order propagation: `Σ = J Jᵀ` per camera (inputs are unit normals).
+    pub fn linear(&self) -> Vec<PoseLinear> {
+        self.jacobians()
+            .iter()
+            .enumerate()
+            .map(|(i, j)| {
+                let cov = j * j.transpose();
+                let cov6 = Matrix6::from_fn(|r, c| cov[(r, c)]);
+                let ct = cov6.fixed_view::<3, 3>(3, 3).into_owned();
+                let angles_sigma_rad = crashrig_geometry::opk::d_opk_d_tangent_right(
+                    &crashrig_geometry::Rot3::from_matrix_unchecked(self.nominal[i].rotation),
+                )
+                .ok()
+                .map(|d| {
+                    let co = d * ct * d.transpose();
+                    Vector3::new(co[(0, 0)].sqrt(), co[(1, 1)].sqrt(), co[(2, 2)].sqrt())
+                });
+                PoseLinear {
+                    name: self.names[i].clone(),
+                    covariance_tangent: cov6,
+                    position_sigma_mm: Vector3::from_fn(|r, _| cov6[(r, r)].sqrt()),
+                    tangent_sigma_rad: Vector3::from_fn(|r, _| cov6[(3 + r, 3 + r)].sqrt()),
+                    angles_sigma_rad,
+                }
+            })
+            .collect()
+    }
+
+    /// Checks that no camera's world orientation is at gimbal lock (ω φ κ σ undefined).
+    pub fn check_gimbal(&self) -> Result<(), Error> {
+        for (i, p) in self.nominal.iter().enumerate() {
+            let o = crashrig_geometry::opk::opk_from_rotation(
+                &crashrig_geometry::Rot3::from_matrix_unchecked(p.rotation),
+            );
+            if o.gimbal_lock {
+                return Err(Error::GimbalLock {
+                    name: self.names[i].clone(),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests;

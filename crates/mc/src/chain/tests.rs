@@ -1,0 +1,171 @@
+//! Tests of the chain propagation: Jacobians by finite differences, Monte Carlo against
+//! J Σ Jᵀ, the paper's Table 4, and thread-count independence.
+#![allow(clippy::needless_range_loop)] // index loops mirror the per-axis formulas
+
+use super::*;
+use crate::Scenario;
+use approx::assert_abs_diff_eq;
+use std::path::Path;
+
+/// The paper's chain (Tables 1–2, §3.2–3.3): cam1 outward (1 mm / 0.01°), cam2 = cam1 +
+/// calibrated link with the SEM row as σ, cam3 = cam2 + bootstrap link (2 mm / 0.02°).
+/// Assumed: cam1 at the world origin with identity rotation; cam3 with identity rotation
+/// relative to cam2 (only axis permutations matter for the angle σ, see docs/table3.md).
+fn paper_chain(noise: &str, sigma_scale: f64) -> Scenario {
+    let s = sigma_scale;
+    let text = format!(
+        r#"
+seed = 11
+samples = 1000
+rotation_noise = "{noise}"
+[[camera]]
+name = "cam1"
+position_mm = [0.0, 0.0, 0.0]
+angles_deg = [0.0, 0.0, 0.0]
+sigma_position_mm = [{a}, {a}, {a}]
+sigma_angles_deg = [{b}, {b}, {b}]
+[[camera]]
+name = "cam2"
+parent = "cam1"
+position_mm = [61.98, -1.71, 179.76]
+angles_deg = [179.92, -0.09, 179.76]
+sigma_position_mm = [{c1}, {c2}, {c3}]
+sigma_angles_deg = [{d1}, {d2}, {d3}]
+[[camera]]
+name = "cam3"
+parent = "cam2"
+position_mm = [-900.0, 50.0, 600.0]
+angles_deg = [0.0, 0.0, 0.0]
+sigma_position_mm = [{e}, {e}, {e}]
+sigma_angles_deg = [{f}, {f}, {f}]
+"#,
+        a = 1.0 * s,
+        b = 0.01 * s,
+        c1 = 0.19 * s,
+        c2 = 0.26 * s,
+        c3 = 0.13 * s,
+        d1 = 0.004 * s,
+        d2 = 0.005 * s,
+        d3 = 0.008 * s,
+        e = 2.0 * s,
+        f = 0.02 * s,
+    );
+    Scenario::from_toml_str(&text, Path::new("paper.toml")).unwrap()
+}
+
+fn error_vector(chain: &Chain, poses: &[WorldPose], i: usize) -> [f64; 6] {
+    let (dc, th) = chain.error_of(i, &poses[i]);
+    [dc.x, dc.y, dc.z, th.x, th.y, th.z]
+}
+
+#[test]
+fn jacobians_nominal_match_finite_differences() {
+    for noise in ["tangent", "euler"] {
+        // Large σ so the columns are O(1) and central differences are well conditioned.
+        let sc = paper_chain(noise, 10.0);
+        let chain = Chain::new(&sc);
+        let js = chain.jacobians();
+        let n = 6 * chain.len();
+        let h = 1e-5;
+        for col in 0..n {
+            let mut ep = vec![0.0; n];
+            let mut em = vec![0.0; n];
+            ep[col] = h;
+            em[col] = -h;
+            let (pp, pm) = (chain.compose(&ep), chain.compose(&em));
+            for (i, j) in js.iter().enumerate() {
+                let (a, b) = (error_vector(&chain, &pp, i), error_vector(&chain, &pm, i));
+                for r in 0..6 {
+                    let fd = (a[r] - b[r]) / (2.0 * h);
+                    // Central difference error O(h²·f''') ≈ 1e-10 relative plus rounding
+                    // ε·|f|/h ≈ 1e-10 for positions of ~1e3 mm.
+                    assert_abs_diff_eq!(
+                        fd,
+                        j[(r, col)],
+                        epsilon = 1e-7 * (1.0 + j[(r, col)].abs())
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn monte_carlo_nominal_matches_linear_within_3_se() {
+    // Small σ: the chain is linear to ~1e-6 relative, so J Σ Jᵀ is the exact covariance.
+    let sc = paper_chain("tangent", 1.0);
+    let chain = Chain::new(&sc);
+    let n = 40_000;
+    let mc = chain.monte_carlo(n, 5);
+    let lin = chain.linear();
+    for (m, l) in mc.iter().zip(&lin) {
+        // SE of a Gaussian σ estimate: σ/√(2(n−1)).
+        let se = 1.0 / (2.0 * (n as f64 - 1.0)).sqrt();
+        for k in 0..3 {
+            let s = l.position_sigma_mm[k];
+            assert_abs_diff_eq!(m.position_sigma_mm[k], s, epsilon = 3.0 * se * s);
+            let t = l.tangent_sigma_rad[k];
+            assert_abs_diff_eq!(m.tangent_sigma_rad[k], t, epsilon = 3.0 * se * t);
+            let a = l.angles_sigma_rad.unwrap()[k];
+            assert_abs_diff_eq!(m.angles_sigma_rad[k], a, epsilon = 3.0 * se * a);
+        }
+    }
+}
+
+#[test]
+fn table4_orientation_sigma_reproduced() {
+    // Paper Table 4: cam2 0.011/0.011/0.013°, cam3 0.023/0.023/0.024° (3 decimals).
+    let expect = [
+        [0.01, 0.01, 0.01],
+        [0.011, 0.011, 0.013],
+        [0.023, 0.023, 0.024],
+    ];
+    for noise in ["tangent", "euler"] {
+        let sc = paper_chain(noise, 1.0);
+        let chain = Chain::new(&sc);
+        let mc = chain.monte_carlo(100_000, 2024);
+        for (m, e) in mc.iter().zip(&expect) {
+            for k in 0..3 {
+                // The paper rounds to 0.001°; MC SE at n = 1e5 is ≤ 0.024°·0.0022 = 5e-5°.
+                assert_abs_diff_eq!(m.angles_sigma_rad[k].to_degrees(), e[k], epsilon = 1e-3);
+            }
+        }
+    }
+}
+
+#[test]
+fn monte_carlo_same_for_one_and_two_threads() {
+    let sc = paper_chain("tangent", 1.0);
+    let chain = Chain::new(&sc);
+    let run = |t| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build()
+            .unwrap()
+            .install(|| chain.monte_carlo(3 * crate::CHUNK + 17, 9))
+    };
+    // Bit-identical: fixed chunks, fixed merge order.
+    assert_eq!(run(1), run(2));
+}
+
+#[test]
+fn monte_carlo_wraps_angles_near_180() {
+    // cam2's ω is 179.92°: draws cross ±180°, the σ must stay ~0.011°, not ~100°.
+    let sc = paper_chain("tangent", 10.0);
+    let mc = Chain::new(&sc).monte_carlo(2000, 1);
+    assert!(mc[1].angles_sigma_rad[0].to_degrees() < 0.2);
+    assert!(mc[1].angles_mean_rad[0].to_degrees().abs() > 179.0);
+}
+
+#[test]
+fn check_gimbal_nominal_and_lock() {
+    let sc = paper_chain("tangent", 1.0);
+    assert!(Chain::new(&sc).check_gimbal().is_ok());
+    let mut sc = sc;
+    sc.cameras[0].angles_rad.y = std::f64::consts::FRAC_PI_2;
+    sc.cameras[1].angles_rad = nalgebra::Vector3::zeros();
+    assert!(matches!(
+        Chain::new(&sc).check_gimbal(),
+        Err(Error::GimbalLock { .. })
+    ));
+}

@@ -1,0 +1,103 @@
+//! The error type of `crashrig-mc`: scenario problems name the offending key.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong while reading a scenario or running a study.
+///
+/// Scenario errors name the TOML key in dotted form with array indices, e.g.
+/// `camera[2].sigma_angles_deg` or `grid.observer[0].position_mm`.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// The scenario file could not be read.
+    #[error("{}: cannot read: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The operating-system error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// TOML syntax or type error (line and column are 1-based).
+    #[error("{}:{line}:{column}: {message}", path.display())]
+    Toml {
+        /// The file (`<string>` when parsed from memory).
+        path: PathBuf,
+        /// 1-based line of the error.
+        line: usize,
+        /// 1-based column of the error.
+        column: usize,
+        /// The TOML parser's description.
+        message: String,
+    },
+    /// A value is out of its allowed range (negative σ, NaN, zero count, …).
+    #[error("`{key}`: {problem}")]
+    Invalid {
+        /// Dotted key of the value, e.g. `camera[1].sigma_position_mm`.
+        key: String,
+        /// What is wrong.
+        problem: &'static str,
+    },
+    /// Two cameras share a name.
+    #[error("`{key}`: duplicate camera name `{name}`")]
+    DuplicateName {
+        /// Key of the second occurrence.
+        key: String,
+        /// The repeated name.
+        name: String,
+    },
+    /// A `parent` or `sigma_from` names no camera.
+    #[error("`{key}`: unknown camera `{name}`")]
+    UnknownCamera {
+        /// Key of the reference, e.g. `camera[1].parent`.
+        key: String,
+        /// The missing name.
+        name: String,
+    },
+    /// The parent links form a cycle.
+    #[error("`camera.parent`: the parent links form a cycle through {cameras:?}")]
+    Cycle {
+        /// Names of the cameras on the cycle.
+        cameras: Vec<String>,
+    },
+    /// A grid study needs at least two observers.
+    #[error("`grid.observer`: at least two observers are needed, found {found}")]
+    TooFewObservers {
+        /// Number of observers given.
+        found: usize,
+    },
+    /// The command needs a `[grid]` table and the scenario has none.
+    #[error("`grid`: the scenario has no [grid] table")]
+    NoGrid,
+    /// An observer sits on a grid point (it cannot aim at itself).
+    #[error("`{key}`: observer is at grid point ({:.3}, {:.3}, {:.3}) mm", point[0], point[1], point[2])]
+    ObserverAtGridPoint {
+        /// Key of the observer, e.g. `grid.observer[0]`.
+        key: String,
+        /// The grid point (mm).
+        point: [f64; 3],
+    },
+    /// An observer would look straight up or down at a grid point (roll undefined).
+    #[error("`{key}`: observer looks vertically at grid point ({:.3}, {:.3}, {:.3}) mm; the no-roll aim is undefined", point[0], point[1], point[2])]
+    VerticalAim {
+        /// Key of the observer.
+        key: String,
+        /// The grid point (mm).
+        point: [f64; 3],
+    },
+    /// The nominal forward intersection at a grid point is degenerate (rays nearly parallel).
+    #[error("grid point ({:.3}, {:.3}, {:.3}) mm: the observer rays are (nearly) parallel", point[0], point[1], point[2])]
+    DegenerateIntersection {
+        /// The grid point (mm).
+        point: [f64; 3],
+    },
+    /// A camera's world orientation is at gimbal lock (φ = ±90°): ω and κ σ are undefined.
+    #[error("camera `{name}`: world orientation at gimbal lock (φ = ±90°)")]
+    GimbalLock {
+        /// The camera.
+        name: String,
+    },
+    /// An error of the geometry layer.
+    #[error(transparent)]
+    Geometry(#[from] crashrig_geometry::Error),
+}

@@ -1,0 +1,615 @@
+//! The scenario file (TOML): cameras, links, noise model and the grid study.
+//!
+//! The format is the external contract of `shared/interface.md`; extensions (all optional)
+//! are documented on [`Grid`] and in `docs/table3.md`. Degrees in the file become radians
+//! here.
+
+use crate::Error;
+use nalgebra::Vector3;
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// How rotation noise is applied to a pose (fixed semantics, see the crate docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RotationNoise {
+    /// `R · Exp([σω·ε₁, σφ·ε₂, σκ·ε₃])`: small rotations about the camera's own axes.
+    Tangent,
+    /// ω, φ, κ each get `N(0, σ)` added.
+    Euler,
+}
+
+/// Standard deviations of a pose (independent Gaussian components).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PoseSigma {
+    /// σ of the projection-centre coordinates (mm; world axes for a camera, parent axes for a
+    /// link, world axes for an observer).
+    pub position_mm: Vector3<f64>,
+    /// σ of the three rotation components (rad), meaning fixed by [`RotationNoise`].
+    pub angles_rad: Vector3<f64>,
+}
+
+/// One camera of the chain: a world pose (no parent) or a link `parent_from_cam`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Camera {
+    /// Unique name.
+    pub name: String,
+    /// Index of the parent camera in [`Scenario::cameras`], `None` for a world pose.
+    pub parent: Option<usize>,
+    /// Projection centre (mm): in the world, or in the parent's frame for a link (the base).
+    pub position_mm: Vector3<f64>,
+    /// ω, φ, κ (rad) of `R_world_from_cam`, or of `R_parent_from_cam` for a link.
+    pub angles_rad: Vector3<f64>,
+    /// Noise of this pose or link.
+    pub sigma: PoseSigma,
+}
+
+/// Where an observer's pose noise comes from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ObserverSigma {
+    /// Given σ values.
+    Given(PoseSigma),
+    /// The propagated world-pose σ of camera `index` of the chain (`sigma_from = "name"`);
+    /// with `correlated = true` the observer takes that camera's joint chain draw instead.
+    From(usize),
+}
+
+/// A camera in the interior that aims its optical axis at every grid point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Observer {
+    /// Label for plots (`name`, default `obs<i>`).
+    pub name: String,
+    /// Projection centre in the world (mm).
+    pub position_mm: Vector3<f64>,
+    /// Its noise.
+    pub sigma: ObserverSigma,
+}
+
+/// A regularly spaced axis: `count` values from `start` to `stop`, both ends included.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Axis {
+    /// First value (mm).
+    pub start: f64,
+    /// Last value (mm).
+    pub stop: f64,
+    /// Number of values (≥ 1; with 1 only `start` is used).
+    pub count: usize,
+}
+
+impl Axis {
+    /// The `count` values.
+    pub fn values(&self) -> Vec<f64> {
+        if self.count == 1 {
+            return vec![self.start];
+        }
+        let step = (self.stop - self.start) / (self.count - 1) as f64;
+        (0..self.count)
+            .map(|i| {
+                if i + 1 == self.count {
+                    self.stop
+                } else {
+                    self.start + step * i as f64
+                }
+            })
+            .collect()
+    }
+}
+
+/// Pixel measurement noise: the observation is the principal point plus `N(0, σ_px)` per
+/// image axis, converted to normalized coordinates with `focal_px`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PixelNoise {
+    /// σ of each image coordinate (px).
+    pub sigma_px: f64,
+    /// Focal length (px).
+    pub focal_px: f64,
+}
+
+impl PixelNoise {
+    /// σ in normalized image coordinates (σ_px / f).
+    pub fn sigma_normalized(&self) -> f64 {
+        self.sigma_px / self.focal_px
+    }
+}
+
+/// Adaptive number of draws per grid point (GUM Supplement 1, JCGM 101:2008 §7.9).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Adaptive {
+    /// Numerical tolerance δ (mm): stop when `2·s/√h ≤ δ` for each axis σ, `s` being the
+    /// standard deviation of the per-batch σ estimates over the `h` batches so far.
+    pub tolerance_mm: f64,
+    /// Draws per batch (≥ 100).
+    pub batch: usize,
+    /// Upper bound of draws per point.
+    pub max_samples: usize,
+}
+
+/// The grid study.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Grid {
+    /// x axis (mm).
+    pub x: Axis,
+    /// y axis (mm).
+    pub y: Axis,
+    /// z axis (mm); one heat map per z level.
+    pub z: Axis,
+    /// Threshold on σ_max (mm), default 5.
+    pub threshold_mm: f64,
+    /// At least two observers.
+    pub observers: Vec<Observer>,
+    /// Optional pixel noise (`pixel_sigma_px` and `focal_px`).
+    pub pixel: Option<PixelNoise>,
+    /// `correlated = true`: observers with `sigma_from` on the same chain are drawn jointly.
+    pub correlated: bool,
+    /// Optional adaptive number of draws (`[grid.adaptive]`).
+    pub adaptive: Option<Adaptive>,
+}
+
+impl Grid {
+    /// All grid points, x fastest, then y, then z (the row order of `grid.csv`).
+    pub fn points(&self) -> Vec<Vector3<f64>> {
+        let (xs, ys, zs) = (self.x.values(), self.y.values(), self.z.values());
+        let mut out = Vec::with_capacity(xs.len() * ys.len() * zs.len());
+        for &z in &zs {
+            for &y in &ys {
+                for &x in &xs {
+                    out.push(Vector3::new(x, y, z));
+                }
+            }
+        }
+        out
+    }
+}
+
+/// A validated scenario.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scenario {
+    /// Master seed.
+    pub seed: u64,
+    /// Monte Carlo draws (per grid point for the grid study).
+    pub samples: usize,
+    /// Rotation noise semantics.
+    pub rotation_noise: RotationNoise,
+    /// The cameras in file order.
+    pub cameras: Vec<Camera>,
+    /// Indices of [`Scenario::cameras`] with every parent before its children.
+    pub order: Vec<usize>,
+    /// The grid study, if any.
+    pub grid: Option<Grid>,
+}
+
+// ---------------------------------------------------------------- raw TOML ---
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScenario {
+    seed: Option<u64>,
+    samples: Option<i64>,
+    rotation_noise: Option<String>,
+    #[serde(default)]
+    camera: Vec<RawCamera>,
+    grid: Option<RawGrid>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCamera {
+    name: String,
+    parent: Option<String>,
+    position_mm: [f64; 3],
+    angles_deg: [f64; 3],
+    sigma_position_mm: [f64; 3],
+    sigma_angles_deg: [f64; 3],
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+enum Num {
+    I(i64),
+    F(f64),
+}
+
+impl Num {
+    fn f(&self) -> f64 {
+        match *self {
+            Num::I(i) => i as f64,
+            Num::F(f) => f,
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawGrid {
+    x_mm: [Num; 3],
+    y_mm: [Num; 3],
+    z_mm: [Num; 3],
+    threshold_mm: Option<f64>,
+    pixel_sigma_px: Option<f64>,
+    focal_px: Option<f64>,
+    #[serde(default)]
+    correlated: bool,
+    adaptive: Option<RawAdaptive>,
+    #[serde(default)]
+    observer: Vec<RawObserver>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawAdaptive {
+    tolerance_mm: f64,
+    batch: Option<i64>,
+    max_samples: Option<i64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawObserver {
+    name: Option<String>,
+    position_mm: [f64; 3],
+    sigma_position_mm: Option<[f64; 3]>,
+    sigma_angles_deg: Option<[f64; 3]>,
+    sigma_from: Option<String>,
+}
+
+// -------------------------------------------------------------- validation ---
+
+fn finite3(key: String, v: [f64; 3]) -> Result<Vector3<f64>, Error> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(Vector3::from(v))
+    } else {
+        Err(Error::Invalid {
+            key,
+            problem: "must be finite (no NaN or infinity)",
+        })
+    }
+}
+
+fn sigma3(key: String, v: [f64; 3]) -> Result<Vector3<f64>, Error> {
+    let v = finite3(key.clone(), v)?;
+    if v.iter().any(|x| *x < 0.0) {
+        return Err(Error::Invalid {
+            key,
+            problem: "σ must not be negative",
+        });
+    }
+    Ok(v)
+}
+
+fn positive(key: &str, v: f64) -> Result<f64, Error> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(Error::Invalid {
+            key: key.to_string(),
+            problem: "must be a finite number > 0",
+        })
+    }
+}
+
+fn count(key: &str, v: i64, min: i64) -> Result<usize, Error> {
+    if v < min {
+        return Err(Error::Invalid {
+            key: key.to_string(),
+            problem: match min {
+                1 => "must be a positive integer",
+                2 => "must be an integer ≥ 2",
+                _ => "must be an integer ≥ 100",
+            },
+        });
+    }
+    usize::try_from(v).map_err(|_| Error::Invalid {
+        key: key.to_string(),
+        problem: "is too large",
+    })
+}
+
+fn axis(key: &str, raw: &[Num; 3]) -> Result<Axis, Error> {
+    let start = raw[0].f();
+    let stop = raw[1].f();
+    if !start.is_finite() || !stop.is_finite() {
+        return Err(Error::Invalid {
+            key: key.to_string(),
+            problem: "start and stop must be finite",
+        });
+    }
+    let n = match raw[2] {
+        Num::I(i) => i,
+        Num::F(f) if f.fract() == 0.0 && f.is_finite() => f as i64,
+        Num::F(_) => {
+            return Err(Error::Invalid {
+                key: key.to_string(),
+                problem: "the third value (count) must be a whole number",
+            });
+        }
+    };
+    let count = count(key, n, 1)?;
+    if count > 1 && stop < start {
+        return Err(Error::Invalid {
+            key: key.to_string(),
+            problem: "stop must not be below start",
+        });
+    }
+    Ok(Axis { start, stop, count })
+}
+
+/// 1-based (line, column) of a byte offset.
+fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let offset = offset.min(text.len());
+    let before = &text[..offset];
+    let line = before.matches('\n').count() + 1;
+    let col = before.rfind('\n').map_or(offset, |p| offset - p - 1) + 1;
+    (line, col)
+}
+
+impl Scenario {
+    /// Reads and validates a scenario file.
+    pub fn from_path(path: &Path) -> Result<Self, Error> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::from_toml_str(&text, path)
+    }
+
+    /// Parses and validates scenario text; `path` is only used in error messages.
+    pub fn from_toml_str(text: &str, path: &Path) -> Result<Self, Error> {
+        let raw: RawScenario = toml::from_str(text).map_err(|e| {
+            let (line, column) = e.span().map_or((0, 0), |span| line_col(text, span.start));
+            Error::Toml {
+                path: PathBuf::from(path),
+                line,
+                column,
+                message: e.message().trim().to_string(),
+            }
+        })?;
+        Self::validate(raw)
+    }
+
+    fn validate(raw: RawScenario) -> Result<Self, Error> {
+        let samples = count("samples", raw.samples.unwrap_or(2000), 2)?;
+        let rotation_noise = match raw.rotation_noise.as_deref().unwrap_or("tangent") {
+            "tangent" => RotationNoise::Tangent,
+            "euler" => RotationNoise::Euler,
+            _ => {
+                return Err(Error::Invalid {
+                    key: "rotation_noise".into(),
+                    problem: "must be \"tangent\" or \"euler\"",
+                });
+            }
+        };
+        let mut cameras = Vec::with_capacity(raw.camera.len());
+        for (i, c) in raw.camera.iter().enumerate() {
+            let k = |f: &str| format!("camera[{i}].{f}");
+            if c.name.is_empty() {
+                return Err(Error::Invalid {
+                    key: k("name"),
+                    problem: "must not be empty",
+                });
+            }
+            if cameras.iter().any(|o: &Camera| o.name == c.name) {
+                return Err(Error::DuplicateName {
+                    key: k("name"),
+                    name: c.name.clone(),
+                });
+            }
+            cameras.push(Camera {
+                name: c.name.clone(),
+                parent: None,
+                position_mm: finite3(k("position_mm"), c.position_mm)?,
+                angles_rad: finite3(k("angles_deg"), c.angles_deg)?.map(f64::to_radians),
+                sigma: PoseSigma {
+                    position_mm: sigma3(k("sigma_position_mm"), c.sigma_position_mm)?,
+                    angles_rad: sigma3(k("sigma_angles_deg"), c.sigma_angles_deg)?
+                        .map(f64::to_radians),
+                },
+            });
+        }
+        let find = |key: String, name: &str| {
+            cameras
+                .iter()
+                .position(|c| c.name == name)
+                .ok_or(Error::UnknownCamera {
+                    key,
+                    name: name.to_string(),
+                })
+        };
+        let parents: Vec<Option<usize>> = raw
+            .camera
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                c.parent
+                    .as_deref()
+                    .map(|p| find(format!("camera[{i}].parent"), p))
+                    .transpose()
+            })
+            .collect::<Result<_, _>>()?;
+        for (c, p) in cameras.iter_mut().zip(&parents) {
+            c.parent = *p;
+        }
+        let order = topological_order(&cameras)?;
+        let grid = raw.grid.map(|g| validate_grid(g, &cameras)).transpose()?;
+        Ok(Scenario {
+            seed: raw.seed.unwrap_or(0),
+            samples,
+            rotation_noise,
+            cameras,
+            order,
+            grid,
+        })
+    }
+
+    /// Index of the camera called `name`.
+    pub fn camera_index(&self, name: &str) -> Option<usize> {
+        self.cameras.iter().position(|c| c.name == name)
+    }
+}
+
+/// Parents before children; a cycle is an error naming its cameras.
+fn topological_order(cameras: &[Camera]) -> Result<Vec<usize>, Error> {
+    let n = cameras.len();
+    // 0 = unvisited, 1 = on the stack, 2 = done.
+    let mut state = vec![0u8; n];
+    let mut order = Vec::with_capacity(n);
+    for start in 0..n {
+        let mut path = Vec::new();
+        let mut cur = Some(start);
+        while let Some(i) = cur {
+            match state[i] {
+                2 => break,
+                1 => {
+                    let pos = path.iter().position(|&p| p == i).unwrap_or(0);
+                    return Err(Error::Cycle {
+                        cameras: path[pos..]
+                            .iter()
+                            .map(|&p: &usize| cameras[p].name.clone())
+                            .collect(),
+                    });
+                }
+                _ => {
+                    state[i] = 1;
+                    path.push(i);
+                    cur = cameras[i].parent;
+                }
+            }
+        }
+        for &i in path.iter().rev() {
+            state[i] = 2;
+            order.push(i);
+        }
+    }
+    Ok(order)
+}
+
+fn validate_grid(g: RawGrid, cameras: &[Camera]) -> Result<Grid, Error> {
+    let x = axis("grid.x_mm", &g.x_mm)?;
+    let y = axis("grid.y_mm", &g.y_mm)?;
+    let z = axis("grid.z_mm", &g.z_mm)?;
+    let threshold_mm = positive("grid.threshold_mm", g.threshold_mm.unwrap_or(5.0))?;
+    let pixel = match (g.pixel_sigma_px, g.focal_px) {
+        (None, None) => None,
+        (Some(s), Some(f)) => {
+            if !s.is_finite() || s < 0.0 {
+                return Err(Error::Invalid {
+                    key: "grid.pixel_sigma_px".into(),
+                    problem: "σ must be finite and not negative",
+                });
+            }
+            Some(PixelNoise {
+                sigma_px: s,
+                focal_px: positive("grid.focal_px", f)?,
+            })
+        }
+        (Some(_), None) => {
+            return Err(Error::Invalid {
+                key: "grid.focal_px".into(),
+                problem: "is required with pixel_sigma_px",
+            });
+        }
+        (None, Some(_)) => {
+            return Err(Error::Invalid {
+                key: "grid.pixel_sigma_px".into(),
+                problem: "is required with focal_px",
+            });
+        }
+    };
+    let adaptive = g
+        .adaptive
+        .map(|a| -> Result<Adaptive, Error> {
+            let batch = count("grid.adaptive.batch", a.batch.unwrap_or(1000), 100)?;
+            Ok(Adaptive {
+                tolerance_mm: positive("grid.adaptive.tolerance_mm", a.tolerance_mm)?,
+                batch,
+                max_samples: count(
+                    "grid.adaptive.max_samples",
+                    a.max_samples.unwrap_or(1_000_000),
+                    1,
+                )?,
+            })
+        })
+        .transpose()?;
+    if g.observer.len() < 2 {
+        return Err(Error::TooFewObservers {
+            found: g.observer.len(),
+        });
+    }
+    let mut observers = Vec::with_capacity(g.observer.len());
+    for (i, o) in g.observer.iter().enumerate() {
+        let k = |f: &str| format!("grid.observer[{i}].{f}");
+        let sigma = match (&o.sigma_from, o.sigma_position_mm, o.sigma_angles_deg) {
+            (Some(name), None, None) => {
+                let idx =
+                    cameras
+                        .iter()
+                        .position(|c| &c.name == name)
+                        .ok_or(Error::UnknownCamera {
+                            key: k("sigma_from"),
+                            name: name.clone(),
+                        })?;
+                ObserverSigma::From(idx)
+            }
+            (None, Some(p), Some(a)) => ObserverSigma::Given(PoseSigma {
+                position_mm: sigma3(k("sigma_position_mm"), p)?,
+                angles_rad: sigma3(k("sigma_angles_deg"), a)?.map(f64::to_radians),
+            }),
+            (Some(_), _, _) => {
+                return Err(Error::Invalid {
+                    key: k("sigma_from"),
+                    problem: "give either sigma_from or both sigma_position_mm and sigma_angles_deg, not both",
+                });
+            }
+            (None, None, _) => {
+                return Err(Error::Invalid {
+                    key: k("sigma_position_mm"),
+                    problem: "is missing (or give sigma_from)",
+                });
+            }
+            (None, _, None) => {
+                return Err(Error::Invalid {
+                    key: k("sigma_angles_deg"),
+                    problem: "is missing (or give sigma_from)",
+                });
+            }
+        };
+        observers.push(Observer {
+            name: o.name.clone().unwrap_or_else(|| format!("obs{i}")),
+            position_mm: finite3(k("position_mm"), o.position_mm)?,
+            sigma,
+        });
+    }
+    let grid = Grid {
+        x,
+        y,
+        z,
+        threshold_mm,
+        observers,
+        pixel,
+        correlated: g.correlated,
+        adaptive,
+    };
+    // Geometric checks against every grid point.
+    for p in grid.points() {
+        for (i, o) in grid.observers.iter().enumerate() {
+            let d = p - o.position_mm;
+            let key = format!("grid.observer[{i}]");
+            if d.norm() < crate::MIN_OBSERVER_DISTANCE_MM {
+                return Err(Error::ObserverAtGridPoint {
+                    key,
+                    point: p.into(),
+                });
+            }
+            if d.normalize().cross(&Vector3::z()).norm()
+                < crashrig_geometry::tolerance::MIN_LOOK_AT_HORIZONTAL
+            {
+                return Err(Error::VerticalAim {
+                    key,
+                    point: p.into(),
+                });
+            }
+        }
+    }
+    Ok(grid)
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,221 @@
+//! Tests of the scenario parser: the nominal file and every documented error.
+
+use super::*;
+use approx::assert_relative_eq;
+
+const BASE: &str = r#"
+seed = 1
+samples = 2000
+rotation_noise = "tangent"
+
+[[camera]]
+name = "cam1"
+position_mm = [0.0, 0.0, 0.0]
+angles_deg = [0.0, 0.0, 0.0]
+sigma_position_mm = [1.0, 1.0, 1.0]
+sigma_angles_deg = [0.01, 0.01, 0.01]
+
+[[camera]]
+name = "cam2"
+parent = "cam1"
+position_mm = [61.98, -1.71, 179.76]
+angles_deg = [179.92, -0.09, 179.76]
+sigma_position_mm = [0.19, 0.26, 0.13]
+sigma_angles_deg = [0.004, 0.005, 0.008]
+
+[grid]
+x_mm = [0.0, 2000.0, 21]
+y_mm = [-700.0, 700.0, 15]
+z_mm = [0.0, 0.0, 1]
+threshold_mm = 5.0
+
+[[grid.observer]]
+position_mm = [2200.0, 0.0, 0.0]
+sigma_position_mm = [1.52, 1.52, 1.52]
+sigma_angles_deg = [0.011, 0.011, 0.013]
+
+[[grid.observer]]
+position_mm = [1000.0, 800.0, 0.0]
+sigma_from = "cam2"
+"#;
+
+fn parse(text: &str) -> Result<Scenario, Error> {
+    Scenario::from_toml_str(text, Path::new("s.toml"))
+}
+
+#[test]
+fn scenario_nominal_interface_example() {
+    let s = parse(BASE).unwrap();
+    assert_eq!(s.seed, 1);
+    assert_eq!(s.samples, 2000);
+    assert_eq!(s.rotation_noise, RotationNoise::Tangent);
+    assert_eq!(s.cameras.len(), 2);
+    assert_eq!(s.cameras[1].parent, Some(0));
+    assert_eq!(s.order, vec![0, 1]);
+    // Degrees become radians exactly as f64::to_radians does.
+    assert_relative_eq!(
+        s.cameras[1].angles_rad.x,
+        179.92f64.to_radians(),
+        epsilon = 1e-15
+    );
+    let g = s.grid.unwrap();
+    assert_eq!(g.points().len(), 21 * 15);
+    assert_relative_eq!(g.x.values()[1], 100.0, epsilon = 1e-12);
+    assert_eq!(g.observers[1].sigma, ObserverSigma::From(1));
+    assert_eq!(g.observers[0].name, "obs0");
+}
+
+#[test]
+fn scenario_parent_after_child_is_ordered() {
+    // A child listed before its parent is still composed after it.
+    let text = BASE.replacen("name = \"cam1\"", "name = \"camX\"", 1);
+    let text = text.replace("parent = \"cam1\"", "parent = \"camX\"");
+    let s = parse(&text).unwrap();
+    assert_eq!(s.order, vec![0, 1]);
+}
+
+#[test]
+fn scenario_unknown_parent_names_key() {
+    let err = parse(&BASE.replace("parent = \"cam1\"", "parent = \"nope\"")).unwrap_err();
+    assert!(
+        matches!(&err, Error::UnknownCamera { key, name } if key == "camera[1].parent" && name == "nope"),
+        "{err}"
+    );
+}
+
+#[test]
+fn scenario_cycle_is_error() {
+    let text = BASE.replacen(
+        "name = \"cam1\"\n",
+        "name = \"cam1\"\nparent = \"cam2\"\n",
+        1,
+    );
+    let err = parse(&text).unwrap_err();
+    assert!(
+        matches!(&err, Error::Cycle { cameras } if cameras.len() == 2),
+        "{err}"
+    );
+}
+
+#[test]
+fn scenario_negative_sigma_names_key() {
+    let text = BASE.replace(
+        "sigma_angles_deg = [0.004, 0.005, 0.008]",
+        "sigma_angles_deg = [0.004, -0.005, 0.008]",
+    );
+    let err = parse(&text).unwrap_err();
+    assert!(
+        matches!(&err, Error::Invalid { key, .. } if key == "camera[1].sigma_angles_deg"),
+        "{err}"
+    );
+}
+
+#[test]
+fn scenario_nan_names_key() {
+    let text = BASE.replace(
+        "position_mm = [2200.0, 0.0, 0.0]",
+        "position_mm = [2200.0, nan, 0.0]",
+    );
+    let err = parse(&text).unwrap_err();
+    assert!(
+        matches!(&err, Error::Invalid { key, .. } if key == "grid.observer[0].position_mm"),
+        "{err}"
+    );
+}
+
+#[test]
+fn scenario_too_few_observers() {
+    let cut = BASE.rfind("[[grid.observer]]").unwrap();
+    let err = parse(&BASE[..cut]).unwrap_err();
+    assert!(matches!(err, Error::TooFewObservers { found: 1 }), "{err}");
+}
+
+#[test]
+fn scenario_observer_at_grid_point() {
+    let text = BASE.replace(
+        "position_mm = [2200.0, 0.0, 0.0]",
+        "position_mm = [200.0, 0.0, 0.0]",
+    );
+    let err = parse(&text).unwrap_err();
+    assert!(
+        matches!(&err, Error::ObserverAtGridPoint { key, .. } if key == "grid.observer[0]"),
+        "{err}"
+    );
+}
+
+#[test]
+fn scenario_vertical_aim_is_error() {
+    let text = BASE.replace(
+        "position_mm = [2200.0, 0.0, 0.0]",
+        "position_mm = [200.0, 0.0, 500.0]",
+    );
+    let err = parse(&text).unwrap_err();
+    assert!(
+        matches!(&err, Error::VerticalAim { key, .. } if key == "grid.observer[0]"),
+        "{err}"
+    );
+}
+
+#[test]
+fn scenario_toml_syntax_error_has_line() {
+    let text = BASE.replace("samples = 2000", "samples = = 2000");
+    let err = parse(&text).unwrap_err();
+    assert!(matches!(&err, Error::Toml { line: 3, .. }), "{err}");
+    assert!(err.to_string().starts_with("s.toml:3:"), "{err}");
+}
+
+#[test]
+fn scenario_unknown_key_is_error() {
+    let text = BASE.replace("threshold_mm = 5.0", "treshold_mm = 5.0");
+    let err = parse(&text).unwrap_err();
+    assert!(matches!(&err, Error::Toml { .. }), "{err}");
+    assert!(err.to_string().contains("treshold_mm"), "{err}");
+}
+
+#[test]
+fn scenario_duplicate_name_and_bad_enum() {
+    let text = BASE.replace("name = \"cam2\"", "name = \"cam1\"");
+    assert!(matches!(parse(&text), Err(Error::DuplicateName { .. })));
+    let text = BASE.replace("\"tangent\"", "\"quaternion\"");
+    assert!(matches!(parse(&text), Err(Error::Invalid { key, .. }) if key == "rotation_noise"));
+    let text = BASE.replace("sigma_from = \"cam2\"", "sigma_from = \"cam9\"");
+    assert!(
+        matches!(parse(&text), Err(Error::UnknownCamera { key, .. }) if key == "grid.observer[1].sigma_from")
+    );
+}
+
+#[test]
+fn scenario_pixel_noise_needs_focal() {
+    let text = BASE.replace(
+        "threshold_mm = 5.0",
+        "threshold_mm = 5.0\npixel_sigma_px = 0.3",
+    );
+    assert!(matches!(parse(&text), Err(Error::Invalid { key, .. }) if key == "grid.focal_px"));
+    let text = BASE.replace(
+        "threshold_mm = 5.0",
+        "threshold_mm = 5.0\npixel_sigma_px = 0.3\nfocal_px = 1200.0",
+    );
+    let g = parse(&text).unwrap().grid.unwrap();
+    assert_relative_eq!(
+        g.pixel.unwrap().sigma_normalized(),
+        0.3 / 1200.0,
+        epsilon = 1e-18
+    );
+}
+
+#[test]
+fn axis_values_single_and_ends() {
+    let a = Axis {
+        start: 0.3,
+        stop: 0.7,
+        count: 3,
+    };
+    assert_eq!(a.values().len(), 3);
+    assert_eq!(a.values()[2], 0.7);
+    let one = Axis {
+        start: 5.0,
+        stop: 5.0,
+        count: 1,
+    };
+    assert_eq!(one.values(), vec![5.0]);
+}
