@@ -1,7 +1,10 @@
 //! `crashrig colmap info|convert`.
 
 use crate::Global;
-use std::path::PathBuf;
+use anyhow::Context;
+use crashrig_colmap::database::Database;
+use crashrig_colmap::{ModelFormat, Reconstruction};
+use std::path::{Path, PathBuf};
 
 /// COLMAP subcommands.
 #[derive(Debug, clap::Subcommand)]
@@ -24,9 +27,129 @@ pub enum ColmapCommand {
 }
 
 /// Runs a COLMAP subcommand.
-pub fn run(cmd: ColmapCommand, _g: &Global) -> anyhow::Result<()> {
+pub fn run(cmd: ColmapCommand, g: &Global) -> anyhow::Result<()> {
     match cmd {
-        ColmapCommand::Info { .. } => Err(super::not_yet("colmap info")),
-        ColmapCommand::Convert { .. } => Err(super::not_yet("colmap convert")),
+        ColmapCommand::Info { path } => {
+            if path.is_dir() {
+                model_info(&path, g)
+            } else {
+                database_info(&path, g)
+            }
+        }
+        ColmapCommand::Convert { input, output, to } => convert(&input, &output, &to, g),
+    }
+}
+
+fn model_info(dir: &Path, g: &Global) -> anyhow::Result<()> {
+    let model = Reconstruction::read(dir)?;
+    let info = serde_json::json!({
+        "format": model.format().name(),
+        "legacy": model.is_legacy(),
+        "cameras": model.cameras().len(),
+        "rigs": model.rigs().len(),
+        "frames": model.frames().len(),
+        "images": model.images().len(),
+        "points3D": model.points3d().len(),
+        "observations": model.num_observations(),
+    });
+    if g.json {
+        return crate::output::print_json(&info);
+    }
+    println!("COLMAP model {}", dir.display());
+    println!(
+        "  format        {}{}",
+        model.format().name(),
+        if model.is_legacy() {
+            " (legacy three-file model: trivial rigs and frames)"
+        } else {
+            ""
+        }
+    );
+    println!("  cameras       {}", model.cameras().len());
+    println!("  rigs          {}", model.rigs().len());
+    println!("  frames        {}", model.frames().len());
+    println!("  images        {}", model.images().len());
+    println!("  points3D      {}", model.points3d().len());
+    println!("  observations  {}", model.num_observations());
+    Ok(())
+}
+
+fn database_info(path: &Path, g: &Global) -> anyhow::Result<()> {
+    let db = Database::open(path)?;
+    let c = db.counts()?;
+    let info = serde_json::json!({
+        "user_version": c.user_version,
+        "cameras": c.cameras,
+        "images": c.images,
+        "rigs": c.rigs,
+        "frames": c.frames,
+        "keypoints": c.keypoints,
+        "matched_pairs": c.matched_pairs,
+        "verified_pairs": c.verified_pairs,
+    });
+    if g.json {
+        return crate::output::print_json(&info);
+    }
+    println!("COLMAP database {}", path.display());
+    println!("  user_version    {}", c.user_version);
+    println!("  cameras         {}", c.cameras);
+    println!("  images          {}", c.images);
+    println!("  rigs            {}", c.rigs);
+    println!("  frames          {}", c.frames);
+    println!("  keypoints       {} images", c.keypoints);
+    println!("  matched pairs   {}", c.matched_pairs);
+    println!("  verified pairs  {} (with at least one inlier)", c.verified_pairs);
+    Ok(())
+}
+
+fn convert(input: &Path, output: &Path, to: &str, g: &Global) -> anyhow::Result<()> {
+    let format = match to {
+        "bin" => ModelFormat::Binary,
+        "txt" => ModelFormat::Text,
+        other => anyhow::bail!("--to {other}: expected bin or txt"),
+    };
+    let model = Reconstruction::read(input)?;
+    // A reader prefers binary files: text written next to old binary files would be hidden.
+    let other = match format {
+        ModelFormat::Binary => "txt",
+        ModelFormat::Text => "bin",
+    };
+    if format == ModelFormat::Text {
+        for stem in ["cameras", "images", "points3D"] {
+            let stale = output.join(format!("{stem}.{other}"));
+            if stale.exists() {
+                anyhow::bail!(
+                    "{}: exists; COLMAP would read it instead of the text model, remove it or choose another output directory",
+                    stale.display()
+                );
+            }
+        }
+    }
+    model
+        .write(output, format)
+        .with_context(|| format!("writing {}", output.display()))?;
+    let info = serde_json::json!({
+        "input": input.display().to_string(),
+        "output": output.display().to_string(),
+        "format": format.name(),
+        "legacy_input": model.is_legacy(),
+        "cameras": model.cameras().len(),
+        "rigs": model.rigs().len(),
+        "frames": model.frames().len(),
+        "images": model.images().len(),
+        "points3D": model.points3d().len(),
+    });
+    if g.json {
+        crate::output::print_json(&info)
+    } else {
+        eprintln!(
+            "wrote {} model to {} ({} cameras, {} images, {} points3D)",
+            format.name(),
+            output.display(),
+            model.cameras().len(),
+            model.images().len(),
+            model.points3d().len()
+        );
+        Ok(())
     }
 }

@@ -1,0 +1,628 @@
+//! [`Reconstruction`]: a whole sparse model, read with COLMAP's rules and checked.
+
+use std::collections::HashMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use crashrig_geometry::Rigid3;
+
+use crate::error::{Error, Result};
+use crate::record::{CameraRecord, DataId, Frame, Image, Point3D, Rig, SensorId, SensorType};
+use crate::{binary, text};
+
+/// On-disk flavour of a sparse model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ModelFormat {
+    /// `*.bin` files.
+    Binary,
+    /// `*.txt` files.
+    Text,
+}
+
+impl ModelFormat {
+    /// File extension without the dot (`bin` or `txt`).
+    pub fn extension(self) -> &'static str {
+        match self {
+            ModelFormat::Binary => "bin",
+            ModelFormat::Text => "txt",
+        }
+    }
+
+    /// `"binary"` or `"text"` (the `format` field of `crashrig colmap info --json`).
+    pub fn name(self) -> &'static str {
+        match self {
+            ModelFormat::Binary => "binary",
+            ModelFormat::Text => "text",
+        }
+    }
+}
+
+/// The five file stems, in COLMAP's write order.
+const STEMS: [&str; 5] = ["rigs", "cameras", "frames", "images", "points3D"];
+
+/// Paths of the five files of a model in `dir`.
+struct Files {
+    rigs: PathBuf,
+    cameras: PathBuf,
+    frames: PathBuf,
+    images: PathBuf,
+    points3d: PathBuf,
+}
+
+impl Files {
+    fn new(dir: &Path, format: ModelFormat) -> Files {
+        let f = |stem: &str| dir.join(format!("{stem}.{}", format.extension()));
+        Files {
+            rigs: f("rigs"),
+            cameras: f("cameras"),
+            frames: f("frames"),
+            images: f("images"),
+            points3d: f("points3D"),
+        }
+    }
+}
+
+/// A COLMAP sparse model: cameras, rigs, frames, images and 3-D points, as COLMAP reads them.
+///
+/// Records keep their file order and their stored values (poses are not normalized in the
+/// records, so writing reproduces the input bit for bit); derived poses are normalized
+/// [`Rigid3`]s. A legacy (3.x, three-file) model gets one trivial rig per camera and one frame
+/// per image, exactly as COLMAP builds them.
+#[derive(Debug, Clone)]
+pub struct Reconstruction {
+    dir: PathBuf,
+    format: ModelFormat,
+    legacy: bool,
+    cameras: Vec<CameraRecord>,
+    rigs: Vec<Rig>,
+    frames: Vec<Frame>,
+    images: Vec<Image>,
+    points: Vec<Point3D>,
+    camera_idx: HashMap<u32, usize>,
+    rig_idx: HashMap<u32, usize>,
+    frame_idx: HashMap<u32, usize>,
+    image_idx: HashMap<u32, usize>,
+    name_idx: HashMap<String, usize>,
+    point_idx: HashMap<u64, usize>,
+    image_frame: Vec<usize>,
+    cam_from_world: Vec<Option<Rigid3>>,
+    num_observations: usize,
+}
+
+fn read_file(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+fn parse<T>(
+    path: &Path,
+    format: ModelFormat,
+    bin: fn(&Path, &[u8]) -> Result<T>,
+    txt: fn(&Path, &str) -> Result<T>,
+) -> Result<T> {
+    let bytes = read_file(path)?;
+    match format {
+        ModelFormat::Binary => bin(path, &bytes),
+        ModelFormat::Text => txt(path, text::decode(path, &bytes)?),
+    }
+}
+
+impl Reconstruction {
+    /// Reads the model in `dir` like COLMAP: binary when `cameras.bin`, `images.bin` and
+    /// `points3D.bin` all exist, else text; rigs and frames when both exist, else legacy.
+    /// Then checks the cross-file invariants (see the crate docs).
+    ///
+    /// # Errors
+    /// [`Error::NotAModel`], [`Error::RigsWithoutFrames`], any parse error of a file, or
+    /// [`Error::Invariant`] naming the file and record that breaks a rule.
+    pub fn read(dir: &Path) -> Result<Reconstruction> {
+        let complete =
+            |f: &Files| f.cameras.is_file() && f.images.is_file() && f.points3d.is_file();
+        let format = if complete(&Files::new(dir, ModelFormat::Binary)) {
+            ModelFormat::Binary
+        } else if complete(&Files::new(dir, ModelFormat::Text)) {
+            ModelFormat::Text
+        } else {
+            return Err(Error::NotAModel {
+                path: dir.to_path_buf(),
+            });
+        };
+        let files = Files::new(dir, format);
+        let legacy = match (files.rigs.is_file(), files.frames.is_file()) {
+            (true, true) => false,
+            (false, false) => true,
+            _ => {
+                return Err(Error::RigsWithoutFrames {
+                    path: dir.to_path_buf(),
+                });
+            }
+        };
+        let cameras = parse(
+            &files.cameras,
+            format,
+            binary::read_cameras,
+            text::read_cameras,
+        )?;
+        let (rigs, frames) = if legacy {
+            (Vec::new(), Vec::new())
+        } else {
+            (
+                parse(&files.rigs, format, binary::read_rigs, text::read_rigs)?,
+                parse(
+                    &files.frames,
+                    format,
+                    binary::read_frames,
+                    text::read_frames,
+                )?,
+            )
+        };
+        let images = parse(
+            &files.images,
+            format,
+            binary::read_images,
+            text::read_images,
+        )?;
+        let points = parse(
+            &files.points3d,
+            format,
+            binary::read_points3d,
+            text::read_points3d,
+        )?;
+        Self::build(dir, format, legacy, cameras, rigs, frames, images, points)
+    }
+
+    /// Builds and checks a model from records (e.g. a synthetic scene to write). With no rigs
+    /// and no frames the model is legacy and gets COLMAP's trivial rigs and frames. Errors name
+    /// the would-be files in the current directory; [`Reconstruction::format`] is `Binary`.
+    ///
+    /// # Errors
+    /// As [`Reconstruction::read`] for the invariants.
+    pub fn from_records(
+        cameras: Vec<CameraRecord>,
+        rigs: Vec<Rig>,
+        frames: Vec<Frame>,
+        images: Vec<Image>,
+        points: Vec<Point3D>,
+    ) -> Result<Reconstruction> {
+        let legacy = rigs.is_empty() && frames.is_empty();
+        Self::build(
+            Path::new(""),
+            ModelFormat::Binary,
+            legacy,
+            cameras,
+            rigs,
+            frames,
+            images,
+            points,
+        )
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn build(
+        dir: &Path,
+        format: ModelFormat,
+        legacy: bool,
+        cameras: Vec<CameraRecord>,
+        mut rigs: Vec<Rig>,
+        mut frames: Vec<Frame>,
+        images: Vec<Image>,
+        points: Vec<Point3D>,
+    ) -> Result<Reconstruction> {
+        let files = Files::new(dir, format);
+        if legacy {
+            rigs = cameras
+                .iter()
+                .map(|c| Rig {
+                    rig_id: c.camera_id,
+                    ref_sensor: Some(SensorId::camera(c.camera_id)),
+                    sensors: Vec::new(),
+                })
+                .collect();
+            frames = images
+                .iter()
+                .map(|im| Frame {
+                    frame_id: im.image_id,
+                    rig_id: im.camera_id,
+                    rig_from_world: im.stored_cam_from_world,
+                    data_ids: vec![im.data_id()],
+                })
+                .collect();
+        }
+        // The synthesized rigs/frames of a legacy model come from cameras/images.
+        let (rigs_path, frames_path) = if legacy {
+            (&files.cameras, &files.images)
+        } else {
+            (&files.rigs, &files.frames)
+        };
+        let inv = |path: &Path, record: usize, what: &'static str, id: u64| Error::Invariant {
+            path: path.to_path_buf(),
+            record,
+            what,
+            id,
+        };
+
+        let mut camera_idx = HashMap::with_capacity(cameras.len());
+        for (i, c) in cameras.iter().enumerate() {
+            if camera_idx.insert(c.camera_id, i).is_some() {
+                return Err(inv(
+                    &files.cameras,
+                    i,
+                    "duplicate camera id",
+                    c.camera_id.into(),
+                ));
+            }
+        }
+        let mut rig_idx = HashMap::with_capacity(rigs.len());
+        for (i, r) in rigs.iter().enumerate() {
+            if rig_idx.insert(r.rig_id, i).is_some() {
+                return Err(inv(rigs_path, i, "duplicate rig id", r.rig_id.into()));
+            }
+            let sensors = r
+                .ref_sensor
+                .iter()
+                .chain(r.sensors.iter().map(|s| &s.sensor));
+            for s in sensors {
+                if s.sensor_type == SensorType::Camera && !camera_idx.contains_key(&s.id) {
+                    return Err(inv(
+                        rigs_path,
+                        i,
+                        "rig sensor is a missing camera",
+                        s.id.into(),
+                    ));
+                }
+            }
+            for s in &r.sensors {
+                if s.sensor_from_rig.is_some_and(|p| p.to_rigid().is_none()) {
+                    return Err(inv(
+                        rigs_path,
+                        i,
+                        "sensor_from_rig is not a valid pose",
+                        r.rig_id.into(),
+                    ));
+                }
+            }
+        }
+        let mut image_idx = HashMap::with_capacity(images.len());
+        let mut name_idx = HashMap::with_capacity(images.len());
+        let mut num_observations = 0usize;
+        for (i, im) in images.iter().enumerate() {
+            if image_idx.insert(im.image_id, i).is_some() {
+                return Err(inv(
+                    &files.images,
+                    i,
+                    "duplicate image id",
+                    im.image_id.into(),
+                ));
+            }
+            name_idx.entry(im.name.clone()).or_insert(i);
+            if !camera_idx.contains_key(&im.camera_id) {
+                return Err(inv(
+                    &files.images,
+                    i,
+                    "image names a missing camera",
+                    im.camera_id.into(),
+                ));
+            }
+            num_observations += im.num_points3d();
+        }
+        let mut point_idx = HashMap::with_capacity(points.len());
+        for (i, p) in points.iter().enumerate() {
+            if point_idx.insert(p.point3d_id, i).is_some() {
+                return Err(inv(
+                    &files.points3d,
+                    i,
+                    "duplicate 3D point id",
+                    p.point3d_id,
+                ));
+            }
+        }
+
+        let mut frame_idx = HashMap::with_capacity(frames.len());
+        let mut image_frame = vec![usize::MAX; images.len()];
+        for (i, f) in frames.iter().enumerate() {
+            if frame_idx.insert(f.frame_id, i).is_some() {
+                return Err(inv(frames_path, i, "duplicate frame id", f.frame_id.into()));
+            }
+            let Some(&ri) = rig_idx.get(&f.rig_id) else {
+                return Err(inv(
+                    frames_path,
+                    i,
+                    "frame names a missing rig",
+                    f.rig_id.into(),
+                ));
+            };
+            if f.rig_from_world.to_rigid().is_none() {
+                let path = frames_path;
+                return Err(inv(
+                    path,
+                    i,
+                    "rig_from_world is not a valid pose",
+                    f.frame_id.into(),
+                ));
+            }
+            let rig = &rigs[ri];
+            for d in &f.data_ids {
+                if rig.sensor_from_rig(d.sensor).is_none() {
+                    return Err(inv(
+                        frames_path,
+                        i,
+                        "frame data sensor is not in the frame's rig",
+                        d.sensor.id.into(),
+                    ));
+                }
+                if d.sensor.sensor_type != SensorType::Camera {
+                    continue;
+                }
+                let Some(&ii) = u32::try_from(d.id).ok().and_then(|id| image_idx.get(&id)) else {
+                    return Err(inv(frames_path, i, "frame names a missing image", d.id));
+                };
+                if images[ii].camera_id != d.sensor.id {
+                    return Err(inv(
+                        frames_path,
+                        i,
+                        "frame data camera differs from the image's camera",
+                        d.id,
+                    ));
+                }
+                if image_frame[ii] != usize::MAX {
+                    return Err(inv(frames_path, i, "image is in two frames", d.id));
+                }
+                image_frame[ii] = i;
+            }
+        }
+        let mut cam_from_world = Vec::with_capacity(images.len());
+        for (i, im) in images.iter().enumerate() {
+            let fi = image_frame[i];
+            let Some(f) = frames.get(fi) else {
+                return Err(inv(
+                    &files.images,
+                    i,
+                    "image is in no frame",
+                    im.image_id.into(),
+                ));
+            };
+            let rig = rig_idx.get(&f.rig_id).map(|&ri| &rigs[ri]);
+            let sensor = SensorId::camera(im.camera_id);
+            let pose = match rig {
+                Some(r) if r.ref_sensor == Some(sensor) => f.rig_from_world.to_rigid(),
+                Some(r) => match r.sensor_from_rig(sensor) {
+                    Some(Some(s)) => s
+                        .to_rigid()
+                        .zip(f.rig_from_world.to_rigid())
+                        .map(|(s, f)| s * f),
+                    _ => None,
+                },
+                None => None,
+            };
+            cam_from_world.push(pose);
+        }
+
+        // Tracks and observations must describe the same links, both ways.
+        let mut seen: Vec<Vec<bool>> = images
+            .iter()
+            .map(|im| vec![false; im.points2d.len()])
+            .collect();
+        let mut linked = 0usize;
+        for (i, p) in points.iter().enumerate() {
+            for t in &p.track {
+                let Some(&ii) = image_idx.get(&t.image_id) else {
+                    return Err(inv(
+                        &files.points3d,
+                        i,
+                        "track names a missing image",
+                        t.image_id.into(),
+                    ));
+                };
+                let idx = t.point2d_idx as usize;
+                let Some(p2) = images[ii].points2d.get(idx) else {
+                    return Err(inv(
+                        &files.points3d,
+                        i,
+                        "track names a missing point2D index",
+                        t.point2d_idx.into(),
+                    ));
+                };
+                if p2.point3d_id != Some(p.point3d_id) {
+                    return Err(inv(
+                        &files.points3d,
+                        i,
+                        "track element's point2D observes another 3D point",
+                        p.point3d_id,
+                    ));
+                }
+                if let Some(flag) = seen.get_mut(ii).and_then(|s| s.get_mut(idx)) {
+                    if *flag {
+                        return Err(inv(
+                            &files.points3d,
+                            i,
+                            "duplicate track element",
+                            t.image_id.into(),
+                        ));
+                    }
+                    *flag = true;
+                }
+                linked += 1;
+            }
+        }
+        if linked != num_observations {
+            for (i, im) in images.iter().enumerate() {
+                for (k, p2) in im.points2d.iter().enumerate() {
+                    let marked = seen.get(i).and_then(|s| s.get(k)).copied().unwrap_or(false);
+                    if let (Some(pid), false) = (p2.point3d_id, marked) {
+                        let what = if point_idx.contains_key(&pid) {
+                            "point2D observes a 3D point whose track lacks it"
+                        } else {
+                            "point2D observes a missing 3D point"
+                        };
+                        return Err(inv(&files.images, i, what, pid));
+                    }
+                }
+            }
+        }
+
+        Ok(Reconstruction {
+            dir: dir.to_path_buf(),
+            format,
+            legacy,
+            cameras,
+            rigs,
+            frames,
+            images,
+            points,
+            camera_idx,
+            rig_idx,
+            frame_idx,
+            image_idx,
+            name_idx,
+            point_idx,
+            image_frame,
+            cam_from_world,
+            num_observations,
+        })
+    }
+
+    /// Writes all five files in COLMAP ≥ 3.12 layout and `format` into `dir` (created if
+    /// missing). Each file goes to a temporary file in `dir` first; the renames happen only
+    /// after all five were written. Stored values are written unchanged, so a read followed by
+    /// a write reproduces binary input byte for byte, and text written from binary reads back
+    /// bit-exactly (`%.17g`).
+    ///
+    /// # Errors
+    /// [`Error::Io`] naming the directory or file.
+    pub fn write(&self, dir: &Path, format: ModelFormat) -> Result<()> {
+        std::fs::create_dir_all(dir).map_err(|source| Error::Io {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+        let mean_obs = if self.images.is_empty() {
+            0.0
+        } else {
+            self.num_observations as f64 / self.images.len() as f64
+        };
+        let track_total: usize = self.points.iter().map(|p| p.track.len()).sum();
+        let mean_track = if self.points.is_empty() {
+            0.0
+        } else {
+            track_total as f64 / self.points.len() as f64
+        };
+        let contents: [Vec<u8>; 5] = match format {
+            ModelFormat::Binary => [
+                binary::write_rigs(&self.rigs),
+                binary::write_cameras(&self.cameras),
+                binary::write_frames(&self.frames),
+                binary::write_images(&self.images),
+                binary::write_points3d(&self.points),
+            ],
+            ModelFormat::Text => [
+                text::write_rigs(&self.rigs).into_bytes(),
+                text::write_cameras(&self.cameras).into_bytes(),
+                text::write_frames(&self.frames).into_bytes(),
+                text::write_images(&self.images, mean_obs).into_bytes(),
+                text::write_points3d(&self.points, mean_track).into_bytes(),
+            ],
+        };
+        let mut temps = Vec::with_capacity(5);
+        for (stem, bytes) in STEMS.iter().zip(&contents) {
+            let target = dir.join(format!("{stem}.{}", format.extension()));
+            let io = |source| Error::Io {
+                path: target.clone(),
+                source,
+            };
+            let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(io)?;
+            tmp.write_all(bytes).map_err(io)?;
+            tmp.as_file().sync_all().map_err(io)?;
+            temps.push((tmp, target));
+        }
+        for (tmp, target) in temps {
+            tmp.persist(&target).map_err(|e| Error::Io {
+                path: target.clone(),
+                source: e.error,
+            })?;
+        }
+        Ok(())
+    }
+
+    /// The directory the model was read from (empty for [`Reconstruction::from_records`]).
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+    /// Binary or text, as read.
+    pub fn format(&self) -> ModelFormat {
+        self.format
+    }
+    /// `true` when the model had no rigs/frames files (trivial rigs and frames were built).
+    pub fn is_legacy(&self) -> bool {
+        self.legacy
+    }
+    /// Cameras in file order.
+    pub fn cameras(&self) -> &[CameraRecord] {
+        &self.cameras
+    }
+    /// The camera with this id.
+    pub fn camera(&self, camera_id: u32) -> Option<&CameraRecord> {
+        self.camera_idx.get(&camera_id).map(|&i| &self.cameras[i])
+    }
+    /// Rigs in file order (synthesized for a legacy model: one per camera, `rig_id = camera_id`).
+    pub fn rigs(&self) -> &[Rig] {
+        &self.rigs
+    }
+    /// The rig with this id.
+    pub fn rig(&self, rig_id: u32) -> Option<&Rig> {
+        self.rig_idx.get(&rig_id).map(|&i| &self.rigs[i])
+    }
+    /// Frames in file order (synthesized for a legacy model: one per image, same id).
+    pub fn frames(&self) -> &[Frame] {
+        &self.frames
+    }
+    /// The frame with this id.
+    pub fn frame(&self, frame_id: u32) -> Option<&Frame> {
+        self.frame_idx.get(&frame_id).map(|&i| &self.frames[i])
+    }
+    /// Images in file order (COLMAP writes them in registration order, not sorted by id).
+    pub fn images(&self) -> &[Image] {
+        &self.images
+    }
+    /// The image with this id.
+    pub fn image(&self, image_id: u32) -> Option<&Image> {
+        self.image_idx.get(&image_id).map(|&i| &self.images[i])
+    }
+    /// The first image with this exact name.
+    pub fn image_by_name(&self, name: &str) -> Option<&Image> {
+        self.name_idx.get(name).map(|&i| &self.images[i])
+    }
+    /// The frame that contains this image.
+    pub fn image_frame(&self, image_id: u32) -> Option<&Frame> {
+        let i = *self.image_idx.get(&image_id)?;
+        self.frames.get(*self.image_frame.get(i)?)
+    }
+    /// `cam_from_world` of an image, as COLMAP computes it: `sensor_from_rig ∘ rig_from_world`
+    /// of its frame (for a legacy model, the stored image pose), quaternions normalized.
+    /// `None` when the image does not exist or its camera's `sensor_from_rig` is unknown.
+    pub fn image_cam_from_world(&self, image_id: u32) -> Option<Rigid3> {
+        let i = *self.image_idx.get(&image_id)?;
+        self.cam_from_world.get(i).copied().flatten()
+    }
+    /// 3-D points in file order.
+    pub fn points3d(&self) -> &[Point3D] {
+        &self.points
+    }
+    /// The 3-D point with this id.
+    pub fn point3d(&self, point3d_id: u64) -> Option<&Point3D> {
+        self.point_idx.get(&point3d_id).map(|&i| &self.points[i])
+    }
+    /// Number of 2-D points observing a 3-D point (= total track length after the checks).
+    pub fn num_observations(&self) -> usize {
+        self.num_observations
+    }
+    /// The data ids of a frame that are images present in the model.
+    pub fn frame_images(&self, frame: &Frame) -> Vec<&Image> {
+        frame
+            .data_ids
+            .iter()
+            .filter(|d: &&DataId| d.sensor.sensor_type == SensorType::Camera)
+            .filter_map(|d| u32::try_from(d.id).ok().and_then(|id| self.image(id)))
+            .collect()
+    }
+}

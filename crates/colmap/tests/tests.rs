@@ -1,0 +1,8 @@
+//! Integration tests of crashrig-colmap against pycolmap-written fixtures (`fixtures/colmap`).
+
+mod common;
+mod database;
+mod fuzz;
+mod golden;
+mod malformed;
+mod roundtrip;
