@@ -20,6 +20,8 @@ verbs:
   interop            COLMAP interop round trips against pycolmap (needs a Python with pycolmap; PYTHON=...)
   bench [--e2e]      criterion benchmarks; --e2e adds whole-command timings
   fixtures           regenerate the Python-generated fixtures (needs pycolmap + opencv; PYTHON=...)
+  report-check [DIR] open DIR/report.html (default out/paper) in headless Chromium: every figure must
+                     load; writes DIR/report-screenshot.png (needs Debian's `chromium`)
 ";
 
 fn main() -> Result<()> {
@@ -45,6 +47,7 @@ fn main() -> Result<()> {
         "interop" => interop(),
         "bench" => bench(rest.iter().any(|a| a == "--e2e")),
         "fixtures" => fixtures(),
+        "report-check" => report_check(rest.first().map(PathBuf::from)),
         "help" | "--help" | "-h" => {
             print!("{HELP}");
             Ok(())
@@ -154,5 +157,52 @@ fn fixtures() -> Result<()> {
         c.current_dir(&root).arg(&s);
         run(c)?;
     }
+    Ok(())
+}
+
+/// Opens the report in headless Chromium, checks that every `<img>` decoded (the report's inline
+/// script writes `data-images="ok:N"` or `"broken:K/N"` on `<body>` once loaded) and saves a
+/// screenshot next to it.
+fn report_check(dir: Option<PathBuf>) -> Result<()> {
+    let dir = dir.unwrap_or_else(|| project_root().join("out/paper"));
+    let report = dir.join("report.html").canonicalize().with_context(|| format!("{}/report.html", dir.display()))?;
+    let url = format!("file://{}", report.display());
+    let chromium = std::env::var("CHROMIUM").unwrap_or_else(|_| "chromium".to_string());
+    let profile = std::env::temp_dir().join(format!("crashrig-chromium-{}", std::process::id()));
+    let base = |c: &mut Command| {
+        c.args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--virtual-time-budget=5000",
+        ]);
+        c.arg(format!("--user-data-dir={}", profile.display()));
+    };
+    let mut dump = Command::new(&chromium);
+    base(&mut dump);
+    dump.arg("--dump-dom").arg(&url);
+    let out = dump.output().with_context(|| format!("cannot start {chromium} (apt-get install chromium)"))?;
+    let dom = String::from_utf8_lossy(&out.stdout);
+    let marker = dom
+        .split("data-images=\"")
+        .nth(1)
+        .and_then(|s| s.split('"').next())
+        .map(str::to_string)
+        .unwrap_or_default();
+    let shot = dir.join("report-screenshot.png");
+    let mut sc = Command::new(&chromium);
+    base(&mut sc);
+    sc.arg(format!("--screenshot={}", shot.display())).arg("--window-size=1200,4000").arg(&url);
+    let _ = sc.output();
+    let _ = std::fs::remove_dir_all(&profile);
+    if !marker.starts_with("ok:") {
+        bail!("report images did not all render: data-images={marker:?} (see {})", shot.display());
+    }
+    println!("report-check: {marker} images rendered; screenshot {}", shot.display());
     Ok(())
 }
