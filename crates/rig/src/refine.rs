@@ -1,0 +1,569 @@
+//! Rig-constrained refinement: one `A_from_B` for all epochs, estimated jointly with the poses
+//! of camera A, with its covariance from the normal equations.
+//!
+//! # Model
+//! Unknowns: the link (base `b` in A's frame, mm; rotation `R_AB`) and, per epoch `i`, the pose
+//! of A (`R_wA,i`, centre `C_A,i`, mm) — `6 + 6n` in all (846 for the paper's 140 epochs).
+//! Observations: the per-epoch poses of A and B from the unconstrained bundle, as world-frame
+//! orientation and projection centre. Per epoch twelve residuals:
+//! - `Log(R̂_wAᵀ R_wA)`, `C_A − Ĉ_A` (A against its own estimate),
+//! - `Log(R̂_wBᵀ R_wA R_AB)`, `C_A + R_wA b − Ĉ_B` (B as predicted through the rig).
+//!
+//! Rotations are perturbed on the right (`R ← R·Exp(δ)`, δ about the body axes), centres and
+//! base additively. The weights are one variance per group (rotation residuals, rad²; position
+//! residuals, mm²), estimated by iterated variance-component estimation with the redundancy of
+//! each group taken as half the total, `3n − 3` (each group carries `3n + 3` of the unknowns;
+//! the only coupling is A's rotation acting on the lever arm `b`, a second-order effect for a
+//! base of ~200 mm). Gauss–Newton on the dense normal equations `N δ = −Jᵀ W r`, solved by
+//! Cholesky with faer; the covariance of the link is `σ̂₀² (N⁻¹)_link` and is mapped to
+//! (x, y, z, ω, φ, κ) with the derivative of ω φ κ with respect to the right perturbation.
+
+use crate::link::{check_epoch, check_scale, scaled};
+use crate::{Epoch, Error};
+use crashrig_geometry::{Mat3, Mat6, Rigid3, Rot3, Vec3, mean, opk, so3};
+use faer::linalg::solvers::Solve;
+use nalgebra::{SMatrix, SVector, Translation3, UnitQuaternion};
+
+type Vec12 = SVector<f64, 12>;
+type Mat12x6 = SMatrix<f64, 12, 6>;
+
+/// Smallest group variance factor the re-weighting accepts (noise-free data stops it).
+const MIN_VARIANCE_FACTOR: f64 = 1e-24;
+/// Relative change of the variance factors at which the re-weighting stops.
+const VARIANCE_TOLERANCE: f64 = 1e-6;
+
+/// Options of [`refine`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct RefineOptions {
+    /// Gauss–Newton iterations per weighting (each converges in 2–4 on real data).
+    pub max_iterations: usize,
+    /// Stop when the largest step component is below this (rad or mm).
+    pub step_tolerance: f64,
+    /// Re-weighting rounds of the variance-component estimation.
+    pub variance_iterations: usize,
+}
+
+impl Default for RefineOptions {
+    fn default() -> Self {
+        Self {
+            max_iterations: 30,
+            step_tolerance: 1e-11,
+            variance_iterations: 20,
+        }
+    }
+}
+
+/// Result of the rig-constrained refinement.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Refinement {
+    /// The estimated link `A_from_B` (translation in mm).
+    pub a_from_b: Rigid3,
+    /// Base (mm): B's centre in A's frame.
+    pub base_mm: Vec3,
+    /// ω, φ, κ of `R_A_from_B` (rad).
+    pub angles: Vec3,
+    /// Covariance of (x, y, z mm, ω, φ, κ rad).
+    pub covariance: Mat6,
+    /// Covariance of (base mm, right-tangent rotation rad) as solved.
+    pub tangent_covariance: Mat6,
+    /// Standard deviations of the base (mm).
+    pub base_sigma_mm: Vec3,
+    /// Standard deviations of ω, φ, κ (rad).
+    pub angles_sigma: Vec3,
+    /// A-posteriori σ of one rotation residual component (rad).
+    pub sigma_rotation: f64,
+    /// A-posteriori σ of one position residual component (mm).
+    pub sigma_position_mm: f64,
+    /// σ̂₀² = rᵀ W r / (m − p) at the end (≈ 1 after re-weighting).
+    pub variance_factor: f64,
+    /// Number of unknowns `6 + 6n`.
+    pub n_unknowns: usize,
+    /// Redundancy `m − p = 6n − 6`.
+    pub redundancy: usize,
+    /// Gauss–Newton iterations over all weightings.
+    pub iterations: usize,
+}
+
+/// One epoch as world-frame orientations and centres (mm).
+#[derive(Debug, Clone, Copy)]
+struct Observation {
+    r_wa: Mat3,
+    c_a: Vec3,
+    r_wb: Mat3,
+    c_b: Vec3,
+}
+
+fn observation(e: &Epoch, mm_per_unit: f64) -> Observation {
+    let wa = scaled(&e.a_from_world, mm_per_unit).inverse();
+    let wb = scaled(&e.b_from_world, mm_per_unit).inverse();
+    Observation {
+        r_wa: wa.rotation.to_rotation_matrix().into_inner(),
+        c_a: wa.translation.vector,
+        r_wb: wb.rotation.to_rotation_matrix().into_inner(),
+        c_b: wb.translation.vector,
+    }
+}
+
+fn log(m: &Mat3) -> Vec3 {
+    so3::log(&Rot3::from_matrix_unchecked(*m))
+}
+
+fn exp(w: &Vec3) -> Mat3 {
+    so3::exp(w).into_inner()
+}
+
+/// Residuals of one epoch and their Jacobians with respect to the link `[b; δR_AB]` and the
+/// epoch's pose of A `[C_A; δR_wA]`.
+fn epoch_residuals(
+    o: &Observation,
+    r_wa: &Mat3,
+    c_a: &Vec3,
+    r_ab: &Mat3,
+    base: &Vec3,
+) -> (Vec12, Mat12x6, Mat12x6) {
+    let ra = log(&(o.r_wa.transpose() * r_wa));
+    let pa = c_a - o.c_a;
+    let rb = log(&(o.r_wb.transpose() * r_wa * r_ab));
+    let pb = c_a + r_wa * base - o.c_b;
+    let mut r = Vec12::zeros();
+    r.fixed_rows_mut::<3>(0).copy_from(&ra);
+    r.fixed_rows_mut::<3>(3).copy_from(&pa);
+    r.fixed_rows_mut::<3>(6).copy_from(&rb);
+    r.fixed_rows_mut::<3>(9).copy_from(&pb);
+    let jra = so3::right_jacobian_inv(&ra);
+    let jrb = so3::right_jacobian_inv(&rb);
+    let mut jl = Mat12x6::zeros();
+    jl.fixed_view_mut::<3, 3>(6, 3).copy_from(&jrb);
+    jl.fixed_view_mut::<3, 3>(9, 0).copy_from(r_wa);
+    let mut je = Mat12x6::zeros();
+    je.fixed_view_mut::<3, 3>(0, 3).copy_from(&jra);
+    je.fixed_view_mut::<3, 3>(3, 0).copy_from(&Mat3::identity());
+    je.fixed_view_mut::<3, 3>(6, 3)
+        .copy_from(&(jrb * r_ab.transpose()));
+    je.fixed_view_mut::<3, 3>(9, 0).copy_from(&Mat3::identity());
+    je.fixed_view_mut::<3, 3>(9, 3)
+        .copy_from(&(-r_wa * so3::hat(base)));
+    (r, jl, je)
+}
+
+struct State {
+    r_wa: Vec<Mat3>,
+    c_a: Vec<Vec3>,
+    r_ab: Mat3,
+    base: Vec3,
+}
+
+/// Weighted squared residual sums of the rotation and position groups.
+fn group_sums(obs: &[Observation], s: &State) -> (f64, f64) {
+    let mut rot = 0.0;
+    let mut pos = 0.0;
+    for (i, o) in obs.iter().enumerate() {
+        let (r, _, _) = epoch_residuals(o, &s.r_wa[i], &s.c_a[i], &s.r_ab, &s.base);
+        rot += r.fixed_rows::<3>(0).norm_squared() + r.fixed_rows::<3>(6).norm_squared();
+        pos += r.fixed_rows::<3>(3).norm_squared() + r.fixed_rows::<3>(9).norm_squared();
+    }
+    (rot, pos)
+}
+
+/// Normal matrix and right-hand side `−Jᵀ W r` (dense, faer).
+fn normal_equations(
+    obs: &[Observation],
+    s: &State,
+    w_rot: f64,
+    w_pos: f64,
+) -> (faer::Mat<f64>, faer::Mat<f64>) {
+    let p = 6 + 6 * obs.len();
+    let mut n = faer::Mat::<f64>::zeros(p, p);
+    let mut g = faer::Mat::<f64>::zeros(p, 1);
+    let w = Vec12::from_fn(|k, _| if (k / 3) % 2 == 0 { w_rot } else { w_pos });
+    for (i, o) in obs.iter().enumerate() {
+        let (r, jl, je) = epoch_residuals(o, &s.r_wa[i], &s.c_a[i], &s.r_ab, &s.base);
+        let wjl = Mat12x6::from_fn(|a, b| w[a] * jl[(a, b)]);
+        let wje = Mat12x6::from_fn(|a, b| w[a] * je[(a, b)]);
+        let nll = jl.transpose() * wjl;
+        let nle = jl.transpose() * wje;
+        let nee = je.transpose() * wje;
+        let gl = wjl.transpose() * r;
+        let ge = wje.transpose() * r;
+        let e0 = 6 + 6 * i;
+        for a in 0..6 {
+            g[(a, 0)] -= gl[a];
+            g[(e0 + a, 0)] -= ge[a];
+            for b in 0..6 {
+                n[(a, b)] += nll[(a, b)];
+                n[(a, e0 + b)] += nle[(a, b)];
+                n[(e0 + b, a)] += nle[(a, b)];
+                n[(e0 + a, e0 + b)] += nee[(a, b)];
+            }
+        }
+    }
+    (n, g)
+}
+
+/// Estimates one `A_from_B` jointly with all epoch poses of A (see the module doc).
+///
+/// `epochs` are in model units; `mm_per_unit` converts them to mm.
+///
+/// # Errors
+/// [`Error::TooFewEpochs`] for fewer than two epochs, [`Error::InvalidScale`],
+/// [`Error::NonFinitePose`], [`Error::SingularNormalMatrix`], [`Error::NoConvergence`],
+/// and [`Error::Geometry`] (no rotation mean, gimbal lock of the link's φ).
+pub fn refine(
+    epochs: &[Epoch],
+    mm_per_unit: f64,
+    options: &RefineOptions,
+) -> Result<Refinement, Error> {
+    check_scale(mm_per_unit)?;
+    let n = epochs.len();
+    if n < 2 {
+        return Err(Error::TooFewEpochs {
+            what: "rig refinement",
+            needed: 2,
+            found: n,
+        });
+    }
+    for e in epochs {
+        check_epoch(e)?;
+    }
+    let obs: Vec<Observation> = epochs.iter().map(|e| observation(e, mm_per_unit)).collect();
+    // Start: A at its observed poses, the link at the chordal mean of the epoch links.
+    let links_r: Vec<Rot3> = obs
+        .iter()
+        .map(|o| Rot3::from_matrix_unchecked(o.r_wa.transpose() * o.r_wb))
+        .collect();
+    let r_ab0 = mean::chordal_mean(&links_r)?.into_inner();
+    let base0 = obs
+        .iter()
+        .map(|o| o.r_wa.transpose() * (o.c_b - o.c_a))
+        .sum::<Vec3>()
+        / n as f64;
+    let mut s = State {
+        r_wa: obs.iter().map(|o| o.r_wa).collect(),
+        c_a: obs.iter().map(|o| o.c_a).collect(),
+        r_ab: r_ab0,
+        base: base0,
+    };
+    let p = 6 + 6 * n;
+    let redundancy = 12 * n - p;
+    let group_redundancy = redundancy as f64 / 2.0;
+    // Initial weights from the residuals at the start (A residuals are zero there, so the
+    // B residuals carry the whole link scatter: halve it), floored for noise-free input.
+    let (rot0, pos0) = group_sums(&obs, &s);
+    let mut var_rot = (rot0 / (6.0 * n as f64)).max(MIN_VARIANCE_FACTOR);
+    let mut var_pos = (pos0 / (6.0 * n as f64)).max(MIN_VARIANCE_FACTOR);
+    let mut iterations = 0;
+    let mut llt = None;
+    for _round in 0..options.variance_iterations.max(1) {
+        let (w_rot, w_pos) = (1.0 / var_rot, 1.0 / var_pos);
+        let mut converged = false;
+        let mut last_step = f64::INFINITY;
+        for _ in 0..options.max_iterations.max(1) {
+            iterations += 1;
+            let (nm, g) = normal_equations(&obs, &s, w_rot, w_pos);
+            let chol = nm
+                .llt(faer::Side::Lower)
+                .map_err(|_| Error::SingularNormalMatrix { n_unknowns: p })?;
+            let delta = chol.solve(&g);
+            let d = |k: usize| Vec3::new(delta[(k, 0)], delta[(k + 1, 0)], delta[(k + 2, 0)]);
+            s.base += d(0);
+            s.r_ab *= exp(&d(3));
+            for i in 0..n {
+                let e0 = 6 + 6 * i;
+                s.c_a[i] += d(e0);
+                s.r_wa[i] *= exp(&d(e0 + 3));
+            }
+            last_step = (0..p).map(|k| delta[(k, 0)].abs()).fold(0.0, f64::max);
+            if last_step < options.step_tolerance {
+                converged = true;
+                break;
+            }
+        }
+        if !converged {
+            return Err(Error::NoConvergence {
+                iterations,
+                last_step,
+            });
+        }
+        // Variance components of the two groups at the solution.
+        let (rot, pos) = group_sums(&obs, &s);
+        let f_rot = rot * w_rot / group_redundancy;
+        let f_pos = pos * w_pos / group_redundancy;
+        let (nm, _) = normal_equations(&obs, &s, w_rot, w_pos);
+        llt = Some((
+            nm.llt(faer::Side::Lower)
+                .map_err(|_| Error::SingularNormalMatrix { n_unknowns: p })?,
+            (rot * w_rot + pos * w_pos) / redundancy as f64,
+        ));
+        if f_rot < MIN_VARIANCE_FACTOR || f_pos < MIN_VARIANCE_FACTOR {
+            break;
+        }
+        var_rot *= f_rot;
+        var_pos *= f_pos;
+        if (f_rot - 1.0).abs() < VARIANCE_TOLERANCE && (f_pos - 1.0).abs() < VARIANCE_TOLERANCE {
+            break;
+        }
+    }
+    let (chol, variance_factor) = llt.ok_or(Error::SingularNormalMatrix { n_unknowns: p })?;
+    // Link block of N⁻¹: solve N X = [I₆; 0].
+    let mut e = faer::Mat::<f64>::zeros(p, 6);
+    for k in 0..6 {
+        e[(k, k)] = 1.0;
+    }
+    let x = chol.solve(&e);
+    let tangent_covariance = Mat6::from_fn(|a, b| variance_factor * x[(a, b)]);
+    let rot = Rot3::from_matrix_unchecked(s.r_ab);
+    let mut t = Mat6::identity();
+    t.fixed_view_mut::<3, 3>(3, 3)
+        .copy_from(&opk::d_opk_d_tangent_right(&rot)?);
+    let covariance = t * tangent_covariance * t.transpose();
+    let a = opk::opk_from_rotation(&rot);
+    Ok(Refinement {
+        a_from_b: Rigid3::from_parts(
+            Translation3::from(s.base),
+            UnitQuaternion::from_rotation_matrix(&rot),
+        ),
+        base_mm: s.base,
+        angles: Vec3::new(a.omega, a.phi, a.kappa),
+        base_sigma_mm: Vec3::from_fn(|k, _| covariance[(k, k)].sqrt()),
+        angles_sigma: Vec3::from_fn(|k, _| covariance[(3 + k, 3 + k)].sqrt()),
+        covariance,
+        tangent_covariance,
+        sigma_rotation: var_rot.sqrt(),
+        sigma_position_mm: var_pos.sqrt(),
+        variance_factor,
+        n_unknowns: p,
+        redundancy,
+        iterations,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::link::tests_support::pose;
+    use approx::assert_abs_diff_eq;
+    use crashrig_geometry::opk::rotation_from_opk;
+    use rand::RngExt;
+    use rand_distr::StandardNormal;
+
+    fn paper_link() -> Rigid3 {
+        pose(
+            rotation_from_opk(
+                179.92f64.to_radians(),
+                -0.09f64.to_radians(),
+                179.76f64.to_radians(),
+            ),
+            Vec3::new(61.98, -1.71, 179.76),
+        )
+    }
+
+    /// A sequence of `n` epochs with the given link; A and B poses each get independent noise
+    /// (`sigma_rot` rad about the body axes, `sigma_pos` mm on the centre).
+    fn sequence(n: usize, seed: u64, sigma_rot: f64, sigma_pos: f64) -> Vec<Epoch> {
+        let mut rng = crashrig_stats::stream(seed, 0);
+        let mut noisy = |world_from_cam: Rigid3| {
+            let mut g = || -> f64 { rng.sample(StandardNormal) };
+            let d = Vec3::new(g(), g(), g()) * sigma_rot;
+            let c = Vec3::new(g(), g(), g()) * sigma_pos;
+            let r = world_from_cam.rotation.to_rotation_matrix() * so3::exp(&d);
+            pose(r, world_from_cam.translation.vector + c).inverse()
+        };
+        let link = paper_link();
+        (0..n)
+            .map(|i| {
+                let s = i as f64 / n as f64;
+                let world_from_a = pose(
+                    rotation_from_opk(-1.5 + 0.1 * s, 0.3 * s, 1.0 - s),
+                    Vec3::new(4000.0 * s - 2000.0, 500.0 * s, 1200.0),
+                );
+                let world_from_b = world_from_a * link;
+                Epoch {
+                    name: format!("{i:06}"),
+                    a_from_world: noisy(world_from_a),
+                    b_from_world: noisy(world_from_b),
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn epoch_residuals_jacobian_matches_central_differences() {
+        let r_wa = rotation_from_opk(0.3, -0.4, 1.2).into_inner();
+        let r_ab = rotation_from_opk(3.1, -0.01, 3.0).into_inner();
+        let obs_r_wa = r_wa * exp(&Vec3::new(0.01, -0.02, 0.015));
+        let obs_r_wb = r_wa * r_ab * exp(&Vec3::new(-0.012, 0.004, 0.02));
+        let c_a = Vec3::new(100.0, -20.0, 1500.0);
+        let base = Vec3::new(62.0, -1.7, 179.8);
+        let obs_c_a = c_a + Vec3::new(1.0, -2.0, 0.5);
+        let obs_c_b = c_a + r_wa * base + Vec3::new(-0.7, 1.1, 2.0);
+        let o = Observation {
+            r_wa: obs_r_wa,
+            c_a: obs_c_a,
+            r_wb: obs_r_wb,
+            c_b: obs_c_b,
+        };
+        let f = |r_wa: &Mat3, c_a: &Vec3, r_ab: &Mat3, base: &Vec3| {
+            epoch_residuals(&o, r_wa, c_a, r_ab, base).0
+        };
+        let (_, jl, je) = epoch_residuals(&o, &r_wa, &c_a, &r_ab, &base);
+        let h = 1e-6;
+        for k in 0..6 {
+            let mut d = Vec3::zeros();
+            d[k % 3] = h;
+            // Link: [base; δR_AB].
+            let (p, m) = if k < 3 {
+                (
+                    f(&r_wa, &c_a, &r_ab, &(base + d)),
+                    f(&r_wa, &c_a, &r_ab, &(base - d)),
+                )
+            } else {
+                (
+                    f(&r_wa, &c_a, &(r_ab * exp(&d)), &base),
+                    f(&r_wa, &c_a, &(r_ab * exp(&-d)), &base),
+                )
+            };
+            let fd = (p - m) / (2.0 * h);
+            // Central differences: O(h²) truncation times the curvature (~1 and ~|base|),
+            // plus rounding ~1e-16·1500/h: 1e-6 is a safe bound.
+            assert_abs_diff_eq!(fd, jl.column(k).into_owned(), epsilon = 1e-6);
+            // Epoch: [C_A; δR_wA].
+            let (p, m) = if k < 3 {
+                (
+                    f(&r_wa, &(c_a + d), &r_ab, &base),
+                    f(&r_wa, &(c_a - d), &r_ab, &base),
+                )
+            } else {
+                (
+                    f(&(r_wa * exp(&d)), &c_a, &r_ab, &base),
+                    f(&(r_wa * exp(&-d)), &c_a, &r_ab, &base),
+                )
+            };
+            let fd = (p - m) / (2.0 * h);
+            assert_abs_diff_eq!(fd, je.column(k).into_owned(), epsilon = 1e-6);
+        }
+    }
+
+    #[test]
+    fn refine_nominal_noise_free_recovers_link() {
+        let epochs = sequence(12, 1, 0.0, 0.0);
+        // Model units = mm / 2.5.
+        let epochs: Vec<Epoch> = epochs
+            .iter()
+            .map(|e| Epoch {
+                name: e.name.clone(),
+                a_from_world: scaled(&e.a_from_world, 1.0 / 2.5),
+                b_from_world: scaled(&e.b_from_world, 1.0 / 2.5),
+            })
+            .collect();
+        let r = refine(&epochs, 2.5, &RefineOptions::default()).unwrap();
+        let truth = paper_link();
+        // Exact data: only rounding of 2000 mm poses remains.
+        assert_abs_diff_eq!(r.base_mm, truth.translation.vector, epsilon = 1e-9);
+        assert_abs_diff_eq!(
+            so3::angular_distance(
+                &r.a_from_b.rotation.to_rotation_matrix(),
+                &truth.rotation.to_rotation_matrix()
+            ),
+            0.0,
+            epsilon = 1e-12
+        );
+        assert_eq!(r.n_unknowns, 6 + 6 * 12);
+        assert_eq!(r.redundancy, 6 * 12 - 6);
+    }
+
+    #[test]
+    fn refine_noisy_estimates_variance_components() {
+        // 140 epochs like the paper: σ_rot = 0.5 mrad, σ_pos = 1.5 mm on each pose.
+        let epochs = sequence(140, 7, 5e-4, 1.5);
+        let r = refine(&epochs, 1.0, &RefineOptions::default()).unwrap();
+        assert_eq!(r.n_unknowns, 846);
+        // VCE recovers the injected σ: with 417 redundant residuals per group, the relative
+        // standard error of σ̂ is ~1/√(2·417) ≈ 3.5 %; allow 4 of them (14 %).
+        assert_abs_diff_eq!(r.sigma_rotation / 5e-4, 1.0, epsilon = 0.14);
+        assert_abs_diff_eq!(r.sigma_position_mm / 1.5, 1.0, epsilon = 0.14);
+        assert_abs_diff_eq!(r.variance_factor, 1.0, epsilon = 1e-3);
+        // The link lies within 4 predicted σ of the truth.
+        let truth = paper_link();
+        for k in 0..3 {
+            assert_abs_diff_eq!(
+                r.base_mm[k],
+                truth.translation.vector[k],
+                epsilon = 4.0 * r.base_sigma_mm[k]
+            );
+        }
+    }
+
+    /// Monte Carlo check of the covariance: the spread of refined links over `reps` independent
+    /// sequences against the mean predicted σ.
+    fn covariance_check(reps: usize, tolerance: f64) {
+        let mut base = vec![Vec::new(); 3];
+        let mut rot = vec![Vec::new(); 3];
+        let mut predicted = Vec6Sum::default();
+        let truth = paper_link();
+        for rep in 0..reps {
+            let epochs = sequence(10, 1000 + rep as u64, 5e-4, 1.5);
+            let r = refine(&epochs, 1.0, &RefineOptions::default()).unwrap();
+            let d = so3::log(
+                &(truth.rotation.to_rotation_matrix().inverse()
+                    * r.a_from_b.rotation.to_rotation_matrix()),
+            );
+            for k in 0..3 {
+                base[k].push(r.base_mm[k]);
+                rot[k].push(d[k]);
+            }
+            predicted.add(&r.tangent_covariance);
+        }
+        let sd = |v: &[f64]| {
+            let m = v.iter().sum::<f64>() / v.len() as f64;
+            (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (v.len() as f64 - 1.0)).sqrt()
+        };
+        for k in 0..3 {
+            assert_abs_diff_eq!(
+                sd(&base[k]) / predicted.sigma(k, reps),
+                1.0,
+                epsilon = tolerance
+            );
+            assert_abs_diff_eq!(
+                sd(&rot[k]) / predicted.sigma(3 + k, reps),
+                1.0,
+                epsilon = tolerance
+            );
+        }
+    }
+
+    #[derive(Default)]
+    struct Vec6Sum(Mat6);
+    impl Vec6Sum {
+        fn add(&mut self, m: &Mat6) {
+            self.0 += m;
+        }
+        fn sigma(&self, k: usize, reps: usize) -> f64 {
+            (self.0[(k, k)] / reps as f64).sqrt()
+        }
+    }
+
+    #[test]
+    fn refine_covariance_matches_monte_carlo_fast() {
+        // 150 replicates: the relative standard error of a sample σ is 1/√(2·149) ≈ 5.8 %;
+        // the predicted σ itself carries the VCE's few-% scatter. 25 % ≈ 4 standard errors.
+        covariance_check(150, 0.25);
+    }
+
+    #[test]
+    fn slow_refine_covariance_matches_monte_carlo() {
+        if std::env::var_os("CRASHRIG_SLOW").is_none() {
+            return;
+        }
+        // 2000 replicates: relative standard error ≈ 1.6 %, 4 of them plus VCE bias margin.
+        covariance_check(2000, 0.08);
+    }
+
+    #[test]
+    fn refine_one_epoch_is_error() {
+        let epochs = sequence(1, 3, 0.0, 0.0);
+        assert!(matches!(
+            refine(&epochs, 1.0, &RefineOptions::default()),
+            Err(Error::TooFewEpochs { found: 1, .. })
+        ));
+    }
+}
