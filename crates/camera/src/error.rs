@@ -85,6 +85,9 @@ pub enum ProjectionReject {
     OutsideDomain,
     /// A component of the input point is NaN or infinite.
     NotFinite,
+    /// The camera's parameters are invalid (wrong count, NaN, f ≤ 0, ...): a camera built
+    /// with a struct literal instead of the validating constructor.
+    InvalidParams,
     /// The model is not implemented.
     UnsupportedModel,
 }
@@ -95,6 +98,7 @@ impl std::fmt::Display for ProjectionReject {
             Self::BehindCamera => "point is behind the camera",
             Self::OutsideDomain => "point is outside the model's domain",
             Self::NotFinite => "point is not finite",
+            Self::InvalidParams => "camera parameters are invalid",
             Self::UnsupportedModel => "camera model not supported",
         };
         f.write_str(s)
@@ -129,6 +133,9 @@ pub enum UndistortError {
     /// A pixel coordinate is NaN or infinite.
     #[error("pixel is not finite")]
     NotFinite,
+    /// The camera's parameters are invalid (built with a struct literal, not validated).
+    #[error("camera parameters are invalid")]
+    InvalidParams,
     /// The model is not implemented.
     #[error("camera model not supported")]
     UnsupportedModel,

@@ -4,7 +4,7 @@
 use nalgebra::{Matrix2x3, Matrix3, SMatrix, Vector2, Vector3};
 
 use crate::dual::{Dual, Real};
-use crate::project::{EPS, newton_undistort};
+use crate::project::{EPS, finite_jacobian, finite_pixel, newton_undistort};
 use crate::{Camera, Error, ModelId, ProjectionReject, UndistortError, Undistorted};
 
 /// COLMAP pixel coordinate minus OpenCV pixel coordinate of the same image point: COLMAP puts
@@ -202,8 +202,10 @@ impl OpenCvCamera {
     /// Projects a camera-frame point to an OpenCV pixel. Unlike `cv::projectPoints`, points
     /// with z < ε (DBL_EPSILON) are rejected ([`ProjectionReject::BehindCamera`]).
     pub fn img_from_cam(&self, p_cam: &Vector3<f64>) -> Result<Vector2<f64>, ProjectionReject> {
+        self.validate()
+            .map_err(|_| ProjectionReject::InvalidParams)?;
         let r = img_from_cam_cv(&self.params(), [p_cam.x, p_cam.y, p_cam.z])?;
-        Ok(Vector2::new(r[0], r[1]))
+        finite_pixel(Vector2::new(r[0], r[1]))
     }
 
     /// Jacobian (2×3) of [`OpenCvCamera::img_from_cam`] with respect to the point.
@@ -211,6 +213,8 @@ impl OpenCvCamera {
         &self,
         p_cam: &Vector3<f64>,
     ) -> Result<Matrix2x3<f64>, ProjectionReject> {
+        self.validate()
+            .map_err(|_| ProjectionReject::InvalidParams)?;
         let q = self.params().map(Dual::<3>::cst);
         let p = [
             Dual::var(p_cam.x, 0),
@@ -218,7 +222,7 @@ impl OpenCvCamera {
             Dual::var(p_cam.z, 2),
         ];
         let r = img_from_cam_cv(&q, p)?;
-        Ok(Matrix2x3::from_fn(|i, j| r[i].d[j]))
+        finite_jacobian(Matrix2x3::from_fn(|i, j| r[i].d[j]))
     }
 
     /// Jacobian (2×18, columns in [`OpenCvCamera::PARAM_NAMES`] order) of
@@ -227,13 +231,15 @@ impl OpenCvCamera {
         &self,
         p_cam: &Vector3<f64>,
     ) -> Result<SMatrix<f64, 2, 18>, ProjectionReject> {
+        self.validate()
+            .map_err(|_| ProjectionReject::InvalidParams)?;
         let mut q = [Dual::<18>::cst(0.0); 18];
         for (i, (d, v)) in q.iter_mut().zip(self.params()).enumerate() {
             *d = Dual::var(v, i);
         }
         let p = [p_cam.x, p_cam.y, p_cam.z].map(Dual::cst);
         let r = img_from_cam_cv(&q, p)?;
-        Ok(SMatrix::<f64, 2, 18>::from_fn(|i, j| r[i].d[j]))
+        finite_jacobian(SMatrix::<f64, 2, 18>::from_fn(|i, j| r[i].d[j]))
     }
 
     /// Unprojects an OpenCV pixel to normalized coordinates: inverts the tilt homography
@@ -241,6 +247,7 @@ impl OpenCvCamera {
     /// at ‖step‖² < [`OPENCV_UNDISTORT_STEP_SQ_TOL`] (at most
     /// [`OPENCV_UNDISTORT_MAX_ITERATIONS`] iterations; not converging is an error).
     pub fn cam_from_img(&self, pixel: &Vector2<f64>) -> Result<Undistorted, UndistortError> {
+        self.validate().map_err(|_| UndistortError::InvalidParams)?;
         if !(pixel.x.is_finite() && pixel.y.is_finite()) {
             return Err(UndistortError::NotFinite);
         }

@@ -4,6 +4,7 @@
 use nalgebra::{Matrix2, Matrix2x3, Matrix2xX, Vector2, Vector3};
 
 use crate::dual::{Dual, Real};
+use crate::model::validate_params;
 use crate::{Camera, ModelId, ProjectionReject, UndistortError};
 
 /// DBL_EPSILON: COLMAP's cheirality threshold (a point needs z ≥ ε) and its other guards.
@@ -297,6 +298,31 @@ fn closed(normalized: Vector2<f64>) -> Result<Undistorted, UndistortError> {
     }
 }
 
+/// A projection result that overflowed (e.g. a point almost on the principal plane of a
+/// division model) is a reject, not a garbage pixel.
+pub(crate) fn finite_pixel(px: Vector2<f64>) -> Result<Vector2<f64>, ProjectionReject> {
+    if px.iter().all(|c| c.is_finite()) {
+        Ok(px)
+    } else {
+        Err(ProjectionReject::OutsideDomain)
+    }
+}
+
+/// Same guard for Jacobians (infinite at domain boundaries such as the division model's
+/// discriminant = 0).
+pub(crate) fn finite_jacobian<R: nalgebra::Dim, C: nalgebra::Dim, St>(
+    j: nalgebra::Matrix<f64, R, C, St>,
+) -> Result<nalgebra::Matrix<f64, R, C, St>, ProjectionReject>
+where
+    St: nalgebra::RawStorage<f64, R, C>,
+{
+    if j.iter().all(|c| c.is_finite()) {
+        Ok(j)
+    } else {
+        Err(ProjectionReject::OutsideDomain)
+    }
+}
+
 /// Unit bearing of an equirectangular pixel (COLMAP's convention).
 fn equirect_ray(params: &[f64], px: &Vector2<f64>) -> Vector3<f64> {
     use std::f64::consts::PI;
@@ -312,8 +338,14 @@ impl Camera {
     /// Cheirality: pinhole- and fisheye-class models and EUCM need z ≥ ε (DBL_EPSILON);
     /// the division models and EQUIRECTANGULAR have no such check (as in COLMAP).
     pub fn img_from_cam(&self, p_cam: &Vector3<f64>) -> Result<Vector2<f64>, ProjectionReject> {
+        self.check_projectable()?;
         let r = img_from_cam_g(self.model, &self.params, [p_cam.x, p_cam.y, p_cam.z])?;
-        Ok(Vector2::new(r[0], r[1]))
+        finite_pixel(Vector2::new(r[0], r[1]))
+    }
+
+    /// Guards the public maps against a camera built without [`Camera::new`].
+    fn check_projectable(&self) -> Result<(), ProjectionReject> {
+        validate_params(self.model, &self.params).map_err(|_| ProjectionReject::InvalidParams)
     }
 
     /// Jacobian (2×3, pixels per unit of the point) of [`Camera::img_from_cam`] with respect
@@ -322,6 +354,7 @@ impl Camera {
         &self,
         p_cam: &Vector3<f64>,
     ) -> Result<Matrix2x3<f64>, ProjectionReject> {
+        self.check_projectable()?;
         let params: Vec<Dual<3>> = self.params.iter().map(|&v| Dual::cst(v)).collect();
         let p = [
             Dual::var(p_cam.x, 0),
@@ -329,7 +362,7 @@ impl Camera {
             Dual::var(p_cam.z, 2),
         ];
         let r = img_from_cam_g(self.model, &params, p)?;
-        Ok(Matrix2x3::from_fn(|i, j| r[i].d[j]))
+        finite_jacobian(Matrix2x3::from_fn(|i, j| r[i].d[j]))
     }
 
     /// Jacobian (2×N, N = number of parameters, COLMAP order) of [`Camera::img_from_cam`]
@@ -338,6 +371,7 @@ impl Camera {
         &self,
         p_cam: &Vector3<f64>,
     ) -> Result<Matrix2xX<f64>, ProjectionReject> {
+        self.check_projectable()?;
         if self.params.len() > MAX_PARAMS {
             return Err(ProjectionReject::UnsupportedModel);
         }
@@ -349,7 +383,7 @@ impl Camera {
             .collect();
         let p = [p_cam.x, p_cam.y, p_cam.z].map(Dual::cst);
         let r = img_from_cam_g(self.model, &params, p)?;
-        Ok(Matrix2xX::from_fn(self.params.len(), |i, j| r[i].d[j]))
+        finite_jacobian(Matrix2xX::from_fn(self.params.len(), |i, j| r[i].d[j]))
     }
 
     /// Unprojects a pixel (COLMAP convention) to normalized coordinates (x/z, y/z) with a
@@ -376,6 +410,9 @@ impl Camera {
         max_iterations: usize,
     ) -> Result<Undistorted, UndistortError> {
         use ModelId as M;
+        if validate_params(self.model, &self.params).is_err() {
+            return Err(UndistortError::InvalidParams);
+        }
         if !(pixel.x.is_finite() && pixel.y.is_finite()) {
             return Err(UndistortError::NotFinite);
         }
@@ -455,6 +492,9 @@ impl Camera {
     /// [`Camera::cam_from_img`].
     pub fn cam_ray_from_img(&self, pixel: &Vector2<f64>) -> Result<Vector3<f64>, UndistortError> {
         if self.model == ModelId::Equirectangular {
+            if validate_params(self.model, &self.params).is_err() {
+                return Err(UndistortError::InvalidParams);
+            }
             if !(pixel.x.is_finite() && pixel.y.is_finite()) {
                 return Err(UndistortError::NotFinite);
             }

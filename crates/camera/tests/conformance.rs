@@ -263,8 +263,8 @@ fn conformance_jacobian_params() {
                     let h = 1e-6 * cam.params[k].abs().max(1.0);
                     let fd = central(
                         |t| {
-                            // Struct literal on purpose: a perturbed parameter may leave the
-                            // validated domain (e.g. EUCM α = 1 + h) but the map is still smooth.
+                            // The examples stay ≥ 1e-6 inside every parameter limit, so the
+                            // perturbed camera is still valid.
                             let mut c = cam.clone();
                             c.params[k] = t;
                             c.img_from_cam(&p).expect("in front")
@@ -382,6 +382,37 @@ fn conformance_rejects() {
                 }
             }
         }
+    }
+    // Cameras built with a struct literal bypass validation: every map refuses them.
+    for (model, params) in [
+        (M::Pinhole, vec![500.0]),
+        (M::RadTanThinPrismFisheye, vec![1.0; 20]),
+        (
+            M::OpenCv,
+            vec![f64::NAN, 500.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0],
+        ),
+        (M::Eucm, vec![500.0, 500.0, 1.0, 1.0, 2.0, 1.0]),
+        (M::Equirectangular, vec![0.0, 100.0]),
+    ] {
+        let bad = Camera {
+            model,
+            width: W,
+            height: H,
+            params,
+        };
+        let p = Vector3::new(0.1, 0.1, 1.0);
+        assert_eq!(bad.img_from_cam(&p), Err(ProjectionReject::InvalidParams));
+        assert_eq!(
+            bad.dx_img_from_cam_point(&p),
+            Err(ProjectionReject::InvalidParams)
+        );
+        assert!(bad.dx_img_from_params(&p).is_err());
+        let px = Vector2::new(10.0, 10.0);
+        assert_eq!(bad.cam_from_img(&px), Err(UndistortError::InvalidParams));
+        assert_eq!(
+            bad.cam_ray_from_img(&px),
+            Err(UndistortError::InvalidParams)
+        );
     }
     let eq = &examples(M::Equirectangular)[0];
     assert_eq!(
