@@ -78,5 +78,5 @@ pub fn karcher_mean(rs: &[Rot3], tol: f64, max_iter: usize) -> Result<Rot3, Erro
 
 /// Re-orthonormalise a product of rotations (keeps drift from accumulating).
 fn renormalize(r: &Rot3) -> Rot3 {
-    Rot3::from(nalgebra::UnitQuaternion::from_rotation_matrix(r))
+    crate::quat::unit_quaternion_from_rotation(r).to_rotation_matrix()
 }

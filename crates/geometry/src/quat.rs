@@ -3,7 +3,7 @@
 //! nalgebra stores `[x, y, z, w]` internally; these functions are the one place that converts.
 
 use crate::tolerance::MIN_QUATERNION_NORM;
-use crate::{Error, Rigid3, Vec3};
+use crate::{Error, Rigid3, Rot3, Vec3};
 use nalgebra::{Quaternion, Translation3, UnitQuaternion};
 
 /// Rotation from a `[w, x, y, z]` quaternion, normalised.
@@ -17,6 +17,21 @@ pub fn rotation_from_wxyz(q: [f64; 4]) -> Result<UnitQuaternion<f64>, Error> {
         return Err(Error::NonUnitQuaternion { norm });
     }
     Ok(UnitQuaternion::new_unchecked(quat / norm))
+}
+
+/// Unit quaternion of a rotation matrix, **normalised**.
+///
+/// nalgebra's `UnitQuaternion::from_rotation_matrix` does not normalise its result, so a matrix
+/// that is orthonormal only to rounding gives a quaternion of norm 1 ± ε, and repeated
+/// conversions drift (a scale error that compounds). Use this function instead.
+pub fn unit_quaternion_from_rotation(r: &Rot3) -> UnitQuaternion<f64> {
+    UnitQuaternion::new_normalize(UnitQuaternion::from_rotation_matrix(r).into_inner())
+}
+
+/// A rigid transform `(R, t)` from a rotation matrix and a translation (mm), with the rotation
+/// stored as a normalised quaternion.
+pub fn rigid_from_rotation(r: &Rot3, t: &Vec3) -> Rigid3 {
+    Rigid3::from_parts(Translation3::from(*t), unit_quaternion_from_rotation(r))
 }
 
 /// `[w, x, y, z]` of a unit quaternion (the sign is kept as stored).

@@ -4,7 +4,6 @@
 //! perturbation relates to a right one by `Exp(ξ)·T = T·Exp(Ad(T)⁻¹ ξ)`.
 
 use crate::{Mat3, Mat6, Rigid3, Vec3, Vec6, so3};
-use nalgebra::{Translation3, UnitQuaternion};
 
 /// Exponential map of `xi = [ω; v]` (ω in rad, v in mm).
 pub fn exp(xi: &Vec6) -> Rigid3 {
@@ -12,10 +11,7 @@ pub fn exp(xi: &Vec6) -> Rigid3 {
     let v = Vec3::new(xi[3], xi[4], xi[5]);
     let r = so3::exp(&w);
     let t = so3::left_jacobian(&w) * v;
-    Rigid3::from_parts(
-        Translation3::from(t),
-        UnitQuaternion::from_rotation_matrix(&r),
-    )
+    crate::quat::rigid_from_rotation(&r, &t)
 }
 
 /// Logarithm map, inverse of [`exp`] (rotation angle in `[0, π]`).

@@ -2,7 +2,6 @@
 
 use crate::tolerance::UMEYAMA_MIN_SINGULAR_RATIO;
 use crate::{Error, Mat3, Rigid3, Rot3, Vec3};
-use nalgebra::{Translation3, UnitQuaternion};
 
 /// A similarity `dst = scale·R·src + t` (scale dimensionless, t in mm).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -23,10 +22,7 @@ impl Sim3 {
 
     /// The rigid part `(R, t)`, ignoring the scale.
     pub fn rigid(&self) -> Rigid3 {
-        Rigid3::from_parts(
-            Translation3::from(self.translation),
-            UnitQuaternion::from_rotation_matrix(&self.rotation),
-        )
+        crate::quat::rigid_from_rotation(&self.rotation, &self.translation)
     }
 }
 

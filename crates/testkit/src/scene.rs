@@ -1,7 +1,7 @@
 //! Synthetic, seeded scenes: a rig sequence (epochs of two rigidly linked cameras) and a
 //! two-view scene with points and normalized observations.
 
-use crashrig_geometry::{Rigid3, Vec3, Vec6, opk, se3};
+use crashrig_geometry::{Rigid3, Vec3, Vec6, opk, quat, se3};
 use nalgebra::{Quaternion, Translation3, UnitQuaternion, Vector2};
 use rand::{RngExt, SeedableRng, rngs::ChaCha8Rng};
 use rand_distr::StandardNormal;
@@ -16,7 +16,7 @@ pub fn paper_a_from_b() -> Rigid3 {
     );
     Rigid3::from_parts(
         Translation3::new(61.98, -1.71, 179.76),
-        UnitQuaternion::from_rotation_matrix(&r),
+        quat::unit_quaternion_from_rotation(&r),
     )
 }
 
@@ -25,7 +25,7 @@ pub fn stereo_a_from_b() -> Rigid3 {
     let r = opk::rotation_from_opk(0.0, (-5.0_f64).to_radians(), 0.0);
     Rigid3::from_parts(
         Translation3::new(200.0, 0.0, 0.0),
-        UnitQuaternion::from_rotation_matrix(&r),
+        quat::unit_quaternion_from_rotation(&r),
     )
 }
 

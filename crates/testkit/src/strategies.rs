@@ -58,18 +58,23 @@ pub fn rotation_vector(min_angle: f64, max_angle: f64) -> impl Strategy<Value = 
     (unit_vec3(), min_angle..=max_angle).prop_map(|(axis, angle)| axis * angle)
 }
 
-/// A rotation vector of any angle in `[0, π]`, with extra weight near 0 and near π.
+/// Largest angle (rad) produced by [`rotation_vector_any`]: π minus a margin, so that the
+/// logarithm is unique (at exactly π, `w` and `−w` are both valid logarithms).
+pub const MAX_UNIQUE_LOG_ANGLE: f64 = PI - 1e-12;
+
+/// A rotation vector of any angle in `[0, π)`, with extra weight near 0 and near π
+/// (up to [`MAX_UNIQUE_LOG_ANGLE`]).
 pub fn rotation_vector_any() -> impl Strategy<Value = Vec3> {
     prop_oneof![
-        rotation_vector(0.0, PI),
+        rotation_vector(0.0, MAX_UNIQUE_LOG_ANGLE),
         rotation_vector(0.0, 1e-6),
         rotation_vector(1e-6, 0.2),
-        rotation_vector(PI - 1e-3, PI),
-        rotation_vector(PI - 1e-8, PI),
+        rotation_vector(PI - 1e-3, MAX_UNIQUE_LOG_ANGLE),
+        rotation_vector(PI - 1e-8, MAX_UNIQUE_LOG_ANGLE),
     ]
 }
 
-/// An SE(3) tangent `[ω; v]` with |ω| ≤ π (weighted at 0 and π) and |v_i| ≤ `r` mm.
+/// An SE(3) tangent `[ω; v]` with |ω| < π (weighted at 0 and π) and |v_i| ≤ `r` mm.
 pub fn se3_tangent(r: f64) -> impl Strategy<Value = Vec6> {
     (rotation_vector_any(), vec3_in(r)).prop_map(|(w, v)| Vec6::new(w.x, w.y, w.z, v.x, v.y, v.z))
 }
