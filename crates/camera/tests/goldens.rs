@@ -5,8 +5,9 @@ use crashrig_camera::{Camera, ModelId, OpenCvCamera, UndistortError};
 use nalgebra::{Vector2, Vector3};
 use serde_json::Value;
 
-/// Projection agreement required by the task: 1e-9 px. The measured maximum is ~1e-12 px
-/// (the same formulas evaluated in a slightly different operation order).
+/// Projection agreement required by the task: 1e-9 px. Measured: ≤ 3e-13 px for pixels in
+/// the image, 2.9e-11 px for a 2·10⁵-px pixel of a division-model point near the principal
+/// plane (1.5e-16 relative: the same formulas in a different operation order).
 const PROJECTION_TOL_PX: f64 = 1e-9;
 
 /// Unprojection against pycolmap: both run COLMAP's Newton scheme, which stops when
@@ -82,6 +83,7 @@ fn goldens_nominal_every_model_present() {
 fn goldens_colmap_projection() {
     let g = goldens();
     let mut worst = 0.0_f64;
+    let mut worst_at = String::new();
     let mut checked = 0;
     for (cam, c) in colmap_cameras(&g) {
         for e in c["project"].as_array().expect("project") {
@@ -98,12 +100,16 @@ fn goldens_colmap_projection() {
             let want = vec2(&e["pixel"]);
             let got = ours.unwrap_or_else(|r| panic!("{}: {p:?} rejected ({r})", cam.model));
             assert_abs_diff_eq!(got, want, epsilon = PROJECTION_TOL_PX);
-            worst = worst.max((got - want).amax());
+            let d = (got - want).amax();
+            if d > worst {
+                worst = d;
+                worst_at = format!("{} at {want:?}", cam.model);
+            }
             checked += 1;
         }
     }
     assert!(checked >= 18 * 3 * 10);
-    eprintln!("colmap projection: {checked} pixels, max |Δ| = {worst:e} px");
+    eprintln!("colmap projection: {checked} pixels, max |Δ| = {worst:e} px ({worst_at})");
 }
 
 #[test]
