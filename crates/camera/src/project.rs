@@ -504,3 +504,52 @@ impl Camera {
         Ok(Vector3::new(n.x, n.y, 1.0).normalize())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_abs_diff_eq;
+
+    #[test]
+    fn cam_from_img_nominal_report() {
+        let pinhole =
+            Camera::new(ModelId::Pinhole, 100, 80, vec![50.0, 60.0, 50.0, 40.0]).expect("valid");
+        let u = pinhole
+            .cam_from_img(&Vector2::new(75.0, 10.0))
+            .expect("closed form");
+        assert_abs_diff_eq!(u.normalized, Vector2::new(0.5, -0.5), epsilon = 1e-15);
+        assert_eq!((u.iterations, u.step_norm), (0, 0.0));
+
+        let radial = Camera::new(ModelId::SimpleRadial, 100, 80, vec![50.0, 50.0, 40.0, -0.1])
+            .expect("valid");
+        let u = radial
+            .cam_from_img(&Vector2::new(75.0, 10.0))
+            .expect("converges");
+        assert!(u.iterations >= 2 && u.iterations <= COLMAP_UNDISTORT_MAX_ITERATIONS);
+        assert!(u.step_norm * u.step_norm < COLMAP_UNDISTORT_STEP_SQ_TOL);
+    }
+
+    #[test]
+    fn cam_from_img_not_converged() {
+        // One iteration cannot reach ‖step‖² < 1e-10 from a distorted start: a typed error
+        // reporting the iterations and the last step.
+        let radial = Camera::new(ModelId::SimpleRadial, 100, 80, vec![50.0, 50.0, 40.0, -0.1])
+            .expect("valid");
+        let r = radial.cam_from_img_with(&Vector2::new(75.0, 10.0), 1e-10, 1);
+        assert!(
+            matches!(r, Err(UndistortError::NotConverged { iterations: 1, step_norm }) if step_norm > 1e-5)
+        );
+    }
+
+    #[test]
+    fn newton_undistort_trust_region() {
+        // f(x) = x + x³ (per axis) solved for x0 = 10: the first Newton step from 10 is ≈ 6.7,
+        // longer than the trust region max(0.1·‖x‖, 0.1) ≈ 1.41, so it is clipped.
+        let f = |u: Dual<2>, v: Dual<2>| (u + u * u * u, v + v * v * v);
+        let x0 = Vector2::new(10.0, 10.0);
+        let out = newton_undistort(f, x0, 1e-24, 100).expect("converges");
+        let x = out.normalized;
+        assert_abs_diff_eq!(x.x + x.x.powi(3), 10.0, epsilon = 1e-12);
+        assert!(out.iterations > 5);
+    }
+}
