@@ -32,9 +32,10 @@ pub fn world_from_cam_look_at(center: &Vec3, target: &Vec3) -> Result<Rot3, Erro
             condition: horizontal,
         });
     }
-    // Component of −e_z orthogonal to the optical axis.
-    let down = -Vec3::z();
-    let y = (down - z * z.dot(&down)).normalize();
-    let x = y.cross(&z);
+    // x = normalize(z × e_z) = (z_y, −z_x, 0)/|…| is horizontal and computed without
+    // cancellation; y = z × x then lies in the vertical plane through z, pointing down
+    // (y·e_z = −|z × e_z| < 0), and (x, y, z) is right-handed.
+    let x = Vec3::new(z.y, -z.x, 0.0) / horizontal;
+    let y = z.cross(&x);
     Ok(Rot3::from_matrix_unchecked(Mat3::from_columns(&[x, y, z])))
 }

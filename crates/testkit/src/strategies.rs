@@ -3,7 +3,7 @@
 use crashrig_geometry::{Rigid3, Rot3, Vec3, Vec6};
 use nalgebra::{Quaternion, Translation3, UnitQuaternion};
 use proptest::prelude::*;
-use std::f64::consts::{FRAC_PI_2, PI};
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 /// Margin (rad) kept from φ = ±π/2 by [`opk_away_from_gimbal`].
 pub const GIMBAL_MARGIN: f64 = 1e-2;
@@ -11,18 +11,17 @@ pub const GIMBAL_MARGIN: f64 = 1e-2;
 /// Largest translation component (mm) produced by [`rigid3`].
 pub const RIGID3_MAX_TRANSLATION_MM: f64 = 1e4;
 
-/// A uniformly distributed unit quaternion (rejection sampling in the 4-ball).
+/// A uniformly distributed unit quaternion (Shoemake's subgroup algorithm, no rejection).
 pub fn unit_quaternion() -> impl Strategy<Value = UnitQuaternion<f64>> {
-    (-1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64).prop_filter_map(
-        "outside the shell 0.1 ≤ |q| ≤ 1",
-        |(w, x, y, z)| {
-            let q = Quaternion::new(w, x, y, z);
-            let n = q.norm();
-            (0.1..=1.0)
-                .contains(&n)
-                .then(|| UnitQuaternion::new_unchecked(q / n))
-        },
-    )
+    (0.0..=1.0f64, 0.0..TAU, 0.0..TAU).prop_map(|(u1, a, b)| {
+        let (r1, r2) = ((1.0 - u1).sqrt(), u1.sqrt());
+        UnitQuaternion::new_normalize(Quaternion::new(
+            r2 * b.cos(),
+            r1 * a.sin(),
+            r1 * a.cos(),
+            r2 * b.sin(),
+        ))
+    })
 }
 
 /// A uniformly distributed rotation.
@@ -30,16 +29,12 @@ pub fn rot3() -> impl Strategy<Value = Rot3> {
     unit_quaternion().prop_map(|q| q.to_rotation_matrix())
 }
 
-/// A unit vector (uniform on the sphere).
+/// A unit vector (uniform on the sphere: z uniform in [−1, 1], azimuth uniform).
 pub fn unit_vec3() -> impl Strategy<Value = Vec3> {
-    (-1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64).prop_filter_map(
-        "outside the shell 0.1 ≤ |v| ≤ 1",
-        |(x, y, z)| {
-            let v = Vec3::new(x, y, z);
-            let n = v.norm();
-            (0.1..=1.0).contains(&n).then(|| v / n)
-        },
-    )
+    (-1.0..=1.0f64, 0.0..TAU).prop_map(|(z, a)| {
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        Vec3::new(r * a.cos(), r * a.sin(), z)
+    })
 }
 
 /// A vector with each component in `[-r, r]`.
