@@ -355,13 +355,17 @@ impl Camera {
         p_cam: &Vector3<f64>,
     ) -> Result<Matrix2x3<f64>, ProjectionReject> {
         self.check_projectable()?;
-        let params: Vec<Dual<3>> = self.params.iter().map(|&v| Dual::cst(v)).collect();
+        let mut buf = [Dual::<3>::cst(0.0); MAX_PARAMS];
+        for (b, &v) in buf.iter_mut().zip(&self.params) {
+            *b = Dual::cst(v);
+        }
+        let params = &buf[..self.params.len()];
         let p = [
             Dual::var(p_cam.x, 0),
             Dual::var(p_cam.y, 1),
             Dual::var(p_cam.z, 2),
         ];
-        let r = img_from_cam_g(self.model, &params, p)?;
+        let r = img_from_cam_g(self.model, params, p)?;
         finite_jacobian(Matrix2x3::from_fn(|i, j| r[i].d[j]))
     }
 
@@ -375,14 +379,13 @@ impl Camera {
         if self.params.len() > MAX_PARAMS {
             return Err(ProjectionReject::UnsupportedModel);
         }
-        let params: Vec<Dual<MAX_PARAMS>> = self
-            .params
-            .iter()
-            .enumerate()
-            .map(|(i, &v)| Dual::var(v, i))
-            .collect();
+        let mut buf = [Dual::<MAX_PARAMS>::cst(0.0); MAX_PARAMS];
+        for (i, (b, &v)) in buf.iter_mut().zip(&self.params).enumerate() {
+            *b = Dual::var(v, i);
+        }
+        let params = &buf[..self.params.len()];
         let p = [p_cam.x, p_cam.y, p_cam.z].map(Dual::cst);
-        let r = img_from_cam_g(self.model, &params, p)?;
+        let r = img_from_cam_g(self.model, params, p)?;
         finite_jacobian(Matrix2xX::from_fn(self.params.len(), |i, j| r[i].d[j]))
     }
 
@@ -471,9 +474,13 @@ impl Camera {
             }
             M::SimpleFisheye | M::Fisheye => closed(normal_from_fisheye(m)?),
             _ if is_iterative(model) => {
-                let e_dual: Vec<Dual<2>> = e.iter().map(|&v| Dual::cst(v)).collect();
+                let mut buf = [Dual::<2>::cst(0.0); MAX_PARAMS];
+                for (b, &v) in buf.iter_mut().zip(e) {
+                    *b = Dual::cst(v);
+                }
+                let e_dual = &buf[..e.len()];
                 let mut out = newton_undistort(
-                    |u, v| distort(model, &e_dual, u, v),
+                    |u, v| distort(model, e_dual, u, v),
                     m,
                     step_sq_tol,
                     max_iterations,
