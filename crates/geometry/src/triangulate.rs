@@ -6,7 +6,7 @@
 
 use crate::tolerance::{DLT_MAX_CONDITION, DLT_MIN_HOMOGENEOUS_W};
 use crate::{Error, Mat3, Rigid3, Vec3};
-use nalgebra::{Matrix4, SymmetricEigen, Vector2, Vector4};
+use nalgebra::{DMatrix, RowVector4, SymmetricEigen, Vector2};
 
 /// One view of the point: the camera pose and the normalized image observation.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -107,36 +107,40 @@ pub fn dlt(views: &[View]) -> Result<Vec3, Error> {
 }
 
 /// Classic homogeneous DLT: the right singular vector of the 2n×4 matrix `[a | −b]` belonging
-/// to its smallest singular value (here via the eigenvectors of the 4×4 normal matrix).
+/// to its smallest singular value (SVD of the stacked matrix, not of its normal matrix, so the
+/// condition number is not squared).
 ///
 /// # Errors
-/// As [`dlt`]; also [`Error::Degenerate`] when the solution is at infinity.
+/// As [`dlt`]; also [`Error::Degenerate`] when the null space has dimension > 1 (ratio of the
+/// extreme non-null singular values above [`DLT_MAX_CONDITION`]) or the solution is at infinity.
 pub fn dlt_homogeneous(views: &[View]) -> Result<Vec3, Error> {
     check_views(views)?;
-    let mut n = Matrix4::<f64>::zeros();
-    for view in views {
-        for (a, b) in rows(view) {
-            let row = Vector4::new(a.x, a.y, a.z, -b);
-            n += row * row.transpose();
+    let mut a = DMatrix::<f64>::zeros(2 * views.len(), 4);
+    for (i, view) in views.iter().enumerate() {
+        for (k, (row, b)) in rows(view).into_iter().enumerate() {
+            a.set_row(2 * i + k, &RowVector4::new(row.x, row.y, row.z, -b));
         }
     }
-    let eig = SymmetricEigen::new(n);
-    let mut order = [0usize, 1, 2, 3];
-    order.sort_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]));
-    let (l1, l3) = (eig.eigenvalues[order[1]], eig.eigenvalues[order[3]]);
-    // Singular values are √λ; a second-smallest one near 0 means a family of solutions.
-    let condition = if l1 > 0.0 {
-        (l3 / l1).sqrt()
-    } else {
-        f64::INFINITY
+    let svd = a.svd(false, true);
+    let Some(v_t) = svd.v_t else {
+        return Err(Error::Degenerate {
+            what: "homogeneous DLT: SVD failed",
+            condition: f64::INFINITY,
+        });
     };
+    let s = &svd.singular_values;
+    let mut order: Vec<usize> = (0..s.len()).collect();
+    order.sort_by(|&i, &j| s[i].total_cmp(&s[j]));
+    // The second-smallest singular value near 0 means a family of solutions.
+    let (s1, s3) = (s[order[1]], s[order[s.len() - 1]]);
+    let condition = if s1 > 0.0 { s3 / s1 } else { f64::INFINITY };
     if condition.is_nan() || condition > DLT_MAX_CONDITION {
         return Err(Error::Degenerate {
             what: "homogeneous DLT: null space of dimension > 1",
             condition,
         });
     }
-    let h = eig.eigenvectors.column(order[0]);
+    let h = v_t.row(order[0]);
     if h[3].abs() < DLT_MIN_HOMOGENEOUS_W {
         return Err(Error::Degenerate {
             what: "homogeneous DLT: point at infinity",
