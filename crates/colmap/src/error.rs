@@ -119,6 +119,17 @@ pub enum Error {
         /// The id involved (image, point, camera, rig or frame id, as `what` says).
         id: u64,
     },
+    /// A record cannot be written in the requested format (e.g. an image name with a line
+    /// break, which text files cannot hold).
+    #[error("{}: record {record}: cannot be written: {what}", path.display())]
+    Unwritable {
+        /// The file that was to be written.
+        path: PathBuf,
+        /// 0-based record index.
+        record: usize,
+        /// Why.
+        what: &'static str,
+    },
     /// The SQLite library reported an error.
     #[error("{}: SQLite error", path.display())]
     Sqlite {
@@ -160,6 +171,7 @@ impl Error {
             | Error::UnknownModelName { path, .. }
             | Error::WrongParamCount { path, .. }
             | Error::Invariant { path, .. }
+            | Error::Unwritable { path, .. }
             | Error::Sqlite { path, .. }
             | Error::BadRow { path, .. } => path,
         }

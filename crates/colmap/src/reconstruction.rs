@@ -490,8 +490,24 @@ impl Reconstruction {
     /// bit-exactly (`%.17g`).
     ///
     /// # Errors
-    /// [`Error::Io`] naming the directory or file.
+    /// [`Error::Io`] naming the directory or file; [`Error::Unwritable`] for an image name
+    /// that text cannot hold (checked before anything is written).
     pub fn write(&self, dir: &Path, format: ModelFormat) -> Result<()> {
+        // Binary names end at a NUL byte. Text pairs lines and trims them: a name must be one
+        // non-empty line without leading or trailing whitespace to read back unchanged (inner
+        // spaces are fine for our reader; COLMAP's keeps only the first word).
+        for (i, im) in self.images.iter().enumerate() {
+            let n = &im.name;
+            let text_ok = !n.is_empty() && !n.contains(['\n', '\r']) && n.trim() == n;
+            if n.contains('\0') || (format == ModelFormat::Text && !text_ok) {
+                return Err(Error::Unwritable {
+                    path: dir.join(format!("images.{}", format.extension())),
+                    record: i,
+                    what: "image name has a NUL byte, or (text) is empty, has a line break or \
+                           leading/trailing whitespace",
+                });
+            }
+        }
         std::fs::create_dir_all(dir).map_err(|source| Error::Io {
             path: dir.to_path_buf(),
             source,

@@ -404,3 +404,43 @@ fn database_rejects_non_database() {
         Err(crashrig_colmap::Error::Io { .. })
     ));
 }
+
+#[test]
+fn database_sees_wal_of_an_open_writer() {
+    // COLMAP keeps the database open in WAL mode: committed rows sit in `database.db-wal`.
+    let (tmp, p) = db_copy();
+    let writer = rusqlite::Connection::open(&p).expect("writable copy");
+    let mode: String = writer
+        .pragma_query_value(None, "journal_mode", |r| r.get(0))
+        .expect("mode");
+    assert_eq!(mode, "wal");
+    writer
+        .execute(
+            "INSERT INTO cameras (camera_id, model, width, height, params, prior_focal_length) VALUES (99, 0, 10, 10, ?1, 0)",
+            [[5.0f64, 5.0, 5.0].iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>()],
+        )
+        .expect("insert");
+    assert!(tmp.path().join("database.db-wal").exists());
+    let main_before = std::fs::read(&p).expect("bytes");
+    {
+        let db = Database::open(&p).expect("opens next to a live writer");
+        assert_eq!(
+            db.counts().expect("counts").cameras,
+            5,
+            "the WAL row is visible"
+        );
+        assert_eq!(
+            db.cameras()
+                .expect("cameras")
+                .last()
+                .map(|c| c.record.camera_id),
+            Some(99)
+        );
+    }
+    assert_eq!(
+        std::fs::read(&p).expect("bytes"),
+        main_before,
+        "main file untouched"
+    );
+    drop(writer);
+}

@@ -138,3 +138,98 @@ fn roundtrip_write_replaces_files_atomically() {
         .collect();
     assert_eq!(names.len(), 5, "no temporary files left: {names:?}");
 }
+
+fn one_image_model(name: &str, sensor_pose: Option<crashrig_colmap::RawPose>) -> Reconstruction {
+    use crashrig_camera::{Camera, ModelId};
+    use crashrig_colmap::{CameraRecord, Frame, Image, RawPose, Rig, RigSensor, SensorId};
+    let cam = |id| CameraRecord {
+        camera_id: id,
+        camera: Camera::new(ModelId::SimplePinhole, 10, 10, vec![5.0, 5.0, 5.0]).expect("valid"),
+    };
+    let image = |id, camera_id| Image {
+        image_id: id,
+        stored_cam_from_world: RawPose::IDENTITY,
+        camera_id,
+        name: format!("{name}{id}"),
+        points2d: vec![],
+    };
+    let rig = Rig {
+        rig_id: 1,
+        ref_sensor: Some(SensorId::camera(1)),
+        sensors: vec![RigSensor {
+            sensor: SensorId::camera(2),
+            sensor_from_rig: sensor_pose,
+        }],
+    };
+    let frame = Frame {
+        frame_id: 1,
+        rig_id: 1,
+        rig_from_world: RawPose {
+            qvec: [0.0, 1.0, 0.0, 0.0],
+            tvec: [1.0, 2.0, 3.0],
+        },
+        data_ids: vec![image(1, 1).data_id(), image(2, 2).data_id()],
+    };
+    Reconstruction::from_records(
+        vec![cam(1), cam(2)],
+        vec![rig],
+        vec![frame],
+        vec![image(1, 1), image(2, 2)],
+        vec![],
+    )
+    .expect("consistent model")
+}
+
+#[test]
+fn roundtrip_rig_composition_and_unknown_sensor_pose() {
+    use approx::assert_abs_diff_eq;
+    // sensor_from_rig = 180° about z with t = (0, 0, 1); rig_from_world = 180° about x, t = (1, 2, 3).
+    let m = one_image_model(
+        "img",
+        Some(crashrig_colmap::RawPose {
+            qvec: [0.0, 0.0, 0.0, 1.0],
+            tvec: [0.0, 0.0, 1.0],
+        }),
+    );
+    let reference = m.image_cam_from_world(1).expect("reference camera pose");
+    let other = m.image_cam_from_world(2).expect("composed pose");
+    let x = nalgebra::Point3::new(1.0, 1.0, 1.0);
+    // Rx(180)·x + (1,2,3) = (2, 1, 2); then Rz(180)·(2,1,2) + (0,0,1) = (−2, −1, 3). Exact in f64.
+    assert_abs_diff_eq!(
+        (reference * x).coords,
+        nalgebra::Vector3::new(2.0, 1.0, 2.0),
+        epsilon = 1e-15
+    );
+    assert_abs_diff_eq!(
+        (other * x).coords,
+        nalgebra::Vector3::new(-2.0, -1.0, 3.0),
+        epsilon = 1e-15
+    );
+    let unknown = one_image_model("img", None);
+    assert!(unknown.image_cam_from_world(1).is_some());
+    assert!(
+        unknown.image_cam_from_world(2).is_none(),
+        "unknown sensor_from_rig gives no pose"
+    );
+    assert!(unknown.image_cam_from_world(3).is_none(), "missing image");
+}
+
+#[test]
+fn roundtrip_text_rejects_unwritable_names() {
+    let m = one_image_model("bad\nname", None);
+    let out = tempfile::tempdir().expect("tmp");
+    let target = out.path().join("model");
+    match m.write(&target, ModelFormat::Text) {
+        Err(crashrig_colmap::Error::Unwritable { path, record, .. }) => {
+            assert_eq!(path, target.join("images.txt"));
+            assert_eq!(record, 0);
+        }
+        other => panic!("unexpected {other:?}"),
+    }
+    assert!(!target.exists(), "nothing written");
+    // Binary holds any name except NUL bytes.
+    m.write(&target, ModelFormat::Binary)
+        .expect("binary writes");
+    let back = Reconstruction::read(&target).expect("reads");
+    assert_eq!(back.image(2).map(|i| i.name.as_str()), Some("bad\nname2"));
+}
