@@ -10,11 +10,21 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, clap::Subcommand)]
 pub enum ColmapCommand {
     /// Counts of a sparse model directory or a database.db.
+    ///
+    /// Model: format, legacy (no rigs/frames files), cameras, rigs, frames, images, points3D,
+    /// observations, as COLMAP reports them (legacy models get one rig per camera and one frame
+    /// per image). Database: user_version, row counts, `keypoints` = images with a keypoints
+    /// row, `matched_pairs` / `verified_pairs` = pairs with at least one match / inlier. The
+    /// database is opened read-only and never modified.
     Info {
         /// A sparse model directory (binary or text, 3.x or >=3.12) or a database.db file.
         path: PathBuf,
     },
     /// Read any COLMAP model and write all five files in the current layout.
+    ///
+    /// Accepts 3.x three-file and >=3.12 five-file models, binary or text (binary wins when
+    /// both exist). Doubles survive bin->txt->bin bit-exactly (text uses %.17g, like COLMAP).
+    /// The five files are written to temporary files first and renamed at the end.
     Convert {
         /// Input model directory.
         input: PathBuf,
