@@ -1,9 +1,155 @@
-//! Criterion benchmarks of the Monte Carlo engine (filled in by the mc work).
-use criterion::{Criterion, criterion_group, criterion_main};
+//! Criterion benchmarks of the Monte Carlo engine: the random-number source, the
+//! two-observer forward-intersection kernel, the grid, and the chain propagation.
+//!
+//! Throughput is reported per draw (`Throughput::Elements`), so criterion prints draws/s.
+//! Single-threaded numbers come from a 1-thread rayon pool; the 2-thread grid uses a 2-thread
+//! pool. See docs/performance.md for the numbers and the roofline note.
+use crashrig_mc::{Chain, GridStudy, Scenario};
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use rand::RngExt;
+use rand_distr::StandardNormal;
+use std::hint::black_box;
+use std::path::Path;
 
-fn placeholder(c: &mut Criterion) {
-    c.bench_function("noop", |b| b.iter(|| std::hint::black_box(1 + 1)));
+const TWO_OBSERVERS: &str = r#"
+seed = 1
+samples = 2000
+[grid]
+x_mm = [400.0, 2000.0, 17]
+y_mm = [-600.0, 600.0, 13]
+z_mm = [0.0, 0.0, 1]
+[[grid.observer]]
+position_mm = [200.0, 0.0, 0.0]
+sigma_position_mm = [1.52, 1.54, 1.52]
+sigma_angles_deg = [0.011, 0.011, 0.013]
+[[grid.observer]]
+position_mm = [1300.0, -700.0, 0.0]
+sigma_position_mm = [2.53, 2.51, 2.55]
+sigma_angles_deg = [0.023, 0.023, 0.024]
+"#;
+
+const CHAIN: &str = r#"
+seed = 1
+samples = 1000
+[[camera]]
+name = "cam1"
+position_mm = [0.0, 0.0, 0.0]
+angles_deg = [0.0, 0.0, 0.0]
+sigma_position_mm = [1.0, 1.0, 1.0]
+sigma_angles_deg = [0.01, 0.01, 0.01]
+[[camera]]
+name = "cam2"
+parent = "cam1"
+position_mm = [61.98, -1.71, 179.76]
+angles_deg = [179.92, -0.09, 179.76]
+sigma_position_mm = [0.19, 0.26, 0.13]
+sigma_angles_deg = [0.004, 0.005, 0.008]
+[[camera]]
+name = "cam3"
+parent = "cam2"
+position_mm = [-900.0, 50.0, 600.0]
+angles_deg = [0.0, 0.0, 0.0]
+sigma_position_mm = [2.0, 2.0, 2.0]
+sigma_angles_deg = [0.02, 0.02, 0.02]
+"#;
+
+fn pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("thread pool")
 }
 
-criterion_group!(benches, placeholder);
+fn normals(c: &mut Criterion) {
+    let mut g = c.benchmark_group("rng");
+    let n = 12_000u64;
+    g.throughput(Throughput::Elements(n));
+    g.bench_function("chacha8_standard_normal", |b| {
+        let mut rng = crashrig_stats::stream(1, 0);
+        b.iter(|| {
+            let mut s = 0.0f64;
+            for _ in 0..n {
+                s += rng.sample::<f64, _>(StandardNormal);
+            }
+            black_box(s)
+        })
+    });
+    g.bench_function("chacha8_fast_normal", |b| {
+        let mut rng = crashrig_stats::stream(1, 0);
+        let nd = crashrig_mc::FastNormal::new();
+        let mut buf = [0.0f64; 12];
+        b.iter(|| {
+            let mut s = 0.0f64;
+            for _ in 0..n / 12 {
+                nd.fill(&mut rng, &mut buf);
+                s += buf.iter().sum::<f64>();
+            }
+            black_box(s)
+        })
+    });
+    g.bench_function("chacha8_u64", |b| {
+        let mut rng = crashrig_stats::stream(1, 0);
+        b.iter(|| {
+            let mut s = 0u64;
+            for _ in 0..n {
+                s = s.wrapping_add(rng.random::<u64>());
+            }
+            black_box(s)
+        })
+    });
+    g.finish();
+}
+
+fn kernel(c: &mut Criterion) {
+    // One grid point, many draws: the per-draw cost of the two-observer kernel.
+    let text = TWO_OBSERVERS
+        .replace("x_mm = [400.0, 2000.0, 17]", "x_mm = [1000.0, 1000.0, 1]")
+        .replace("y_mm = [-600.0, 600.0, 13]", "y_mm = [300.0, 300.0, 1]");
+    let sc = Scenario::from_toml_str(&text, Path::new("bench.toml")).expect("scenario");
+    let study = GridStudy::new(&sc, 0, 0).expect("study");
+    let n = 64 * 4096;
+    let one = pool(1);
+    let mut g = c.benchmark_group("kernel");
+    g.throughput(Throughput::Elements(n as u64));
+    g.sample_size(10);
+    g.bench_function("two_observers_1thread", |b| {
+        b.iter(|| one.install(|| black_box(study.run(n, 7).expect("run"))))
+    });
+    g.finish();
+}
+
+fn grid(c: &mut Criterion) {
+    let sc = Scenario::from_toml_str(TWO_OBSERVERS, Path::new("bench.toml")).expect("scenario");
+    let study = GridStudy::new(&sc, 0, 0).expect("study");
+    let samples = 4096;
+    let points = 17 * 13;
+    let mut g = c.benchmark_group("grid_221_points");
+    g.throughput(Throughput::Elements((samples * points) as u64));
+    g.sample_size(10);
+    for threads in [1usize, 2] {
+        let p = pool(threads);
+        g.bench_with_input(BenchmarkId::new("threads", threads), &threads, |b, _| {
+            b.iter(|| p.install(|| black_box(study.run(samples, 3).expect("run"))))
+        });
+    }
+    g.finish();
+}
+
+fn chain(c: &mut Criterion) {
+    let sc = Scenario::from_toml_str(CHAIN, Path::new("bench.toml")).expect("scenario");
+    let ch = Chain::new(&sc);
+    let n = 100_000;
+    let mut g = c.benchmark_group("chain_3_cameras");
+    g.throughput(Throughput::Elements(n as u64));
+    g.sample_size(10);
+    for threads in [1usize, 2] {
+        let p = pool(threads);
+        g.bench_with_input(BenchmarkId::new("threads", threads), &threads, |b, _| {
+            b.iter(|| p.install(|| black_box(ch.monte_carlo(n, 3))))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, normals, kernel, grid, chain);
 criterion_main!(benches);

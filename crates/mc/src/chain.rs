@@ -2,11 +2,9 @@
 
 use crate::kernel::{exp_matrix, log_near_identity, rot_opk};
 use crate::scenario::{PoseSigma, RotationNoise, Scenario};
-use crate::{CHUNK, Error};
+use crate::{CHUNK, Error, FastNormal};
 use crashrig_stats::{Moments, stream};
 use nalgebra::{DMatrix, Matrix3, Matrix6, Vector3};
-use rand::RngExt;
-use rand_distr::StandardNormal;
 use rayon::prelude::*;
 
 /// A world pose: projection centre and `R_world_from_cam`.
@@ -200,10 +198,9 @@ impl Chain {
         eps: &mut [f64],
         out: &mut [WorldPose],
     ) {
+        let nd = FastNormal::new();
         for &i in &self.order {
-            for e in &mut eps[6 * i..6 * i + 6] {
-                *e = rng.sample(StandardNormal);
-            }
+            nd.fill(rng, &mut eps[6 * i..6 * i + 6]);
         }
         self.compose_into(eps, out);
     }

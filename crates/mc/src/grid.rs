@@ -4,11 +4,9 @@
 use crate::chain::{Chain, WorldPose};
 use crate::kernel::{Normal3, exp_e3, exp_matrix, opk_e3, rot_opk};
 use crate::scenario::{Grid, ObserverSigma, PoseSigma, RotationNoise, Scenario};
-use crate::{CHUNK, Error};
+use crate::{CHUNK, Error, FastNormal};
 use crashrig_stats::{Moments, stream};
 use nalgebra::{DMatrix, Matrix3, SymmetricEigen, Vector3};
-use rand::RngExt;
-use rand_distr::StandardNormal;
 use rayon::prelude::*;
 
 /// Statistics of the intersected points at one grid point.
@@ -321,6 +319,7 @@ pub(crate) fn run_chunk<R: rand::Rng>(
     m: usize,
     acc: &mut Moments<3>,
 ) {
+    let nd = FastNormal::new();
     let simple = ctx.pixel.is_none()
         && ctx.chain.is_none()
         && ctx.noise == RotationNoise::Tangent
@@ -328,11 +327,13 @@ pub(crate) fn run_chunk<R: rand::Rng>(
     if simple {
         // The hot path of the paper's study: two independent observers, principal point.
         let (o0, o1) = (&obs[0], &obs[1]);
+        let mut e = [0.0f64; 12];
         for _ in 0..m {
+            nd.fill(rng, &mut e);
             let mut n = Normal3::default();
-            for o in [o0, o1] {
-                let ep = normal3(rng);
-                let er = normal3(rng);
+            for (o, e) in [(o0, &e[..6]), (o1, &e[6..])] {
+                let ep = Vector3::new(e[0], e[1], e[2]);
+                let er = Vector3::new(e[3], e[4], e[5]);
                 let c = o.c + o.sp.component_mul(&ep);
                 let d = o.r * exp_e3(&o.sr.component_mul(&er));
                 n.add_ray(&d, &c);
@@ -358,8 +359,8 @@ pub(crate) fn run_chunk<R: rand::Rng>(
                     (dc, Rot::Tangent(th))
                 }
                 _ => {
-                    let ep = normal3(rng);
-                    let er = normal3(rng);
+                    let ep = normal3(&nd, rng);
+                    let er = normal3(&nd, rng);
                     let dr = o.sr.component_mul(&er);
                     (
                         o.sp.component_mul(&ep),
@@ -380,8 +381,8 @@ pub(crate) fn run_chunk<R: rand::Rng>(
                     n.add_ray(&d, &c);
                 }
                 Some(s) => {
-                    let x: f64 = s * rng.sample::<f64, _>(StandardNormal);
-                    let y: f64 = s * rng.sample::<f64, _>(StandardNormal);
+                    let (x, y) = nd.pair(rng);
+                    let (x, y) = (s * x, s * y);
                     let r = match rot {
                         Rot::Tangent(w) => o.r * exp_matrix(&w),
                         Rot::Euler(da) => rot_opk(&(o.opk + da)),
@@ -401,12 +402,10 @@ enum Rot {
 }
 
 #[inline(always)]
-fn normal3<R: rand::Rng>(rng: &mut R) -> Vector3<f64> {
-    Vector3::new(
-        rng.sample(StandardNormal),
-        rng.sample(StandardNormal),
-        rng.sample(StandardNormal),
-    )
+fn normal3<R: rand::Rng>(nd: &FastNormal, rng: &mut R) -> Vector3<f64> {
+    let mut e = [0.0; 3];
+    nd.fill(rng, &mut e);
+    Vector3::from(e)
 }
 
 /// The two DLT rows of a view with rotation `r` (world_from_cam), centre `c`, observation

@@ -79,11 +79,13 @@ mod chain;
 mod error;
 mod grid;
 mod kernel;
+mod normal;
 mod scenario;
 
 pub use chain::{Chain, PoseLinear, PoseMc, WorldPose};
 pub use error::Error;
 pub use grid::{GridResult, GridStudy, INPUTS_PER_OBSERVER, PointStats};
+pub use normal::FastNormal;
 pub use scenario::{
     Adaptive, Axis, Camera, Grid, Observer, ObserverSigma, PixelNoise, PoseSigma, RotationNoise,
     Scenario,

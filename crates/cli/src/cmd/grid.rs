@@ -1,7 +1,12 @@
 //! `crashrig grid`: forward-intersection precision over a grid.
 
+use super::propagate::{load_scenario, resolve_samples};
 use crate::Global;
-use std::path::PathBuf;
+use anyhow::Context;
+use crashrig_mc::{GridResult, GridStudy, PointStats};
+use crashrig_plot::{Format, HeatMap, Marker};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `crashrig grid`.
 #[derive(Debug, clap::Args)]
@@ -14,9 +19,395 @@ pub struct GridArgs {
     /// Monte Carlo draws per grid point (overrides the scenario's `samples`).
     #[arg(long)]
     pub samples: Option<usize>,
+    /// Skip the heat maps (PNG/SVG), e.g. for timing the engine alone.
+    #[arg(long)]
+    pub no_plots: bool,
+}
+
+#[derive(Serialize)]
+struct Spread {
+    min: f64,
+    median: f64,
+    max: f64,
+}
+
+#[derive(Serialize)]
+struct LinearSummary {
+    fraction_below_threshold: f64,
+    max_sigma_mm: f64,
+    median_sigma_max_mm: f64,
+    ratio_mc_over_linear_sigma_max: Spread,
+}
+
+#[derive(Serialize)]
+struct AdaptiveSummary {
+    tolerance_mm: f64,
+    batch: usize,
+    max_samples: usize,
+    draws_min: u64,
+    draws_max: u64,
+    draws_total: u64,
+}
+
+#[derive(Serialize)]
+struct CorrelationSummary {
+    independent_fraction_below_threshold: f64,
+    independent_median_sigma_max_mm: f64,
+    change_sigma_max_mm: Spread,
+    ratio_correlated_over_independent: Spread,
+}
+
+#[derive(Serialize)]
+struct Summary {
+    points: usize,
+    samples_per_point: u64,
+    threshold_mm: f64,
+    fraction_below_threshold: f64,
+    max_sigma_mm: f64,
+    median_sigma_max_mm: f64,
+    elapsed_s: f64,
+    samples_per_second: f64,
+    // Extensions (documented in docs/table3.md).
+    seed: u64,
+    threads: usize,
+    rotation_noise: &'static str,
+    observers: usize,
+    pixel_sigma_px: Option<f64>,
+    focal_px: Option<f64>,
+    correlated: bool,
+    total_draws: u64,
+    linear: LinearSummary,
+    adaptive: Option<AdaptiveSummary>,
+    correlation: Option<CorrelationSummary>,
+    files: Vec<String>,
+}
+
+fn median(v: &[f64]) -> f64 {
+    crashrig_stats::summary::quantile(v, 0.5).unwrap_or(f64::NAN)
+}
+
+fn spread(v: &[f64]) -> Spread {
+    let finite: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    Spread {
+        min: finite.iter().copied().fold(f64::INFINITY, f64::min),
+        median: median(&finite),
+        max: finite.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+    }
+}
+
+fn write(dir: &Path, name: &str, bytes: &[u8], files: &mut Vec<String>) -> anyhow::Result<()> {
+    crate::output::write_atomic(&dir.join(name), bytes)?;
+    files.push(name.to_string());
+    Ok(())
+}
+
+fn csv_bytes(
+    rows: impl Fn(&mut csv::Writer<&mut Vec<u8>>) -> csv::Result<()>,
+) -> anyhow::Result<Vec<u8>> {
+    let mut buf = Vec::new();
+    {
+        let mut w = csv::Writer::from_writer(&mut buf);
+        rows(&mut w).context("formatting CSV")?;
+        w.flush().context("formatting CSV")?;
+    }
+    Ok(buf)
+}
+
+fn main_csv(r: &GridResult) -> anyhow::Result<Vec<u8>> {
+    csv_bytes(|w| {
+        w.write_record([
+            "x_mm",
+            "y_mm",
+            "z_mm",
+            "sigma_x_mm",
+            "sigma_y_mm",
+            "sigma_z_mm",
+            "sigma_max_mm",
+        ])?;
+        for p in &r.points {
+            w.write_record(
+                [
+                    p.point.x,
+                    p.point.y,
+                    p.point.z,
+                    p.sigma_mm.x,
+                    p.sigma_mm.y,
+                    p.sigma_mm.z,
+                    p.sigma_max_mm,
+                ]
+                .map(|v| v.to_string()),
+            )?;
+        }
+        Ok(())
+    })
+}
+
+fn detail_csv(r: &GridResult) -> anyhow::Result<Vec<u8>> {
+    csv_bytes(|w| {
+        w.write_record([
+            "x_mm",
+            "y_mm",
+            "z_mm",
+            "draws",
+            "mean_x_mm",
+            "mean_y_mm",
+            "mean_z_mm",
+            "cov_xx_mm2",
+            "cov_xy_mm2",
+            "cov_xz_mm2",
+            "cov_yy_mm2",
+            "cov_yz_mm2",
+            "cov_zz_mm2",
+            "ellipsoid_a_mm",
+            "ellipsoid_b_mm",
+            "ellipsoid_c_mm",
+            "linear_sigma_x_mm",
+            "linear_sigma_y_mm",
+            "linear_sigma_z_mm",
+            "linear_sigma_max_mm",
+            "ratio_mc_over_linear",
+        ])?;
+        for p in &r.points {
+            let c = p.covariance;
+            let e = p.ellipsoid_semi_axes_mm();
+            let l = p.linear_sigma_mm();
+            let mut rec: Vec<String> = [p.point.x, p.point.y, p.point.z]
+                .iter()
+                .map(|v| v.to_string())
+                .collect();
+            rec.push(p.count.to_string());
+            rec.extend(
+                [
+                    p.mean_mm.x,
+                    p.mean_mm.y,
+                    p.mean_mm.z,
+                    c[(0, 0)],
+                    c[(0, 1)],
+                    c[(0, 2)],
+                    c[(1, 1)],
+                    c[(1, 2)],
+                    c[(2, 2)],
+                    e.x,
+                    e.y,
+                    e.z,
+                    l.x,
+                    l.y,
+                    l.z,
+                    p.linear_sigma_max_mm(),
+                    p.sigma_max_mm / p.linear_sigma_max_mm(),
+                ]
+                .map(|v| v.to_string()),
+            );
+            w.write_record(&rec)?;
+        }
+        Ok(())
+    })
+}
+
+struct MapSpec<'a> {
+    stem: &'a str,
+    title: &'a str,
+    bar: &'a str,
+    threshold: Option<f64>,
+    value: fn(&PointStats) -> f64,
 }
 
 /// Runs `crashrig grid`.
-pub fn run(_a: GridArgs, _g: &Global) -> anyhow::Result<()> {
-    Err(super::not_yet("grid"))
+pub fn run(a: GridArgs, g: &Global) -> anyhow::Result<()> {
+    let scenario = load_scenario(&a.scenario)?;
+    let samples = resolve_samples(a.samples, &scenario)?;
+    let seed = g.seed.unwrap_or(scenario.seed);
+    let ctx =
+        |e: crashrig_mc::Error| anyhow::Error::new(e).context(a.scenario.display().to_string());
+    let study = GridStudy::new(&scenario, samples, seed).map_err(ctx)?;
+    let grid = study.grid().clone();
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("{}: cannot create the output directory", a.out.display()))?;
+
+    let start = std::time::Instant::now();
+    let result = match &grid.adaptive {
+        Some(ad) => study.run_adaptive(ad, seed),
+        None => study.run(samples, seed),
+    }
+    .map_err(ctx)?;
+    let elapsed_s = start.elapsed().as_secs_f64();
+    let total_draws: u64 = result.points.iter().map(|p| p.count).sum();
+
+    let correlation = if result.correlated {
+        let ind = match &grid.adaptive {
+            Some(ad) => study.independent().run_adaptive(ad, seed),
+            None => study.independent().run(samples, seed),
+        }
+        .map_err(ctx)?;
+        let change: Vec<f64> = result
+            .points
+            .iter()
+            .zip(&ind.points)
+            .map(|(c, i)| c.sigma_max_mm - i.sigma_max_mm)
+            .collect();
+        let ratio: Vec<f64> = result
+            .points
+            .iter()
+            .zip(&ind.points)
+            .map(|(c, i)| c.sigma_max_mm / i.sigma_max_mm)
+            .collect();
+        let ism: Vec<f64> = ind.points.iter().map(|p| p.sigma_max_mm).collect();
+        Some(CorrelationSummary {
+            independent_fraction_below_threshold: ind.fraction_below(grid.threshold_mm),
+            independent_median_sigma_max_mm: median(&ism),
+            change_sigma_max_mm: spread(&change),
+            ratio_correlated_over_independent: spread(&ratio),
+        })
+    } else {
+        None
+    };
+
+    let mut files = Vec::new();
+    write(&a.out, "grid.csv", &main_csv(&result)?, &mut files)?;
+    write(&a.out, "grid_detail.csv", &detail_csv(&result)?, &mut files)?;
+
+    if !a.no_plots {
+        let xs = grid.x.values();
+        let ys = grid.y.values();
+        let zs = grid.z.values();
+        let per_z = xs.len() * ys.len();
+        let specs = [
+            MapSpec {
+                stem: "sigma_max",
+                title: "Monte Carlo sigma_max",
+                bar: "sigma_max [mm]",
+                threshold: Some(grid.threshold_mm),
+                value: |p| p.sigma_max_mm,
+            },
+            MapSpec {
+                stem: "linear_sigma_max",
+                title: "First-order sigma_max",
+                bar: "linear sigma_max [mm]",
+                threshold: Some(grid.threshold_mm),
+                value: |p| p.linear_sigma_max_mm(),
+            },
+            MapSpec {
+                stem: "ratio_mc_linear",
+                title: "sigma_max Monte Carlo / first order",
+                bar: "ratio [-]",
+                threshold: None,
+                value: |p| p.sigma_max_mm / p.linear_sigma_max_mm(),
+            },
+        ];
+        for (iz, z) in zs.iter().enumerate() {
+            let pts = &result.points[iz * per_z..(iz + 1) * per_z];
+            let labels: Vec<String> = grid
+                .observers
+                .iter()
+                .map(|o| {
+                    if (o.position_mm.z - z).abs() > 0.5 {
+                        format!("{} (z {:.0})", o.name, o.position_mm.z)
+                    } else {
+                        o.name.clone()
+                    }
+                })
+                .collect();
+            let markers: Vec<Marker> = grid
+                .observers
+                .iter()
+                .zip(&labels)
+                .map(|(o, l)| Marker {
+                    x: o.position_mm.x,
+                    y: o.position_mm.y,
+                    label: l,
+                })
+                .collect();
+            for spec in &specs {
+                let values: Vec<f64> = pts.iter().map(spec.value).collect();
+                let title = format!("{} at z = {} mm", spec.title, z);
+                let map = HeatMap {
+                    xs: &xs,
+                    ys: &ys,
+                    values: &values,
+                    title: &title,
+                    x_label: "x [mm]",
+                    y_label: "y [mm]",
+                    colorbar_label: spec.bar,
+                    threshold: spec.threshold,
+                    markers: &markers,
+                    value_range: None,
+                };
+                for (fmt, ext) in [(Format::Png, "png"), (Format::Svg, "svg")] {
+                    let bytes = crashrig_plot::heatmap(&map, fmt)
+                        .with_context(|| format!("heat map {} z = {z}", spec.stem))?;
+                    let name = format!("{}_z{:02}_{}mm.{ext}", spec.stem, iz, z);
+                    write(&a.out, &name, &bytes, &mut files)?;
+                }
+            }
+        }
+    }
+
+    let sm: Vec<f64> = result.points.iter().map(|p| p.sigma_max_mm).collect();
+    let lsm: Vec<f64> = result
+        .points
+        .iter()
+        .map(|p| p.linear_sigma_max_mm())
+        .collect();
+    let ratio: Vec<f64> = sm.iter().zip(&lsm).map(|(m, l)| m / l).collect();
+    let counts: Vec<u64> = result.points.iter().map(|p| p.count).collect();
+    let summary = Summary {
+        points: result.points.len(),
+        samples_per_point: counts.iter().copied().max().unwrap_or(0),
+        threshold_mm: grid.threshold_mm,
+        fraction_below_threshold: result.fraction_below(grid.threshold_mm),
+        max_sigma_mm: sm.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        median_sigma_max_mm: median(&sm),
+        elapsed_s,
+        samples_per_second: total_draws as f64 / elapsed_s,
+        seed,
+        threads: rayon::current_num_threads(),
+        rotation_noise: match scenario.rotation_noise {
+            crashrig_mc::RotationNoise::Tangent => "tangent",
+            crashrig_mc::RotationNoise::Euler => "euler",
+        },
+        observers: grid.observers.len(),
+        pixel_sigma_px: grid.pixel.map(|p| p.sigma_px),
+        focal_px: grid.pixel.map(|p| p.focal_px),
+        correlated: result.correlated,
+        total_draws,
+        linear: LinearSummary {
+            fraction_below_threshold: lsm.iter().filter(|s| **s < grid.threshold_mm).count() as f64
+                / lsm.len().max(1) as f64,
+            max_sigma_mm: lsm.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            median_sigma_max_mm: median(&lsm),
+            ratio_mc_over_linear_sigma_max: spread(&ratio),
+        },
+        adaptive: grid.adaptive.map(|ad| AdaptiveSummary {
+            tolerance_mm: ad.tolerance_mm,
+            batch: ad.batch,
+            max_samples: ad.max_samples,
+            draws_min: counts.iter().copied().min().unwrap_or(0),
+            draws_max: counts.iter().copied().max().unwrap_or(0),
+            draws_total: total_draws,
+        }),
+        correlation,
+        files: {
+            let mut f = files.clone();
+            f.push("summary.json".into());
+            f
+        },
+    };
+    let json = serde_json::to_vec_pretty(&summary).context("formatting summary.json")?;
+    write(&a.out, "summary.json", &json, &mut files)?;
+    if g.json {
+        return crate::output::print_json(&summary);
+    }
+    println!(
+        "{} points × {} draws in {:.3} s ({:.3e} draws/s); σ_max median {:.3} mm, max {:.3} mm; {:.1} % below {} mm",
+        summary.points,
+        summary.samples_per_point,
+        summary.elapsed_s,
+        summary.samples_per_second,
+        summary.median_sigma_max_mm,
+        summary.max_sigma_mm,
+        100.0 * summary.fraction_below_threshold,
+        summary.threshold_mm
+    );
+    println!("wrote {} files to {}", files.len(), a.out.display());
+    Ok(())
 }

@@ -1,7 +1,9 @@
 //! `crashrig propagate`: Monte Carlo and linear propagation through a camera chain.
 
 use crate::Global;
-use std::path::PathBuf;
+use crashrig_mc::{Chain, Scenario};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `crashrig propagate`.
 #[derive(Debug, clap::Args)]
@@ -13,7 +15,131 @@ pub struct PropagateArgs {
     pub samples: Option<usize>,
 }
 
+/// Reads a scenario; every error names the file (TOML errors also the line).
+pub fn load_scenario(path: &Path) -> anyhow::Result<Scenario> {
+    Scenario::from_path(path).map_err(|e| match e {
+        crashrig_mc::Error::Io { .. } | crashrig_mc::Error::Toml { .. } => anyhow::Error::new(e),
+        other => anyhow::Error::new(other).context(path.display().to_string()),
+    })
+}
+
+/// The `samples` to use: the option, else the scenario's; at least 2.
+pub fn resolve_samples(option: Option<usize>, scenario: &Scenario) -> anyhow::Result<usize> {
+    let n = option.unwrap_or(scenario.samples);
+    anyhow::ensure!(n >= 2, "--samples must be at least 2, got {n}");
+    Ok(n)
+}
+
+#[derive(Serialize)]
+struct LinearJson {
+    position_sigma_mm: [f64; 3],
+    angles_sigma_deg: [f64; 3],
+    tangent_sigma_deg: [f64; 3],
+}
+
+#[derive(Serialize)]
+struct CameraJson {
+    name: String,
+    parent: Option<String>,
+    position_mm: [f64; 3],
+    angles_deg: [f64; 3],
+    position_sigma_mm: [f64; 3],
+    angles_sigma_deg: [f64; 3],
+    tangent_sigma_deg: [f64; 3],
+    position_mean_mm: [f64; 3],
+    angles_mean_deg: [f64; 3],
+    linear: LinearJson,
+}
+
+#[derive(Serialize)]
+struct PropagateJson {
+    samples: usize,
+    seed: u64,
+    rotation_noise: &'static str,
+    cameras: Vec<CameraJson>,
+    elapsed_s: f64,
+}
+
+fn deg(v: nalgebra::Vector3<f64>) -> [f64; 3] {
+    v.map(f64::to_degrees).into()
+}
+
 /// Runs `crashrig propagate`.
-pub fn run(_a: PropagateArgs, _g: &Global) -> anyhow::Result<()> {
-    Err(super::not_yet("propagate"))
+pub fn run(a: PropagateArgs, g: &Global) -> anyhow::Result<()> {
+    let scenario = load_scenario(&a.scenario)?;
+    anyhow::ensure!(
+        !scenario.cameras.is_empty(),
+        "{}: `camera`: the scenario has no camera",
+        a.scenario.display()
+    );
+    let samples = resolve_samples(a.samples, &scenario)?;
+    let seed = g.seed.unwrap_or(scenario.seed);
+    let chain = Chain::new(&scenario);
+    chain
+        .check_gimbal()
+        .map_err(|e| anyhow::Error::new(e).context(a.scenario.display().to_string()))?;
+    let start = std::time::Instant::now();
+    let mc = chain.monte_carlo(samples, seed);
+    let elapsed_s = start.elapsed().as_secs_f64();
+    let lin = chain.linear();
+    let cameras: Vec<CameraJson> = mc
+        .iter()
+        .zip(&lin)
+        .zip(&scenario.cameras)
+        .map(|((m, l), c)| CameraJson {
+            name: m.name.clone(),
+            parent: c.parent.map(|p| scenario.cameras[p].name.clone()),
+            position_mm: m.nominal.position_mm.into(),
+            angles_deg: deg(m.nominal.angles_rad()),
+            position_sigma_mm: m.position_sigma_mm.into(),
+            angles_sigma_deg: deg(m.angles_sigma_rad),
+            tangent_sigma_deg: deg(m.tangent_sigma_rad),
+            position_mean_mm: m.position_mean_mm.into(),
+            angles_mean_deg: deg(m.angles_mean_rad),
+            linear: LinearJson {
+                position_sigma_mm: l.position_sigma_mm.into(),
+                // check_gimbal above guarantees the ω φ κ σ exist.
+                angles_sigma_deg: l.angles_sigma_rad.map_or([f64::NAN; 3], deg),
+                tangent_sigma_deg: deg(l.tangent_sigma_rad),
+            },
+        })
+        .collect();
+    let out = PropagateJson {
+        samples,
+        seed,
+        rotation_noise: match scenario.rotation_noise {
+            crashrig_mc::RotationNoise::Tangent => "tangent",
+            crashrig_mc::RotationNoise::Euler => "euler",
+        },
+        cameras,
+        elapsed_s,
+    };
+    if g.json {
+        return crate::output::print_json(&out);
+    }
+    println!(
+        "{} draws, seed {}, rotation noise {} ({:.3} s)",
+        out.samples, out.seed, out.rotation_noise, out.elapsed_s
+    );
+    println!(
+        "{:<12} {:>26} {:>29} {:>26} {:>29}",
+        "camera",
+        "σ position MC [mm]",
+        "σ ω φ κ MC [°]",
+        "σ position linear [mm]",
+        "σ ω φ κ linear [°]"
+    );
+    for c in &out.cameras {
+        let p = |v: [f64; 3]| format!("{:8.3} {:8.3} {:8.3}", v[0], v[1], v[2]);
+        let q = |v: [f64; 3]| format!("{:9.5} {:9.5} {:9.5}", v[0], v[1], v[2]);
+        println!(
+            "{:<12} {:>26} {:>29} {:>26} {:>29}",
+            c.name,
+            p(c.position_sigma_mm),
+            q(c.angles_sigma_deg),
+            p(c.linear.position_sigma_mm),
+            q(c.linear.angles_sigma_deg)
+        );
+    }
+    Ok(())
 }
