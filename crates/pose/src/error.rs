@@ -74,6 +74,9 @@ pub enum Degeneracy {
     SingularNormalEquations,
     /// Every correspondence is the same one (e.g. a resample of a single item).
     TooFewDistinct,
+    /// Relative orientation: a pure rotation explains most inliers (no parallax, the base
+    /// direction is not observable).
+    NoParallax,
 }
 
 impl std::fmt::Display for Degeneracy {
@@ -83,6 +86,9 @@ impl std::fmt::Display for Degeneracy {
                 "the normal equations are singular (pose not observable from these points)",
             ),
             Self::TooFewDistinct => f.write_str("too few distinct correspondences"),
+            Self::NoParallax => f.write_str(
+                "a pure rotation explains most matches (no parallax: the base is not observable)",
+            ),
         }
     }
 }

@@ -73,7 +73,8 @@ pub use p3p::p3p;
 pub use projector::{Pinhole, Projector};
 pub use ransac::RansacOptions;
 pub use relative::{
-    Mat5, RelativePose, RelativeRefinement, Vec5, essential_8point, essential_from_pose,
-    estimate_relative_pose, normalize_pixels, pose_with_cheirality, poses_from_essential,
-    refine_relative_pose, sampson_error, tangent_basis, triangulate_depths,
+    MAX_ROTATION_ONLY_RATIO, Mat5, RelativePose, RelativeRefinement, Vec5, essential_8point,
+    essential_from_pose, estimate_relative_pose, normalize_pixels, pose_with_cheirality,
+    poses_from_essential, refine_relative_pose, rotation_only_ratio, sampson_error, tangent_basis,
+    triangulate_depths,
 };

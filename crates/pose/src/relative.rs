@@ -359,6 +359,49 @@ pub fn normalize_pixels<C: Projector>(
         .collect()
 }
 
+/// Above this fraction of the essential-matrix inliers also explained by a pure rotation the
+/// pair has no usable parallax (COLMAP uses the same 0.8 for its homography-inlier ratio).
+pub const MAX_ROTATION_ONLY_RATIO: f64 = 0.8;
+
+/// Fraction of `idx` explained (transfer error below `th`, normalized units) by the best pure
+/// rotation `x_b ~ R·x_a` (orthogonal Procrustes on the bearings).
+pub fn rotation_only_ratio(
+    xa: &[Vector2<f64>],
+    xb: &[Vector2<f64>],
+    idx: &[usize],
+    th: f64,
+) -> f64 {
+    if idx.is_empty() {
+        return 0.0;
+    }
+    let fa: Vec<Vec3> = idx
+        .iter()
+        .map(|&i| Vec3::new(xa[i].x, xa[i].y, 1.0).normalize())
+        .collect();
+    let fb: Vec<Vec3> = idx
+        .iter()
+        .map(|&i| Vec3::new(xb[i].x, xb[i].y, 1.0).normalize())
+        .collect();
+    let mut h = Matrix3::zeros();
+    for (a, b) in fa.iter().zip(&fb) {
+        h += b * a.transpose();
+    }
+    let svd = h.svd(true, true);
+    let (Some(u), Some(vt)) = (svd.u, svd.v_t) else {
+        return 0.0;
+    };
+    let d = (u * vt).determinant().signum();
+    let r = u * Matrix3::from_diagonal(&Vec3::new(1.0, 1.0, d)) * vt;
+    let explained = idx
+        .iter()
+        .filter(|&&i| {
+            let p = r * Vec3::new(xa[i].x, xa[i].y, 1.0);
+            p.z > 0.0 && (Vector2::new(p.x / p.z, p.y / p.z) - xb[i]).norm() < th
+        })
+        .count();
+    explained as f64 / idx.len() as f64
+}
+
 /// MSAC score and inliers of an essential matrix; `th` in normalized units.
 fn score(e: &Matrix3<f64>, xa: &[Vector2<f64>], xb: &[Vector2<f64>], th: f64) -> (f64, Vec<usize>) {
     let th2 = th * th;
@@ -381,6 +424,9 @@ fn score(e: &Matrix3<f64>, xa: &[Vector2<f64>], xb: &[Vector2<f64>], th: f64) ->
 /// `xa[i] ↔ xb[i]`: 8-point hypotheses in a seeded LO-RANSAC scored by the Sampson error
 /// (threshold `options.max_error_px / focal_px`), cheirality to pick among the four
 /// decompositions, then Levenberg–Marquardt on the inliers with the first-order covariance.
+///
+/// Fails with [`Degeneracy::NoParallax`] when more than [`MAX_ROTATION_ONLY_RATIO`] of the
+/// inliers are also explained by a pure rotation (zero or negligible baseline).
 pub fn estimate_relative_pose(
     xa: &[Vector2<f64>],
     xb: &[Vector2<f64>],
@@ -457,6 +503,11 @@ pub fn estimate_relative_pose(
             needed,
             best: inliers.len(),
             iterations,
+        });
+    }
+    if rotation_only_ratio(xa, xb, &inliers, th) > MAX_ROTATION_ONLY_RATIO {
+        return Err(Error::Degenerate {
+            what: Degeneracy::NoParallax,
         });
     }
     let refinement = refine_unchecked(xa, xb, &inliers, &r.b_from_a, lm::MAX_ITERATIONS)?;

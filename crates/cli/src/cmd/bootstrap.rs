@@ -828,6 +828,115 @@ mod tests {
         assert_eq!(go(1), go(2));
     }
 
+    /// Speed evidence: 500 replicates of absolute orientation on 300 correspondences (RANSAC
+    /// on the full sample, then 500 warm-started LM refinements; then the 300-sample jackknife).
+    /// Timing only, no assertion on time; run with
+    /// `CRASHRIG_SLOW=1 cargo test --release -p crashrig-cli slow_timing -- --nocapture`.
+    #[test]
+    fn slow_timing_absolute_500_on_300() {
+        if std::env::var_os("CRASHRIG_SLOW").is_none() {
+            return;
+        }
+        let s = scene(300);
+        let input = absolute_input(&s, 0);
+        let ransac = RansacOptions::new(1);
+        for jk in [false, true] {
+            let t0 = std::time::Instant::now();
+            let lb = bootstrap_absolute(&input, 500, 7, &ransac, jk).unwrap();
+            let dt = t0.elapsed().as_secs_f64();
+            assert_eq!(lb.replicates.values.len(), 500);
+            eprintln!(
+                "absolute, 300 correspondences, 500 replicates, jackknife {jk}: {dt:.3} s on {} threads",
+                rayon::current_num_threads()
+            );
+        }
+    }
+
+    fn run_args(image_a: &str, image_b: &str, method: &str) -> BootstrapArgs {
+        let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/paper/twoview");
+        BootstrapArgs {
+            database: format!("{root}/database.db").into(),
+            model: format!("{root}/model").into(),
+            image_a: image_a.into(),
+            image_b: image_b.into(),
+            method: method.into(),
+            iterations: 20,
+            mm_per_unit: 1000.0,
+            plots: None,
+            max_error_px: 4.0,
+            base_mm: None,
+        }
+    }
+
+    fn global() -> Global {
+        Global {
+            json: true,
+            seed: Some(1),
+            threads: None,
+        }
+    }
+
+    #[test]
+    fn run_errors_name_the_missing_image() {
+        let err = run(
+            run_args("nope.png", "cam_door/000001.png", "absolute"),
+            &global(),
+        )
+        .err()
+        .unwrap();
+        let msg = format!("{err:#}");
+        assert!(msg.contains("\"nope.png\" is not in the model"), "{msg}");
+        assert!(msg.contains("twoview/model"), "{msg}");
+        let err = run(
+            run_args("cam_in/000001.png", "cam_in/000001.png", "relative"),
+            &global(),
+        )
+        .err()
+        .unwrap();
+        assert!(format!("{err:#}").contains("same image"), "{err:#}");
+        let mut a = run_args("cam_in/000001.png", "cam_door/000001.png", "absolute");
+        a.mm_per_unit = -1.0;
+        let err = run(a, &global()).err().unwrap();
+        assert!(format!("{err:#}").contains("--mm-per-unit"), "{err:#}");
+        let mut a = run_args("cam_in/000001.png", "cam_door/000001.png", "relative");
+        a.base_mm = Some(0.0);
+        let err = run(a, &global()).err().unwrap();
+        assert!(format!("{err:#}").contains("--base-mm"), "{err:#}");
+    }
+
+    #[test]
+    fn bootstrap_relative_degenerate_pure_rotation() {
+        // Zero baseline: the translation direction is unobservable.
+        let cam = camera();
+        let r = b_from_world().rotation;
+        let mut rng = Rng(5);
+        let mut px_a = Vec::new();
+        let mut px_b = Vec::new();
+        while px_a.len() < 100 {
+            let p = Vec3::new(rng.uniform(-0.4, 0.4), rng.uniform(-0.3, 0.3), 1.0)
+                * rng.uniform(2000.0, 5000.0);
+            if let (Some(a), Some(b)) = (cam.project(&p), cam.project(&(r * p))) {
+                px_a.push(a);
+                px_b.push(b);
+            }
+        }
+        let input = RelativeInput {
+            camera_a: cam,
+            camera_b: cam,
+            pixels_a: noisy(&px_a, 0.5, 1, 0),
+            pixels_b: noisy(&px_b, 0.5, 1, 1),
+            base_mm: 100.0,
+        };
+        let err = bootstrap_relative(&input, 10, 1, &RansacOptions::new(1), false)
+            .err()
+            .unwrap();
+        let msg = format!("{err:#}");
+        assert!(
+            msg.contains("degenerate") || msg.contains("RANSAC found no pose"),
+            "{msg}"
+        );
+    }
+
     #[test]
     fn bootstrap_absolute_too_few_correspondences() {
         let s = scene(10);

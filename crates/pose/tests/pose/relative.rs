@@ -3,8 +3,9 @@
 use super::scene::{self, b_from_world, camera, noisy};
 use crashrig_geometry::{Rigid3, so3};
 use crashrig_pose::{
-    Error, RansacOptions, essential_8point, essential_from_pose, estimate_relative_pose,
-    normalize_pixels, pose_with_cheirality, refine_relative_pose, sampson_error,
+    Degeneracy, Error, RansacOptions, essential_8point, essential_from_pose,
+    estimate_relative_pose, normalize_pixels, pose_with_cheirality, refine_relative_pose,
+    sampson_error,
 };
 use nalgebra::{Translation3, Vector2};
 
@@ -152,18 +153,30 @@ fn estimate_relative_pose_errors() {
             right: 39
         }
     );
-    // Zero baseline (pure rotation): every pair is consistent with any translation direction,
-    // so the refinement's normal equations are singular or RANSAC finds no consensus.
+    // Zero baseline (pure rotation), noise-free and with 0.5 px noise: a rotation explains
+    // every match, so the base direction is unobservable.
     let rot_only = Rigid3::from_parts(Translation3::identity(), b_from_world().rotation);
     let s0 = scene::scene(15, 40, &cam, &rot_only);
-    let ya = normalize_pixels(&cam, &s0.px_a).unwrap();
-    let yb = normalize_pixels(&cam, &s0.px_b).unwrap();
-    let err = estimate_relative_pose(&ya, &yb, 1000.0, &opts);
-    assert!(
-        matches!(
-            err,
-            Err(Error::Degenerate { .. }) | Err(Error::NoConsensus { .. })
-        ),
-        "{err:?}"
-    );
+    for sigma in [0.0, 0.5] {
+        let ya = normalize_pixels(&cam, &noisy(&s0.px_a, sigma, 8, 0)).unwrap();
+        let yb = normalize_pixels(&cam, &noisy(&s0.px_b, sigma, 8, 1)).unwrap();
+        let err = estimate_relative_pose(&ya, &yb, 1000.0, &opts);
+        assert!(
+            matches!(
+                err,
+                Err(Error::Degenerate {
+                    what: Degeneracy::NoParallax | Degeneracy::SingularNormalEquations
+                }) | Err(Error::NoConsensus { .. })
+            ),
+            "σ = {sigma}: {err:?}"
+        );
+        if sigma > 0.0 {
+            assert_eq!(
+                err.unwrap_err(),
+                Error::Degenerate {
+                    what: Degeneracy::NoParallax
+                }
+            );
+        }
+    }
 }
