@@ -9,17 +9,23 @@
 //! - Lengths are millimetres, angles radians (degrees only at the CLI/IO edge).
 //! - ω-φ-κ: `R = Rx(ω)·Ry(φ)·Rz(κ)` ([`opk`]).
 //! - Quaternions are `w, x, y, z` on disk; [`quat`] is the only place that converts.
+//!   Build a [`Rigid3`] from a rotation matrix with [`quat::rigid_from_rotation`] (or
+//!   [`quat::unit_quaternion_from_rotation`]): nalgebra's `UnitQuaternion::from_rotation_matrix`
+//!   does not normalise, and the resulting norm error compounds over repeated conversions.
 //! - Lie tangent vectors: SO(3) rotation vectors; SE(3) `[ω; v]`, rotation first (COLMAP).
 //! - Tolerances are named constants in [`tolerance`].
 //!
 //! # Entry points
-//! - [`quat::rigid_from_colmap`], [`quat::colmap_from_rigid`]: the COLMAP pose edge.
+//! - [`quat::rigid_from_colmap`], [`quat::colmap_from_rigid`]: the COLMAP pose edge;
+//!   [`quat::rigid_from_rotation`]: a pose from a rotation matrix and a translation.
+//! - [`projection_center`]: `C = −Rᵀt` of a `cam_from_world` pose.
 //! - [`so3`], [`se3`]: exp/log, Jacobians, adjoint.
 //! - [`opk::rotation_from_opk`], [`opk::opk_from_rotation`] and their derivatives.
 //! - [`angles::wrapped_stats`]: wrap-safe mean/σ/SEM of angles.
 //! - [`mean::chordal_mean`], [`mean::karcher_mean`]: rotation averages.
 //! - [`look_at::world_from_cam_look_at`]: aim a camera without roll.
-//! - [`triangulate::dlt`], [`triangulate::dlt_covariance`]: forward intersection.
+//! - [`triangulate::dlt`], [`triangulate::dlt_covariance`]: forward intersection (n ≥ 2 views)
+//!   and its first-order covariance.
 //! - [`umeyama::align`]: similarity alignment of point sets.
 //!
 //! # Example

@@ -72,9 +72,9 @@ pub fn exp(w: &Vec3) -> Rot3 {
 
 /// Logarithm map: the rotation vector with angle in `[0, π]`.
 ///
-/// Goes through the (unnormalised, which is harmless here: the result depends only on the
-/// quaternion's direction) unit quaternion (Shepperd's robust extraction in nalgebra), so it is accurate
-/// near 0 and near π. At exactly π the axis sign is arbitrary (both are valid logarithms).
+/// Goes through the quaternion (Shepperd's robust extraction in nalgebra), so it is accurate
+/// near 0 and near π. That quaternion is not normalised, which is harmless here: the result
+/// depends only on its direction. At exactly π the axis sign is arbitrary (both are valid).
 pub fn log(r: &Rot3) -> Vec3 {
     let q = UnitQuaternion::from_rotation_matrix(r);
     log_quaternion(&q)

@@ -6,7 +6,7 @@
 
 use crate::tolerance::{DLT_MAX_CONDITION, DLT_MIN_HOMOGENEOUS_W};
 use crate::{Error, Mat3, Rigid3, Vec3};
-use nalgebra::{DMatrix, RowVector4, SymmetricEigen, Vector2};
+use nalgebra::{DMatrix, RowVector4, Vector2};
 
 /// One view of the point: the camera pose and the normalized image observation.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -72,11 +72,28 @@ fn normal_equations(views: &[View]) -> (Mat3, Vec3) {
     (n, rhs)
 }
 
+/// Largest and smallest eigenvalue of a symmetric 3×3 matrix, closed form (Smith 1961).
+///
+/// The absolute error is a few ε·λmax, ample for a condition check up to ~1e6 on cond(A).
+fn extreme_eigenvalues(n: &Mat3) -> (f64, f64) {
+    let p1 = n[(0, 1)].powi(2) + n[(0, 2)].powi(2) + n[(1, 2)].powi(2);
+    let q = n.trace() / 3.0;
+    let p2 = (n[(0, 0)] - q).powi(2) + (n[(1, 1)] - q).powi(2) + (n[(2, 2)] - q).powi(2) + 2.0 * p1;
+    let p = (p2 / 6.0).sqrt();
+    if p == 0.0 {
+        return (q, q);
+    }
+    let b = (n - Mat3::identity() * q) / p;
+    let r = (b.determinant() / 2.0).clamp(-1.0, 1.0);
+    let phi = r.acos() / 3.0;
+    let lmax = q + 2.0 * p * phi.cos();
+    let lmin = q + 2.0 * p * (phi + 2.0 * std::f64::consts::FRAC_PI_3).cos();
+    (lmax, lmin)
+}
+
 /// `N⁻¹` of the normal matrix after a condition check (cond(A) = √(λmax/λmin)).
 fn checked_inverse(n: &Mat3) -> Result<Mat3, Error> {
-    let eig = SymmetricEigen::new(*n);
-    let lmax = eig.eigenvalues.max();
-    let lmin = eig.eigenvalues.min();
+    let (lmax, lmin) = extreme_eigenvalues(n);
     let condition = if lmin > 0.0 {
         (lmax / lmin).sqrt()
     } else {
@@ -88,9 +105,14 @@ fn checked_inverse(n: &Mat3) -> Result<Mat3, Error> {
             condition,
         });
     }
-    // Inverse from the eigen-decomposition (N is symmetric positive definite here).
-    let inv_diag = eig.eigenvalues.map(|l| 1.0 / l);
-    Ok(eig.eigenvectors * Mat3::from_diagonal(&inv_diag) * eig.eigenvectors.transpose())
+    // N is symmetric positive definite here: Cholesky.
+    match n.cholesky() {
+        Some(ch) => Ok(ch.inverse()),
+        None => Err(Error::Degenerate {
+            what: "DLT normal matrix not positive definite",
+            condition,
+        }),
+    }
 }
 
 /// Linear least-squares intersection, inhomogeneous 3-unknown form (normal equations).
@@ -184,4 +206,24 @@ pub fn dlt_covariance(views: &[View], point: &Vec3, sigma_normalized: f64) -> Re
         }
     }
     Ok(jjt * (sigma_normalized * sigma_normalized))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    #[test]
+    fn extreme_eigenvalues_nominal() {
+        // A = Q diag(5, 2, 1e-4) Qᵀ for a fixed rotation Q: the closed form must return 5, 1e-4.
+        let q = nalgebra::Rotation3::from_euler_angles(0.3, -1.1, 2.0).into_inner();
+        let a = q * Mat3::from_diagonal(&Vec3::new(5.0, 2.0, 1e-4)) * q.transpose();
+        let (lmax, lmin) = extreme_eigenvalues(&a);
+        // Absolute error a few ε·λmax ≈ 1e-15.
+        assert_relative_eq!(lmax, 5.0, epsilon = 1e-13);
+        assert_relative_eq!(lmin, 1e-4, epsilon = 1e-13);
+        let (lmax, lmin) = extreme_eigenvalues(&(Mat3::identity() * 3.0));
+        assert_relative_eq!(lmax, 3.0);
+        assert_relative_eq!(lmin, 3.0);
+    }
 }
