@@ -15,7 +15,7 @@ pub fn wrap_pi(a: f64) -> f64 {
 /// # Errors
 /// [`Error::TooFewSamples`] on an empty slice, [`Error::NonFinite`] on NaN/∞ input,
 /// [`Error::UndefinedCircularMean`] when the mean resultant length is below
-/// [`MIN_MEAN_RESULTANT`](crate::tolerance::MIN_MEAN_RESULTANT) (e.g. two opposite angles).
+/// [`MIN_MEAN_RESULTANT`] (e.g. two opposite angles).
 pub fn circular_mean(a: &[f64]) -> Result<f64, Error> {
     if a.is_empty() {
         return Err(Error::TooFewSamples {
