@@ -190,8 +190,8 @@ fn refined_json(r: &Refinement) -> Value {
         "angles_deg": deg3(&r.angles),
         "angles_sigma_deg": deg3(&r.angles_sigma),
         "covariance": cov_deg(&r.covariance),
-        "sigma_rotation_deg": r.sigma_rotation.to_degrees(),
-        "sigma_position_mm": r.sigma_position_mm,
+        "sigma_rotation_deg": deg3(&r.sigma_rotation),
+        "sigma_position_mm": arr3(&r.sigma_position_mm),
         "variance_factor": r.variance_factor,
         "n_unknowns": r.n_unknowns,
         "redundancy": r.redundancy,
@@ -371,13 +371,15 @@ fn text_report(a: &CalibrateArgs, set: &EpochSet, scale: &Scale, c: &Calibration
         let _ = writeln!(o);
         let _ = writeln!(
             o,
-            "Rig-constrained refinement ({} unknowns, redundancy {}, {} Gauss–Newton steps; \
-             per-pose σ: {:.4} deg, {:.3} mm)",
-            r.n_unknowns,
-            r.redundancy,
-            r.iterations,
-            r.sigma_rotation.to_degrees(),
-            r.sigma_position_mm
+            "Rig-constrained refinement ({} unknowns, redundancy {}, {} Gauss–Newton steps)",
+            r.n_unknowns, r.redundancy, r.iterations,
+        );
+        let sr = deg3(&r.sigma_rotation);
+        let sp = arr3(&r.sigma_position_mm);
+        let _ = writeln!(
+            o,
+            "  per-pose σ in A's axes: rotation ({:.4}, {:.4}, {:.4}) deg, centre ({:.3}, {:.3}, {:.3}) mm",
+            sr[0], sr[1], sr[2], sp[0], sp[1], sp[2]
         );
         let _ = writeln!(
             o,
