@@ -2,6 +2,7 @@
 
 use approx::{assert_abs_diff_eq, assert_relative_eq};
 use crashrig_geometry::angles::wrap_pi;
+use crashrig_geometry::tolerance::GIMBAL_LOCK_COS_PHI;
 use crashrig_geometry::{Error, Mat3, Rot3, Vec3, opk, so3};
 use crashrig_testkit::strategies::{opk_away_from_gimbal, rot3};
 use std::f64::consts::FRAC_PI_2;
@@ -184,5 +185,27 @@ proptest::proptest! {
         let tol = 1e-9 / p.cos().powi(3);
         assert_abs_diff_eq!(opk::d_opk_d_tangent_right(&r).unwrap(), right, epsilon = tol);
         assert_abs_diff_eq!(opk::d_opk_d_tangent_left(&r).unwrap(), left, epsilon = tol);
+    }
+}
+
+#[test]
+fn opk_near_gimbal_lock_reproduces_rotation() {
+    // Just outside the lock threshold the normal branch still reproduces R to rounding (the
+    // errors of ω and κ are correlated); inside it, folding κ into ω costs ≈ cos φ·|κ|.
+    for e in [1e-4, 1e-6, 1e-8, 1e-10, 1e-12] {
+        for sign in [1.0, -1.0] {
+            for (o, k) in [(0.3, 1.0), (-2.0, 2.5), (1.0, -0.7)] {
+                let r = opk::rotation_from_opk(o, sign * (FRAC_PI_2 - e), k);
+                let a = opk::opk_from_rotation(&r);
+                assert_eq!(a.gimbal_lock, e < GIMBAL_LOCK_COS_PHI);
+                let back = opk::rotation_from_opk(a.omega, a.phi, a.kappa);
+                let tol = if a.gimbal_lock {
+                    2.0 * e * f64::abs(k)
+                } else {
+                    1e-15
+                };
+                assert_abs_diff_eq!(*back.matrix(), *r.matrix(), epsilon = tol);
+            }
+        }
     }
 }
