@@ -42,6 +42,9 @@ pub struct Calibration {
     pub drift: Option<DriftReport>,
     /// Rig-constrained refinement over all epochs (`None` when not requested).
     pub refined: Option<Refinement>,
+    /// Rig-constrained refinement over the epochs not flagged (`None` when not requested,
+    /// when no epoch is flagged, or when fewer than two remain).
+    pub refined_without_outliers: Option<Refinement>,
 }
 
 /// Calibrates the rig from `epochs` (poses in model units, `mm_per_unit` to mm).
@@ -77,6 +80,19 @@ pub fn calibrate(
         Some(o) => Some(refine(epochs, mm_per_unit, o)?),
         None => None,
     };
+    let n_flagged = outliers.outlier.iter().filter(|o| **o).count();
+    let refined_without_outliers = match &options.refine {
+        Some(o) if n_flagged > 0 && kept.len() >= 2 => {
+            let kept_epochs: Vec<Epoch> = epochs
+                .iter()
+                .zip(&outliers.outlier)
+                .filter(|(_, o)| !**o)
+                .map(|(e, _)| e.clone())
+                .collect();
+            Some(refine(&kept_epochs, mm_per_unit, o)?)
+        }
+        _ => None,
+    };
     Ok(Calibration {
         mm_per_unit,
         links,
@@ -85,5 +101,6 @@ pub fn calibrate(
         without_outliers,
         drift,
         refined,
+        refined_without_outliers,
     })
 }
