@@ -182,16 +182,36 @@ pub fn dlt_homogeneous(views: &[View]) -> Result<Vec3, Error> {
 /// # Errors
 /// As [`dlt`], and [`Error::NonFinite`] for a non-finite `point` or `sigma_normalized`.
 pub fn dlt_covariance(views: &[View], point: &Vec3, sigma_normalized: f64) -> Result<Mat3, Error> {
+    let sigmas = vec![sigma_normalized; views.len()];
+    dlt_covariance_per_view(views, point, &sigmas)
+}
+
+/// As [`dlt_covariance`], with its own isotropic σ (normalized units) for each view, e.g.
+/// `pixel_sigma / focal_px` of each camera.
+///
+/// # Errors
+/// As [`dlt_covariance`], and [`Error::LengthMismatch`] when `sigma_per_view.len() != views.len()`.
+pub fn dlt_covariance_per_view(
+    views: &[View],
+    point: &Vec3,
+    sigma_per_view: &[f64],
+) -> Result<Mat3, Error> {
     check_views(views)?;
-    if !sigma_normalized.is_finite() || point.iter().any(|v| !v.is_finite()) {
+    if sigma_per_view.len() != views.len() {
+        return Err(Error::LengthMismatch {
+            left: views.len(),
+            right: sigma_per_view.len(),
+        });
+    }
+    if sigma_per_view.iter().any(|s| !s.is_finite()) || point.iter().any(|v| !v.is_finite()) {
         return Err(Error::NonFinite {
             what: "point or sigma",
         });
     }
     let (n, _) = normal_equations(views);
     let inv = checked_inverse(&n)?;
-    let mut jjt = Mat3::zeros();
-    for view in views {
+    let mut cov = Mat3::zeros();
+    for (view, sigma) in views.iter().zip(sigma_per_view) {
         let rot = view
             .cam_from_world
             .rotation
@@ -202,10 +222,10 @@ pub fn dlt_covariance(views: &[View], point: &Vec3, sigma_normalized: f64) -> Re
         for (a, b) in rows(view) {
             let residual = a.dot(point) - b;
             let col = -(inv * (r3_row * residual + a * depth));
-            jjt += col * col.transpose();
+            cov += col * col.transpose() * (sigma * sigma);
         }
     }
-    Ok(jjt * (sigma_normalized * sigma_normalized))
+    Ok(cov)
 }
 
 #[cfg(test)]

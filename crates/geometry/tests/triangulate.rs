@@ -3,7 +3,9 @@
 
 use approx::{assert_abs_diff_eq, assert_relative_eq};
 use crashrig_geometry::look_at::world_from_cam_look_at;
-use crashrig_geometry::triangulate::{View, dlt, dlt_covariance, dlt_homogeneous};
+use crashrig_geometry::triangulate::{
+    View, dlt, dlt_covariance, dlt_covariance_per_view, dlt_homogeneous,
+};
 use crashrig_geometry::{Error, Mat3, Rigid3, Vec3, quat};
 use crashrig_testkit::fd::central_jacobian;
 use crashrig_testkit::scene::{stereo_a_from_b, two_view_scene};
@@ -198,6 +200,47 @@ fn dlt_covariance_finite_difference_with_residuals() {
     let analytic = dlt_covariance(&views, &x, 1.0).unwrap();
     let numeric = covariance_from_fd(&views, 1.0);
     assert_relative_eq!(analytic, numeric, max_relative = 1e-6, epsilon = 1e-6);
+}
+
+#[test]
+fn dlt_covariance_per_view_nominal() {
+    let p = Vec3::new(35.0, -12.0, 40.0);
+    let views = five_views(&p);
+    // Equal sigmas reproduce the isotropic version; the sum over views is additive.
+    let iso = dlt_covariance(&views, &p, 2e-4).unwrap();
+    let per = dlt_covariance_per_view(&views, &p, &[2e-4; 5]).unwrap();
+    assert_relative_eq!(per, iso, max_relative = 1e-14);
+    let sigmas = [1e-4, 3e-4, 0.0, 2e-4, 5e-4];
+    let total = dlt_covariance_per_view(&views, &p, &sigmas).unwrap();
+    let mut sum = Mat3::zeros();
+    for (i, s) in sigmas.iter().enumerate() {
+        let mut only = [0.0; 5];
+        only[i] = *s;
+        sum += dlt_covariance_per_view(&views, &p, &only).unwrap();
+    }
+    assert_relative_eq!(total, sum, max_relative = 1e-12);
+    // Against central differences with each view's columns scaled by its σ.
+    let f = |x: &DVector<f64>| {
+        let q = dlt(&with_obs(&views, x)).unwrap();
+        DVector::from_column_slice(q.as_slice())
+    };
+    let mut j = central_jacobian(f, &obs_vector(&views), 1e-7);
+    for (i, s) in sigmas.iter().enumerate() {
+        j.column_mut(2 * i).scale_mut(*s);
+        j.column_mut(2 * i + 1).scale_mut(*s);
+    }
+    let c = &j * j.transpose();
+    // FD budget as in `dlt_covariance_finite_difference_noise_free`.
+    assert_relative_eq!(
+        total,
+        Mat3::from_iterator(c.iter().copied()),
+        max_relative = 1e-6,
+        epsilon = 1e-14
+    );
+    assert_eq!(
+        dlt_covariance_per_view(&views, &p, &[1.0; 4]),
+        Err(Error::LengthMismatch { left: 5, right: 4 })
+    );
 }
 
 fn monte_carlo_covariance(views: &[View], sigma: f64, n: usize, seed: u64) -> Mat3 {
