@@ -86,8 +86,20 @@ impl Scale {
     }
 }
 
-/// Runs `crashrig calibrate`.
-pub fn run(a: CalibrateArgs, g: &Global) -> anyhow::Result<()> {
+/// A finished calibration, not yet printed (for `crashrig paper` and other in-process callers).
+pub struct CalibrationRun {
+    /// The library result (mm, rad).
+    pub calibration: Calibration,
+    /// The contract's JSON document (mm, deg), with the extension fields.
+    pub json: Value,
+    /// The text report (Tables 1–2 and the rest).
+    pub text: String,
+    /// Warnings for stderr (unpaired images, autocorrelated series), one line each.
+    pub warnings: Vec<String>,
+}
+
+/// Reads the model, pairs, scales and calibrates as `crashrig calibrate` does, without output.
+pub fn compute(a: &CalibrateArgs) -> anyhow::Result<CalibrationRun> {
     // The COLMAP reader's errors name the file already.
     let model = Reconstruction::read(&a.model)?;
     let sel_a = CameraSelector::parse(&a.camera_a);
@@ -98,7 +110,7 @@ pub fn run(a: CalibrateArgs, g: &Global) -> anyhow::Result<()> {
         (_, _, Some(f)) => Scale::Given(check_scale(f)?),
         _ => Scale::Default,
     };
-    report_unpaired(&set);
+    let mut warnings = unpaired_warnings(&set);
     let options = CalibrateOptions {
         max_lag: a.max_lag,
         refine: (!a.no_refine).then(RefineOptions::default),
@@ -108,22 +120,37 @@ pub fn run(a: CalibrateArgs, g: &Global) -> anyhow::Result<()> {
     if let Some(d) = &cal.drift
         && d.any_optimistic()
     {
-        eprintln!(
-            "warning: the epoch series is autocorrelated ({}); σ/√n is likely optimistic",
+        warnings.push(format!(
+            "the epoch series is autocorrelated ({}); σ/√n is likely optimistic",
             optimistic_list(d)
-        );
+        ));
+    }
+    Ok(CalibrationRun {
+        json: to_json(a, &set, &scale, &cal),
+        text: text_report(a, &set, &scale, &cal),
+        calibration: cal,
+        warnings,
+    })
+}
+
+/// Runs `crashrig calibrate`.
+pub fn run(a: CalibrateArgs, g: &Global) -> anyhow::Result<()> {
+    let r = compute(&a)?;
+    for w in &r.warnings {
+        eprintln!("warning: {w}");
     }
     if let Some(dir) = &a.plots {
-        write_plots(dir, &cal)?;
+        write_plots(dir, &r.calibration)?;
     }
     if g.json {
-        return crate::output::print_json(&to_json(&a, &set, &scale, &cal));
+        return crate::output::print_json(&r.json);
     }
-    print!("{}", text_report(&a, &set, &scale, &cal));
+    print!("{}", r.text);
     Ok(())
 }
 
-fn report_unpaired(set: &EpochSet) {
+fn unpaired_warnings(set: &EpochSet) -> Vec<String> {
+    let mut out = Vec::new();
     for (what, v) in [
         ("image(s) of camera A have no partner in B", &set.unpaired_a),
         ("image(s) of camera B have no partner in A", &set.unpaired_b),
@@ -135,9 +162,10 @@ fn report_unpaired(set: &EpochSet) {
         if !v.is_empty() {
             let shown: Vec<&str> = v.iter().take(10).map(String::as_str).collect();
             let more = if v.len() > 10 { ", …" } else { "" };
-            eprintln!("warning: {} {what}: {}{more}", v.len(), shown.join(", "));
+            out.push(format!("{} {what}: {}{more}", v.len(), shown.join(", ")));
         }
     }
+    out
 }
 
 fn optimistic_list(d: &DriftReport) -> String {
@@ -258,6 +286,7 @@ fn to_json(a: &CalibrateArgs, set: &EpochSet, scale: &Scale, c: &Calibration) ->
         "without_outliers": c.without_outliers.as_ref().map(stats_json),
         "autocorrelation": drift,
         "refined": c.refined.as_ref().map(refined_json),
+        "refined_without_outliers": c.refined_without_outliers.as_ref().map(refined_json),
         "pairing": {
             "by_name": set.paired_by_name,
             "by_frame": set.paired_by_frame,
@@ -440,7 +469,8 @@ fn stats_rows(o: &mut String, s: &LinkStatistics, base: bool) {
     }
 }
 
-fn write_plots(dir: &Path, c: &Calibration) -> anyhow::Result<()> {
+/// Writes the per-epoch series and histograms of the six parameters (PNG and SVG) to `dir`.
+pub fn write_plots(dir: &Path, c: &Calibration) -> anyhow::Result<()> {
     use crashrig_plot::{Format, histogram, series};
     std::fs::create_dir_all(dir)
         .with_context(|| format!("{}: cannot create the plot directory", dir.display()))?;
