@@ -3,7 +3,8 @@
 //! Opening never modifies the file: when no `-wal` file sits next to the database it is opened
 //! with `mode=ro&immutable=1` (no locks, no side files); when a `-wal` exists (COLMAP has the
 //! database open, or crashed) it is opened read-only through SQLite so the WAL content is seen.
-//! Either way `PRAGMA query_only` is set and nothing is migrated.
+//! Either way `PRAGMA query_only` is set and nothing is migrated. (`immutable` assumes nobody
+//! writes the file meanwhile; COLMAP always writes in WAL mode, which leaves a `-wal` file.)
 //!
 //! Pairs follow COLMAP: `pair_id = 2147483647·min(a, b) + max(a, b)`, data stored with the
 //! smaller image id first. [`Database::matches`] and [`Database::two_view_geometry`] return

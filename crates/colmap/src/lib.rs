@@ -20,6 +20,15 @@
 //! - No input makes this crate panic; every failure is an [`Error`] naming the file (and the
 //!   line for text, the byte offset or record for binary, the table and row for databases).
 //!
+//! # Where this reader is stricter or kinder than COLMAP
+//! - Binary files with bytes after the last record, text colours outside 0–255, a `HAS_POSE`
+//!   flag other than 0/1, unknown sensor types and every broken invariant above are errors
+//!   (COLMAP ignores or casts some of them).
+//! - A text image name is the rest of its line, so names with spaces survive text (COLMAP
+//!   keeps only the first word); an image line that ends the file keeps its image, with no
+//!   points (COLMAP silently drops it). Names that text cannot hold (line breaks, leading or
+//!   trailing whitespace) are refused when writing text.
+//!
 //! # Entry points
 //! - [`Reconstruction::read`], [`Reconstruction::write`]: a whole model directory.
 //! - [`Reconstruction::image_cam_from_world`], [`Reconstruction::image_by_name`]: poses.

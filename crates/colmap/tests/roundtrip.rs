@@ -233,3 +233,199 @@ fn roundtrip_text_rejects_unwritable_names() {
     let back = Reconstruction::read(&target).expect("reads");
     assert_eq!(back.image(2).map(|i| i.name.as_str()), Some("bad\nname2"));
 }
+
+/// SplitMix64 for the random-model round trip.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    fn below(&mut self, n: u64) -> u64 {
+        self.next() % n
+    }
+    /// Any finite double: random bit patterns (subnormals, huge exponents, −0) or plain values.
+    fn f64(&mut self) -> f64 {
+        match self.below(4) {
+            0 => {
+                let v = f64::from_bits(self.next());
+                if v.is_finite() { v } else { -0.0 }
+            }
+            1 => (self.next() as f64 / u64::MAX as f64 - 0.5) * 2000.0,
+            2 => (self.below(2001) as f64 - 1000.0) / 8.0,
+            _ => f64::from_bits(self.below(1 << 52)), // subnormal or zero
+        }
+    }
+}
+
+fn random_model(rng: &mut Rng) -> Reconstruction {
+    use crashrig_camera::{Camera, ModelId};
+    use crashrig_colmap::{
+        CameraRecord, Frame, Image, Point2D, Point3D, RawPose, Rig, RigSensor, SensorId,
+        TrackElement,
+    };
+    let pose = |rng: &mut Rng| {
+        // Any non-zero quaternion is valid; keep w away from 0 so the norm is never zero.
+        RawPose {
+            qvec: [
+                1.0 + rng.below(5) as f64,
+                rng.f64() % 4.0,
+                rng.f64() % 4.0,
+                rng.f64() % 4.0,
+            ],
+            tvec: [rng.f64(), rng.f64(), rng.f64()],
+        }
+    };
+    let n_cams = 1 + rng.below(4) as u32;
+    let cameras: Vec<CameraRecord> = (0..n_cams)
+        .map(|c| {
+            let model = ModelId::ALL[rng.below(18) as usize];
+            let params = (0..model.num_params()).map(|_| rng.f64()).collect();
+            CameraRecord {
+                camera_id: 10 + 3 * c,
+                camera: Camera {
+                    model,
+                    width: rng.next() >> 1,
+                    height: rng.below(5000),
+                    params,
+                },
+            }
+        })
+        .collect();
+    // One rig holding every camera (first is the reference); some sensor poses unknown.
+    let rig = Rig {
+        rig_id: 7,
+        ref_sensor: Some(SensorId::camera(cameras[0].camera_id)),
+        sensors: cameras[1..]
+            .iter()
+            .map(|c| RigSensor {
+                sensor: SensorId::camera(c.camera_id),
+                sensor_from_rig: (rng.below(3) > 0).then(|| pose(rng)),
+            })
+            .collect(),
+    };
+    let n_frames = 1 + rng.below(3) as u32;
+    let mut images = Vec::new();
+    let mut frames = Vec::new();
+    for f in 0..n_frames {
+        let mut data_ids = Vec::new();
+        for c in &cameras {
+            let image_id = 100 * (f + 1) + c.camera_id;
+            let n_pts = rng.below(6) as usize;
+            let name: String = (0..1 + rng.below(12))
+                .map(|_| {
+                    ['a', 'b', ' ', 'c', '/', '_', '-', '.', 'x', 'y', 'z', 'é']
+                        [rng.below(12) as usize]
+                })
+                .collect();
+            let im = Image {
+                image_id,
+                stored_cam_from_world: pose(rng),
+                camera_id: c.camera_id,
+                name: format!("f{f}_{}", name.trim()),
+                points2d: (0..n_pts)
+                    .map(|_| Point2D {
+                        xy: [rng.f64(), rng.f64()],
+                        point3d_id: None,
+                    })
+                    .collect(),
+            };
+            data_ids.push(im.data_id());
+            images.push(im);
+        }
+        frames.push(Frame {
+            frame_id: 50 + f,
+            rig_id: 7,
+            rig_from_world: pose(rng),
+            data_ids,
+        });
+    }
+    // Points observed by random free 2-D points.
+    let mut points = Vec::new();
+    let mut pid = 1u64 << 40;
+    for image in &mut images {
+        let image_id = image.image_id;
+        for (k, p2) in image.points2d.iter_mut().enumerate() {
+            if rng.below(2) == 0 {
+                continue;
+            }
+            pid += 1 + rng.below(1000);
+            p2.point3d_id = Some(pid);
+            points.push(Point3D {
+                point3d_id: pid,
+                xyz: [rng.f64(), rng.f64(), rng.f64()],
+                rgb: [
+                    rng.below(256) as u8,
+                    rng.below(256) as u8,
+                    rng.below(256) as u8,
+                ],
+                error: rng.f64(),
+                track: vec![TrackElement {
+                    image_id,
+                    point2d_idx: k as u32,
+                }],
+            });
+        }
+    }
+    Reconstruction::from_records(cameras, vec![rig], frames, images, points)
+        .expect("consistent random model")
+}
+
+#[test]
+fn roundtrip_random_models_bit_exact() {
+    let mut rng = Rng(20261121);
+    for case in 0..50 {
+        let m = random_model(&mut rng);
+        for format in [ModelFormat::Binary, ModelFormat::Text] {
+            let out = tempfile::tempdir().expect("tmp");
+            m.write(out.path(), format).expect("writes");
+            let back = Reconstruction::read(out.path())
+                .unwrap_or_else(|e| panic!("case {case} {format:?}: {e}"));
+            // Bit-exact: compare the raw bits of every double through the Debug of to_bits.
+            let bits = |r: &Reconstruction| {
+                let mut v: Vec<u64> = Vec::new();
+                for c in r.cameras() {
+                    v.extend(c.camera.params.iter().map(|p| p.to_bits()));
+                    v.extend([c.camera.width, c.camera.height, u64::from(c.camera_id)]);
+                }
+                for i in r.images() {
+                    v.extend(i.stored_cam_from_world.to_array().map(f64::to_bits));
+                    v.extend(i.points2d.iter().flat_map(|p| {
+                        [
+                            p.xy[0].to_bits(),
+                            p.xy[1].to_bits(),
+                            p.point3d_id.unwrap_or(0),
+                        ]
+                    }));
+                }
+                for p in r.points3d() {
+                    v.extend(p.xyz.map(f64::to_bits));
+                    v.push(p.error.to_bits());
+                }
+                for f in r.frames() {
+                    v.extend(f.rig_from_world.to_array().map(f64::to_bits));
+                }
+                for rig in r.rigs() {
+                    for s in &rig.sensors {
+                        v.extend(
+                            s.sensor_from_rig
+                                .map_or([0; 7], |p| p.to_array().map(f64::to_bits)),
+                        );
+                    }
+                }
+                v
+            };
+            assert_eq!(bits(&back), bits(&m), "case {case} {format:?}");
+            assert_eq!(
+                back.images().iter().map(|i| &i.name).collect::<Vec<_>>(),
+                m.images().iter().map(|i| &i.name).collect::<Vec<_>>()
+            );
+            assert_eq!(back.rigs(), m.rigs());
+            assert_eq!(back.points3d().len(), m.points3d().len());
+        }
+    }
+}
