@@ -87,7 +87,8 @@ pub struct Refinement {
     pub base_mm: Vec3,
     /// ω, φ, κ of `R_A_from_B` (rad).
     pub angles: Vec3,
-    /// Covariance of (x, y, z mm, ω, φ, κ rad).
+    /// Covariance of (x, y, z mm, ω, φ, κ rad); the angle rows and columns are NaN when the
+    /// link is at gimbal lock (φ = ±90°).
     pub covariance: Mat6,
     /// Covariance of (base mm, right-tangent rotation rad) as solved.
     pub tangent_covariance: Mat6,
@@ -256,7 +257,7 @@ fn normal_equations(
 /// # Errors
 /// [`Error::TooFewEpochs`] for fewer than two epochs, [`Error::InvalidScale`],
 /// [`Error::NonFinitePose`], [`Error::SingularNormalMatrix`], [`Error::NoConvergence`],
-/// and [`Error::Geometry`] (no rotation mean, gimbal lock of the link's φ).
+/// and [`Error::Geometry`] when the epoch rotations have no chordal mean.
 pub fn refine(
     epochs: &[Epoch],
     mm_per_unit: f64,
@@ -370,9 +371,11 @@ pub fn refine(
     let x = chol.solve(&e);
     let tangent_covariance = Mat6::from_fn(|a, b| variance_factor * x[(a, b)]);
     let rot = Rot3::from_matrix_unchecked(s.r_ab);
+    // At gimbal lock (φ = ±90°) ω and κ are not separately defined: their variances are NaN,
+    // the tangent covariance stays valid.
+    let d_opk = opk::d_opk_d_tangent_right(&rot).unwrap_or(Mat3::from_element(f64::NAN));
     let mut t = Mat6::identity();
-    t.fixed_view_mut::<3, 3>(3, 3)
-        .copy_from(&opk::d_opk_d_tangent_right(&rot)?);
+    t.fixed_view_mut::<3, 3>(3, 3).copy_from(&d_opk);
     let covariance = t * tangent_covariance * t.transpose();
     let a = opk::opk_from_rotation(&rot);
     Ok(Refinement {
@@ -642,6 +645,36 @@ mod tests {
         // x offsets −1 … 1 mm average to 0; the exact axes come out exact (rounding only).
         assert_abs_diff_eq!(r.base_mm, link.translation.vector, epsilon = 1e-9);
         assert!(r.base_sigma_mm.x > 1e3 * r.base_sigma_mm.y);
+    }
+
+    #[test]
+    fn refine_gimbal_lock_keeps_base_covariance() {
+        // A link with φ = 90°: ω, κ are not separately defined, the refinement still works.
+        let link = pose(
+            rotation_from_opk(0.3, std::f64::consts::FRAC_PI_2, 0.0),
+            Vec3::new(60.0, 0.0, 180.0),
+        );
+        let epochs: Vec<Epoch> = (0..6)
+            .map(|i| {
+                let x = i as f64;
+                let world_from_a = pose(
+                    rotation_from_opk(0.1 * x, 0.2, -0.3),
+                    Vec3::new(100.0 * x, 0.0, 3000.0),
+                );
+                let mut l = link;
+                l.translation.vector +=
+                    Vec3::new((x * 1.3).sin(), (x * 0.7).cos(), (x * 2.1).sin());
+                Epoch {
+                    name: format!("{i}"),
+                    a_from_world: world_from_a.inverse(),
+                    b_from_world: (world_from_a * l).inverse(),
+                }
+            })
+            .collect();
+        let r = refine(&epochs, 1.0, &RefineOptions::default()).unwrap();
+        assert!(r.base_sigma_mm.iter().all(|v| v.is_finite() && *v > 0.0));
+        assert!(r.angles_sigma[0].is_nan());
+        assert!(r.tangent_covariance.iter().all(|v| v.is_finite()));
     }
 
     #[test]

@@ -13,8 +13,8 @@ use crashrig_rig::colmap::{
     CameraSelector, EpochSet, ScaleBar, epochs_from_model, scale_from_points,
 };
 use crashrig_rig::{
-    CalibrateOptions, Calibration, DriftReport, LinkStatistics, OUTLIER_THRESHOLD, RefineOptions,
-    Refinement, calibrate, check_scale,
+    CalibrateOptions, Calibration, DriftReport, Error as RigError, LinkStatistics,
+    OUTLIER_THRESHOLD, RefineOptions, Refinement, calibrate, check_scale,
 };
 use serde_json::{Value, json};
 use std::fmt::Write as _;
@@ -115,8 +115,22 @@ pub fn compute(a: &CalibrateArgs) -> anyhow::Result<CalibrationRun> {
         max_lag: a.max_lag,
         refine: (!a.no_refine).then(RefineOptions::default),
     };
-    let cal = calibrate(&set.epochs, scale.mm_per_unit(), &options)
-        .with_context(|| format!("{}: calibration failed", a.model.display()))?;
+    let cal = match calibrate(&set.epochs, scale.mm_per_unit(), &options) {
+        Ok(c) => c,
+        // The epoch statistics do not depend on the refinement: report them without it.
+        Err(e @ (RigError::NoConvergence { .. } | RigError::SingularNormalMatrix { .. })) => {
+            warnings.push(format!("rig-constrained refinement skipped: {e}"));
+            let plain = CalibrateOptions {
+                refine: None,
+                ..options
+            };
+            calibrate(&set.epochs, scale.mm_per_unit(), &plain)
+                .with_context(|| format!("{}: calibration failed", a.model.display()))?
+        }
+        Err(e) => {
+            return Err(e).with_context(|| format!("{}: calibration failed", a.model.display()));
+        }
+    };
     if let Some(d) = &cal.drift
         && d.any_optimistic()
     {
