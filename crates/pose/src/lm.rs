@@ -13,7 +13,8 @@ const STEP_TOL: f64 = 1e-13;
 pub(crate) trait Problem<const P: usize> {
     /// The state (e.g. a pose), moved by [`Problem::retract`].
     type State: Clone;
-    /// Gauss–Newton normal equations at `s`: `(JᵀJ, Jᵀr, Σr²)`; `None` if a residual is undefined.
+    /// Gauss–Newton normal equations at `s`: `(JᵀJ, Jᵀr, Σr²)`; `Err(index)` names a residual
+    /// that is undefined.
     #[allow(clippy::type_complexity)]
     fn normal_equations(
         &self,

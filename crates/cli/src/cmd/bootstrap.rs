@@ -15,6 +15,15 @@
 //! `R_A_from_B` (degrees); the point estimate is the full-sample one, σ the bootstrap σ (n − 1,
 //! wrap-safe for angles), `ci95` the percentile interval, plus BCa intervals and the
 //! first-order (covariance) σ as extensions.
+//!
+//! Angle intervals and histograms are taken on the replicate values unwrapped about the
+//! estimate (within ±180° of it), so an interval around ω ≈ 180° may read `[179.9, 180.1]`.
+//!
+//! Extension fields of the JSON: `seed`, `mm_per_unit`, `n_candidates` (correspondences before
+//! RANSAC; `n_correspondences` are the inliers that are resampled), `ci95_bca` (BCa intervals,
+//! jackknife acceleration; `null` when undefined), `first_order` (`base_sigma_mm`,
+//! `angles_sigma_deg` from the estimator's covariance), `bootstrap_mean`, `bootstrap_bias` (mean − estimate) and `failures`
+//! (`replicate`, `error` of every failed replicate).
 
 use crate::Global;
 use anyhow::{Context, bail};
@@ -200,7 +209,7 @@ pub(crate) fn bootstrap_relative<C: Projector>(
 }
 
 /// Per-parameter summary in output units (mm, degrees).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone)]
 pub(crate) struct ParamSummary {
     estimate: f64,
     sigma: f64,
@@ -210,7 +219,6 @@ pub(crate) struct ParamSummary {
     ci95_bca: Option<[f64; 2]>,
     first_order_sigma: f64,
     /// Replicate values, unwrapped about the estimate for angles (for the histograms).
-    #[serde(skip)]
     values: Vec<f64>,
 }
 
@@ -286,6 +294,12 @@ struct FirstOrder {
 }
 
 #[derive(Debug, Serialize)]
+struct Means {
+    base_mm: [f64; 3],
+    angles_deg: [f64; 3],
+}
+
+#[derive(Debug, Serialize)]
 struct FailureJson {
     replicate: usize,
     error: String,
@@ -308,7 +322,8 @@ struct Output {
     n_candidates: usize,
     ci95_bca: Option<Ci>,
     first_order: FirstOrder,
-    bootstrap_mean: FirstOrder,
+    bootstrap_mean: Means,
+    bootstrap_bias: Means,
     failures: Vec<FailureJson>,
 }
 
@@ -344,9 +359,13 @@ fn output(a: &BootstrapArgs, seed: u64, lb: &LinkBootstrap, s: &[ParamSummary]) 
             base_sigma_mm: pick(&|p| p.first_order_sigma, 0),
             angles_sigma_deg: pick(&|p| p.first_order_sigma, 3),
         },
-        bootstrap_mean: FirstOrder {
-            base_sigma_mm: pick(&|p| p.mean, 0),
-            angles_sigma_deg: pick(&|p| p.mean, 3),
+        bootstrap_mean: Means {
+            base_mm: pick(&|p| p.mean, 0),
+            angles_deg: pick(&|p| p.mean, 3),
+        },
+        bootstrap_bias: Means {
+            base_mm: pick(&|p| p.bias, 0),
+            angles_deg: pick(&|p| p.bias, 3),
         },
         failures: lb
             .replicates
@@ -846,7 +865,40 @@ mod tests {
             let dt = t0.elapsed().as_secs_f64();
             assert_eq!(lb.replicates.values.len(), 500);
             eprintln!(
-                "absolute, 300 correspondences, 500 replicates, jackknife {jk}: {dt:.3} s on {} threads",
+                "PINHOLE, 300 correspondences, 500 replicates, jackknife {jk}: {dt:.3} s on {} threads",
+                rayon::current_num_threads()
+            );
+        }
+        // The real camera model with distortion (forward-mode dual-number Jacobians).
+        let cam = Camera::new(
+            crashrig_camera::ModelId::from_name("OPENCV").unwrap(),
+            1600,
+            1200,
+            vec![1000.0, 1000.0, 800.0, 600.0, -0.08, 0.02, 0.0005, -0.0003],
+        )
+        .unwrap();
+        let b = b_from_world();
+        let exact: Vec<Vector2<f64>> = s
+            .points
+            .iter()
+            .map(|p| {
+                cam.img_from_cam(&b.transform_point(&(*p).into()).coords)
+                    .unwrap()
+            })
+            .collect();
+        let input = AbsoluteInput {
+            camera_b: cam,
+            pixels_b: noisy(&exact, 0.5, 3, 0),
+            points_mm: s.points.clone(),
+            a_from_world: Rigid3::identity(),
+        };
+        for jk in [false, true] {
+            let t0 = std::time::Instant::now();
+            let lb = bootstrap_absolute(&input, 500, 7, &ransac, jk).unwrap();
+            let dt = t0.elapsed().as_secs_f64();
+            assert_eq!(lb.replicates.values.len(), 500);
+            eprintln!(
+                "OPENCV, 300 correspondences, 500 replicates, jackknife {jk}: {dt:.3} s on {} threads",
                 rayon::current_num_threads()
             );
         }
@@ -902,6 +954,39 @@ mod tests {
         a.base_mm = Some(0.0);
         let err = run(a, &global()).err().unwrap();
         assert!(format!("{err:#}").contains("--base-mm"), "{err:#}");
+    }
+
+    #[test]
+    fn run_errors_image_missing_from_database() {
+        // The fixture model with image B renamed: it is in the model but not in the database.
+        let a = run_args("cam_in/000001.png", "cam_door/000001.png", "absolute");
+        let m = Reconstruction::read(&a.model).unwrap();
+        let mut images = m.images().to_vec();
+        for im in &mut images {
+            if im.name == "cam_door/000001.png" {
+                im.name = "renamed.png".into();
+            }
+        }
+        let renamed = Reconstruction::from_records(
+            m.cameras().to_vec(),
+            m.rigs().to_vec(),
+            m.frames().to_vec(),
+            images,
+            m.points3d().to_vec(),
+        )
+        .unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        renamed
+            .write(dir.path(), crashrig_colmap::ModelFormat::Binary)
+            .unwrap();
+        let mut a = run_args("cam_in/000001.png", "renamed.png", "absolute");
+        a.model = dir.path().to_path_buf();
+        let msg = format!("{:#}", run(a, &global()).err().unwrap());
+        assert!(
+            msg.contains("\"renamed.png\" is not in the database"),
+            "{msg}"
+        );
+        assert!(msg.contains("database.db"), "{msg}");
     }
 
     #[test]
