@@ -111,7 +111,8 @@ fn parse<T>(
 
 impl Reconstruction {
     /// Reads the model in `dir` like COLMAP: binary when `cameras.bin`, `images.bin` and
-    /// `points3D.bin` all exist, else text; rigs and frames when both exist, else legacy.
+    /// `points3D.bin` all exist, else text; rigs and frames when both exist, else legacy (also
+    /// legacy, as in COLMAP, when both files exist but hold no record).
     /// Then checks the cross-file invariants (see the crate docs).
     ///
     /// # Errors
@@ -170,6 +171,8 @@ impl Reconstruction {
             binary::read_points3d,
             text::read_points3d,
         )?;
+        // COLMAP takes the legacy path whenever no rig and no frame was loaded, files or not.
+        let legacy = legacy || (rigs.is_empty() && frames.is_empty());
         Self::build(dir, format, legacy, cameras, rigs, frames, images, points)
     }
 
@@ -568,7 +571,8 @@ impl Reconstruction {
     pub fn format(&self) -> ModelFormat {
         self.format
     }
-    /// `true` when the model had no rigs/frames files (trivial rigs and frames were built).
+    /// `true` when the model had no rigs/frames files, or both were empty (trivial rigs and
+    /// frames were built, as COLMAP does).
     pub fn is_legacy(&self) -> bool {
         self.legacy
     }

@@ -232,3 +232,15 @@ fn malformed_images_txt_pairs_lines_positionally() {
     assert!(m.images().iter().all(|i| i.points2d.is_empty()));
     assert_eq!(m.image(2).map(|i| i.name.as_str()), Some("b c.png"));
 }
+
+#[test]
+fn malformed_empty_rigs_and_frames_files_mean_legacy() {
+    // COLMAP takes the legacy path when no rig and no frame was loaded, even if the files exist.
+    let tmp = copy_dir(&fixture("handwritten_txt"));
+    std::fs::write(tmp.path().join("rigs.txt"), "# Number of rigs: 0\n").expect("w");
+    std::fs::write(tmp.path().join("frames.txt"), "").expect("w");
+    let m = Reconstruction::read(tmp.path()).expect("reads as legacy");
+    assert!(m.is_legacy());
+    assert_eq!(m.rigs().len(), 2);
+    assert_eq!(m.frames().len(), 3);
+}
