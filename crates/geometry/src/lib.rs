@@ -22,7 +22,8 @@
 //! - [`so3`], [`se3`]: exp/log, Jacobians, adjoint.
 //! - [`opk::rotation_from_opk`], [`opk::opk_from_rotation`] and their derivatives.
 //! - [`angles::wrapped_stats`]: wrap-safe mean/σ/SEM of angles.
-//! - [`mean::chordal_mean`], [`mean::karcher_mean`]: rotation averages.
+//! - [`mean::chordal_mean`], [`mean::karcher_mean`]: rotation averages;
+//!   [`mean::nearest_rotation`]: projection of a 3×3 matrix onto SO(3).
 //! - [`look_at::world_from_cam_look_at`]: aim a camera without roll.
 //! - [`triangulate::dlt`], [`triangulate::dlt_covariance`]: forward intersection (n ≥ 2 views)
 //!   and its first-order covariance.

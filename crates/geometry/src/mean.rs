@@ -1,4 +1,4 @@
-//! Means of rotations: chordal (closed form) and Karcher (geodesic, iterative).
+//! Means of rotations: chordal (closed form) and Karcher (geodesic, iterative); projection onto SO(3).
 
 use crate::tolerance::CHORDAL_MIN_SINGULAR_RATIO;
 use crate::{Error, Mat3, Rot3, Vec3, so3};
@@ -23,8 +23,20 @@ pub fn chordal_mean(rs: &[Rot3]) -> Result<Rot3, Error> {
     project_to_so3(&sum, "chordal mean: sum of rotations has rank < 2")
 }
 
+/// Nearest rotation to `m` in the Frobenius norm (SVD, determinant fixed to +1), e.g. to
+/// re-orthonormalise a matrix that drifted or to project a linear estimate onto SO(3).
+///
+/// # Errors
+/// [`Error::NonFinite`] for NaN/∞ entries, [`Error::Degenerate`] when `m` has rank < 2.
+pub fn nearest_rotation(m: &Mat3) -> Result<Rot3, Error> {
+    if m.iter().any(|v| !v.is_finite()) {
+        return Err(Error::NonFinite { what: "matrix" });
+    }
+    project_to_so3(m, "nearest rotation: matrix has rank < 2")
+}
+
 /// Nearest rotation to `m` (Frobenius), with the determinant fixed to +1.
-pub(crate) fn project_to_so3(m: &Mat3, what: &'static str) -> Result<Rot3, Error> {
+fn project_to_so3(m: &Mat3, what: &'static str) -> Result<Rot3, Error> {
     let svd = m.svd(true, true);
     let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
         return Err(Error::Degenerate {

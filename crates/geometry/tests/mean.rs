@@ -1,8 +1,8 @@
 //! Rotation means: known answers, invariance, optimality, errors.
 
 use approx::assert_abs_diff_eq;
-use crashrig_geometry::mean::{chordal_mean, karcher_mean};
-use crashrig_geometry::{Error, Rot3, Vec3, so3};
+use crashrig_geometry::mean::{chordal_mean, karcher_mean, nearest_rotation};
+use crashrig_geometry::{Error, Mat3, Rot3, Vec3, so3};
 use crashrig_testkit::strategies::{rot3, rotation_vector};
 use proptest::prelude::*;
 
@@ -35,6 +35,34 @@ fn chordal_mean_single() {
         0.0,
         epsilon = 1e-14
     );
+}
+
+#[test]
+fn nearest_rotation_nominal() {
+    let r = so3::exp(&Vec3::new(0.4, -2.2, 1.0));
+    // A rotation scaled and slightly sheared projects back onto (nearly) itself.
+    let m = r.matrix() * 3.0 + Mat3::new(0.0, 1e-9, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    let p = nearest_rotation(&m).unwrap();
+    assert_abs_diff_eq!(so3::angular_distance(&p, &r), 0.0, epsilon = 1e-9);
+    assert_abs_diff_eq!(p.matrix().determinant(), 1.0, epsilon = 1e-14);
+    // A reflection is mapped to a proper rotation.
+    let reflection = Mat3::from_diagonal(&Vec3::new(1.0, 1.0, -1.0)) * r.matrix();
+    assert_abs_diff_eq!(
+        nearest_rotation(&reflection)
+            .unwrap()
+            .matrix()
+            .determinant(),
+        1.0,
+        epsilon = 1e-14
+    );
+    assert!(matches!(
+        nearest_rotation(&Mat3::zeros()),
+        Err(Error::Degenerate { .. })
+    ));
+    assert!(matches!(
+        nearest_rotation(&(Mat3::identity() * f64::NAN)),
+        Err(Error::NonFinite { .. })
+    ));
 }
 
 #[test]

@@ -12,7 +12,8 @@
 //! - Every random scene takes an explicit seed (ChaCha8).
 //!
 //! # Entry points
-//! - [`pose::assert_rigid_near`], [`pose::rigid_near`] (and `_abs` variants).
+//! - [`pose::assert_rigid_near`], [`pose::rigid_near`] (and `_abs` variants),
+//!   [`pose::assert_rot3_near`].
 //! - [`strategies`]: `rot3()`, `rigid3()`, `vec3_in(r)`, `opk_away_from_gimbal()`, ...
 //! - [`fd::central_jacobian`], [`fd::central_derivative`]: finite-difference Jacobians.
 //! - [`scene::rig_sequence`], [`scene::two_view_scene`], [`scene::paper_a_from_b`].

@@ -1,6 +1,6 @@
 //! Pose comparison: angular distance for the rotation, relative (or absolute at zero) translation.
 
-use crashrig_geometry::{Rigid3, so3};
+use crashrig_geometry::{Rigid3, Rot3, so3};
 use std::fmt;
 
 /// Why two poses are not near each other.
@@ -98,6 +98,26 @@ pub fn rigid_near_abs(
     let a = Rigid3::from_parts(shift * actual.translation, actual.rotation);
     let e = Rigid3::from_parts(nalgebra::Translation3::identity(), expected.rotation);
     rigid_near(&a, &e, rot_tol_rad, trans_tol_mm)
+}
+
+/// Assert that two rotations are within `tol_rad` angular distance (NaN never matches).
+#[track_caller]
+pub fn assert_rot3_near(actual: &Rot3, expected: &Rot3, tol_rad: f64) {
+    let finite = actual
+        .matrix()
+        .iter()
+        .chain(expected.matrix().iter())
+        .all(|v| v.is_finite());
+    let angle = if finite {
+        so3::angular_distance(expected, actual)
+    } else {
+        f64::NAN
+    };
+    if angle.is_nan() || angle > tol_rad {
+        panic!(
+            "rotations not near: angular distance {angle:e} rad (tolerance {tol_rad:e} rad)\n  actual:   {actual}\n  expected: {expected}"
+        );
+    }
 }
 
 /// Assert [`rigid_near`], panicking with both poses and the reason otherwise.

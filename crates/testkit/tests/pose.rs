@@ -2,7 +2,8 @@
 
 use crashrig_geometry::{Rigid3, Vec3};
 use crashrig_testkit::pose::{
-    PoseMismatch, assert_rigid_near, assert_rigid_near_abs, rigid_near, rigid_near_abs,
+    PoseMismatch, assert_rigid_near, assert_rigid_near_abs, assert_rot3_near, rigid_near,
+    rigid_near_abs,
 };
 use nalgebra::{Translation3, UnitQuaternion};
 
@@ -90,4 +91,14 @@ fn assert_rigid_near_panics_on_mismatch() {
     let a = pose(Vec3::new(0.5, 0.0, 0.0), Vec3::new(1.0, 2.0, 3.0));
     let caught = std::panic::catch_unwind(|| assert_rigid_near(&a, &e, 1e-3, 1e-3));
     assert!(caught.is_err());
+}
+
+#[test]
+fn assert_rot3_near_nominal() {
+    let a = UnitQuaternion::from_scaled_axis(Vec3::new(0.2, 0.0, -0.1)).to_rotation_matrix();
+    let b = a * UnitQuaternion::from_scaled_axis(Vec3::new(0.0, 1e-4, 0.0)).to_rotation_matrix();
+    assert_rot3_near(&a, &b, 1.1e-4);
+    assert!(std::panic::catch_unwind(|| assert_rot3_near(&a, &b, 0.9e-4)).is_err());
+    let nan = crashrig_geometry::Rot3::from_matrix_unchecked(a.matrix() * f64::NAN);
+    assert!(std::panic::catch_unwind(|| assert_rot3_near(&nan, &a, 10.0)).is_err());
 }
