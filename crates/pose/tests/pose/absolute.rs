@@ -274,3 +274,63 @@ fn estimate_absolute_pose_errors() {
         }
     );
 }
+
+#[test]
+fn link_parameters_nominal_paper_link() {
+    // The contract's convention: base = B's centre in A (the translation of A_from_B), angles
+    // ω φ κ of R_A_from_B; the paper's link is (61.98, −1.71, 179.76) mm, (179.92, −0.09,
+    // 179.76)°.
+    let p = crashrig_pose::link_parameters(&crashrig_testkit::scene::paper_a_from_b());
+    let expected = [61.98, -1.71, 179.76];
+    for k in 0..3 {
+        // Stored exactly; rounding only.
+        approx::assert_abs_diff_eq!(p[k], expected[k], epsilon = 1e-12);
+    }
+    let angles = [179.92_f64, -0.09, 179.76];
+    for k in 0..3 {
+        // opk → R → opk away from gimbal lock: ~1e-15 rad.
+        approx::assert_abs_diff_eq!(p[3 + k], angles[k].to_radians(), epsilon = 1e-12);
+    }
+}
+
+#[test]
+fn link_covariance_absolute_matches_monte_carlo() {
+    // Draw ξ ~ N(0, Σ) in B's left tangent, map through the link, compare the sample σ of the
+    // six parameters with the first-order σ. Σ is small (1e-4 rad, 0.5 mm), so the map is
+    // linear to < 1e-3 relative; 4000 draws give σ to ±1.1 % (1 s.e.); allow 5 %.
+    use rand::RngExt;
+    let a_from_world = crashrig_testkit::scene::paper_a_from_b().inverse();
+    let b_from_world = b_from_world();
+    let mut cov = crashrig_geometry::Mat6::zeros();
+    for k in 0..3 {
+        cov[(k, k)] = 1e-8;
+        cov[(k + 3, k + 3)] = 0.25;
+    }
+    cov[(0, 4)] = 2e-5;
+    cov[(4, 0)] = 2e-5;
+    let lin = crashrig_pose::link_covariance_absolute(&a_from_world, &b_from_world, &cov);
+    let l = cov.cholesky().unwrap().l();
+    let mut rng = crashrig_stats::stream(17, 0);
+    let mut m = crashrig_stats::Moments::<6>::new();
+    let p0 = crashrig_pose::link_parameters(&(a_from_world * b_from_world.inverse()));
+    for _ in 0..4000 {
+        let z = Vec6::from_fn(|_, _| rng.sample(rand_distr::StandardNormal));
+        let xi = l * z;
+        let p = crashrig_pose::link_parameters(
+            &(a_from_world * (se3::exp(&xi) * b_from_world).inverse()),
+        );
+        let d: [f64; 6] = std::array::from_fn(|k| {
+            let v = p[k] - p0[k];
+            if k >= 3 {
+                crashrig_geometry::angles::wrap_pi(v)
+            } else {
+                v
+            }
+        });
+        m.push(&d);
+    }
+    let sd = m.std_dev();
+    for k in 0..6 {
+        approx::assert_relative_eq!(sd[k], lin[(k, k)].sqrt(), max_relative = 0.05);
+    }
+}
