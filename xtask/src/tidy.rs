@@ -13,13 +13,13 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
     ("crashrig-geometry", &[]),
     ("crashrig-stats", &[]),
     ("crashrig-plot", &[]),
-    ("crashrig-camera", &["crashrig-geometry"]),
+    ("crashrig-camera", &[]),
     ("crashrig-colmap", &["crashrig-geometry", "crashrig-camera"]),
     ("crashrig-rig", &["crashrig-geometry", "crashrig-colmap", "crashrig-stats"]),
     ("crashrig-pose", &["crashrig-geometry", "crashrig-camera", "crashrig-stats"]),
     ("crashrig-bootstrap", &["crashrig-stats"]),
     ("crashrig-mc", &["crashrig-geometry", "crashrig-stats"]),
-    ("crashrig-testkit", &["crashrig-geometry", "crashrig-camera"]),
+    ("crashrig-testkit", &["crashrig-geometry"]),
     (
         "crashrig-cli",
         &[
