@@ -1,6 +1,6 @@
 //! Camera pose estimators on nalgebra: resection (P3P in seeded LO-RANSAC, then
 //! Levenberg–Marquardt on the reprojection error through the real camera model) and relative
-//! orientation (8-point essential matrix in seeded LO-RANSAC, cheirality, Levenberg–Marquardt on
+//! orientation (5-point essential matrix in seeded LO-RANSAC, cheirality, Levenberg–Marquardt on
 //! the Sampson error), each with its first-order covariance `σ₀²(JᵀJ)⁻¹`.
 //!
 //! # Conventions
@@ -21,7 +21,8 @@
 //! # Entry points
 //! - [`estimate_absolute_pose`], [`refine_absolute_pose`]: resection of one camera.
 //! - [`estimate_relative_pose`], [`refine_relative_pose`], [`normalize_pixels`]: two views.
-//! - [`p3p()`], [`essential_8point`], [`poses_from_essential`]: the minimal solvers.
+//! - [`p3p()`], [`essential_5point`], [`essential_8point`], [`poses_from_essential`]: the
+//!   minimal (and linear) solvers.
 //! - [`link_parameters`], [`link_covariance_absolute`], [`link_covariance_relative`],
 //!   [`scaled_a_from_b`]: the rig link `A_from_B` as base and ω φ κ with first-order σ.
 //!
@@ -54,6 +55,7 @@
 
 mod absolute;
 mod error;
+mod fivept;
 mod link;
 mod lm;
 mod p3p;
@@ -66,6 +68,7 @@ pub use absolute::{
     refine_absolute_pose,
 };
 pub use error::{Degeneracy, Error};
+pub use fivept::essential_5point;
 pub use link::{
     link_covariance_absolute, link_covariance_relative, link_parameters, scaled_a_from_b,
 };

@@ -1,12 +1,13 @@
-//! Relative orientation: normalized 8-point essential matrix in seeded LO-RANSAC, cheirality,
-//! Levenberg–Marquardt on the Sampson error over rotation × the sphere of translation
-//! directions, with the first-order covariance; metric scale from a given base length.
+//! Relative orientation: 5-point essential matrix (Stewénius–Engels–Nistér, [`essential_5point`])
+//! in seeded LO-RANSAC, cheirality, Levenberg–Marquardt on the Sampson error over rotation × the
+//! sphere of translation directions, with the first-order covariance; metric scale from a given
+//! base length.
 //!
-//! The minimal solver is the linear 8-point algorithm (Longuet-Higgins 1981, with the
-//! essential-matrix projection of Hartley & Zisserman §11.1/§9.6), not Nistér's 5-point: it is
-//! exact on noise-free data and needs 8 instead of 5 samples per hypothesis, which only costs
-//! iterations at high outlier rates.
+//! The local optimisation of LO-RANSAC re-estimates E from all current inliers with the linear
+//! 8-point algorithm (Longuet-Higgins 1981, with the essential-matrix projection of Hartley &
+//! Zisserman §9.6), then LM refines the final pose.
 
+use crate::fivept::essential_5point;
 use crate::lm::{self, Problem};
 use crate::ransac::{RansacOptions, needed_iterations, sample_distinct};
 use crate::{Degeneracy, Error, Projector};
@@ -421,7 +422,7 @@ fn score(e: &Matrix3<f64>, xa: &[Vector2<f64>], xb: &[Vector2<f64>], th: f64) ->
 }
 
 /// Estimates `b_from_a` (unit translation) from normalized image correspondences
-/// `xa[i] ↔ xb[i]`: 8-point hypotheses in a seeded LO-RANSAC scored by the Sampson error
+/// `xa[i] ↔ xb[i]`: 5-point hypotheses in a seeded LO-RANSAC scored by the Sampson error
 /// (threshold `options.max_error_px / focal_px`), cheirality to pick among the four
 /// decompositions, then Levenberg–Marquardt on the inliers with the first-order covariance.
 ///
@@ -446,36 +447,36 @@ pub fn estimate_relative_pose(
     let mut iterations = 0;
     while iterations < target.min(options.max_iterations) {
         iterations += 1;
-        let s = sample_distinct::<8>(&mut rng, n);
-        let sa: Vec<Vector2<f64>> = s.iter().map(|&i| xa[i]).collect();
-        let sb: Vec<Vector2<f64>> = s.iter().map(|&i| xb[i]).collect();
-        let Some(e) = essential_8point(&sa, &sb) else {
-            continue;
-        };
-        let (sc, inl) = score(&e, xa, xb, th);
-        if best.as_ref().is_some_and(|(bs, _, _)| sc >= *bs) {
-            continue;
-        }
-        let mut cand = (sc, e, inl);
-        // Local optimisation: re-estimate from all inliers (linear), keep if better.
-        if cand.2.len() > 8 {
-            let la: Vec<Vector2<f64>> = cand.2.iter().map(|&i| xa[i]).collect();
-            let lb: Vec<Vector2<f64>> = cand.2.iter().map(|&i| xb[i]).collect();
-            if let Some(e2) = essential_8point(&la, &lb) {
-                let (sc2, inl2) = score(&e2, xa, xb, th);
-                if sc2 < cand.0 {
-                    cand = (sc2, e2, inl2);
+        let s = sample_distinct::<5>(&mut rng, n);
+        let sa: [Vector2<f64>; 5] = s.map(|i| xa[i]);
+        let sb: [Vector2<f64>; 5] = s.map(|i| xb[i]);
+        for e in essential_5point(&sa, &sb) {
+            let (sc, inl) = score(&e, xa, xb, th);
+            if best.as_ref().is_some_and(|(bs, _, _)| sc >= *bs) {
+                continue;
+            }
+            let mut cand = (sc, e, inl);
+            // Local optimisation: re-estimate from all inliers (linear 8-point), keep if
+            // better.
+            if cand.2.len() > 8 {
+                let la: Vec<Vector2<f64>> = cand.2.iter().map(|&i| xa[i]).collect();
+                let lb: Vec<Vector2<f64>> = cand.2.iter().map(|&i| xb[i]).collect();
+                if let Some(e2) = essential_8point(&la, &lb) {
+                    let (sc2, inl2) = score(&e2, xa, xb, th);
+                    if sc2 < cand.0 {
+                        cand = (sc2, e2, inl2);
+                    }
                 }
             }
+            let ratio = cand.2.len() as f64 / n as f64;
+            target = options.min_iterations.max(needed_iterations(
+                ratio,
+                5,
+                options.confidence,
+                options.max_iterations,
+            ));
+            best = Some(cand);
         }
-        let ratio = cand.2.len() as f64 / n as f64;
-        target = options.min_iterations.max(needed_iterations(
-            ratio,
-            8,
-            options.confidence,
-            options.max_iterations,
-        ));
-        best = Some(cand);
     }
     let best_count = best.as_ref().map_or(0, |b| b.2.len());
     let Some((_, e, inliers)) = best.filter(|(_, _, inl)| inl.len() >= needed) else {
