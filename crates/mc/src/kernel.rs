@@ -11,7 +11,7 @@ use nalgebra::{Matrix3, Vector3};
 
 /// Squared angle below which `sin θ/θ` and `(1 − cos θ)/θ²` use their Taylor series
 /// (truncation error below θ⁸/9! ≈ 3e-18 for θ² < 1e-3).
-const SMALL_ANGLE_SQ: f64 = 1e-3;
+pub(crate) const SMALL_ANGLE_SQ: f64 = 1e-3;
 
 /// `(sin θ/θ, (1 − cos θ)/θ²)` for `θ² = t`.
 #[inline(always)]

@@ -75,6 +75,7 @@
 //! ```
 #![deny(missing_docs)]
 
+mod accumulate;
 mod chain;
 mod error;
 mod grid;

@@ -205,6 +205,8 @@ fn detail_csv(r: &GridResult) -> anyhow::Result<Vec<u8>> {
 }
 
 struct MapSpec<'a> {
+    /// Colour range; `None` = data range.
+    range: Option<(f64, f64)>,
     stem: &'a str,
     title: &'a str,
     bar: &'a str,
@@ -271,22 +273,31 @@ pub fn run(a: GridArgs, g: &Global) -> anyhow::Result<()> {
         let ys = grid.y.values();
         let zs = grid.z.values();
         let per_z = xs.len() * ys.len();
+        // σ maps share one colour scale, 0 to 3× the threshold (larger values saturate), so
+        // the region below the threshold stays readable next to the degenerate zones.
+        let top = 3.0 * grid.threshold_mm;
+        let sat = Some((0.0, top));
+        let sat_label = format!("sigma_max [mm] (>= {top} saturated)");
+        let sat_label_lin = format!("linear sigma_max [mm] (>= {top} saturated)");
         let specs = [
             MapSpec {
+                range: sat,
                 stem: "sigma_max",
                 title: "Monte Carlo sigma_max",
-                bar: "sigma_max [mm]",
+                bar: &sat_label,
                 threshold: Some(grid.threshold_mm),
                 value: |p| p.sigma_max_mm,
             },
             MapSpec {
+                range: sat,
                 stem: "linear_sigma_max",
                 title: "First-order sigma_max",
-                bar: "linear sigma_max [mm]",
+                bar: &sat_label_lin,
                 threshold: Some(grid.threshold_mm),
                 value: |p| p.linear_sigma_max_mm(),
             },
             MapSpec {
+                range: None,
                 stem: "ratio_mc_linear",
                 title: "sigma_max Monte Carlo / first order",
                 bar: "ratio [-]",
@@ -330,7 +341,7 @@ pub fn run(a: GridArgs, g: &Global) -> anyhow::Result<()> {
                     colorbar_label: spec.bar,
                     threshold: spec.threshold,
                     markers: &markers,
-                    value_range: None,
+                    value_range: spec.range,
                 };
                 for (fmt, ext) in [(Format::Png, "png"), (Format::Svg, "svg")] {
                     let bytes = crashrig_plot::heatmap(&map, fmt)
