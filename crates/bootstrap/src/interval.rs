@@ -170,6 +170,30 @@ mod tests {
     }
 
     #[test]
+    fn sigma_proportion_is_binomial() {
+        // Resampling n Bernoulli items with replacement makes the count Binomial(n, p̂) exactly,
+        // so the ideal bootstrap σ of the proportion is √(p̂(1 − p̂)/n).
+        let n = 60;
+        let data: Vec<f64> = (0..n).map(|i| f64::from(u8::from(i % 5 < 2))).collect();
+        let p_hat = 0.4;
+        let ideal = (p_hat * (1.0 - p_hat) / n as f64).sqrt();
+        let b = 4000;
+        let v: Vec<f64> = run(n, b, 21, |idx| mean_at(&data, idx))
+            .unwrap()
+            .values_only()
+            .copied()
+            .collect();
+        // Binomial(60, 0.4) is close to normal (excess kurtosis −0.03), so σ from B replicates
+        // has relative standard error ≈ 1/√(2(B − 1)) = 1.1 %; 4 of those is 4.5 %.
+        assert_relative_eq!(sigma(&v).unwrap(), ideal, max_relative = 0.045);
+        assert_abs_diff_eq!(
+            bias(&v, p_hat).unwrap(),
+            0.0,
+            epsilon = 4.0 * ideal / (b as f64).sqrt()
+        );
+    }
+
+    #[test]
     fn percentile_interval_nominal_mean_of_normal_data() {
         // For the mean the replicate distribution is ~N(x̄, ideal²): the 95 % percentile interval
         // is x̄ ± 1.96·ideal up to Monte Carlo error of the 2.5 % quantile (≈ 2.3·ideal/√B·…).
