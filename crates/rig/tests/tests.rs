@@ -141,6 +141,25 @@ mod paper {
     }
 
     #[test]
+    fn paper_scale_is_linear() {
+        // Doubling mm per unit doubles base, σ and SEM and leaves the angles untouched.
+        let f = expected("paper")["mm_per_unit"].as_f64().unwrap();
+        let one = run("paper", f);
+        let two = run("paper", 2.0 * f);
+        for k in 0..3 {
+            // Products by 2 are exact; the remaining differences are summation rounding.
+            assert_abs_diff_eq!(two.all.base_mm[k], 2.0 * one.all.base_mm[k], epsilon = 1e-9);
+            assert_abs_diff_eq!(
+                two.all.base_sigma_mm[k],
+                2.0 * one.all.base_sigma_mm[k],
+                epsilon = 1e-9
+            );
+            assert_abs_diff_eq!(two.all.angles[k], one.all.angles[k], epsilon = 1e-15);
+        }
+        assert_eq!(two.outliers.indices(), one.outliers.indices());
+    }
+
+    #[test]
     fn paper_refinement_agrees_with_epoch_statistics() {
         let e = expected("paper");
         let c = run("paper", e["mm_per_unit"].as_f64().unwrap());
