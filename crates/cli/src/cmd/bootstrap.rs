@@ -16,6 +16,9 @@
 //! wrap-safe for angles), `ci95` the percentile interval, plus BCa intervals and the
 //! first-order (covariance) σ as extensions.
 //!
+//! With `relative`, the base length (model or `--base-mm`) is held fixed: the reported σ of the
+//! base comes from the direction and rotation only, not from the scale.
+//!
 //! Angle intervals and histograms are taken on the replicate values unwrapped about the
 //! estimate (within ±180° of it), so an interval around ω ≈ 180° may read `[179.9, 180.1]`.
 //!
