@@ -123,9 +123,9 @@ pub fn refine_absolute_pose<C: Projector>(
 ) -> Result<AbsoluteRefinement, Error> {
     check_inputs(pixels, points)?;
     if let Some(&bad) = indices.iter().find(|&&i| i >= pixels.len()) {
-        return Err(Error::TooFewCorrespondences {
-            needed: bad + 1,
-            found: pixels.len(),
+        return Err(Error::IndexOutOfRange {
+            index: bad,
+            len: pixels.len(),
         });
     }
     refine_unchecked(camera, pixels, points, indices, init, lm::MAX_ITERATIONS)

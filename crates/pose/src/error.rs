@@ -20,6 +20,14 @@ pub enum Error {
         /// Number given (or inliers left).
         found: usize,
     },
+    /// A correspondence index (e.g. of a resample) is outside the correspondence list.
+    #[error("correspondence index {index} is out of range (only {len} correspondences)")]
+    IndexOutOfRange {
+        /// The offending index.
+        index: usize,
+        /// Number of correspondences.
+        len: usize,
+    },
     /// An input coordinate is NaN or infinite.
     #[error("correspondence {index} is not finite")]
     NotFinite {

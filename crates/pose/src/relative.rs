@@ -262,9 +262,9 @@ pub fn refine_relative_pose(
 ) -> Result<RelativeRefinement, Error> {
     check_pairs(xa, xb)?;
     if let Some(&bad) = indices.iter().find(|&&i| i >= xa.len()) {
-        return Err(Error::TooFewCorrespondences {
-            needed: bad + 1,
-            found: xa.len(),
+        return Err(Error::IndexOutOfRange {
+            index: bad,
+            len: xa.len(),
         });
     }
     refine_unchecked(xa, xb, indices, init, lm::MAX_ITERATIONS)

@@ -247,6 +247,11 @@ fn estimate_absolute_pose_errors() {
         estimate_absolute_pose(&cam, &junk, &s.points, &opts).unwrap_err(),
         Error::NoConsensus { needed: 15, .. }
     ));
+    let truth0 = b_from_world();
+    assert_eq!(
+        refine_absolute_pose(&cam, &s.px_b, &s.points, &[0, 1, 2, 30], &truth0).unwrap_err(),
+        Error::IndexOutOfRange { index: 30, len: 30 }
+    );
     // A resample made of one correspondence repeated.
     let truth = b_from_world();
     assert_eq!(
