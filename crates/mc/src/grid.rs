@@ -135,7 +135,8 @@ fn aim(
 
 impl GridStudy {
     /// Prepares the study of `scenario`'s grid. `sigma_from` observers get the σ of the chain's
-    /// Monte Carlo propagation (`samples` draws, seed `seed`), tangent σ for `tangent` noise
+    /// Monte Carlo propagation (max(`samples`, [`CHAIN_SAMPLES_MIN`]) draws, a seed derived
+    /// from `seed`), tangent σ for `tangent` noise
     /// and ω φ κ σ for `euler` noise.
     pub fn new(scenario: &Scenario, samples: usize, seed: u64) -> Result<Self, Error> {
         let grid = scenario.grid.clone().ok_or(Error::NoGrid)?;
@@ -145,7 +146,7 @@ impl GridStudy {
             .iter()
             .any(|o| matches!(o.sigma, ObserverSigma::From(_)));
         let mc = if needs_chain {
-            chain.monte_carlo(samples.max(2), seed ^ CHAIN_SEED_SALT)
+            chain.monte_carlo(samples.max(CHAIN_SAMPLES_MIN), seed ^ CHAIN_SEED_SALT)
         } else {
             Vec::new()
         };
@@ -304,6 +305,9 @@ impl GridStudy {
     }
 }
 
+/// Smallest number of chain draws used to resolve `sigma_from` (σ to ≈ 0.2 %).
+pub const CHAIN_SAMPLES_MIN: usize = 100_000;
+
 /// Salt of the seed of the chain propagation that resolves `sigma_from`.
 const CHAIN_SEED_SALT: u64 = 0x5EED_C4A1_0000_0001;
 
@@ -407,7 +411,7 @@ fn add_view(n: &mut Normal3, r: &Matrix3<f64>, c: &Vector3<f64>, x: f64, y: f64)
     n.add_row(&(c3 * y - c2), c);
 }
 
-/// Inputs per observer in [`intersection_jacobian`] / [`intersect_perturbed`]: δC (3, mm),
+/// Inputs per observer of the intersection Jacobian behind the first-order map: δC (3, mm),
 /// rotation (3, rad, in the scenario's noise meaning), pixel (2, normalized).
 pub const INPUTS_PER_OBSERVER: usize = 8;
 

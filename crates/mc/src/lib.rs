@@ -15,8 +15,10 @@
 //!   down) and observe it at the principal point (plus optional pixel noise); each draw is
 //!   forward-intersected by the inhomogeneous linear least-squares DLT in normalized image
 //!   coordinates; at the principal point this equals the point closest to all rays.
-//! - σ is the sample standard deviation (n − 1). Statistics are streamed
-//!   ([`crashrig_stats::Moments`]): memory does not grow with the number of draws.
+//! - σ is the sample standard deviation (n − 1). Statistics are streamed: memory does not
+//!   grow with the number of draws ([`crashrig_stats::Moments`] for the chain; for the grid,
+//!   sums of deviations from the grid point, which vectorise and need no per-draw division).
+//! - Normals come from [`FastNormal`], a 256-layer ziggurat over the ChaCha8 streams.
 //! - Determinism: work is cut into fixed chunks of [`CHUNK`] draws, chunk k drawing from
 //!   `crashrig_stats::stream(seed, k)`, merged in index order: the same seed gives
 //!   bit-identical results on any number of threads.
@@ -85,7 +87,7 @@ mod scenario;
 
 pub use chain::{Chain, PoseLinear, PoseMc, WorldPose};
 pub use error::Error;
-pub use grid::{GridResult, GridStudy, INPUTS_PER_OBSERVER, PointStats};
+pub use grid::{CHAIN_SAMPLES_MIN, GridResult, GridStudy, INPUTS_PER_OBSERVER, PointStats};
 pub use normal::FastNormal;
 pub use scenario::{
     Adaptive, Axis, Camera, Grid, Observer, ObserverSigma, PixelNoise, PoseSigma, RotationNoise,
