@@ -624,6 +624,19 @@ impl Reconstruction {
         let i = *self.image_idx.get(&image_id)?;
         self.cam_from_world.get(i).copied().flatten()
     }
+    /// How far the pose stored in `images.*` is from the pose COLMAP uses (composed from the
+    /// frame and rig): `(rotation angle in rad, translation difference in model units)`. COLMAP
+    /// ignores the stored pose when rigs and frames exist, and some tools have written
+    /// inconsistent ones (colmap#4752); both are `0` for a legacy model. `None` when the image
+    /// does not exist or either pose is unavailable.
+    pub fn stored_pose_deviation(&self, image_id: u32) -> Option<(f64, f64)> {
+        let used = self.image_cam_from_world(image_id)?;
+        let stored = self.image(image_id)?.stored_cam_from_world.to_rigid()?;
+        let angle = used.rotation.angle_to(&stored.rotation);
+        let dt = (used.translation.vector - stored.translation.vector).norm();
+        Some((angle, dt))
+    }
+
     /// 3-D points in file order.
     pub fn points3d(&self) -> &[Point3D] {
         &self.points

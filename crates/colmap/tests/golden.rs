@@ -254,3 +254,34 @@ fn golden_legacy_builds_trivial_rigs_and_frames() {
         assert_abs_diff_eq!(a.translation.vector, b.translation.vector, epsilon = 1e-13);
     }
 }
+
+#[test]
+fn golden_stored_pose_matches_composed_pose() {
+    let m = Reconstruction::read(&crate::common::fixture("rig_opencv/bin")).expect("reads");
+    for im in m.images() {
+        let (angle, dt) = m.stored_pose_deviation(im.image_id).expect("both poses");
+        // pycolmap wrote the composed pose into images.bin: equal to rounding.
+        assert_abs_diff_eq!(angle, 0.0, epsilon = 1e-7); // angle_to of nearly equal unit quaternions: ~sqrt(ulp)
+        assert_abs_diff_eq!(dt, 0.0, epsilon = 1e-13);
+    }
+    // A deliberately inconsistent images.txt pose is reported, and ignored for the used pose.
+    let tmp = crate::common::copy_dir(&crate::common::fixture("rig_opencv/txt"));
+    let p = tmp.path().join("images.txt");
+    let text = std::fs::read_to_string(&p).expect("read");
+    let mut lines: Vec<String> = text.split('\n').map(str::to_owned).collect();
+    let mut toks: Vec<String> = lines[4].split(' ').map(str::to_owned).collect();
+    toks[7] = "100".into(); // TZ of the first image
+    lines[4] = toks.join(" ");
+    std::fs::write(&p, lines.join("\n")).expect("write");
+    let bad = Reconstruction::read(tmp.path()).expect("reads");
+    let id = bad.images()[0].image_id;
+    let (_, dt) = bad.stored_pose_deviation(id).expect("both poses");
+    assert!(dt > 90.0, "deviation {dt}");
+    let used = bad.image_cam_from_world(id).expect("pose");
+    let reference = m.image_cam_from_world(id).expect("pose");
+    assert_abs_diff_eq!(
+        used.translation.vector,
+        reference.translation.vector,
+        epsilon = 0.0
+    );
+}

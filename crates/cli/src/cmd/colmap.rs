@@ -62,6 +62,7 @@ fn model_info(dir: &Path, g: &Global) -> anyhow::Result<()> {
         "points3D": model.points3d().len(),
         "observations": model.num_observations(),
     });
+    warn_stored_pose_deviation(&model);
     if g.json {
         return crate::output::print_json(&info);
     }
@@ -82,6 +83,34 @@ fn model_info(dir: &Path, g: &Global) -> anyhow::Result<()> {
     println!("  points3D      {}", model.points3d().len());
     println!("  observations  {}", model.num_observations());
     Ok(())
+}
+
+/// COLMAP uses the rig/frame pose and ignores the one in images.*; say so on stderr when they
+/// disagree (colmap#4752), since other tools may read the images.* pose.
+fn warn_stored_pose_deviation(model: &Reconstruction) {
+    let mut worst: Option<(u32, f64, f64)> = None;
+    let mut count = 0usize;
+    for im in model.images() {
+        let Some((angle, dt)) = model.stored_pose_deviation(im.image_id) else {
+            continue;
+        };
+        let scale = model
+            .image_cam_from_world(im.image_id)
+            .map_or(1.0, |p| p.translation.vector.norm().max(1.0));
+        if angle > 1e-6 || dt > 1e-6 * scale {
+            count += 1;
+            if worst.is_none_or(|(_, a, d)| angle + dt / scale > a + d / scale) {
+                worst = Some((im.image_id, angle, dt));
+            }
+        }
+    }
+    if let Some((id, angle, dt)) = worst {
+        eprintln!(
+            "warning: {count} image(s) store a pose in images.* that differs from the rig/frame pose COLMAP uses \
+             (worst: image {id}, {:.3e} deg, {dt:.3e} model units); the rig/frame pose is used",
+            angle.to_degrees()
+        );
+    }
 }
 
 fn database_info(path: &Path, g: &Global) -> anyhow::Result<()> {
@@ -108,7 +137,10 @@ fn database_info(path: &Path, g: &Global) -> anyhow::Result<()> {
     println!("  frames          {}", c.frames);
     println!("  keypoints       {} images", c.keypoints);
     println!("  matched pairs   {}", c.matched_pairs);
-    println!("  verified pairs  {} (with at least one inlier)", c.verified_pairs);
+    println!(
+        "  verified pairs  {} (with at least one inlier)",
+        c.verified_pairs
+    );
     Ok(())
 }
 
