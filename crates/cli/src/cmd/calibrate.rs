@@ -460,6 +460,26 @@ fn text_report(a: &CalibrateArgs, set: &EpochSet, scale: &Scale, c: &Calibration
             );
         }
     }
+    if let (Some(r), Some(w)) = (&c.refined_without_outliers, &c.without_outliers) {
+        let _ = writeln!(
+            o,
+            "Rig-constrained refinement without the {} outlier epoch(s) ({} epochs):",
+            idx.len(),
+            w.n
+        );
+        for (j, name) in PARAMS.iter().enumerate() {
+            let (v, sd, d) = if j < 3 {
+                (r.base_mm[j], r.base_sigma_mm[j], 3)
+            } else {
+                (
+                    r.angles[j - 3].to_degrees(),
+                    r.angles_sigma[j - 3].to_degrees(),
+                    4,
+                )
+            };
+            let _ = writeln!(o, "  {name:<8}{:>43.d$} ± {:>8.d$}", v, sd, d = d);
+        }
+    }
     o
 }
 
@@ -526,6 +546,24 @@ pub fn write_plots(dir: &Path, c: &Calibration) -> anyhow::Result<()> {
             .with_context(|| format!("plotting the {} histogram", PARAMS[j]))?;
             let path = dir.join(format!("hist_{}.{ext}", PARAMS[j]));
             crate::output::write_atomic(&path, &bytes)?;
+            if let Some(d) = &c.drift {
+                let r = &d.autocorrelation[j];
+                let lags: Vec<f64> = (1..=r.len()).map(|k| k as f64).collect();
+                let bytes = series(
+                    &lags,
+                    r,
+                    &format!(
+                        "autocorrelation of {} (white-noise bound {:.3})",
+                        LABELS[j], d.white_noise_band
+                    ),
+                    "lag [epochs]",
+                    "r",
+                    fmt,
+                )
+                .with_context(|| format!("plotting the {} autocorrelation", PARAMS[j]))?;
+                let path = dir.join(format!("acf_{}.{ext}", PARAMS[j]));
+                crate::output::write_atomic(&path, &bytes)?;
+            }
         }
     }
     Ok(())
