@@ -420,6 +420,25 @@ fn scale_pose(p: &Rigid3, k: f64) -> Rigid3 {
 
 /// Runs `crashrig bootstrap`.
 pub fn run(a: BootstrapArgs, g: &Global) -> anyhow::Result<()> {
+    let r = compute(&a, g.seed.unwrap_or(DEFAULT_SEED))?;
+    if g.json {
+        return crate::output::print_json(&r.json);
+    }
+    print!("{}", r.text);
+    Ok(())
+}
+
+/// A finished bootstrap, not yet printed (for `crashrig paper` and other in-process callers).
+pub struct BootstrapRun {
+    /// The contract's JSON document with the extension fields.
+    pub json: serde_json::Value,
+    /// The text report.
+    pub text: String,
+}
+
+/// Runs the bootstrap as `crashrig bootstrap` does (plots included when `--plots` is given),
+/// without printing.
+pub fn compute(a: &BootstrapArgs, seed: u64) -> anyhow::Result<BootstrapRun> {
     if !(a.mm_per_unit.is_finite() && a.mm_per_unit > 0.0) {
         bail!(
             "--mm-per-unit must be a positive number, got {}",
@@ -435,7 +454,6 @@ pub fn run(a: BootstrapArgs, g: &Global) -> anyhow::Result<()> {
             a.max_error_px
         );
     }
-    let seed = g.seed.unwrap_or(DEFAULT_SEED);
     let model = Reconstruction::read(&a.model)
         .with_context(|| format!("{}: cannot read the COLMAP model", a.model.display()))?;
     let db = Database::open(&a.database)
@@ -571,12 +589,11 @@ pub fn run(a: BootstrapArgs, g: &Global) -> anyhow::Result<()> {
     if let Some(dir) = &a.plots {
         write_plots(dir, &s)?;
     }
-    let out = output(&a, seed, &lb, &s);
-    if g.json {
-        return crate::output::print_json(&out);
-    }
-    print!("{}", text_report(&out, &s));
-    Ok(())
+    let out = output(a, seed, &lb, &s);
+    Ok(BootstrapRun {
+        json: serde_json::to_value(&out).context("serialising the bootstrap result")?,
+        text: text_report(&out, &s),
+    })
 }
 
 fn write_plots(dir: &Path, s: &[ParamSummary]) -> anyhow::Result<()> {
