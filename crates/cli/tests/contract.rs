@@ -1,0 +1,31 @@
+//! End-to-end contract tests of the `crashrig` binary against `shared/interface.md`.
+//!
+//! Every test runs the built binary (`CARGO_BIN_EXE_crashrig`) on committed fixtures and checks
+//! what the contract promises: `--help`, the exact JSON fields and shapes under `--json`,
+//! the files of `grid --out`, bit-identical results for any thread count, known values from
+//! the pycolmap/numpy goldens, and clean one-line errors on bad input (no panic, no
+//! backtrace, no half-written output). Runs are kept tiny so the file stays fast in debug mode.
+
+#[path = "contract/common.rs"]
+mod common;
+
+#[path = "contract/help.rs"]
+mod help;
+
+#[path = "contract/colmap.rs"]
+mod colmap;
+
+#[path = "contract/calibrate.rs"]
+mod calibrate;
+
+#[path = "contract/bootstrap.rs"]
+mod bootstrap;
+
+#[path = "contract/propagate.rs"]
+mod propagate;
+
+#[path = "contract/grid.rs"]
+mod grid;
+
+#[path = "contract/errors.rs"]
+mod errors;

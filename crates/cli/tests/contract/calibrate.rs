@@ -1,0 +1,174 @@
+//! `crashrig calibrate`: JSON shape and the numpy statistics of `fixtures/rig/*/expected.json`.
+
+use crate::common::{
+    angle_diff_deg, arr3, boolean, field, fixture, json_of, matrix, num, read_json, run, string,
+    uint,
+};
+use approx::{assert_abs_diff_eq, assert_relative_eq};
+use serde_json::Value;
+
+/// Runs `calibrate --json` on `fixtures/rig/<name>` with extra arguments; checks every field
+/// the contract names, with its type and shape.
+fn calibrate(name: &str, extra: &[&str]) -> Value {
+    let dir = fixture(&format!("rig/{name}"));
+    let mut args: Vec<String> = vec![
+        "calibrate".into(),
+        dir.display().to_string(),
+        "--camera-a".into(),
+        "cam_out/".into(),
+        "--camera-b".into(),
+        "cam_in/".into(),
+        "--json".into(),
+    ];
+    args.extend(extra.iter().map(|s| s.to_string()));
+    let v = json_of(&run(&args));
+    let n = uint(&v, "n_epochs");
+    for k in [
+        "base_mm",
+        "base_sigma_mm",
+        "base_sem_mm",
+        "angles_deg",
+        "angles_sigma_deg",
+        "angles_sem_deg",
+    ] {
+        arr3(&v, k);
+    }
+    num(&v, "mm_per_unit");
+    matrix(&v, "covariance", 6);
+    let epochs = field(&v, "epochs").as_array().expect("epochs is an array");
+    assert_eq!(epochs.len() as u64, n, "one entry per epoch");
+    for e in epochs {
+        string(e, "name");
+        arr3(e, "base_mm");
+        arr3(e, "angles_deg");
+        boolean(e, "outlier");
+    }
+    v
+}
+
+/// Checks base/angles mean, σ and SEM against the numpy `stats` of an expected.json.
+/// Tolerance 1e-6 mm / 1e-6 deg: the brief's acceptance bound; both sides are computed in
+/// f64 from the same links, which the generator checked to < 1e-9 after the model round trip.
+fn assert_stats(v: &Value, stats: &Value) {
+    for k in [
+        "base_mm",
+        "base_sigma_mm",
+        "base_sem_mm",
+        "angles_sigma_deg",
+        "angles_sem_deg",
+    ] {
+        let (a, b) = (arr3(v, k), arr3(stats, k));
+        for i in 0..3 {
+            assert_abs_diff_eq!(a[i], b[i], epsilon = 1e-6);
+        }
+    }
+    // Mean angles: compared modulo 360° (the contract does not fix the output range).
+    let (a, b) = (arr3(v, "angles_deg"), arr3(stats, "angles_deg"));
+    for i in 0..3 {
+        assert_abs_diff_eq!(angle_diff_deg(a[i], b[i]), 0.0, epsilon = 1e-6);
+    }
+}
+
+#[test]
+fn calibrate_nominal() {
+    let v = calibrate(
+        "paper",
+        &["--scale-points", "1", "2", "--scale-length-mm", "2000"],
+    );
+    let e = read_json(&fixture("rig/paper/expected.json"));
+    let stats = field(&e, "stats");
+    assert_eq!(uint(&v, "n_epochs"), uint(stats, "n"));
+    assert_stats(&v, stats);
+    // The scale bar gives the generator's model unit (1/2.7 m); 1e-9 relative: a ratio of
+    // two f64 lengths.
+    assert_relative_eq!(
+        num(&v, "mm_per_unit"),
+        num(&e, "mm_per_unit"),
+        max_relative = 1e-9
+    );
+    // Covariance: numpy's 6×6 (ddof = 1), x y z mm and ω φ κ deg; 1e-6 absolute as above.
+    let (c, ce) = (matrix(&v, "covariance", 6), matrix(stats, "covariance", 6));
+    for i in 0..6 {
+        for j in 0..6 {
+            assert_abs_diff_eq!(c[i][j], ce[i][j], epsilon = 1e-6);
+        }
+    }
+}
+
+#[test]
+fn calibrate_epochs_match_injected_links() {
+    let v = calibrate(
+        "paper",
+        &["--scale-points", "1", "2", "--scale-length-mm", "2000"],
+    );
+    let e = read_json(&fixture("rig/paper/expected.json"));
+    let got = field(&v, "epochs").as_array().expect("array");
+    let want = field(&e, "epochs").as_array().expect("array");
+    assert_eq!(got.len(), want.len());
+    let outliers: Vec<u64> = field(&e, "outliers")
+        .as_array()
+        .expect("outliers")
+        .iter()
+        .map(|x| x.as_u64().expect("index"))
+        .collect();
+    for (i, (g, w)) in got.iter().zip(want).enumerate() {
+        assert_eq!(string(g, "name"), string(w, "name"), "epoch {i}");
+        // 1e-6 mm / deg: per-epoch links survive the pycolmap model round trip to < 1e-9.
+        let (a, b) = (arr3(g, "base_mm"), arr3(w, "base_mm"));
+        for k in 0..3 {
+            assert_abs_diff_eq!(a[k], b[k], epsilon = 1e-6);
+        }
+        let (a, b) = (arr3(g, "angles_deg"), arr3(w, "angles_deg"));
+        for k in 0..3 {
+            assert_abs_diff_eq!(angle_diff_deg(a[k], b[k]), 0.0, epsilon = 1e-6);
+        }
+        assert_eq!(
+            boolean(g, "outlier"),
+            outliers.contains(&(i as u64)),
+            "epoch {i} outlier flag"
+        );
+    }
+}
+
+#[test]
+fn calibrate_sem_is_sigma_over_sqrt_n() {
+    // Contract: σ is the n−1 sample standard deviation, SEM = σ/√n; the covariance diagonal
+    // is σ². 1e-12 relative: the same f64 quantities, one division or product apart.
+    let v = calibrate("wrap", &["--mm-per-unit", "1"]);
+    let n = uint(&v, "n_epochs") as f64;
+    let c = matrix(&v, "covariance", 6);
+    for (k, (s, sem)) in [
+        ("base_sigma_mm", "base_sem_mm"),
+        ("angles_sigma_deg", "angles_sem_deg"),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let (s, sem) = (arr3(&v, s), arr3(&v, sem));
+        for i in 0..3 {
+            assert_relative_eq!(sem[i], s[i] / n.sqrt(), max_relative = 1e-12);
+            assert_relative_eq!(c[3 * k + i][3 * k + i], s[i] * s[i], max_relative = 1e-9);
+        }
+    }
+}
+
+#[test]
+fn calibrate_wrap_safe_angles() {
+    // ω and κ straddle ±180°: the contract requires the small spread (σ ≈ 0.04°), never ~100°.
+    let v = calibrate("wrap", &["--mm-per-unit", "1"]);
+    let e = read_json(&fixture("rig/wrap/expected.json"));
+    assert_stats(&v, field(&e, "stats"));
+}
+
+#[test]
+fn calibrate_flags_injected_outliers() {
+    // fixtures/rig/outliers has gross errors injected at epochs 9, 29 and 44.
+    let v = calibrate("outliers", &["--mm-per-unit", "1000"]);
+    let epochs = field(&v, "epochs").as_array().expect("array");
+    for i in [9usize, 29, 44] {
+        assert!(boolean(&epochs[i], "outlier"), "epoch {i} must be flagged");
+    }
+    // Statistics are over all epochs (outliers included).
+    let e = read_json(&fixture("rig/outliers/expected.json"));
+    assert_stats(&v, field(&e, "stats"));
+}
