@@ -29,3 +29,6 @@ mod grid;
 
 #[path = "contract/errors.rs"]
 mod errors;
+
+#[path = "contract/paper.rs"]
+mod paper;

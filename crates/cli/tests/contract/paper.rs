@@ -1,0 +1,76 @@
+//! `crashrig paper --out DIR`: report.html, JSON, figures (a tiny run: few draws/iterations).
+
+use crate::common::{json_of, read_json, run};
+use std::path::{Path, PathBuf};
+
+/// Every file under `dir` (recursively) whose extension is `ext`.
+fn files_with_ext(dir: &Path, ext: &str, found: &mut Vec<PathBuf>) {
+    for e in std::fs::read_dir(dir).expect("read dir") {
+        let p = e.expect("entry").path();
+        if p.is_dir() {
+            files_with_ext(&p, ext, found);
+        } else if p.extension().is_some_and(|x| x == ext) {
+            found.push(p);
+        }
+    }
+}
+
+#[test]
+fn paper_nominal() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let out = tmp.path().join("paper");
+    let o = out.display().to_string();
+    let r = run([
+        "paper",
+        "--out",
+        o.as_str(),
+        "--samples",
+        "4",
+        "--chain-samples",
+        "50",
+        "--iterations",
+        "4",
+        "--seed",
+        "3",
+        "--json",
+    ]);
+    // `--json`: one JSON document on stdout, progress on stderr.
+    let v = json_of(&r);
+    assert!(v.is_object(), "paper --json prints an object");
+    let html = std::fs::read_to_string(out.join("report.html")).expect("report.html written");
+    assert!(
+        html.to_ascii_lowercase().contains("<html"),
+        "report.html is HTML"
+    );
+    // The report sets the paper's published values beside the result: Table 1's base
+    // (61.98, −1.71, 179.76) mm.
+    for published in ["61.98", "179.76"] {
+        assert!(
+            html.contains(published),
+            "report quotes the paper's {published}"
+        );
+    }
+    let mut jsons = Vec::new();
+    files_with_ext(&out, "json", &mut jsons);
+    assert!(!jsons.is_empty(), "the report's JSON is written");
+    for j in &jsons {
+        read_json(j);
+    }
+    // Figures 10–13: at least four heat maps, each as PNG and SVG.
+    let mut pngs = Vec::new();
+    files_with_ext(&out.join("grid"), "png", &mut pngs);
+    assert!(pngs.len() >= 4, "four heat maps, got {}", pngs.len());
+    for p in &pngs {
+        let bytes = std::fs::read(p).expect("png");
+        assert!(
+            bytes.starts_with(b"\x89PNG\r\n\x1a\n"),
+            "{} is a PNG",
+            p.display()
+        );
+        assert!(
+            p.with_extension("svg").is_file(),
+            "{} has an SVG twin",
+            p.display()
+        );
+    }
+}
