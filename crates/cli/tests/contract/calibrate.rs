@@ -172,3 +172,52 @@ fn calibrate_flags_injected_outliers() {
     let e = read_json(&fixture("rig/outliers/expected.json"));
     assert_stats(&v, field(&e, "stats"));
 }
+
+#[test]
+fn calibrate_mm_per_unit_equals_scale_bar() {
+    // `--mm-per-unit F` with the generator's model unit gives the scale-bar result.
+    let e = read_json(&fixture("rig/paper/expected.json"));
+    let f = num(&e, "mm_per_unit").to_string();
+    let v = calibrate("paper", &["--mm-per-unit", f.as_str()]);
+    assert_stats(&v, field(&e, "stats"));
+}
+
+#[test]
+fn calibrate_camera_ids_and_shared_frames() {
+    // Images `left_*`/`right_*` do not pair by name; epochs come from shared frames, and A/B
+    // are given as camera ids. Every epoch has exactly the nominal link (expected.json).
+    let dir = fixture("rig/shared_frame");
+    let args = [
+        "calibrate".to_string(),
+        dir.display().to_string(),
+        "--camera-a".into(),
+        "1".into(),
+        "--camera-b".into(),
+        "2".into(),
+        "--json".into(),
+    ];
+    let v = json_of(&run(&args));
+    let e = read_json(&dir.join("expected.json"));
+    assert_eq!(uint(&v, "n_epochs"), uint(&e, "n_epochs"));
+    // 1e-6 mm / deg: the generator checked the links to < 1e-9 after the model round trip.
+    let (b, be) = (arr3(&v, "base_mm"), arr3(&e, "base_mm"));
+    let (a, ae) = (arr3(&v, "angles_deg"), arr3(&e, "angles_deg"));
+    for i in 0..3 {
+        assert_abs_diff_eq!(b[i], be[i], epsilon = 1e-6);
+        assert_abs_diff_eq!(angle_diff_deg(a[i], ae[i]), 0.0, epsilon = 1e-6);
+        assert_abs_diff_eq!(arr3(&v, "base_sigma_mm")[i], 0.0, epsilon = 1e-6);
+    }
+}
+
+#[test]
+fn calibrate_unpaired_images_are_skipped() {
+    // Two images without a partner are left out; points 1 and 3 are a 2000 mm scale bar.
+    let v = calibrate(
+        "unpaired",
+        &["--scale-points", "1", "3", "--scale-length-mm", "2000"],
+    );
+    let e = read_json(&fixture("rig/unpaired/expected.json"));
+    let stats = field(&e, "stats");
+    assert_eq!(uint(&v, "n_epochs"), uint(stats, "n"));
+    assert_stats(&v, stats);
+}

@@ -296,6 +296,23 @@ fn error_calibrate_unknown_prefix() {
         ]);
         assert_clean_error(&r, &[bad, "rig/paper"]);
     }
+    // A zero-length scale bar (points 1 and 2 of `unpaired` coincide).
+    let unpaired = fixture("rig/unpaired").display().to_string();
+    let r = run([
+        "calibrate",
+        unpaired.as_str(),
+        "--camera-a",
+        "cam_out/",
+        "--camera-b",
+        "cam_in/",
+        "--scale-points",
+        "1",
+        "2",
+        "--scale-length-mm",
+        "2000",
+        "--json",
+    ]);
+    assert_clean_error(&r, &["unpaired"]);
     // Camera B absent from the model altogether.
     let one = fixture("rig/one_camera").display().to_string();
     let r = run([
