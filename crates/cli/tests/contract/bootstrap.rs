@@ -82,6 +82,18 @@ fn bootstrap_nominal() {
     for i in 0..3 {
         assert_abs_diff_eq!(angle_diff_deg(opk[i], opk_true[i]), 0.0, epsilon = 0.3);
     }
+    // Wrap-safe statistics: ω and κ sit at ±180°; their σ and 95 % intervals must be the
+    // small spread (≈ 0.03°), never ~100° (1° is a > 30σ bound).
+    let sig = arr3(&v, "angles_sigma_deg");
+    let ci = intervals3(field(&v, "ci95"), "angles_deg");
+    for i in 0..3 {
+        assert!(sig[i] < 1.0, "angle σ {i} = {}° is not wrap-safe", sig[i]);
+        assert!(
+            ci[i][1] - ci[i][0] < 1.0,
+            "angle interval {i} {:?} is not wrap-safe",
+            ci[i]
+        );
+    }
 }
 
 #[test]

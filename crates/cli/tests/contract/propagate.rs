@@ -64,6 +64,22 @@ fn propagate_nominal() {
             assert_relative_eq!(got[i], want[i], max_relative = 1e-12);
         }
     }
+    for c in &cams {
+        let name = string(c, "name");
+        let lin = field(c, "linear");
+        for mc_key in ["position_sigma_mm", "angles_sigma_deg"] {
+            let (mc, li) = (arr3(c, mc_key), arr3(lin, mc_key));
+            for i in 0..3 {
+                // Wrap-safe angles: cam2/cam3 have ω, κ near 180°; their σ must stay the
+                // small σ of the inputs (≤ 0.03° here), never ~100°.
+                // Monte Carlo vs first order: with 300 draws a sample σ has a relative
+                // standard error of 1/√(2·299) ≈ 4 %, so 25 % is a 6-standard-error bound (the
+                // model is nearly linear at these σ).
+                assert_relative_eq!(mc[i], li[i], max_relative = 0.25);
+                assert!(mc[i] > 0.0, "{name} {mc_key}[{i}] > 0");
+            }
+        }
+    }
     // Nominal world poses: cam1 at the origin, cam2 at its link's base in cam1 = world axes.
     let p2 = arr3(&cams[1], "position_mm");
     for (g, w) in p2.iter().zip([61.98, -1.71, 179.76]) {
