@@ -61,7 +61,10 @@ fn main() -> Result<()> {
 
 /// The workspace root (the parent of this crate's manifest directory).
 pub fn project_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("xtask lives one level below the root").to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("xtask lives one level below the root")
+        .to_path_buf()
 }
 
 fn cargo() -> Command {
@@ -84,7 +87,14 @@ fn ci() -> Result<()> {
     fmt.args(["fmt", "--all", "--", "--check"]);
     run(fmt)?;
     let mut clippy = cargo();
-    clippy.args(["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"]);
+    clippy.args([
+        "clippy",
+        "--workspace",
+        "--all-targets",
+        "--",
+        "-D",
+        "warnings",
+    ]);
     run(clippy)?;
     test(false)
 }
@@ -100,7 +110,17 @@ fn test(slow: bool) -> Result<()> {
 
 fn paper(rest: &[String]) -> Result<()> {
     let mut c = cargo();
-    c.args(["run", "--release", "--quiet", "--package", "crashrig-cli", "--bin", "crashrig", "--", "paper"]);
+    c.args([
+        "run",
+        "--release",
+        "--quiet",
+        "--package",
+        "crashrig-cli",
+        "--bin",
+        "crashrig",
+        "--",
+        "paper",
+    ]);
     c.args(rest);
     run(c)
 }
@@ -111,7 +131,15 @@ fn python() -> String {
 
 fn build_release_cli() -> Result<PathBuf> {
     let mut b = cargo();
-    b.args(["build", "--release", "--quiet", "--package", "crashrig-cli", "--bin", "crashrig"]);
+    b.args([
+        "build",
+        "--release",
+        "--quiet",
+        "--package",
+        "crashrig-cli",
+        "--bin",
+        "crashrig",
+    ]);
     run(b)?;
     Ok(project_root().join("target/release/crashrig"))
 }
@@ -119,7 +147,9 @@ fn build_release_cli() -> Result<PathBuf> {
 fn interop() -> Result<()> {
     let bin = build_release_cli()?;
     let mut c = Command::new(python());
-    c.current_dir(project_root()).arg("fixtures/gen/colmap_interop.py").arg(&bin);
+    c.current_dir(project_root())
+        .arg("fixtures/gen/colmap_interop.py")
+        .arg(&bin);
     run(c)
 }
 
@@ -131,12 +161,40 @@ fn bench(e2e: bool) -> Result<()> {
         let bin = build_release_cli()?;
         let root = project_root();
         let out = root.join("target/xtask-e2e");
-        for scenario in ["fixtures/scenarios/four_cameras_z0.toml"] {
-            let start = std::time::Instant::now();
-            let mut g = Command::new(&bin);
-            g.current_dir(&root).args(["grid", scenario, "--out"]).arg(&out);
-            run(g)?;
-            println!("e2e: crashrig grid {scenario}: {:.2} s", start.elapsed().as_secs_f64());
+        // Whole-command timings of the grid study on each layout, one thread against two,
+        // measured back to back so the ratio is meaningful on a shared machine.
+        for stem in [
+            "four_cameras_z0",
+            "four_cameras_z300",
+            "three_cameras_z0",
+            "three_cameras_z300",
+        ] {
+            let scenario = format!("fixtures/scenarios/{stem}.toml");
+            let mut secs = [0.0f64; 2];
+            for (k, threads) in ["1", "2"].iter().enumerate() {
+                let start = std::time::Instant::now();
+                let mut g = Command::new(&bin);
+                g.current_dir(&root)
+                    .args([
+                        "grid",
+                        &scenario,
+                        "--samples",
+                        "20000",
+                        "--no-plots",
+                        "--threads",
+                        threads,
+                        "--out",
+                    ])
+                    .arg(out.join(stem));
+                run(g)?;
+                secs[k] = start.elapsed().as_secs_f64();
+            }
+            println!(
+                "e2e: crashrig grid {stem} --samples 20000: 1 thread {:.2} s, 2 threads {:.2} s, speed-up {:.2}x",
+                secs[0],
+                secs[1],
+                secs[0] / secs[1]
+            );
         }
     }
     Ok(())
@@ -165,7 +223,10 @@ fn fixtures() -> Result<()> {
 /// screenshot next to it.
 fn report_check(dir: Option<PathBuf>) -> Result<()> {
     let dir = dir.unwrap_or_else(|| project_root().join("out/paper"));
-    let report = dir.join("report.html").canonicalize().with_context(|| format!("{}/report.html", dir.display()))?;
+    let report = dir
+        .join("report.html")
+        .canonicalize()
+        .with_context(|| format!("{}/report.html", dir.display()))?;
     let url = format!("file://{}", report.display());
     let chromium = std::env::var("CHROMIUM").unwrap_or_else(|_| "chromium".to_string());
     let profile = std::env::temp_dir().join(format!("crashrig-chromium-{}", std::process::id()));
@@ -186,7 +247,9 @@ fn report_check(dir: Option<PathBuf>) -> Result<()> {
     let mut dump = Command::new(&chromium);
     base(&mut dump);
     dump.arg("--dump-dom").arg(&url);
-    let out = dump.output().with_context(|| format!("cannot start {chromium} (apt-get install chromium)"))?;
+    let out = dump
+        .output()
+        .with_context(|| format!("cannot start {chromium} (apt-get install chromium)"))?;
     let dom = String::from_utf8_lossy(&out.stdout);
     let marker = dom
         .split("data-images=\"")
@@ -197,12 +260,20 @@ fn report_check(dir: Option<PathBuf>) -> Result<()> {
     let shot = dir.join("report-screenshot.png");
     let mut sc = Command::new(&chromium);
     base(&mut sc);
-    sc.arg(format!("--screenshot={}", shot.display())).arg("--window-size=1200,4000").arg(&url);
+    sc.arg(format!("--screenshot={}", shot.display()))
+        .arg("--window-size=1200,9000")
+        .arg(&url);
     let _ = sc.output();
     let _ = std::fs::remove_dir_all(&profile);
     if !marker.starts_with("ok:") {
-        bail!("report images did not all render: data-images={marker:?} (see {})", shot.display());
+        bail!(
+            "report images did not all render: data-images={marker:?} (see {})",
+            shot.display()
+        );
     }
-    println!("report-check: {marker} images rendered; screenshot {}", shot.display());
+    println!(
+        "report-check: {marker} images rendered; screenshot {}",
+        shot.display()
+    );
     Ok(())
 }

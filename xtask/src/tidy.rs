@@ -15,8 +15,14 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
     ("crashrig-plot", &[]),
     ("crashrig-camera", &[]),
     ("crashrig-colmap", &["crashrig-geometry", "crashrig-camera"]),
-    ("crashrig-rig", &["crashrig-geometry", "crashrig-colmap", "crashrig-stats"]),
-    ("crashrig-pose", &["crashrig-geometry", "crashrig-camera", "crashrig-stats"]),
+    (
+        "crashrig-rig",
+        &["crashrig-geometry", "crashrig-colmap", "crashrig-stats"],
+    ),
+    (
+        "crashrig-pose",
+        &["crashrig-geometry", "crashrig-camera", "crashrig-stats"],
+    ),
     ("crashrig-bootstrap", &["crashrig-stats"]),
     ("crashrig-mc", &["crashrig-geometry", "crashrig-stats"]),
     ("crashrig-testkit", &["crashrig-geometry"]),
@@ -64,14 +70,29 @@ fn workspace_edges(root: &Path) -> Result<Edges> {
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let out = Command::new(cargo)
         .current_dir(root)
-        .args(["metadata", "--format-version", "1", "--no-deps", "--offline"])
+        .args([
+            "metadata",
+            "--format-version",
+            "1",
+            "--no-deps",
+            "--offline",
+        ])
         .output()
         .context("running cargo metadata")?;
-    anyhow::ensure!(out.status.success(), "cargo metadata failed: {}", String::from_utf8_lossy(&out.stderr));
-    let meta: serde_json::Value = serde_json::from_slice(&out.stdout).context("parsing cargo metadata")?;
-    let packages = meta["packages"].as_array().context("metadata without packages")?;
-    let names: BTreeSet<String> =
-        packages.iter().filter_map(|p| p["name"].as_str().map(str::to_string)).collect();
+    anyhow::ensure!(
+        out.status.success(),
+        "cargo metadata failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let meta: serde_json::Value =
+        serde_json::from_slice(&out.stdout).context("parsing cargo metadata")?;
+    let packages = meta["packages"]
+        .as_array()
+        .context("metadata without packages")?;
+    let names: BTreeSet<String> = packages
+        .iter()
+        .filter_map(|p| p["name"].as_str().map(str::to_string))
+        .collect();
     let mut edges = Edges::new();
     for p in packages {
         let name = p["name"].as_str().unwrap_or_default().to_string();
@@ -93,22 +114,30 @@ fn workspace_edges(root: &Path) -> Result<Edges> {
 /// Normal edges must be in [`ALLOWED`]; `crashrig-testkit` only as a dev-dependency; dev edges
 /// must not create a cycle through normal edges (a dev-dependency on a crate that depends on you).
 pub fn check_dag(root: &Path) -> Result<Vec<String>> {
-    let allowed: BTreeMap<&str, BTreeSet<&str>> =
-        ALLOWED.iter().map(|(k, v)| (*k, v.iter().copied().collect())).collect();
+    let allowed: BTreeMap<&str, BTreeSet<&str>> = ALLOWED
+        .iter()
+        .map(|(k, v)| (*k, v.iter().copied().collect()))
+        .collect();
     let edges = workspace_edges(root)?;
     let mut problems = Vec::new();
     for (from, (normal, dev)) in &edges {
         let Some(ok) = allowed.get(from.as_str()) else {
-            problems.push(format!("package `{from}` is not in the DAG table (xtask/src/tidy.rs, docs/ARCHITECTURE.md)"));
+            problems.push(format!(
+                "package `{from}` is not in the DAG table (xtask/src/tidy.rs, docs/ARCHITECTURE.md)"
+            ));
             continue;
         };
         for to in normal {
             if !ok.contains(to.as_str()) {
-                problems.push(format!("dependency edge `{from}` -> `{to}` is not in the DAG (docs/ARCHITECTURE.md)"));
+                problems.push(format!(
+                    "dependency edge `{from}` -> `{to}` is not in the DAG (docs/ARCHITECTURE.md)"
+                ));
             }
         }
         if normal.contains("crashrig-testkit") {
-            problems.push(format!("`{from}` has crashrig-testkit as a normal dependency (dev-only)"));
+            problems.push(format!(
+                "`{from}` has crashrig-testkit as a normal dependency (dev-only)"
+            ));
         }
         for to in dev {
             // testkit depends on the crates it serves by design; it is reached from tests only.
@@ -131,10 +160,10 @@ fn reaches(edges: &Edges, from: &str, target: &str) -> bool {
         if n == target {
             return true;
         }
-        if seen.insert(n.clone()) {
-            if let Some((normal, _)) = edges.get(&n) {
-                stack.extend(normal.iter().cloned());
-            }
+        if seen.insert(n.clone())
+            && let Some((normal, _)) = edges.get(&n)
+        {
+            stack.extend(normal.iter().cloned());
         }
     }
     false
@@ -147,11 +176,15 @@ pub fn check_module_docs(root: &Path) -> Result<Vec<String>> {
         let mut files = Vec::new();
         collect_rs(&root.join(dir), &mut files)?;
         for f in files {
-            let text = std::fs::read_to_string(&f).with_context(|| format!("reading {}", f.display()))?;
+            let text =
+                std::fs::read_to_string(&f).with_context(|| format!("reading {}", f.display()))?;
             let first = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("");
             if !first.starts_with("//!") {
                 let rel = f.strip_prefix(root).unwrap_or(&f);
-                problems.push(format!("{}: first line must be a `//!` module doc", rel.display()));
+                problems.push(format!(
+                    "{}: first line must be a `//!` module doc",
+                    rel.display()
+                ));
             }
         }
     }
@@ -178,7 +211,8 @@ fn collect_rs(dir: &Path, out: &mut Vec<std::path::PathBuf>) -> Result<()> {
 
 /// Every crate under crates/ has a section in docs/ARCHITECTURE.md's code map.
 pub fn check_code_map(root: &Path) -> Result<Vec<String>> {
-    let arch = std::fs::read_to_string(root.join("docs/ARCHITECTURE.md")).context("reading docs/ARCHITECTURE.md")?;
+    let arch = std::fs::read_to_string(root.join("docs/ARCHITECTURE.md"))
+        .context("reading docs/ARCHITECTURE.md")?;
     let mut problems = Vec::new();
     for e in std::fs::read_dir(root.join("crates"))? {
         let p = e?.path();
@@ -186,7 +220,9 @@ pub fn check_code_map(root: &Path) -> Result<Vec<String>> {
             let dir = p.file_name().and_then(|n| n.to_str()).unwrap_or_default();
             let needle = format!("### `crates/{dir}`");
             if !arch.contains(&needle) {
-                problems.push(format!("docs/ARCHITECTURE.md has no code-map section `{needle}`"));
+                problems.push(format!(
+                    "docs/ARCHITECTURE.md has no code-map section `{needle}`"
+                ));
             }
         }
     }
@@ -219,12 +255,20 @@ mod tests {
     fn tidy_dag_table_is_acyclic() {
         // The allowed table itself must be a DAG (a typo adding a back edge would hide a cycle).
         let table: BTreeMap<&str, &[&str]> = ALLOWED.iter().copied().collect();
-        fn visit<'a>(n: &'a str, t: &BTreeMap<&'a str, &'a [&'a str]>, path: &mut Vec<&'a str>) -> bool {
+        fn visit<'a>(
+            n: &'a str,
+            t: &BTreeMap<&'a str, &'a [&'a str]>,
+            path: &mut Vec<&'a str>,
+        ) -> bool {
             if path.contains(&n) {
                 return false;
             }
             path.push(n);
-            let ok = t.get(n).into_iter().flat_map(|v| v.iter()).all(|m| visit(m, t, path));
+            let ok = t
+                .get(n)
+                .into_iter()
+                .flat_map(|v| v.iter())
+                .all(|m| visit(m, t, path));
             path.pop();
             ok
         }

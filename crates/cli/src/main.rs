@@ -6,6 +6,7 @@
 
 mod cmd;
 mod output;
+mod report;
 
 use clap::{Parser, Subcommand};
 
@@ -52,14 +53,13 @@ enum Command {
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
-    if let Some(n) = cli.global.threads {
-        if let Err(e) = rayon::ThreadPoolBuilder::new()
+    if let Some(n) = cli.global.threads
+        && let Err(e) = rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build_global()
-        {
-            eprintln!("error: cannot set up {n} worker threads: {e}");
-            return std::process::ExitCode::from(2);
-        }
+    {
+        eprintln!("error: cannot set up {n} worker threads: {e}");
+        return std::process::ExitCode::from(2);
     }
     let result = match cli.command {
         Command::Colmap(c) => cmd::colmap::run(c, &cli.global),

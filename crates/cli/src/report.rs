@@ -16,6 +16,14 @@ pub enum Block {
     List(Vec<String>),
     /// A table.
     Table(Table),
+    /// Several small PNG figures side by side (three per row), one caption each, and a caption
+    /// for the group.
+    Gallery {
+        /// Caption of the group.
+        caption: String,
+        /// (caption, PNG bytes) of each figure.
+        items: Vec<(String, Vec<u8>)>,
+    },
     /// A PNG figure with a caption.
     Figure {
         /// Caption under the figure.
@@ -92,6 +100,23 @@ impl Report {
                     }
                     s.push_str("</tbody>\n</table>\n");
                 }
+                Block::Gallery { caption, items } => {
+                    let _ = writeln!(
+                        s,
+                        "<div class=\"gallery\"><p class=\"gcap\">{}</p>",
+                        escape(caption)
+                    );
+                    for (c, png) in items {
+                        let _ = writeln!(
+                            s,
+                            "<figure><img alt=\"{}\" src=\"data:image/png;base64,{}\"><figcaption>{}</figcaption></figure>",
+                            escape(c),
+                            base64(png),
+                            escape(c)
+                        );
+                    }
+                    s.push_str("</div>\n");
+                }
                 Block::Figure { caption, png } => {
                     let _ = writeln!(
                         s,
@@ -112,7 +137,8 @@ impl Report {
 const CSS: &str = "body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}\
 table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:.25em .6em;text-align:right}\
 th{background:#eee}caption{font-weight:bold;text-align:left;padding:.3em 0}\
-figure{margin:1.5em 0}img{max-width:100%;border:1px solid #ddd}figcaption{font-size:.9em;color:#555}";
+figure{margin:1.5em 0}img{max-width:100%;border:1px solid #ddd}figcaption{font-size:.9em;color:#555}\
+.gallery{display:flex;flex-wrap:wrap;gap:1%}.gallery figure{width:32%;margin:.5em 0}.gcap{width:100%;font-weight:bold;margin:.5em 0 0}";
 
 /// Marks `<body data-images="ok:N">` once every image decoded, or `"broken:K/N"`; read by
 /// `cargo xtask report-check` through headless Chromium. It runs locally and loads nothing.
@@ -141,12 +167,24 @@ pub fn base64(bytes: &[u8]) -> String {
     const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     let mut o = String::with_capacity(bytes.len().div_ceil(3) * 4);
     for chunk in bytes.chunks(3) {
-        let b = [chunk[0], *chunk.get(1).unwrap_or(&0), *chunk.get(2).unwrap_or(&0)];
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
         let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
         o.push(A[(n >> 18) as usize & 63] as char);
         o.push(A[(n >> 12) as usize & 63] as char);
-        o.push(if chunk.len() > 1 { A[(n >> 6) as usize & 63] as char } else { '=' });
-        o.push(if chunk.len() > 2 { A[n as usize & 63] as char } else { '=' });
+        o.push(if chunk.len() > 1 {
+            A[(n >> 6) as usize & 63] as char
+        } else {
+            '='
+        });
+        o.push(if chunk.len() > 2 {
+            A[n as usize & 63] as char
+        } else {
+            '='
+        });
     }
     o
 }
@@ -158,7 +196,15 @@ mod tests {
     #[test]
     fn base64_rfc4648_vectors() {
         // RFC 4648 §10 test vectors.
-        let cases = [("", ""), ("f", "Zg=="), ("fo", "Zm8="), ("foo", "Zm9v"), ("foob", "Zm9vYg=="), ("fooba", "Zm9vYmE="), ("foobar", "Zm9vYmFy")];
+        let cases = [
+            ("", ""),
+            ("f", "Zg=="),
+            ("fo", "Zm8="),
+            ("foo", "Zm9v"),
+            ("foob", "Zm9vYg=="),
+            ("fooba", "Zm9vYmE="),
+            ("foobar", "Zm9vYmFy"),
+        ];
         for (i, o) in cases {
             assert_eq!(base64(i.as_bytes()), o, "input {i:?}");
         }
@@ -166,22 +212,40 @@ mod tests {
 
     #[test]
     fn escape_nominal() {
-        assert_eq!(escape(r#"<a href="x">&'"#), "&lt;a href=&quot;x&quot;&gt;&amp;&#39;");
+        assert_eq!(
+            escape(r#"<a href="x">&'"#),
+            "&lt;a href=&quot;x&quot;&gt;&amp;&#39;"
+        );
     }
 
     #[test]
     fn report_renders_every_block() {
-        let mut r = Report { title: "T <1>".into(), ..Default::default() };
+        let mut r = Report {
+            title: "T <1>".into(),
+            ..Default::default()
+        };
         r.push(Block::Heading("H".into()));
         r.push(Block::Paragraph("p & q".into()));
         r.push(Block::List(vec!["a".into()]));
-        r.push(Block::Table(Table { caption: "c".into(), header: vec!["x".into()], rows: vec![vec!["1".into()]] }));
-        r.push(Block::Figure { caption: "f".into(), png: vec![1, 2, 3] });
+        r.push(Block::Table(Table {
+            caption: "c".into(),
+            header: vec!["x".into()],
+            rows: vec![vec!["1".into()]],
+        }));
+        r.push(Block::Figure {
+            caption: "f".into(),
+            png: vec![1, 2, 3],
+        });
+        r.push(Block::Gallery {
+            caption: "g".into(),
+            items: vec![("i".into(), vec![0xff])],
+        });
         let h = r.to_html();
         assert!(h.contains("<title>T &lt;1&gt;</title>"));
         assert!(h.contains("<p>p &amp; q</p>"));
         assert!(h.contains("<td>1</td>"));
         assert!(h.contains("data:image/png;base64,AQID"));
+        assert!(h.contains("class=\"gallery\"") && h.contains("data:image/png;base64,/w=="));
         assert!(h.trim_end().ends_with("</html>"));
     }
 }

@@ -216,9 +216,36 @@ struct MapSpec<'a> {
 
 /// Runs `crashrig grid`.
 pub fn run(a: GridArgs, g: &Global) -> anyhow::Result<()> {
+    let (summary, files) = compute_typed(&a, g.seed)?;
+    if g.json {
+        return crate::output::print_json(&summary);
+    }
+    println!(
+        "{} points × {} draws in {:.3} s ({:.3e} draws/s); σ_max median {:.3} mm, max {:.3} mm; {:.1} % below {} mm",
+        summary.points,
+        summary.samples_per_point,
+        summary.elapsed_s,
+        summary.samples_per_second,
+        summary.median_sigma_max_mm,
+        summary.max_sigma_mm,
+        100.0 * summary.fraction_below_threshold,
+        summary.threshold_mm
+    );
+    println!("wrote {} files to {}", files, a.out.display());
+    Ok(())
+}
+
+/// Runs the grid study, writes every output file into `a.out` and returns `summary.json`'s
+/// content (used by `crashrig paper` too). `seed` overrides the scenario's seed.
+pub fn compute(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<serde_json::Value> {
+    let (summary, _) = compute_typed(a, seed)?;
+    serde_json::to_value(summary).context("formatting summary.json")
+}
+
+fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, usize)> {
     let scenario = load_scenario(&a.scenario)?;
     let samples = resolve_samples(a.samples, &scenario)?;
-    let seed = g.seed.unwrap_or(scenario.seed);
+    let seed = seed.unwrap_or(scenario.seed);
     let ctx =
         |e: crashrig_mc::Error| anyhow::Error::new(e).context(a.scenario.display().to_string());
     let study = GridStudy::new(&scenario, samples, seed).map_err(ctx)?;
@@ -405,20 +432,102 @@ pub fn run(a: GridArgs, g: &Global) -> anyhow::Result<()> {
     };
     let json = serde_json::to_vec_pretty(&summary).context("formatting summary.json")?;
     write(&a.out, "summary.json", &json, &mut files)?;
-    if g.json {
-        return crate::output::print_json(&summary);
+    Ok((summary, files.len()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SCENARIO: &str = r#"
+seed = 5
+samples = 300
+[grid]
+x_mm = [400.0, 800.0, 3]
+y_mm = [-200.0, 200.0, 2]
+z_mm = [0.0, 300.0, 2]
+[[grid.observer]]
+name = "rear"
+position_mm = [200.0, 0.0, 0.0]
+sigma_position_mm = [1.52, 1.54, 1.52]
+sigma_angles_deg = [0.011, 0.011, 0.013]
+[[grid.observer]]
+name = "door"
+position_mm = [1300.0, -700.0, 0.0]
+sigma_position_mm = [2.53, 2.51, 2.55]
+sigma_angles_deg = [0.023, 0.023, 0.024]
+"#;
+
+    fn args(dir: &Path, scenario: &Path, no_plots: bool) -> GridArgs {
+        GridArgs {
+            scenario: scenario.to_path_buf(),
+            out: dir.to_path_buf(),
+            samples: None,
+            no_plots,
+        }
     }
-    println!(
-        "{} points × {} draws in {:.3} s ({:.3e} draws/s); σ_max median {:.3} mm, max {:.3} mm; {:.1} % below {} mm",
-        summary.points,
-        summary.samples_per_point,
-        summary.elapsed_s,
-        summary.samples_per_second,
-        summary.median_sigma_max_mm,
-        summary.max_sigma_mm,
-        100.0 * summary.fraction_below_threshold,
-        summary.threshold_mm
-    );
-    println!("wrote {} files to {}", files.len(), a.out.display());
-    Ok(())
+
+    #[test]
+    fn grid_compute_nominal_same_csv_for_one_and_two_threads() {
+        let tmp = tempfile::tempdir().unwrap();
+        let scen = tmp.path().join("s.toml");
+        std::fs::write(&scen, SCENARIO).unwrap();
+        let run = |threads: usize, name: &str, plots: bool| {
+            let out = tmp.path().join(name);
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let summary = pool
+                .install(|| compute(&args(&out, &scen, !plots), None))
+                .unwrap();
+            (std::fs::read(out.join("grid.csv")).unwrap(), summary, out)
+        };
+        let (a, summary, out) = run(1, "one", true);
+        let (b, _, _) = run(2, "two", false);
+        assert_eq!(a, b, "grid.csv differs between 1 and 2 threads");
+        let text = String::from_utf8(a).unwrap();
+        let mut lines = text.lines();
+        assert_eq!(
+            lines.next().unwrap(),
+            "x_mm,y_mm,z_mm,sigma_x_mm,sigma_y_mm,sigma_z_mm,sigma_max_mm"
+        );
+        assert_eq!(lines.count(), 12);
+        for key in [
+            "points",
+            "samples_per_point",
+            "threshold_mm",
+            "fraction_below_threshold",
+            "max_sigma_mm",
+            "median_sigma_max_mm",
+            "elapsed_s",
+            "samples_per_second",
+        ] {
+            assert!(summary.get(key).is_some(), "summary.json lacks {key}");
+        }
+        assert_eq!(summary["points"], 12);
+        assert_eq!(summary["samples_per_point"], 300);
+        // One PNG and one SVG per z level and map kind.
+        for z in ["z00_0mm", "z01_300mm"] {
+            for ext in ["png", "svg"] {
+                assert!(out.join(format!("sigma_max_{z}.{ext}")).is_file());
+            }
+        }
+    }
+
+    #[test]
+    fn grid_compute_bad_scenario_names_file_and_key() {
+        let tmp = tempfile::tempdir().unwrap();
+        let scen = tmp.path().join("bad.toml");
+        std::fs::write(
+            &scen,
+            SCENARIO.replace("[2.53, 2.51, 2.55]", "[2.53, -2.51, 2.55]"),
+        )
+        .unwrap();
+        let err = compute(&args(&tmp.path().join("o"), &scen, true), None).unwrap_err();
+        let msg = format!("{err:#}");
+        assert!(msg.contains("bad.toml"), "{msg}");
+        assert!(msg.contains("grid.observer[1].sigma_position_mm"), "{msg}");
+        assert!(!tmp.path().join("o").join("grid.csv").exists());
+    }
 }

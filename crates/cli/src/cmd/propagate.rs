@@ -1,6 +1,7 @@
 //! `crashrig propagate`: Monte Carlo and linear propagation through a camera chain.
 
 use crate::Global;
+use anyhow::Context;
 use crashrig_mc::{Chain, Scenario};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -64,8 +65,23 @@ fn deg(v: nalgebra::Vector3<f64>) -> [f64; 3] {
     v.map(f64::to_degrees).into()
 }
 
+/// Runs the propagation and returns the JSON document of the contract (used by
+/// `crashrig paper` too). `seed` overrides the scenario's seed.
+pub fn compute(a: &PropagateArgs, seed: Option<u64>) -> anyhow::Result<serde_json::Value> {
+    serde_json::to_value(compute_typed(a, seed)?).context("formatting the propagation result")
+}
+
 /// Runs `crashrig propagate`.
 pub fn run(a: PropagateArgs, g: &Global) -> anyhow::Result<()> {
+    let out = compute_typed(&a, g.seed)?;
+    if g.json {
+        return crate::output::print_json(&out);
+    }
+    print_table(&out);
+    Ok(())
+}
+
+fn compute_typed(a: &PropagateArgs, seed: Option<u64>) -> anyhow::Result<PropagateJson> {
     let scenario = load_scenario(&a.scenario)?;
     anyhow::ensure!(
         !scenario.cameras.is_empty(),
@@ -73,7 +89,7 @@ pub fn run(a: PropagateArgs, g: &Global) -> anyhow::Result<()> {
         a.scenario.display()
     );
     let samples = resolve_samples(a.samples, &scenario)?;
-    let seed = g.seed.unwrap_or(scenario.seed);
+    let seed = seed.unwrap_or(scenario.seed);
     let chain = Chain::new(&scenario);
     chain
         .check_gimbal()
@@ -114,9 +130,10 @@ pub fn run(a: PropagateArgs, g: &Global) -> anyhow::Result<()> {
         cameras,
         elapsed_s,
     };
-    if g.json {
-        return crate::output::print_json(&out);
-    }
+    Ok(out)
+}
+
+fn print_table(out: &PropagateJson) {
     println!(
         "{} draws, seed {}, rotation noise {} ({:.3} s)",
         out.samples, out.seed, out.rotation_noise, out.elapsed_s
@@ -141,5 +158,54 @@ pub fn run(a: PropagateArgs, g: &Global) -> anyhow::Result<()> {
             q(c.linear.angles_sigma_deg)
         );
     }
-    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn propagate_compute_nominal_contract_fields() {
+        let path =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/scenarios/paper_chain.toml");
+        let a = PropagateArgs {
+            scenario: path,
+            samples: Some(2000),
+        };
+        let v = compute(&a, Some(1)).unwrap();
+        assert_eq!(v["samples"], 2000);
+        let cams = v["cameras"].as_array().unwrap();
+        assert_eq!(cams.len(), 3);
+        for c in cams {
+            for key in [
+                "name",
+                "position_mm",
+                "angles_deg",
+                "position_sigma_mm",
+                "angles_sigma_deg",
+            ] {
+                assert!(c.get(key).is_some(), "camera lacks {key}");
+            }
+            assert_eq!(
+                c["linear"]["position_sigma_mm"].as_array().unwrap().len(),
+                3
+            );
+            assert_eq!(c["linear"]["angles_sigma_deg"].as_array().unwrap().len(), 3);
+        }
+        // Same seed, same numbers.
+        assert_eq!(compute(&a, Some(1)).unwrap()["cameras"], v["cameras"]);
+    }
+
+    #[test]
+    fn propagate_compute_syntax_error_has_line() {
+        let tmp = tempfile::tempdir().unwrap();
+        let p = tmp.path().join("s.toml");
+        std::fs::write(&p, "seed = 1\nsamples = = 3\n").unwrap();
+        let a = PropagateArgs {
+            scenario: p,
+            samples: None,
+        };
+        let msg = format!("{:#}", compute(&a, None).unwrap_err());
+        assert!(msg.contains("s.toml:2:"), "{msg}");
+    }
 }
