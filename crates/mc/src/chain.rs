@@ -92,8 +92,21 @@ pub(crate) fn opk_rate_matrix(a: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::new(cp * ck, sk, 0.0, -cp * sk, ck, 0.0, sp, 0.0, 1.0)
 }
 
+/// Wraps an angle difference to (−π, π]. Inputs are differences of two angles in (−π, π],
+/// so one step of ±2π suffices (cheaper than `rem_euclid` in the per-draw loop); anything
+/// else falls back to the general wrap.
+#[inline]
 fn wrap_pi(a: f64) -> f64 {
-    crashrig_geometry::angles::wrap_pi(a)
+    use std::f64::consts::{PI, TAU};
+    if a > -PI && a <= PI {
+        a
+    } else if a > PI && a <= 3.0 * PI {
+        a - TAU
+    } else if a <= -PI && a > -3.0 * PI {
+        a + TAU
+    } else {
+        crashrig_geometry::angles::wrap_pi(a)
+    }
 }
 
 impl Chain {

@@ -169,3 +169,18 @@ fn check_gimbal_nominal_and_lock() {
         Err(Error::GimbalLock { .. })
     ));
 }
+
+#[test]
+fn wrap_pi_nominal_matches_geometry() {
+    use std::f64::consts::PI;
+    for a in [
+        0.0, 1.0, -1.0, PI, -PI, 3.5, -3.5, 6.0, -6.0, 9.0, -9.0, 20.0, -20.0,
+    ] {
+        // Same branch cut (−π, π]; one subtraction of 2π differs from rem_euclid by rounding.
+        assert_abs_diff_eq!(
+            super::wrap_pi(a),
+            crashrig_geometry::angles::wrap_pi(a),
+            epsilon = 1e-14
+        );
+    }
+}
