@@ -257,6 +257,16 @@ impl Database {
                 columns.insert(t, cols);
             }
         }
+        // COLMAP creates every table on open; a file without the two it has always had is
+        // some other SQLite database, not an empty COLMAP one.
+        for table in ["cameras", "images"] {
+            if !columns.contains_key(table) {
+                return Err(Error::NotADatabase {
+                    path: path.to_path_buf(),
+                    table,
+                });
+            }
+        }
         Ok(Database {
             conn,
             path: path.to_path_buf(),

@@ -24,6 +24,14 @@ pub enum Error {
         /// The directory.
         path: PathBuf,
     },
+    /// An SQLite file without COLMAP's tables.
+    #[error("{}: not a COLMAP database (no `{table}` table)", path.display())]
+    NotADatabase {
+        /// The file.
+        path: PathBuf,
+        /// The first required table that is missing.
+        table: &'static str,
+    },
     /// Exactly one of `rigs.*` and `frames.*` exists (COLMAP refuses such a model too).
     #[error("{}: rigs and frames files must both exist or both be absent", path.display())]
     RigsWithoutFrames {
@@ -108,12 +116,14 @@ pub enum Error {
         found: usize,
     },
     /// A cross-file consistency rule is violated (e.g. a track names a missing image).
-    #[error("{}: record {record}: {what} (id {id})", path.display())]
+    #[error("{}{}: {what} (id {id})", path.display(), location(*record, *line))]
     Invariant {
         /// The file holding the offending record.
         path: PathBuf,
         /// 0-based record index in that file.
         record: usize,
+        /// 1-based line of the record, for text files.
+        line: Option<usize>,
         /// The rule that failed.
         what: &'static str,
         /// The id involved (image, point, camera, rig or frame id, as `what` says).
@@ -162,6 +172,7 @@ impl Error {
         match self {
             Error::Io { path, .. }
             | Error::NotAModel { path }
+            | Error::NotADatabase { path, .. }
             | Error::RigsWithoutFrames { path }
             | Error::Truncated { path, .. }
             | Error::TrailingBytes { path, .. }
@@ -175,5 +186,13 @@ impl Error {
             | Error::Sqlite { path, .. }
             | Error::BadRow { path, .. } => path,
         }
+    }
+}
+
+/// `":LINE"` for a text record (the `file:line` form of parse errors), `": record N"` otherwise.
+fn location(record: usize, line: Option<usize>) -> String {
+    match line {
+        Some(l) => format!(":{l}"),
+        None => format!(": record {record}"),
     }
 }

@@ -173,7 +173,13 @@ impl Reconstruction {
         )?;
         // COLMAP takes the legacy path whenever no rig and no frame was loaded, files or not.
         let legacy = legacy || (rigs.is_empty() && frames.is_empty());
-        Self::build(dir, format, legacy, cameras, rigs, frames, images, points)
+        Self::build(dir, format, legacy, cameras, rigs, frames, images, points).map_err(|e| {
+            if format == ModelFormat::Text {
+                text::with_line(e)
+            } else {
+                e
+            }
+        })
     }
 
     /// Builds and checks a model from records (e.g. a synthetic scene to write). With no rigs
@@ -242,6 +248,7 @@ impl Reconstruction {
         let inv = |path: &Path, record: usize, what: &'static str, id: u64| Error::Invariant {
             path: path.to_path_buf(),
             record,
+            line: None,
             what,
             id,
         };
@@ -551,6 +558,14 @@ impl Reconstruction {
             };
             let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(io)?;
             tmp.write_all(bytes).map_err(io)?;
+            // tempfile creates 0600; model files are ordinary files (0644, like COLMAP's).
+            #[cfg(unix)]
+            {
+                use std::os::unix::fs::PermissionsExt;
+                tmp.as_file()
+                    .set_permissions(std::fs::Permissions::from_mode(0o644))
+                    .map_err(io)?;
+            }
             tmp.as_file().sync_all().map_err(io)?;
             temps.push((tmp, target));
         }

@@ -96,6 +96,54 @@ fn records(text: &str) -> impl Iterator<Item = (usize, &str)> {
         .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'))
 }
 
+/// 1-based line of record `record` (0-based) of a text file: the record-th data line, or in
+/// `images.txt` the record-th image line (each followed by its POINTS2D line).
+pub(crate) fn record_line(text: &str, is_images: bool, record: usize) -> Option<usize> {
+    if !is_images {
+        return records(text).nth(record).map(|(line, _)| line);
+    }
+    let mut lines = text.split('\n').enumerate().map(|(i, l)| (i + 1, l.trim()));
+    let mut n = 0;
+    while let Some((line, l)) = lines.next() {
+        if l.is_empty() || l.starts_with('#') {
+            continue;
+        }
+        if n == record {
+            return Some(line);
+        }
+        n += 1;
+        lines.next(); // its POINTS2D line, whatever it holds
+    }
+    None
+}
+
+/// Adds the line number to an invariant error found in a text model (the record index is
+/// all the consistency checks know).
+pub(crate) fn with_line(e: Error) -> Error {
+    match e {
+        Error::Invariant {
+            path,
+            record,
+            line: None,
+            what,
+            id,
+        } => {
+            let is_images = path.file_name().is_some_and(|n| n == "images.txt");
+            let line = std::fs::read_to_string(&path)
+                .ok()
+                .and_then(|t| record_line(&t, is_images, record));
+            Error::Invariant {
+                path,
+                record,
+                line,
+                what,
+                id,
+            }
+        }
+        other => other,
+    }
+}
+
 /// Reads `cameras.txt`.
 pub(crate) fn read_cameras(path: &Path, text: &str) -> Result<Vec<CameraRecord>> {
     let mut out = Vec::new();

@@ -444,3 +444,28 @@ fn database_sees_wal_of_an_open_writer() {
     );
     drop(writer);
 }
+
+#[test]
+fn database_other_sqlite_file_is_not_a_colmap_database() {
+    // An SQLite file with an unrelated table must not read as an empty COLMAP database
+    // (contract review: `colmap info` exited 0 with all counts 0 on such a file).
+    let tmp = tempfile::tempdir().expect("tmp");
+    let p = tmp.path().join("other.db");
+    {
+        let c = rusqlite::Connection::open(&p).expect("create");
+        c.execute("CREATE TABLE notes (id INTEGER PRIMARY KEY, text TEXT)", [])
+            .expect("table");
+    }
+    let err = Database::open(&p).expect_err("not a COLMAP database");
+    assert!(
+        matches!(
+            err,
+            crashrig_colmap::Error::NotADatabase {
+                table: "cameras",
+                ..
+            }
+        ),
+        "{err}"
+    );
+    assert!(err.to_string().contains("other.db"), "{err}");
+}

@@ -136,10 +136,16 @@ fn malformed_invariants() {
     });
     match Reconstruction::read(tmp.path()).expect_err("must fail") {
         Error::Invariant {
-            path, record, id, ..
+            path,
+            record,
+            line,
+            id,
+            ..
         } => {
             assert_eq!(path, tmp.path().join("points3D.txt"));
             assert_eq!((record, id), (0, 8));
+            // Text models name the line (the edited l[1] is line 2).
+            assert_eq!(line, Some(2));
         }
         other => panic!("unexpected error {other:?}"),
     }
@@ -169,10 +175,19 @@ fn malformed_invariants() {
     edit_text(tmp.path(), "images.txt", |l| {
         l[3] = l[3].replace(" 1 left", " 5 left")
     });
-    assert!(matches!(
-        Reconstruction::read(tmp.path()),
-        Err(Error::Invariant { id: 5, .. })
-    ));
+    let err = Reconstruction::read(tmp.path()).expect_err("must fail");
+    assert!(
+        matches!(
+            err,
+            Error::Invariant {
+                id: 5,
+                line: Some(4),
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+    assert!(err.to_string().contains("images.txt:4: "), "{err}");
     // A frame naming a missing image.
     let tmp = copy_dir(&fixture("rig_opencv/txt"));
     edit_text(tmp.path(), "frames.txt", |l| {
@@ -180,10 +195,15 @@ fn malformed_invariants() {
     });
     match Reconstruction::read(tmp.path()).expect_err("must fail") {
         Error::Invariant {
-            path, record, id, ..
+            path,
+            record,
+            line,
+            id,
+            ..
         } => {
             assert_eq!(path, tmp.path().join("frames.txt"));
             assert_eq!((record, id), (0, 99));
+            assert_eq!(line, Some(4));
         }
         other => panic!("unexpected error {other:?}"),
     }
