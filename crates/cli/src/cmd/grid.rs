@@ -220,19 +220,24 @@ pub fn run(a: GridArgs, g: &Global) -> anyhow::Result<()> {
     if g.json {
         return crate::output::print_json(&summary);
     }
-    println!(
-        "{} points × {} draws in {:.3} s ({:.3e} draws/s); σ_max median {:.3} mm, max {:.3} mm; {:.1} % below {} mm",
-        summary.points,
-        summary.samples_per_point,
-        summary.elapsed_s,
-        summary.samples_per_second,
-        summary.median_sigma_max_mm,
-        summary.max_sigma_mm,
-        100.0 * summary.fraction_below_threshold,
-        summary.threshold_mm
-    );
-    println!("wrote {} files to {}", files, a.out.display());
-    Ok(())
+    let print = || -> std::io::Result<()> {
+        use std::io::Write;
+        let mut w = std::io::stdout().lock();
+        writeln!(
+            w,
+            "{} points × {} draws in {:.3} s ({:.3e} draws/s); σ_max median {:.3} mm, max {:.3} mm; {:.1} % below {} mm",
+            summary.points,
+            summary.samples_per_point,
+            summary.elapsed_s,
+            summary.samples_per_second,
+            summary.median_sigma_max_mm,
+            summary.max_sigma_mm,
+            100.0 * summary.fraction_below_threshold,
+            summary.threshold_mm
+        )?;
+        writeln!(w, "wrote {} files to {}", files, a.out.display())
+    };
+    super::propagate::quiet_pipe(print())
 }
 
 /// Runs the grid study, writes every output file into `a.out` and returns `summary.json`'s

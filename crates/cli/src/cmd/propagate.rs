@@ -77,8 +77,8 @@ pub fn run(a: PropagateArgs, g: &Global) -> anyhow::Result<()> {
     if g.json {
         return crate::output::print_json(&out);
     }
-    print_table(&out);
-    Ok(())
+    // A closed pipe (e.g. `| head`) ends the output quietly instead of panicking.
+    quiet_pipe(print_table(&out))
 }
 
 fn compute_typed(a: &PropagateArgs, seed: Option<u64>) -> anyhow::Result<PropagateJson> {
@@ -133,30 +133,44 @@ fn compute_typed(a: &PropagateArgs, seed: Option<u64>) -> anyhow::Result<Propaga
     Ok(out)
 }
 
-fn print_table(out: &PropagateJson) {
-    println!(
+fn print_table(out: &PropagateJson) -> std::io::Result<()> {
+    use std::io::Write;
+    let mut w = std::io::stdout().lock();
+    writeln!(
+        w,
         "{} draws, seed {}, rotation noise {} ({:.3} s)",
         out.samples, out.seed, out.rotation_noise, out.elapsed_s
-    );
-    println!(
+    )?;
+    writeln!(
+        w,
         "{:<12} {:>26} {:>29} {:>26} {:>29}",
         "camera",
         "σ position MC [mm]",
         "σ ω φ κ MC [°]",
         "σ position linear [mm]",
         "σ ω φ κ linear [°]"
-    );
+    )?;
     for c in &out.cameras {
         let p = |v: [f64; 3]| format!("{:8.3} {:8.3} {:8.3}", v[0], v[1], v[2]);
         let q = |v: [f64; 3]| format!("{:9.5} {:9.5} {:9.5}", v[0], v[1], v[2]);
-        println!(
+        writeln!(
+            w,
             "{:<12} {:>26} {:>29} {:>26} {:>29}",
             c.name,
             p(c.position_sigma_mm),
             q(c.angles_sigma_deg),
             p(c.linear.position_sigma_mm),
             q(c.linear.angles_sigma_deg)
-        );
+        )?;
+    }
+    Ok(())
+}
+
+/// Treats a closed stdout pipe as success (the reader went away), other errors as errors.
+pub fn quiet_pipe(r: std::io::Result<()>) -> anyhow::Result<()> {
+    match r {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => other.context("writing to stdout"),
     }
 }
 
