@@ -184,3 +184,25 @@ fn wrap_pi_nominal_matches_geometry() {
         );
     }
 }
+
+#[test]
+fn slow_monte_carlo_matches_linear_large_n() {
+    if std::env::var_os("CRASHRIG_SLOW").is_none() {
+        return;
+    }
+    // `monte_carlo_nominal_matches_linear_within_3_se` at 10⁶ draws (3 SE = 0.2 % of σ).
+    let sc = paper_chain("euler", 1.0);
+    let chain = Chain::new(&sc);
+    let n = 1_000_000;
+    let mc = chain.monte_carlo(n, 77);
+    let lin = chain.linear();
+    let se = 1.0 / (2.0 * (n as f64 - 1.0)).sqrt();
+    for (m, l) in mc.iter().zip(&lin) {
+        for k in 0..3 {
+            let s = l.position_sigma_mm[k];
+            assert_abs_diff_eq!(m.position_sigma_mm[k], s, epsilon = 3.0 * se * s);
+            let a = l.angles_sigma_rad.unwrap()[k];
+            assert_abs_diff_eq!(m.angles_sigma_rad[k], a, epsilon = 3.0 * se * a);
+        }
+    }
+}

@@ -288,3 +288,28 @@ fn ellipsoid_semi_axes_nominal() {
         assert_abs_diff_eq!(ax[k], s[k], epsilon = 0.02 * s[k]);
     }
 }
+
+#[test]
+fn slow_grid_closed_form_large_n() {
+    if std::env::var_os("CRASHRIG_SLOW").is_none() {
+        return;
+    }
+    // The closed form of `grid_nominal_symmetric_closed_form` at 4·10⁶ draws: 3 SE is
+    // 0.1 % of σ, small enough to see a bias of the kernel or of the normals.
+    let sc = scenario("", TWO_OBS, "", "tangent");
+    let study = GridStudy::new(&sc, 0, 0).unwrap();
+    let n = 4_000_000;
+    let p = &study.run(n, 4242).unwrap().points[0];
+    let (b, d, s) = (600.0f64, 1000.0f64, 0.01f64.to_radians());
+    let rho = b.hypot(d);
+    let beta = (b / d).atan();
+    let expect = [
+        rho * s / (2f64.sqrt() * beta.cos()),
+        rho * s / (2f64.sqrt() * beta.sin()),
+        rho * s / 2f64.sqrt(),
+    ];
+    let se = 1.0 / (2.0 * (n as f64 - 1.0)).sqrt();
+    for k in 0..3 {
+        assert_abs_diff_eq!(p.sigma_mm[k], expect[k], epsilon = 3.0 * se * expect[k]);
+    }
+}
