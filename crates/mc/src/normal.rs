@@ -6,8 +6,8 @@
 //! layer/value correlation of the original 32-bit ziggurat, Doornik 2005). Within a layer the
 //! abscissa is quantized to 2⁻²³ of the layer width, irrelevant for Monte Carlo σ. Wedge and
 //! tail cases (≈ 1 % of draws) use further 64-bit words with 53-bit uniforms. This is about
-//! 2.3× faster than `rand_distr::StandardNormal` on ChaCha8 (measured in `benches/`), which is the
-//! dominant cost of a forward-intersection draw (12 normals for two observers).
+//! 2.3× faster than `rand_distr::StandardNormal` on ChaCha8 (measured in `benches/`); normals were the
+//! dominant cost of a forward-intersection draw (12 normals for two observers) before.
 
 use rand::Rng;
 use std::sync::OnceLock;
