@@ -1,6 +1,7 @@
 //! Integration tests of crashrig-geometry (they use crashrig-testkit, hence not in `src`).
 
 mod angles;
+mod conventions;
 mod goldens;
 mod look_at;
 mod mean;
