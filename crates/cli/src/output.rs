@@ -36,3 +36,84 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
         .with_context(|| format!("{}: cannot rename into place", path.display()))?;
     Ok(())
 }
+
+/// Writes several files into `dir` as one unit: every file goes to a temporary file first, then
+/// all are renamed into place in order; if any step fails, the files already renamed are
+/// removed again, so a failed run leaves no partial set presented as complete. Put the file
+/// that marks completion (e.g. `summary.json`) last.
+pub fn write_all_or_none(dir: &Path, files: &[(String, Vec<u8>)]) -> anyhow::Result<()> {
+    let mut temps = Vec::with_capacity(files.len());
+    for (name, bytes) in files {
+        let path = dir.join(name);
+        let mut tmp = tempfile::NamedTempFile::new_in(dir)
+            .with_context(|| format!("{}: cannot create a temporary file", dir.display()))?;
+        tmp.write_all(bytes)
+            .with_context(|| format!("{}: write failed", path.display()))?;
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            tmp.as_file()
+                .set_permissions(std::fs::Permissions::from_mode(0o644))
+                .with_context(|| format!("{}: cannot set permissions", path.display()))?;
+        }
+        temps.push((tmp, path));
+    }
+    let mut done: Vec<std::path::PathBuf> = Vec::with_capacity(temps.len());
+    for (tmp, path) in temps {
+        if let Err(e) = tmp.persist(&path) {
+            for p in &done {
+                let _ = std::fs::remove_file(p);
+            }
+            return Err(anyhow::Error::new(e.error)
+                .context(format!("{}: cannot rename into place", path.display())));
+        }
+        done.push(path);
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn write_all_or_none_nominal() {
+        let tmp = tempfile::tempdir().unwrap();
+        let files = vec![
+            ("a.csv".to_string(), b"1".to_vec()),
+            ("summary.json".to_string(), b"{}".to_vec()),
+        ];
+        write_all_or_none(tmp.path(), &files).unwrap();
+        assert_eq!(std::fs::read(tmp.path().join("a.csv")).unwrap(), b"1");
+        assert_eq!(
+            std::fs::read(tmp.path().join("summary.json")).unwrap(),
+            b"{}"
+        );
+    }
+
+    #[test]
+    fn write_all_or_none_failure_leaves_nothing() {
+        // The last target is a directory, so its rename fails after the first succeeded.
+        let tmp = tempfile::tempdir().unwrap();
+        std::fs::create_dir(tmp.path().join("summary.json")).unwrap();
+        let files = vec![
+            ("grid.csv".to_string(), b"x".to_vec()),
+            ("summary.json".to_string(), b"{}".to_vec()),
+        ];
+        let err = write_all_or_none(tmp.path(), &files).unwrap_err();
+        assert!(format!("{err:#}").contains("summary.json"), "{err:#}");
+        assert!(
+            !tmp.path().join("grid.csv").exists(),
+            "grid.csv must be removed again"
+        );
+        let left: Vec<_> = std::fs::read_dir(tmp.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(
+            left,
+            vec![std::ffi::OsString::from("summary.json")],
+            "no temporary files left"
+        );
+    }
+}

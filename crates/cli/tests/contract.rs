@@ -32,3 +32,6 @@ mod errors;
 
 #[path = "contract/paper.rs"]
 mod paper;
+
+#[path = "contract/regressions.rs"]
+mod regressions;

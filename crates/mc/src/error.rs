@@ -100,4 +100,32 @@ pub enum Error {
     /// An error of the geometry layer.
     #[error(transparent)]
     Geometry(#[from] crashrig_geometry::Error),
+    /// A scenario error located in its file: the line of the offending key.
+    #[error("{}:{line}: {source}", path.display())]
+    Located {
+        /// The scenario file.
+        path: PathBuf,
+        /// 1-based line of the key (or of its table header).
+        line: usize,
+        /// The error.
+        #[source]
+        source: Box<Error>,
+    },
+}
+
+impl Error {
+    /// The dotted scenario key the error is about, if any.
+    pub fn key(&self) -> Option<&str> {
+        match self {
+            Error::Invalid { key, .. }
+            | Error::DuplicateName { key, .. }
+            | Error::UnknownCamera { key, .. }
+            | Error::ObserverAtGridPoint { key, .. }
+            | Error::VerticalAim { key, .. } => Some(key),
+            Error::Cycle { .. } => Some("camera"),
+            Error::TooFewObservers { .. } => Some("grid.observer"),
+            Error::NoGrid => Some("grid"),
+            _ => None,
+        }
+    }
 }

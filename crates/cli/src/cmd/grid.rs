@@ -95,9 +95,12 @@ fn spread(v: &[f64]) -> Spread {
     }
 }
 
-fn write(dir: &Path, name: &str, bytes: &[u8], files: &mut Vec<String>) -> anyhow::Result<()> {
-    crate::output::write_atomic(&dir.join(name), bytes)?;
-    files.push(name.to_string());
+/// Output files are collected in memory and written together at the end (all or none), so a
+/// failure never leaves a `grid.csv` without its `summary.json`.
+type Pending = Vec<(String, Vec<u8>)>;
+
+fn write(_dir: &Path, name: &str, bytes: &[u8], files: &mut Pending) -> anyhow::Result<()> {
+    files.push((name.to_string(), bytes.to_vec()));
     Ok(())
 }
 
@@ -296,7 +299,7 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
         None
     };
 
-    let mut files = Vec::new();
+    let mut files = Pending::new();
     write(&a.out, "grid.csv", &main_csv(&result)?, &mut files)?;
     write(&a.out, "grid_detail.csv", &detail_csv(&result)?, &mut files)?;
 
@@ -429,14 +432,15 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
             draws_total: total_draws,
         }),
         correlation,
-        files: {
-            let mut f = files.clone();
-            f.push("summary.json".into());
-            f
-        },
+        files: files
+            .iter()
+            .map(|(name, _)| name.clone())
+            .chain(std::iter::once("summary.json".to_string()))
+            .collect(),
     };
     let json = serde_json::to_vec_pretty(&summary).context("formatting summary.json")?;
     write(&a.out, "summary.json", &json, &mut files)?;
+    crate::output::write_all_or_none(&a.out, &files)?;
     Ok((summary, files.len()))
 }
 

@@ -19,7 +19,9 @@ pub struct PropagateArgs {
 /// Reads a scenario; every error names the file (TOML errors also the line).
 pub fn load_scenario(path: &Path) -> anyhow::Result<Scenario> {
     Scenario::from_path(path).map_err(|e| match e {
-        crashrig_mc::Error::Io { .. } | crashrig_mc::Error::Toml { .. } => anyhow::Error::new(e),
+        crashrig_mc::Error::Io { .. }
+        | crashrig_mc::Error::Toml { .. }
+        | crashrig_mc::Error::Located { .. } => anyhow::Error::new(e),
         other => anyhow::Error::new(other).context(path.display().to_string()),
     })
 }

@@ -39,8 +39,13 @@ position_mm = [1000.0, 800.0, 0.0]
 sigma_from = "cam2"
 "#;
 
+/// Parses, and unwraps the line location (tested on its own in `scenario_errors_name_the_line`)
+/// so the tests below can match the error itself.
 fn parse(text: &str) -> Result<Scenario, Error> {
-    Scenario::from_toml_str(text, Path::new("s.toml"))
+    Scenario::from_toml_str(text, Path::new("s.toml")).map_err(|e| match e {
+        Error::Located { source, .. } => *source,
+        other => other,
+    })
 }
 
 #[test]
@@ -218,4 +223,63 @@ fn axis_values_single_and_ends() {
         count: 1,
     };
     assert_eq!(one.values(), vec![5.0]);
+}
+
+const LOCATED: &str = r#"seed = 1
+[[camera]]
+name = "cam1"
+position_mm = [0.0, 0.0, 0.0]
+[[camera]]
+name = "cam2"
+parent = "cam1"
+position_mm = [nan, 0.0, 0.0]
+[grid]   # the grid
+x_mm = [0.0, 1.0, 2]
+[[grid.observer]]
+position_mm = [0.0, 5.0, 0.0]
+[[grid.observer]]
+sigma_from = "camX"
+"#;
+
+#[test]
+fn key_line_nominal() {
+    use super::key_line;
+    assert_eq!(key_line(LOCATED, "camera[1].position_mm"), Some(8));
+    assert_eq!(key_line(LOCATED, "camera[0].name"), Some(3));
+    assert_eq!(key_line(LOCATED, "grid.observer[1].sigma_from"), Some(14));
+    assert_eq!(key_line(LOCATED, "grid.x_mm"), Some(10));
+    assert_eq!(key_line(LOCATED, "seed"), Some(1));
+    assert_eq!(key_line(LOCATED, "grid.observer[1]"), Some(13));
+    assert_eq!(key_line(LOCATED, "grid.observer"), Some(11));
+    assert_eq!(key_line(LOCATED, "camera"), Some(2));
+    // An absent key (a default) points at its table's header.
+    assert_eq!(key_line(LOCATED, "camera[1].sigma_angles_deg"), Some(5));
+    assert_eq!(key_line(LOCATED, "nowhere.at_all"), None);
+}
+
+#[test]
+fn scenario_errors_name_the_line() {
+    // Contract: bad input names the file and, for text, the line.
+    let text = BASE.replace("position_mm = [61.98", "position_mm = [nan");
+    let expected = 1 + text.lines().position(|l| l.contains("[nan")).unwrap();
+    let err = Scenario::from_toml_str(&text, Path::new("s.toml")).unwrap_err();
+    match &err {
+        Error::Located { line, source, .. } => {
+            assert_eq!(*line, expected, "{err}");
+            assert_eq!(source.key(), Some("camera[1].position_mm"));
+        }
+        other => panic!("unexpected {other:?}"),
+    }
+    let shown = err.to_string();
+    assert!(
+        shown.starts_with(&format!("s.toml:{expected}: `camera[1].position_mm`")),
+        "{shown}"
+    );
+    // A cross-reference: the unknown `sigma_from` of the second observer.
+    let text = BASE.replace("sigma_from = \"cam2\"", "sigma_from = \"camX\"");
+    let expected = 1 + text.lines().position(|l| l.contains("camX")).unwrap();
+    match Scenario::from_toml_str(&text, Path::new("s.toml")).unwrap_err() {
+        Error::Located { line, .. } => assert_eq!(line, expected),
+        other => panic!("unexpected {other:?}"),
+    }
 }
