@@ -4,7 +4,7 @@
 use crate::relative::{Mat5, Vec5, tangent_basis};
 use crashrig_geometry::angles::wrap_pi;
 use crashrig_geometry::{Mat6, Rigid3, Vec3, Vec6, opk, se3, so3};
-use nalgebra::{SMatrix, SVector, Translation3, UnitQuaternion};
+use nalgebra::{SMatrix, SVector, Translation3};
 
 /// Base (B's projection centre in A's frame, length unit of the poses) and ω, φ, κ (rad) of
 /// `R_A_from_B`, as `[x, y, z, ω, φ, κ]`.
@@ -75,7 +75,7 @@ pub fn link_covariance_relative(b_from_a: &Rigid3, base_length: f64, cov: &Mat5)
         let t = (t0 + basis * nalgebra::Vector2::new(d[3], d[4])).normalize();
         let p = Rigid3::from_parts(
             Translation3::from(t),
-            UnitQuaternion::from_rotation_matrix(&r),
+            crashrig_geometry::quat::unit_quaternion_from_rotation(&r),
         );
         link_parameters(&scaled_a_from_b(&p, base_length))
     })

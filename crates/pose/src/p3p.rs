@@ -6,7 +6,7 @@
 //! laws of cosines reduce to a quartic in `v`.
 
 use crashrig_geometry::{Rigid3, Vec3};
-use nalgebra::{DMatrix, Matrix3, Rotation3, Translation3, UnitQuaternion};
+use nalgebra::{DMatrix, Matrix3, Rotation3, Translation3};
 
 /// Real roots of `c[0]·x^d + … + c[d]` (highest degree first) from the eigenvalues of the
 /// companion matrix, polished by two Newton steps. Leading coefficients that vanish relative to
@@ -78,7 +78,7 @@ pub(crate) fn rigid_from_points(a: &[Vec3], b: &[Vec3]) -> Option<Rigid3> {
     let t = cb - rot * ca;
     Some(Rigid3::from_parts(
         Translation3::from(t),
-        UnitQuaternion::from_rotation_matrix(&rot),
+        crashrig_geometry::quat::unit_quaternion_from_rotation(&rot),
     ))
 }
 

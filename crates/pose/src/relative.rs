@@ -12,7 +12,7 @@ use crate::lm::{self, Problem};
 use crate::ransac::{RansacOptions, needed_iterations, sample_distinct};
 use crate::{Degeneracy, Error, Projector};
 use crashrig_geometry::{Rigid3, Rot3, Vec3, so3};
-use nalgebra::{Matrix3, SMatrix, SVector, Translation3, UnitQuaternion, Vector2};
+use nalgebra::{Matrix3, SMatrix, SVector, Translation3, Vector2};
 
 /// 5-vector: the relative-pose tangent `[ω (3); δt (2)]`.
 pub type Vec5 = SVector<f64, 5>;
@@ -128,7 +128,7 @@ pub fn poses_from_essential(e: &Matrix3<f64>) -> Option<[Rigid3; 4]> {
     let mk = |r: &Rot3, t: Vec3| {
         Rigid3::from_parts(
             Translation3::from(t),
-            UnitQuaternion::from_rotation_matrix(r),
+            crashrig_geometry::quat::unit_quaternion_from_rotation(r),
         )
     };
     Some([mk(&r1, t), mk(&r1, -t), mk(&r2, t), mk(&r2, -t)])
@@ -318,7 +318,7 @@ fn refine_unchecked(
     Ok(RelativeRefinement {
         b_from_a: Rigid3::from_parts(
             Translation3::from(out.state.t),
-            UnitQuaternion::from_rotation_matrix(&out.state.r),
+            crashrig_geometry::quat::unit_quaternion_from_rotation(&out.state.r),
         ),
         n_observations: m,
         cost: out.cost,

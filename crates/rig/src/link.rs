@@ -103,12 +103,12 @@ mod tests {
     use super::*;
     use approx::assert_abs_diff_eq;
     use crashrig_geometry::{Rot3, opk::rotation_from_opk};
-    use nalgebra::{Translation3, UnitQuaternion};
+    use nalgebra::Translation3;
 
     fn pose(r: Rot3, t: Vec3) -> Rigid3 {
         Rigid3::from_parts(
             Translation3::from(t),
-            UnitQuaternion::from_rotation_matrix(&r),
+            crashrig_geometry::quat::unit_quaternion_from_rotation(&r),
         )
     }
 
@@ -173,13 +173,13 @@ mod tests {
 pub(crate) mod tests_support {
     use super::*;
     use crashrig_geometry::{Rot3, opk::rotation_from_opk};
-    use nalgebra::{Translation3, UnitQuaternion};
+    use nalgebra::Translation3;
 
     /// A rigid transform from a rotation and a translation.
     pub fn pose(r: Rot3, t: Vec3) -> Rigid3 {
         Rigid3::from_parts(
             Translation3::from(t),
-            UnitQuaternion::from_rotation_matrix(&r),
+            crashrig_geometry::quat::unit_quaternion_from_rotation(&r),
         )
     }
 

@@ -27,7 +27,7 @@ use crate::link::{check_epoch, check_scale, scaled};
 use crate::{Epoch, Error};
 use crashrig_geometry::{Mat3, Mat6, Rigid3, Rot3, Vec3, mean, opk, so3};
 use faer::linalg::solvers::Solve;
-use nalgebra::{SMatrix, SVector, Translation3, UnitQuaternion};
+use nalgebra::{SMatrix, SVector, Translation3};
 
 type Vec12 = SVector<f64, 12>;
 type Mat12x6 = SMatrix<f64, 12, 6>;
@@ -381,7 +381,7 @@ pub fn refine(
     Ok(Refinement {
         a_from_b: Rigid3::from_parts(
             Translation3::from(s.base),
-            UnitQuaternion::from_rotation_matrix(&rot),
+            crashrig_geometry::quat::unit_quaternion_from_rotation(&rot),
         ),
         base_mm: s.base,
         angles: Vec3::new(a.omega, a.phi, a.kappa),

@@ -649,7 +649,7 @@ mod tests {
     use super::*;
     use crashrig_geometry::opk;
     use crashrig_pose::Pinhole;
-    use nalgebra::{Translation3, UnitQuaternion};
+    use nalgebra::Translation3;
 
     /// SplitMix64 (Steele, Lea & Flood 2014): a seeded test-only generator (the CLI crate does
     /// not depend on rand); uniforms in [0, 1) and Box–Muller normals.
@@ -679,7 +679,7 @@ mod tests {
         let c = Vec3::new(600.0, 20.0, 100.0);
         Rigid3::from_parts(
             Translation3::from(-(r * c)),
-            UnitQuaternion::from_rotation_matrix(&r),
+            crashrig_geometry::quat::unit_quaternion_from_rotation(&r),
         )
     }
 
