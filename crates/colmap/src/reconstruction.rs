@@ -569,11 +569,20 @@ impl Reconstruction {
             tmp.as_file().sync_all().map_err(io)?;
             temps.push((tmp, target));
         }
+        // Rename all five into place; if one rename fails, remove the ones already renamed so
+        // a failed write never leaves a mixed model behind.
+        let mut done: Vec<PathBuf> = Vec::with_capacity(temps.len());
         for (tmp, target) in temps {
-            tmp.persist(&target).map_err(|e| Error::Io {
-                path: target.clone(),
-                source: e.error,
-            })?;
+            if let Err(e) = tmp.persist(&target) {
+                for d in &done {
+                    let _ = std::fs::remove_file(d);
+                }
+                return Err(Error::Io {
+                    path: target,
+                    source: e.error,
+                });
+            }
+            done.push(target);
         }
         Ok(())
     }

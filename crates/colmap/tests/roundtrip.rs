@@ -139,6 +139,29 @@ fn roundtrip_write_replaces_files_atomically() {
     assert_eq!(names.len(), 5, "no temporary files left: {names:?}");
 }
 
+#[test]
+fn roundtrip_failed_write_leaves_no_partial_model() {
+    // Files are renamed in the order rigs, cameras, frames, images, points3D; a directory in
+    // the place of images.bin makes the fourth rename fail after three succeeded.
+    let m = Reconstruction::read(&fixture("simple_radial/bin")).expect("reads");
+    let out = tempfile::tempdir().expect("tmp");
+    std::fs::create_dir(out.path().join("images.bin")).expect("mkdir");
+    let err = m
+        .write(out.path(), ModelFormat::Binary)
+        .expect_err("images.bin is a directory");
+    assert!(err.to_string().contains("images.bin"), "{err}");
+    let mut names: Vec<String> = std::fs::read_dir(out.path())
+        .expect("list")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        vec!["images.bin".to_string()],
+        "only the obstacle is left"
+    );
+}
+
 fn one_image_model(name: &str, sensor_pose: Option<crashrig_colmap::RawPose>) -> Reconstruction {
     use crashrig_camera::{Camera, ModelId};
     use crashrig_colmap::{CameraRecord, Frame, Image, RawPose, Rig, RigSensor, SensorId};
