@@ -277,22 +277,16 @@ fn to_json(a: &CalibrateArgs, set: &EpochSet, scale: &Scale, c: &Calibration) ->
             "warning": d.any_optimistic(),
         })
     });
-    json!({
+    // The contract's statistics over all epochs are exactly `stats_json` of them; the rest
+    // are extension fields.
+    let mut out = stats_json(s);
+    let extra = json!({
         "model": a.model.display().to_string(),
         "camera_a": a.camera_a,
         "camera_b": a.camera_b,
-        "n_epochs": s.n,
-        "base_mm": arr3(&s.base_mm),
-        "base_sigma_mm": arr3(&s.base_sigma_mm),
-        "base_sem_mm": arr3(&s.base_sem_mm),
-        "angles_deg": deg3(&s.angles),
-        "angles_sigma_deg": deg3(&s.angles_sigma),
-        "angles_sem_deg": deg3(&s.angles_sem),
         "mm_per_unit": c.mm_per_unit,
         "scale_factor": c.mm_per_unit,
         "scale": scale_json,
-        "covariance": cov_deg(&s.covariance),
-        "mean_rotation_angles_deg": deg3(&s.mean_rotation_angles),
         "outlier_rule": format!(
             "modified z-score 0.6745·(x − median)/MAD, |z| > {OUTLIER_THRESHOLD} on any of x y z ω φ κ (Iglewicz–Hoaglin)"
         ),
@@ -309,7 +303,11 @@ fn to_json(a: &CalibrateArgs, set: &EpochSet, scale: &Scale, c: &Calibration) ->
             "without_pose": set.without_pose,
         },
         "epochs": epochs,
-    })
+    });
+    if let (Some(o), Value::Object(e)) = (out.as_object_mut(), extra) {
+        o.extend(e);
+    }
+    out
 }
 
 fn row(out: &mut String, label: &str, v: [f64; 3], decimals: usize) {
