@@ -27,6 +27,20 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
     ("crashrig-mc", &["crashrig-geometry", "crashrig-stats"]),
     ("crashrig-testkit", &["crashrig-geometry"]),
     (
+        "crashrig-study",
+        &[
+            "crashrig-geometry",
+            "crashrig-camera",
+            "crashrig-colmap",
+            "crashrig-rig",
+            "crashrig-pose",
+            "crashrig-bootstrap",
+            "crashrig-mc",
+            "crashrig-stats",
+            "crashrig-plot",
+        ],
+    ),
+    (
         "crashrig-cli",
         &[
             "crashrig-geometry",
@@ -38,6 +52,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-bootstrap",
             "crashrig-mc",
             "crashrig-plot",
+            "crashrig-study",
         ],
     ),
     (
