@@ -6,7 +6,7 @@
 
 mod cmd;
 mod output;
-mod report;
+mod progress;
 
 use clap::{Parser, Subcommand};
 
@@ -49,6 +49,8 @@ enum Command {
     Grid(cmd::grid::GridArgs),
     /// The main job: reproduce the paper end to end from bundled fixtures, with a report.
     Paper(cmd::paper::PaperArgs),
+    /// The whole study on your own COLMAP project (study file), with results.json and a report.
+    Study(cmd::study::StudyArgs),
 }
 
 /// The error line of a failed run: the context chain joined with ": ", skipping a cause whose
@@ -118,6 +120,7 @@ fn main() -> std::process::ExitCode {
         Command::Propagate(a) => cmd::propagate::run(a, &cli.global),
         Command::Grid(a) => cmd::grid::run(a, &cli.global),
         Command::Paper(a) => cmd::paper::run(a, &cli.global),
+        Command::Study(a) => cmd::study::run(a, &cli.global),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -1,10 +1,37 @@
-//! The crash-test rig study as a library (work in progress: modules are being filled in).
+//! The crash-test rig study as a library.
 //!
 //! Each step is a function with typed inputs and a typed result; the `crashrig` binary only
 //! turns arguments into a configuration, calls one function and prints the result.
-//! - [`calibration`]: COLMAP model → epochs → the rig link `A_from_B` with its covariance.
-//! - [`tie`]: database + model → correspondences → bootstrap → the tie link with its covariance.
+//! - [`study_file`]: the study file (TOML) → a validated [`Study`];
+//! - [`calibration`]: COLMAP model → epochs → the rig link `A_from_B` with its covariance;
+//! - [`tie`]: database + model → correspondences → bootstrap → the tie link with its covariance;
+//! - [`pipeline`]: [`run_study`] — calibration, tie, the chain outward → inward → tie, and one
+//!   grid study per layout, with a one-at-a-time sensitivity;
+//! - [`grids`]: grid summaries, `grid.csv` and heat maps;
+//! - [`report`]: `results.json`, every step's files and the self-contained `report.html`.
+//!
+//! # Example
+//! ```no_run
+//! use crashrig_study::{Options, Study, run_study};
+//! let study = Study::from_path(std::path::Path::new("my_lab/study.toml"))?;
+//! let result = run_study(&study, &Options::default())?;
+//! for l in &result.layouts {
+//!     println!("{}: {:.0} % below {} mm", l.layout.name,
+//!         100.0 * l.summary.fraction_below_threshold, l.summary.threshold_mm);
+//! }
+//! # Ok::<(), crashrig_study::Error>(())
+//! ```
 #![deny(missing_docs)]
 
 pub mod calibration;
+mod error;
+pub mod grids;
+pub mod html;
+pub mod pipeline;
+pub mod report;
+pub mod study_file;
 pub mod tie;
+
+pub use error::Error;
+pub use pipeline::{Options, StudyResult, run_study};
+pub use study_file::Study;

@@ -6,3 +6,4 @@ pub mod colmap;
 pub mod grid;
 pub mod paper;
 pub mod propagate;
+pub mod study;

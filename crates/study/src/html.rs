@@ -24,6 +24,16 @@ pub enum Block {
         /// (caption, PNG bytes) of each figure.
         items: Vec<(String, Vec<u8>)>,
     },
+    /// Trusted HTML written by this crate (inline SVG sketches); never user text.
+    Raw(String),
+    /// A PNG figure shown at full page width (at least 900 px on a normal screen), with a
+    /// click-to-enlarge view at its natural size.
+    Wide {
+        /// Caption under the figure.
+        caption: String,
+        /// PNG bytes.
+        png: Vec<u8>,
+    },
     /// A PNG figure with a caption.
     Figure {
         /// Caption under the figure.
@@ -69,6 +79,7 @@ impl Report {
             CSS,
             escape(&self.title)
         );
+        let mut wide = 0usize;
         for b in &self.blocks {
             match b {
                 Block::Heading(h) => {
@@ -117,6 +128,21 @@ impl Report {
                     }
                     s.push_str("</div>\n");
                 }
+                Block::Raw(h) => {
+                    s.push_str(h);
+                    s.push('\n');
+                }
+                Block::Wide { caption, png } => {
+                    wide += 1;
+                    let data = base64(png);
+                    let _ = writeln!(
+                        s,
+                        "<figure class=\"wide\"><a href=\"#zoom{wide}\"><img alt=\"{}\" src=\"data:image/png;base64,{data}\"></a><figcaption>{} (click to enlarge)</figcaption></figure>\n<a class=\"zoom\" id=\"zoom{wide}\" href=\"#_\"><img alt=\"{} (enlarged)\" src=\"data:image/png;base64,{data}\"></a>",
+                        escape(caption),
+                        escape(caption),
+                        escape(caption)
+                    );
+                }
                 Block::Figure { caption, png } => {
                     let _ = writeln!(
                         s,
@@ -134,11 +160,15 @@ impl Report {
     }
 }
 
-const CSS: &str = "body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}\
+const CSS: &str = "body{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}\
 table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:.25em .6em;text-align:right}\
 th{background:#eee}caption{font-weight:bold;text-align:left;padding:.3em 0}\
 figure{margin:1.5em 0}img{max-width:100%;border:1px solid #ddd}figcaption{font-size:.9em;color:#555}\
-.gallery{display:flex;flex-wrap:wrap;gap:1%}.gallery figure{width:32%;margin:.5em 0}.gcap{width:100%;font-weight:bold;margin:.5em 0 0}";
+.gallery{display:flex;flex-wrap:wrap;gap:1%}.gallery figure{width:32%;margin:.5em 0}.gcap{width:100%;font-weight:bold;margin:.5em 0 0}\
+figure.wide img{width:100%;min-width:900px}.zoom{display:none}.zoom:target{display:flex;position:fixed;inset:0;\
+background:rgba(0,0,0,.85);align-items:center;justify-content:center;z-index:9;overflow:auto}\
+.zoom:target img{max-width:none;width:auto;border:0}.verdict td:first-child{text-align:left}\
+td.l{text-align:left}.note{background:#fff8e0;border-left:4px solid #e0b000;padding:.4em .8em}";
 
 /// Marks `<body data-images="ok:N">` once every image decoded, or `"broken:K/N"`; read by
 /// `cargo xtask report-check` through headless Chromium. It runs locally and loads nothing.

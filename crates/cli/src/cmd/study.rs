@@ -1,0 +1,91 @@
+//! `crashrig study STUDY.toml --out DIR`: the whole study on the user's own data, with the
+//! report. Thin: study file → [`crashrig_study::Study`] → one [`crashrig_study::run_study`]
+//! call → [`crashrig_study::report::write_outputs`].
+
+use crate::Global;
+use crashrig_study::report::Provenance;
+use crashrig_study::{Options, Study, run_study};
+use std::path::{Path, PathBuf};
+
+/// Arguments of `crashrig study`.
+#[derive(Debug, clap::Args)]
+pub struct StudyArgs {
+    /// The study file (TOML; paths in it are relative to it).
+    pub study: PathBuf,
+    /// Output directory: results.json, report.html, calibration/, tie/, grid/<layout>/.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Monte Carlo draws per grid point (overrides the study file's `samples`).
+    #[arg(long)]
+    pub samples: Option<usize>,
+    /// Skip the one-at-a-time sensitivity runs (the verdict's "dominant input").
+    #[arg(long)]
+    pub no_sensitivity: bool,
+}
+
+/// Runs `crashrig study`.
+pub fn run(a: StudyArgs, g: &Global) -> anyhow::Result<()> {
+    let mut command = format!("crashrig study {} --out {}", a.study.display(), a.out.display());
+    if let Some(s) = g.seed {
+        command.push_str(&format!(" --seed {s}"));
+    }
+    if let Some(n) = a.samples {
+        command.push_str(&format!(" --samples {n}"));
+    }
+    let results = execute(&a.study, &a.out, g.seed, a.samples, a.no_sensitivity, &command)?;
+    if g.json {
+        return crate::output::print_json(&results);
+    }
+    println!("{}", summary_line(&a.out, &results));
+    Ok(())
+}
+
+/// One line per run: where the report is and each layout's fraction below the threshold.
+pub fn summary_line(out: &Path, results: &serde_json::Value) -> String {
+    let layouts: Vec<String> = results["layouts"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|l| {
+            format!(
+                "{} {:.0} %",
+                l["name"].as_str().unwrap_or(""),
+                100.0 * l["summary"]["fraction_below_threshold"].as_f64().unwrap_or(f64::NAN)
+            )
+        })
+        .collect();
+    format!(
+        "report {} (below threshold: {})",
+        out.join("report.html").display(),
+        layouts.join(", ")
+    )
+}
+
+/// Reads the study, runs it and writes every output below `out`; returns `results.json`.
+pub fn execute(
+    study_path: &Path,
+    out: &Path,
+    seed: Option<u64>,
+    samples: Option<usize>,
+    no_sensitivity: bool,
+    command: &str,
+) -> anyhow::Result<serde_json::Value> {
+    let study = Study::from_path(study_path)?;
+    let bar = crate::progress::Bar::new("crashrig study");
+    let report = |stage: &str, done: u64, total: u64| bar.set(stage, done, total);
+    let options = Options {
+        seed,
+        samples,
+        no_sensitivity,
+        progress: Some(&report),
+    };
+    let result = run_study(&study, &options);
+    bar.finish();
+    let result = result?;
+    let prov = Provenance {
+        command: command.to_string(),
+        out_dir: out.display().to_string(),
+    };
+    crashrig_study::report::write_outputs(out, &study, &result, &prov)?;
+    Ok(result.to_json())
+}

@@ -1,0 +1,202 @@
+//! Layouts → grids: the typed summary of a grid study and its files (`grid.csv`,
+//! `summary.json`, heat maps of σ_max and of σx σy σz per z level).
+
+use crate::Error;
+use crashrig_mc::{Grid, GridResult};
+use serde::Serialize;
+use std::path::Path;
+
+/// Median of the finite values (NaN when there is none).
+pub fn median(values: &[f64]) -> f64 {
+    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Where the worst part of a layout's grid lies.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WorstRegion {
+    /// The grid point with the largest σ_max (mm, vehicle frame).
+    pub max_point_mm: [f64; 3],
+    /// Its σ_max (mm).
+    pub max_sigma_mm: f64,
+    /// Number of points at or above the threshold.
+    pub points_above_threshold: usize,
+    /// Bounding box of the points at or above the threshold: `[[x_lo, x_hi], [y_lo, y_hi],
+    /// [z_lo, z_hi]]` (mm); `None` when every point is below.
+    pub above_threshold_box_mm: Option<[[f64; 2]; 3]>,
+}
+
+/// The summary of one grid study: the fields of `grid`'s `summary.json` that do not depend
+/// on timing (so a study's `results.json` is reproducible bit for bit), plus per-axis medians
+/// and the worst region.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GridSummary {
+    /// Grid points.
+    pub points: usize,
+    /// Monte Carlo draws per point.
+    pub samples_per_point: u64,
+    /// Threshold on σ_max (mm).
+    pub threshold_mm: f64,
+    /// Fraction of points with σ_max below the threshold.
+    pub fraction_below_threshold: f64,
+    /// Largest σ_max (mm).
+    pub max_sigma_mm: f64,
+    /// Median σ_max (mm).
+    pub median_sigma_max_mm: f64,
+    /// Median σx, σy, σz (mm).
+    pub median_sigma_mm: [f64; 3],
+    /// First-order (linear) counterpart: fraction below the threshold.
+    pub linear_fraction_below_threshold: f64,
+    /// First-order median σ_max (mm).
+    pub linear_median_sigma_max_mm: f64,
+    /// Where the worst region is.
+    pub worst: WorstRegion,
+}
+
+impl GridSummary {
+    /// Summarises `result` over `grid`.
+    pub fn new(grid: &Grid, result: &GridResult) -> GridSummary {
+        let t = grid.threshold_mm;
+        let sm: Vec<f64> = result.points.iter().map(|p| p.sigma_max_mm).collect();
+        let lsm: Vec<f64> = result.points.iter().map(|p| p.linear_sigma_max_mm()).collect();
+        let axis = |k: usize| median(&result.points.iter().map(|p| p.sigma_mm[k]).collect::<Vec<_>>());
+        let n = result.points.len().max(1) as f64;
+        let (imax, max) = sm
+            .iter()
+            .copied()
+            .enumerate()
+            .fold((0, f64::NEG_INFINITY), |(bi, bv), (i, v)| if v > bv { (i, v) } else { (bi, bv) });
+        let above: Vec<_> = result.points.iter().filter(|p| !(p.sigma_max_mm < t)).collect();
+        let bbox = (!above.is_empty()).then(|| {
+            let mut b = [[f64::INFINITY, f64::NEG_INFINITY]; 3];
+            for p in &above {
+                for k in 0..3 {
+                    b[k][0] = b[k][0].min(p.point[k]);
+                    b[k][1] = b[k][1].max(p.point[k]);
+                }
+            }
+            b
+        });
+        GridSummary {
+            points: result.points.len(),
+            samples_per_point: result.points.iter().map(|p| p.count).max().unwrap_or(0),
+            threshold_mm: t,
+            fraction_below_threshold: result.fraction_below(t),
+            max_sigma_mm: max,
+            median_sigma_max_mm: median(&sm),
+            median_sigma_mm: [axis(0), axis(1), axis(2)],
+            linear_fraction_below_threshold: lsm.iter().filter(|s| **s < t).count() as f64 / n,
+            linear_median_sigma_max_mm: median(&lsm),
+            worst: WorstRegion {
+                max_point_mm: result.points.get(imax).map_or([f64::NAN; 3], |p| p.point.into()),
+                max_sigma_mm: max,
+                points_above_threshold: above.len(),
+                above_threshold_box_mm: bbox,
+            },
+        }
+    }
+}
+
+/// The `grid.csv` of the contract (`x_mm,…,sigma_max_mm`), one row per point.
+pub fn grid_csv(result: &GridResult) -> String {
+    let mut s = String::from("x_mm,y_mm,z_mm,sigma_x_mm,sigma_y_mm,sigma_z_mm,sigma_max_mm\n");
+    for p in &result.points {
+        s.push_str(&format!(
+            "{},{},{},{},{},{},{}\n",
+            p.point.x, p.point.y, p.point.z, p.sigma_mm.x, p.sigma_mm.y, p.sigma_mm.z, p.sigma_max_mm
+        ));
+    }
+    s
+}
+
+/// One heat map of a layout: file stem, z index and its PNG.
+pub struct HeatMapPng {
+    /// `sigma_max`, `sigma_x`, `sigma_y` or `sigma_z`.
+    pub stem: &'static str,
+    /// The z level (mm).
+    pub z_mm: f64,
+    /// File name (`<stem>_z<ii>_<z>mm.png`).
+    pub file: String,
+    /// The PNG bytes.
+    pub png: Vec<u8>,
+}
+
+/// Heat maps of σ_max and σx σy σz per z level, one colour scale (0 to 3× the threshold,
+/// larger values saturate) with the threshold contour and the observers marked.
+///
+/// # Errors
+/// [`Error::Plot`] when a figure cannot be drawn.
+pub fn heat_maps(grid: &Grid, result: &GridResult) -> Result<Vec<HeatMapPng>, Error> {
+    let xs = grid.x.values();
+    let ys = grid.y.values();
+    let zs = grid.z.values();
+    let per_z = xs.len() * ys.len();
+    let top = 3.0 * grid.threshold_mm;
+    let bar = format!("sigma [mm] (>= {top} saturated; white line: {} mm threshold)", grid.threshold_mm);
+    type Pick = fn(&crashrig_mc::PointStats) -> f64;
+    let specs: [(&'static str, &str, Pick); 4] = [
+        ("sigma_max", "sigma_max", |p| p.sigma_max_mm),
+        ("sigma_x", "sigma_x", |p| p.sigma_mm.x),
+        ("sigma_y", "sigma_y", |p| p.sigma_mm.y),
+        ("sigma_z", "sigma_z", |p| p.sigma_mm.z),
+    ];
+    let mut out = Vec::new();
+    for (iz, z) in zs.iter().enumerate() {
+        let pts = &result.points[iz * per_z..(iz + 1) * per_z];
+        let markers: Vec<crashrig_plot::Marker> = grid
+            .observers
+            .iter()
+            .map(|o| crashrig_plot::Marker {
+                x: o.position_mm.x,
+                y: o.position_mm.y,
+                label: &o.name,
+            })
+            .collect();
+        for (stem, title, pick) in specs {
+            let values: Vec<f64> = pts.iter().map(pick).collect();
+            let title = format!("Monte Carlo {title} at z = {z} mm");
+            let map = crashrig_plot::HeatMap {
+                xs: &xs,
+                ys: &ys,
+                values: &values,
+                title: &title,
+                x_label: "x [mm] (vehicle frame)",
+                y_label: "y [mm]",
+                colorbar_label: &bar,
+                threshold: Some(grid.threshold_mm),
+                markers: &markers,
+                value_range: Some((0.0, top)),
+            };
+            let png = crashrig_plot::heatmap(&map, crashrig_plot::Format::Png).map_err(|source| Error::Plot {
+                what: format!("heat map {stem} at z = {z} mm"),
+                source,
+            })?;
+            out.push(HeatMapPng {
+                stem,
+                z_mm: *z,
+                file: format!("{stem}_z{iz:02}_{z}mm.png"),
+                png,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// Writes `bytes` to `dir/name` (creating `dir`).
+pub(crate) fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<(), Error> {
+    std::fs::create_dir_all(dir).map_err(|source| Error::Write {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let path = dir.join(name);
+    std::fs::write(&path, bytes).map_err(|source| Error::Write { path, source })
+}

@@ -1,0 +1,687 @@
+//! The study file (TOML): what `crashrig study` runs.
+//!
+//! Paths are relative to the study file. Frames (see `docs/REFERENCE.md`, "Study file"):
+//! - the **world frame** is the lab frame in which the outward camera A's pose
+//!   `world_from_A` is given (`[outward]`); the chain outward → inward (the calibrated link
+//!   `A_from_B`) → tie (the bootstrapped link `B_from_C`) is composed in it;
+//! - the **vehicle frame** of a `[[layout]]` (x forwards from the trunk opening, y left, z up)
+//!   holds the grid and the observers' positions. An observer with `from = "inward"` takes the
+//!   propagated world covariance of that chain camera unchanged: the vehicle axes are taken as
+//!   parallel to the world axes (the covariance is not rotated).
+
+use crate::Error;
+use crashrig_geometry::{Mat6, Rigid3, UncertainPose, Vec3};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+use toml::Spanned;
+
+/// How the calibration sequence is scaled to mm.
+#[derive(Debug, Clone, PartialEq)]
+pub enum StudyScale {
+    /// A scale bar: two point3D ids a known distance apart.
+    ScaleBar {
+        /// The two point3D ids.
+        points: [u64; 2],
+        /// Their distance (mm).
+        length_mm: f64,
+    },
+    /// A fixed factor (mm per model unit).
+    MmPerUnit(f64),
+}
+
+/// `[calibration]`: the rig link `A_from_B` from a sequence, as `crashrig calibrate` takes it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibrationSection {
+    /// COLMAP model directory (absolute after reading).
+    pub model: PathBuf,
+    /// Outward camera A: image-name prefix or camera id.
+    pub camera_a: String,
+    /// Inward camera B: image-name prefix or camera id.
+    pub camera_b: String,
+    /// Scale.
+    pub scale: StudyScale,
+    /// Largest lag of the autocorrelation check (default 10).
+    pub max_lag: usize,
+    /// Rig-constrained refinement (default true).
+    pub refine: bool,
+}
+
+/// Bootstrap method of the tie.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TieMethod {
+    /// B resected from its observations of the model's 3-D points.
+    Absolute,
+    /// Essential matrix from the verified A–B matches, scale from the model.
+    Relative,
+}
+
+/// What the tie bootstrap resamples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TieResample {
+    /// The verified inliers only (default).
+    Inliers,
+    /// All matches (paper §2.3.1).
+    AllMatches,
+}
+
+/// `[tie]`: a third camera tied to the inward camera by matching, as `crashrig bootstrap`
+/// takes it. `image_a` is an image of the inward camera B, `image_b` one of the tied camera.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TieSection {
+    /// COLMAP database.
+    pub database: PathBuf,
+    /// COLMAP model directory.
+    pub model: PathBuf,
+    /// Image of the inward camera (the tie's reference A).
+    pub image_a: String,
+    /// Image of the tied camera.
+    pub image_b: String,
+    /// Method.
+    pub method: TieMethod,
+    /// Bootstrap replicates (default 500).
+    pub iterations: usize,
+    /// mm per model unit (default 1).
+    pub mm_per_unit: f64,
+    /// RANSAC inlier threshold (px, default 4).
+    pub max_error_px: f64,
+    /// Known base length (mm) for `relative` (default: from the model).
+    pub base_mm: Option<f64>,
+    /// What is resampled (default inliers).
+    pub resample: TieResample,
+}
+
+/// Where an observer's pose noise comes from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ObserverNoise {
+    /// The propagated world covariance of a chain camera (`from = "inward"` or `"tie"`).
+    From(ChainCamera),
+    /// A given covariance (mm, rad), centre in vehicle axes, rotation about its own axes.
+    Given(Mat6),
+}
+
+/// The cameras of the study's chain.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ChainCamera {
+    /// Camera A (world pose from `[outward]`).
+    Outward,
+    /// Camera B (A_from_B from `[calibration]`).
+    Inward,
+    /// The tied camera C (B_from_C from `[tie]`).
+    Tie,
+}
+
+impl ChainCamera {
+    /// Name used in the study file, the chain and `results.json`.
+    pub fn name(self) -> &'static str {
+        match self {
+            ChainCamera::Outward => "outward",
+            ChainCamera::Inward => "inward",
+            ChainCamera::Tie => "tie",
+        }
+    }
+}
+
+/// An observer of a layout: an interior camera that aims at every grid point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Observer {
+    /// Label.
+    pub name: String,
+    /// Projection centre in the vehicle frame (mm).
+    pub position_mm: Vec3,
+    /// Its noise.
+    pub noise: ObserverNoise,
+}
+
+/// A regularly spaced axis `[start, stop, count]` (mm).
+pub type AxisSpec = [f64; 3];
+
+/// `[[layout]]`: one arrangement of interior cameras over a grid, in the vehicle frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Layout {
+    /// Name (file-name safe form used for `DIR/grid/<slug>/`).
+    pub name: String,
+    /// Free text shown in the report.
+    pub description: String,
+    /// x axis (mm): start, stop, count.
+    pub x_mm: (f64, f64, usize),
+    /// y axis (mm).
+    pub y_mm: (f64, f64, usize),
+    /// z axis (mm).
+    pub z_mm: (f64, f64, usize),
+    /// Threshold on σ_max (mm).
+    pub threshold_mm: f64,
+    /// Pixel noise σ (px) and focal length (px), optional.
+    pub pixel: Option<(f64, f64)>,
+    /// Observers drawn jointly from one chain draw (`correlated = true`).
+    pub correlated: bool,
+    /// At least two observers.
+    pub observers: Vec<Observer>,
+}
+
+impl Layout {
+    /// A file-name safe form of the name.
+    pub fn slug(&self) -> String {
+        let s: String = self
+            .name
+            .chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                    c.to_ascii_lowercase()
+                } else {
+                    '_'
+                }
+            })
+            .collect();
+        s.trim_matches('_').to_string()
+    }
+}
+
+/// A validated study.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Study {
+    /// The study file (as given).
+    pub path: PathBuf,
+    /// Its text (for line numbers of later errors).
+    pub text: String,
+    /// Master seed (default 1; `--seed` overrides).
+    pub seed: u64,
+    /// Monte Carlo draws per grid point (default 2000; `--samples` overrides).
+    pub samples: usize,
+    /// Monte Carlo draws of the chain propagation (default 200 000).
+    pub chain_samples: usize,
+    /// The rig calibration.
+    pub calibration: CalibrationSection,
+    /// The tie, if any.
+    pub tie: Option<TieSection>,
+    /// The outward camera's world pose `world_from_A` with its covariance (mm, rad).
+    pub outward: UncertainPose,
+    /// The layouts.
+    pub layouts: Vec<Layout>,
+    /// `reference = "kaminski2023"`: the report compares with the paper's published values.
+    pub reference: Option<String>,
+}
+
+// ---------------------------------------------------------------- raw TOML ---
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Raw {
+    seed: Option<u64>,
+    samples: Option<i64>,
+    chain_samples: Option<i64>,
+    reference: Option<String>,
+    calibration: Option<Spanned<RawCalibration>>,
+    tie: Option<Spanned<RawTie>>,
+    outward: Option<Spanned<RawPose>>,
+    #[serde(default)]
+    layout: Vec<Spanned<RawLayout>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCalibration {
+    model: Option<Spanned<String>>,
+    camera_a: Option<Spanned<String>>,
+    camera_b: Option<Spanned<String>>,
+    scale_points: Option<Spanned<Vec<u64>>>,
+    scale_length_mm: Option<Spanned<f64>>,
+    mm_per_unit: Option<Spanned<f64>>,
+    max_lag: Option<Spanned<i64>>,
+    refine: Option<bool>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTie {
+    database: Option<Spanned<String>>,
+    model: Option<Spanned<String>>,
+    image_a: Option<Spanned<String>>,
+    image_b: Option<Spanned<String>>,
+    method: Option<Spanned<String>>,
+    iterations: Option<Spanned<i64>>,
+    mm_per_unit: Option<Spanned<f64>>,
+    max_error_px: Option<Spanned<f64>>,
+    base_mm: Option<Spanned<f64>>,
+    resample: Option<Spanned<String>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPose {
+    position_mm: Option<Spanned<[f64; 3]>>,
+    angles_deg: Option<Spanned<[f64; 3]>>,
+    sigma_position_mm: Option<Spanned<[f64; 3]>>,
+    sigma_angles_deg: Option<Spanned<[f64; 3]>>,
+    covariance_tangent: Option<Spanned<Vec<Vec<f64>>>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawLayout {
+    name: Option<Spanned<String>>,
+    description: Option<String>,
+    x_mm: Option<Spanned<[f64; 3]>>,
+    y_mm: Option<Spanned<[f64; 3]>>,
+    z_mm: Option<Spanned<[f64; 3]>>,
+    threshold_mm: Option<Spanned<f64>>,
+    pixel_sigma_px: Option<Spanned<f64>>,
+    focal_px: Option<Spanned<f64>>,
+    correlated: Option<bool>,
+    #[serde(default)]
+    observer: Vec<Spanned<RawObserver>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawObserver {
+    name: Option<String>,
+    position_mm: Option<Spanned<[f64; 3]>>,
+    from: Option<Spanned<String>>,
+    sigma_position_mm: Option<Spanned<[f64; 3]>>,
+    sigma_angles_deg: Option<Spanned<[f64; 3]>>,
+    covariance_tangent: Option<Spanned<Vec<Vec<f64>>>>,
+}
+
+/// 1-based line of a byte offset.
+pub(crate) fn line_of(text: &str, offset: usize) -> usize {
+    text[..offset.min(text.len())].matches('\n').count() + 1
+}
+
+/// The line of `[name]` / `[[name]]` (the `n`-th occurrence), for errors about a section.
+pub(crate) fn section_line(text: &str, name: &str, n: usize) -> Option<usize> {
+    text.lines()
+        .enumerate()
+        .filter(|(_, l)| {
+            let l = l.split('#').next().unwrap_or("").trim();
+            l == format!("[{name}]") || l == format!("[[{name}]]")
+        })
+        .nth(n)
+        .map(|(i, _)| i + 1)
+}
+
+struct Ctx<'a> {
+    path: &'a Path,
+    text: &'a str,
+    dir: PathBuf,
+}
+
+impl Ctx<'_> {
+    fn err<T>(&self, span: Option<std::ops::Range<usize>>, key: &str, message: impl Into<String>) -> Result<T, Error> {
+        Err(Error::Key {
+            path: self.path.to_path_buf(),
+            line: span.map(|s| line_of(self.text, s.start)),
+            key: key.to_string(),
+            message: message.into(),
+        })
+    }
+
+    fn required<'v, T>(&self, v: &'v Option<Spanned<T>>, section: std::ops::Range<usize>, key: &str) -> Result<&'v Spanned<T>, Error> {
+        match v {
+            Some(s) => Ok(s),
+            None => self.err(Some(section), key, "missing (required)"),
+        }
+    }
+
+    /// A path relative to the study file that must exist.
+    fn existing_path(&self, v: &Spanned<String>, key: &str, dir_expected: bool) -> Result<PathBuf, Error> {
+        let p = self.dir.join(v.get_ref());
+        let ok = if dir_expected { p.is_dir() } else { p.is_file() };
+        if !ok {
+            let what = if dir_expected { "directory" } else { "file" };
+            return self.err(
+                Some(v.span()),
+                key,
+                format!("{} does not exist or is not a {what}", p.display()),
+            );
+        }
+        Ok(p)
+    }
+
+    fn positive(&self, v: &Spanned<f64>, key: &str) -> Result<f64, Error> {
+        let x = *v.get_ref();
+        if !(x.is_finite() && x > 0.0) {
+            return self.err(Some(v.span()), key, format!("must be a positive number, got {x}"));
+        }
+        Ok(x)
+    }
+
+    fn count(&self, v: &Spanned<i64>, key: &str, min: i64) -> Result<usize, Error> {
+        let x = *v.get_ref();
+        if x < min {
+            return self.err(Some(v.span()), key, format!("must be at least {min}, got {x}"));
+        }
+        Ok(x as usize)
+    }
+
+    fn finite3(&self, v: &Spanned<[f64; 3]>, key: &str) -> Result<Vec3, Error> {
+        let a = v.get_ref();
+        if a.iter().any(|x| !x.is_finite()) {
+            return self.err(Some(v.span()), key, "values must be finite");
+        }
+        Ok(Vec3::new(a[0], a[1], a[2]))
+    }
+
+    fn sigma3(&self, v: &Spanned<[f64; 3]>, key: &str) -> Result<Vec3, Error> {
+        let s = self.finite3(v, key)?;
+        if s.iter().any(|x| *x < 0.0) {
+            return self.err(Some(v.span()), key, "σ must not be negative");
+        }
+        Ok(s)
+    }
+
+    /// `covariance_tangent` (mm, deg) → covariance (mm, rad).
+    fn covariance(&self, v: &Spanned<Vec<Vec<f64>>>, key: &str) -> Result<Mat6, Error> {
+        let rows = v.get_ref();
+        if rows.len() != 6 || rows.iter().any(|r| r.len() != 6) {
+            return self.err(Some(v.span()), key, "must be 6 rows of 6 numbers (x y z mm, θx θy θz deg)");
+        }
+        let m = Mat6::from_fn(|i, j| rows[i][j]);
+        match UncertainPose::from_covariance_deg(Rigid3::identity(), m) {
+            Ok(p) => Ok(p.covariance),
+            Err(problem) => self.err(Some(v.span()), key, problem.to_string()),
+        }
+    }
+
+    /// σ keys or `covariance_tangent` (exactly one form) → covariance (mm, rad).
+    fn noise(
+        &self,
+        section: std::ops::Range<usize>,
+        prefix: &str,
+        sp: &Option<Spanned<[f64; 3]>>,
+        sa: &Option<Spanned<[f64; 3]>>,
+        cov: &Option<Spanned<Vec<Vec<f64>>>>,
+    ) -> Result<Mat6, Error> {
+        let k = |f: &str| format!("{prefix}.{f}");
+        match (sp, sa, cov) {
+            (None, None, Some(c)) => self.covariance(c, &k("covariance_tangent")),
+            (Some(p), Some(a), None) => {
+                let p = self.sigma3(p, &k("sigma_position_mm"))?;
+                let a = self.sigma3(a, &k("sigma_angles_deg"))?.map(f64::to_radians);
+                Ok(UncertainPose::from_sigmas(Rigid3::identity(), p, a).covariance)
+            }
+            (_, _, Some(c)) => self.err(
+                Some(c.span()),
+                &k("covariance_tangent"),
+                "give either covariance_tangent or sigma_position_mm + sigma_angles_deg, not both",
+            ),
+            (None, _, None) => self.err(Some(section), &k("sigma_position_mm"), "missing (or give covariance_tangent)"),
+            (_, None, None) => self.err(Some(section), &k("sigma_angles_deg"), "missing (or give covariance_tangent)"),
+        }
+    }
+
+    fn axis(&self, v: &Option<Spanned<[f64; 3]>>, section: std::ops::Range<usize>, key: &str) -> Result<(f64, f64, usize), Error> {
+        let v = self.required(v, section, key)?;
+        let a = v.get_ref();
+        let c = a[2];
+        if !(a[0].is_finite() && a[1].is_finite()) || c < 1.0 || c.fract() != 0.0 || c > 1e6 {
+            return self.err(Some(v.span()), key, "must be [start, stop, count] with finite mm and a whole count ≥ 1");
+        }
+        Ok((a[0], a[1], c as usize))
+    }
+}
+
+impl Study {
+    /// Reads and validates a study file: every path it names must exist.
+    ///
+    /// # Errors
+    /// [`Error::Read`], [`Error::Toml`] or [`Error::Key`] naming the file, key and line.
+    pub fn from_path(path: &Path) -> Result<Study, Error> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Study::from_toml_str(&text, path)
+    }
+
+    /// Parses and validates study text; relative paths are resolved against `path`'s folder.
+    ///
+    /// # Errors
+    /// As [`Study::from_path`].
+    pub fn from_toml_str(text: &str, path: &Path) -> Result<Study, Error> {
+        let raw: Raw = toml::from_str(text).map_err(|e| {
+            let offset = e.span().map_or(0, |s| s.start);
+            let line = line_of(text, offset);
+            let col = text[..offset.min(text.len())].rfind('\n').map_or(offset, |p| offset - p - 1) + 1;
+            Error::Toml {
+                path: path.to_path_buf(),
+                line,
+                column: col,
+                message: e.message().trim().to_string(),
+            }
+        })?;
+        let dir = path
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .map_or_else(|| PathBuf::from("."), Path::to_path_buf);
+        let cx = Ctx { path, text, dir };
+        let whole = 0..0;
+        let missing_section = |name: &str| Error::Key {
+            path: path.to_path_buf(),
+            line: None,
+            key: name.to_string(),
+            message: "missing section (required)".into(),
+        };
+
+        let samples = match raw.samples {
+            Some(n) if n < 2 => return cx.err(None, "samples", format!("must be at least 2, got {n}")),
+            Some(n) => n as usize,
+            None => 2000,
+        };
+        let chain_samples = match raw.chain_samples {
+            Some(n) if n < 2 => return cx.err(None, "chain_samples", format!("must be at least 2, got {n}")),
+            Some(n) => n as usize,
+            None => 200_000,
+        };
+        if let Some(r) = &raw.reference
+            && r != "kaminski2023"
+        {
+            return cx.err(None, "reference", format!("unknown reference {r:?} (known: \"kaminski2023\")"));
+        }
+
+        // [calibration]
+        let c = raw.calibration.as_ref().ok_or_else(|| missing_section("[calibration]"))?;
+        let cs = c.span();
+        let c = c.get_ref();
+        let model = cx.existing_path(cx.required(&c.model, cs.clone(), "calibration.model")?, "calibration.model", true)?;
+        let name = |v: &Option<Spanned<String>>, key: &str| -> Result<String, Error> {
+            let v = cx.required(v, cs.clone(), key)?;
+            if v.get_ref().trim().is_empty() {
+                return cx.err(Some(v.span()), key, "must not be empty");
+            }
+            Ok(v.get_ref().clone())
+        };
+        let camera_a = name(&c.camera_a, "calibration.camera_a")?;
+        let camera_b = name(&c.camera_b, "calibration.camera_b")?;
+        let scale = match (&c.scale_points, &c.scale_length_mm, &c.mm_per_unit) {
+            (Some(p), Some(l), None) => {
+                if p.get_ref().len() != 2 || p.get_ref()[0] == p.get_ref()[1] {
+                    return cx.err(Some(p.span()), "calibration.scale_points", "must be two different point3D ids");
+                }
+                StudyScale::ScaleBar {
+                    points: [p.get_ref()[0], p.get_ref()[1]],
+                    length_mm: cx.positive(l, "calibration.scale_length_mm")?,
+                }
+            }
+            (None, None, Some(f)) => StudyScale::MmPerUnit(cx.positive(f, "calibration.mm_per_unit")?),
+            (Some(_), None, _) => return cx.err(Some(cs), "calibration.scale_length_mm", "required with scale_points"),
+            (None, Some(_), _) => return cx.err(Some(cs), "calibration.scale_points", "required with scale_length_mm"),
+            (Some(_), Some(_), Some(f)) => {
+                return cx.err(Some(f.span()), "calibration.mm_per_unit", "give either mm_per_unit or the scale bar, not both");
+            }
+            (None, None, None) => {
+                return cx.err(Some(cs), "calibration.scale_points", "missing: give scale_points + scale_length_mm or mm_per_unit");
+            }
+        };
+        let calibration = CalibrationSection {
+            model,
+            camera_a,
+            camera_b,
+            scale,
+            max_lag: c.max_lag.as_ref().map_or(Ok(10), |v| cx.count(v, "calibration.max_lag", 1))?,
+            refine: c.refine.unwrap_or(true),
+        };
+
+        // [tie]
+        let tie = match &raw.tie {
+            None => None,
+            Some(t) => {
+                let ts = t.span();
+                let t = t.get_ref();
+                let req = |v: &Option<Spanned<String>>, key: &str| -> Result<Spanned<String>, Error> {
+                    cx.required(v, ts.clone(), key).cloned()
+                };
+                let database = cx.existing_path(&req(&t.database, "tie.database")?, "tie.database", false)?;
+                let model = cx.existing_path(&req(&t.model, "tie.model")?, "tie.model", true)?;
+                let method = match t.method.as_ref().map(|m| (m.get_ref().as_str(), m.span())) {
+                    None | Some(("absolute", _)) => TieMethod::Absolute,
+                    Some(("relative", _)) => TieMethod::Relative,
+                    Some((other, span)) => {
+                        return cx.err(Some(span), "tie.method", format!("must be \"absolute\" or \"relative\", got {other:?}"));
+                    }
+                };
+                let resample = match t.resample.as_ref().map(|m| (m.get_ref().as_str(), m.span())) {
+                    None | Some(("inliers", _)) => TieResample::Inliers,
+                    Some(("all", _)) => TieResample::AllMatches,
+                    Some((other, span)) => {
+                        return cx.err(Some(span), "tie.resample", format!("must be \"inliers\" or \"all\", got {other:?}"));
+                    }
+                };
+                Some(TieSection {
+                    database,
+                    model,
+                    image_a: req(&t.image_a, "tie.image_a")?.into_inner(),
+                    image_b: req(&t.image_b, "tie.image_b")?.into_inner(),
+                    method,
+                    iterations: t.iterations.as_ref().map_or(Ok(500), |v| cx.count(v, "tie.iterations", 2))?,
+                    mm_per_unit: t.mm_per_unit.as_ref().map_or(Ok(1.0), |v| cx.positive(v, "tie.mm_per_unit"))?,
+                    max_error_px: t.max_error_px.as_ref().map_or(Ok(4.0), |v| cx.positive(v, "tie.max_error_px"))?,
+                    base_mm: t.base_mm.as_ref().map(|v| cx.positive(v, "tie.base_mm")).transpose()?,
+                    resample,
+                })
+            }
+        };
+
+        // [outward]
+        let o = raw.outward.as_ref().ok_or_else(|| missing_section("[outward]"))?;
+        let os = o.span();
+        let o = o.get_ref();
+        let position = cx.finite3(cx.required(&o.position_mm, os.clone(), "outward.position_mm")?, "outward.position_mm")?;
+        let angles = cx
+            .finite3(cx.required(&o.angles_deg, os.clone(), "outward.angles_deg")?, "outward.angles_deg")?
+            .map(f64::to_radians);
+        let covariance = cx.noise(os, "outward", &o.sigma_position_mm, &o.sigma_angles_deg, &o.covariance_tangent)?;
+        let world_from_a = Rigid3::from_parts(
+            position.into(),
+            crashrig_geometry::opk::rotation_from_opk(angles.x, angles.y, angles.z).into(),
+        );
+        let outward = UncertainPose {
+            b_from_a: world_from_a,
+            covariance,
+        };
+
+        // [[layout]]
+        if raw.layout.is_empty() {
+            return Err(missing_section("[[layout]]"));
+        }
+        let mut layouts: Vec<Layout> = Vec::new();
+        for (li, l) in raw.layout.iter().enumerate() {
+            let ls = l.span();
+            let l = l.get_ref();
+            let k = |f: &str| format!("layout[{li}].{f}");
+            let name = match &l.name {
+                Some(n) if !n.get_ref().trim().is_empty() => n.get_ref().clone(),
+                Some(n) => return cx.err(Some(n.span()), &k("name"), "must not be empty"),
+                None => format!("layout{}", li + 1),
+            };
+            let layout_name_span = l.name.as_ref().map(|n| n.span()).unwrap_or(ls.clone());
+            let pixel = match (&l.pixel_sigma_px, &l.focal_px) {
+                (None, None) => None,
+                (Some(s), Some(f)) => {
+                    let sv = *s.get_ref();
+                    if !(sv.is_finite() && sv >= 0.0) {
+                        return cx.err(Some(s.span()), &k("pixel_sigma_px"), "must be finite and not negative");
+                    }
+                    Some((sv, cx.positive(f, &k("focal_px"))?))
+                }
+                (Some(_), None) => return cx.err(Some(ls), &k("focal_px"), "required with pixel_sigma_px"),
+                (None, Some(_)) => return cx.err(Some(ls), &k("pixel_sigma_px"), "required with focal_px"),
+            };
+            if l.observer.len() < 2 {
+                return cx.err(Some(ls), &k("observer"), format!("needs at least two [[layout.observer]], found {}", l.observer.len()));
+            }
+            let mut observers = Vec::new();
+            for (oi, ob) in l.observer.iter().enumerate() {
+                let obs = ob.span();
+                let ob = ob.get_ref();
+                let ko = |f: &str| format!("layout[{li}].observer[{oi}].{f}");
+                let position_mm = cx.finite3(cx.required(&ob.position_mm, obs.clone(), &ko("position_mm"))?, &ko("position_mm"))?;
+                let noise = match &ob.from {
+                    Some(f) => {
+                        if ob.sigma_position_mm.is_some() || ob.sigma_angles_deg.is_some() || ob.covariance_tangent.is_some() {
+                            return cx.err(Some(f.span()), &ko("from"), "give either from or the σ / covariance_tangent keys, not both");
+                        }
+                        match f.get_ref().as_str() {
+                            "outward" => ObserverNoise::From(ChainCamera::Outward),
+                            "inward" => ObserverNoise::From(ChainCamera::Inward),
+                            "tie" if tie.is_some() => ObserverNoise::From(ChainCamera::Tie),
+                            "tie" => return cx.err(Some(f.span()), &ko("from"), "\"tie\" needs a [tie] section"),
+                            other => {
+                                return cx.err(Some(f.span()), &ko("from"), format!("must be \"outward\", \"inward\" or \"tie\", got {other:?}"));
+                            }
+                        }
+                    }
+                    None => ObserverNoise::Given(cx.noise(obs, &format!("layout[{li}].observer[{oi}]"), &ob.sigma_position_mm, &ob.sigma_angles_deg, &ob.covariance_tangent)?),
+                };
+                observers.push(Observer {
+                    name: ob.name.clone().unwrap_or_else(|| format!("obs{}", oi + 1)),
+                    position_mm,
+                    noise,
+                });
+            }
+            let layout = Layout {
+                name,
+                description: l.description.clone().unwrap_or_default(),
+                x_mm: cx.axis(&l.x_mm, ls.clone(), &k("x_mm"))?,
+                y_mm: cx.axis(&l.y_mm, ls.clone(), &k("y_mm"))?,
+                z_mm: cx.axis(&l.z_mm, ls.clone(), &k("z_mm"))?,
+                threshold_mm: l.threshold_mm.as_ref().map_or(Ok(5.0), |v| cx.positive(v, &k("threshold_mm")))?,
+                pixel,
+                correlated: l.correlated.unwrap_or(false),
+                observers,
+            };
+            if layout.slug().is_empty() || layouts.iter().any(|o| o.slug() == layout.slug()) {
+                return cx.err(Some(layout_name_span), &k("name"), format!("{:?} is empty or not unique once made file-name safe", layout.name));
+            }
+            layouts.push(layout);
+        }
+        let _ = whole;
+        Ok(Study {
+            path: path.to_path_buf(),
+            text: text.to_string(),
+            seed: raw.seed.unwrap_or(1),
+            samples,
+            chain_samples,
+            calibration,
+            tie,
+            outward,
+            layouts,
+            reference: raw.reference,
+        })
+    }
+
+    /// 1-based line of `[name]` (the `n`-th `[[name]]`) in the study file.
+    pub fn section_line(&self, name: &str, n: usize) -> Option<usize> {
+        section_line(&self.text, name, n)
+    }
+
+    /// An [`Error::Step`] for a failure of the step configured by section `key`.
+    pub fn step_error(&self, key: &str, n: usize, message: impl Into<String>) -> Error {
+        let section = key.split('[').next().unwrap_or(key);
+        Error::Step {
+            path: self.path.clone(),
+            line: self.section_line(section, n),
+            key: key.to_string(),
+            message: message.into(),
+        }
+    }
+}
