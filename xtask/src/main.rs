@@ -257,6 +257,12 @@ fn report_check(dir: Option<PathBuf>) -> Result<()> {
         .and_then(|s| s.split('"').next())
         .map(str::to_string)
         .unwrap_or_default();
+    let wide_min: i64 = dom
+        .split("data-wide-min-px=\"")
+        .nth(1)
+        .and_then(|s| s.split('"').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(-1);
     let shot = dir.join("report-screenshot.png");
     let mut sc = Command::new(&chromium);
     base(&mut sc);
@@ -271,8 +277,11 @@ fn report_check(dir: Option<PathBuf>) -> Result<()> {
             shot.display()
         );
     }
+    if (0..900).contains(&wide_min) {
+        bail!("report heat maps render only {wide_min} px wide (at least 900 expected)");
+    }
     println!(
-        "report-check: {marker} images rendered; screenshot {}",
+        "report-check: {marker} images rendered; narrowest heat map {wide_min} px; screenshot {}",
         shot.display()
     );
     Ok(())

@@ -67,15 +67,33 @@ impl GridSummary {
     pub fn new(grid: &Grid, result: &GridResult) -> GridSummary {
         let t = grid.threshold_mm;
         let sm: Vec<f64> = result.points.iter().map(|p| p.sigma_max_mm).collect();
-        let lsm: Vec<f64> = result.points.iter().map(|p| p.linear_sigma_max_mm()).collect();
-        let axis = |k: usize| median(&result.points.iter().map(|p| p.sigma_mm[k]).collect::<Vec<_>>());
+        let lsm: Vec<f64> = result
+            .points
+            .iter()
+            .map(|p| p.linear_sigma_max_mm())
+            .collect();
+        let axis = |k: usize| {
+            median(
+                &result
+                    .points
+                    .iter()
+                    .map(|p| p.sigma_mm[k])
+                    .collect::<Vec<_>>(),
+            )
+        };
         let n = result.points.len().max(1) as f64;
         let (imax, max) = sm
             .iter()
             .copied()
             .enumerate()
-            .fold((0, f64::NEG_INFINITY), |(bi, bv), (i, v)| if v > bv { (i, v) } else { (bi, bv) });
-        let above: Vec<_> = result.points.iter().filter(|p| !(p.sigma_max_mm < t)).collect();
+            .fold((0, f64::NEG_INFINITY), |(bi, bv), (i, v)| {
+                if v > bv { (i, v) } else { (bi, bv) }
+            });
+        let above: Vec<_> = result
+            .points
+            .iter()
+            .filter(|p| !(p.sigma_max_mm < t))
+            .collect();
         let bbox = (!above.is_empty()).then(|| {
             let mut b = [[f64::INFINITY, f64::NEG_INFINITY]; 3];
             for p in &above {
@@ -97,7 +115,10 @@ impl GridSummary {
             linear_fraction_below_threshold: lsm.iter().filter(|s| **s < t).count() as f64 / n,
             linear_median_sigma_max_mm: median(&lsm),
             worst: WorstRegion {
-                max_point_mm: result.points.get(imax).map_or([f64::NAN; 3], |p| p.point.into()),
+                max_point_mm: result
+                    .points
+                    .get(imax)
+                    .map_or([f64::NAN; 3], |p| p.point.into()),
                 max_sigma_mm: max,
                 points_above_threshold: above.len(),
                 above_threshold_box_mm: bbox,
@@ -112,7 +133,13 @@ pub fn grid_csv(result: &GridResult) -> String {
     for p in &result.points {
         s.push_str(&format!(
             "{},{},{},{},{},{},{}\n",
-            p.point.x, p.point.y, p.point.z, p.sigma_mm.x, p.sigma_mm.y, p.sigma_mm.z, p.sigma_max_mm
+            p.point.x,
+            p.point.y,
+            p.point.z,
+            p.sigma_mm.x,
+            p.sigma_mm.y,
+            p.sigma_mm.z,
+            p.sigma_max_mm
         ));
     }
     s
@@ -128,6 +155,8 @@ pub struct HeatMapPng {
     pub file: String,
     /// The PNG bytes.
     pub png: Vec<u8>,
+    /// The same map as SVG.
+    pub svg: Vec<u8>,
 }
 
 /// Heat maps of σ_max and σx σy σz per z level, one colour scale (0 to 3× the threshold,
@@ -141,7 +170,10 @@ pub fn heat_maps(grid: &Grid, result: &GridResult) -> Result<Vec<HeatMapPng>, Er
     let zs = grid.z.values();
     let per_z = xs.len() * ys.len();
     let top = 3.0 * grid.threshold_mm;
-    let bar = format!("sigma [mm] (>= {top} saturated; white line: {} mm threshold)", grid.threshold_mm);
+    let bar = format!(
+        "sigma [mm] (>= {top} saturated; white line: {} mm threshold)",
+        grid.threshold_mm
+    );
     type Pick = fn(&crashrig_mc::PointStats) -> f64;
     let specs: [(&'static str, &str, Pick); 4] = [
         ("sigma_max", "sigma_max", |p| p.sigma_max_mm),
@@ -176,15 +208,20 @@ pub fn heat_maps(grid: &Grid, result: &GridResult) -> Result<Vec<HeatMapPng>, Er
                 markers: &markers,
                 value_range: Some((0.0, top)),
             };
-            let png = crashrig_plot::heatmap(&map, crashrig_plot::Format::Png).map_err(|source| Error::Plot {
-                what: format!("heat map {stem} at z = {z} mm"),
-                source,
-            })?;
+            let draw = |f| {
+                crashrig_plot::heatmap(&map, f).map_err(|source| Error::Plot {
+                    what: format!("heat map {stem} at z = {z} mm"),
+                    source,
+                })
+            };
+            let png = draw(crashrig_plot::Format::Png)?;
+            let svg = draw(crashrig_plot::Format::Svg)?;
             out.push(HeatMapPng {
                 stem,
                 z_mm: *z,
                 file: format!("{stem}_z{iz:02}_{z}mm.png"),
                 png,
+                svg,
             });
         }
     }

@@ -170,11 +170,14 @@ background:rgba(0,0,0,.85);align-items:center;justify-content:center;z-index:9;o
 .zoom:target img{max-width:none;width:auto;border:0}.verdict td:first-child{text-align:left}\
 td.l{text-align:left}.note{background:#fff8e0;border-left:4px solid #e0b000;padding:.4em .8em}";
 
-/// Marks `<body data-images="ok:N">` once every image decoded, or `"broken:K/N"`; read by
+/// Marks `<body data-images="ok:N">` once every image decoded, or `"broken:K/N"`, and
+/// `data-wide-min-px` = the rendered width of the narrowest full-width figure (−1: none); read by
 /// `cargo xtask report-check` through headless Chromium. It runs locally and loads nothing.
 const CHECK_SCRIPT: &str = "<script>window.addEventListener('load',function(){var i=document.images,b=0;\
 for(var k=0;k<i.length;k++){if(!i[k].complete||i[k].naturalWidth===0){b++;}}\
-document.body.setAttribute('data-images',b===0?'ok:'+i.length:'broken:'+b+'/'+i.length);});</script>\n";
+document.body.setAttribute('data-images',b===0?'ok:'+i.length:'broken:'+b+'/'+i.length);\
+var w=document.querySelectorAll('figure.wide img'),m=-1;for(var k=0;k<w.length;k++){var c=w[k].getBoundingClientRect().width;if(m<0||c<m){m=c;}}\
+document.body.setAttribute('data-wide-min-px',String(Math.round(m)));});</script>\n";
 
 /// Escapes text for HTML element content and attribute values.
 pub fn escape(s: &str) -> String {

@@ -7,11 +7,13 @@
 //! Every value that passes between steps is typed ([`UncertainPose`]); nothing is printed,
 //! parsed back or rewritten as text.
 
+use crate::Error;
 use crate::calibration::{self, CalibrationConfig, CalibrationResult};
 use crate::grids::GridSummary;
-use crate::study_file::{ChainCamera, Layout, ObserverNoise, Study, StudyScale, TieMethod, TieResample};
+use crate::study_file::{
+    ChainCamera, Layout, ObserverNoise, Study, StudyScale, TieMethod, TieResample,
+};
 use crate::tie::{self, TieConfig, TieResult};
-use crate::Error;
 use crashrig_geometry::{Mat6, UncertainPose};
 use crashrig_mc::{GridResult, GridStudy, PoseLinear, PoseMc, Scenario};
 use nalgebra::Vector3;
@@ -122,7 +124,12 @@ fn sigmas(c: &Mat6) -> crashrig_mc::PoseSigma {
 }
 
 /// The Monte Carlo library's camera for an uncertain pose (world pose or link).
-fn mc_camera(name: &str, parent: Option<usize>, p: &UncertainPose, scale: f64) -> crashrig_mc::Camera {
+fn mc_camera(
+    name: &str,
+    parent: Option<usize>,
+    p: &UncertainPose,
+    scale: f64,
+) -> crashrig_mc::Camera {
     let r: crashrig_geometry::Rot3 = p.b_from_a.rotation.to_rotation_matrix();
     let opk = crashrig_geometry::opk::opk_from_rotation(&r);
     crashrig_mc::Camera {
@@ -136,7 +143,12 @@ fn mc_camera(name: &str, parent: Option<usize>, p: &UncertainPose, scale: f64) -
 
 /// The chain as a scenario of the Monte Carlo library (typed, no TOML), with the inputs'
 /// covariances scaled.
-fn chain_scenario(inputs: &[(ChainCamera, UncertainPose)], s: &Scales, samples: usize, seed: u64) -> Scenario {
+fn chain_scenario(
+    inputs: &[(ChainCamera, UncertainPose)],
+    s: &Scales,
+    samples: usize,
+    seed: u64,
+) -> Scenario {
     let cameras: Vec<crashrig_mc::Camera> = inputs
         .iter()
         .enumerate()
@@ -178,9 +190,9 @@ fn layout_scenario(chain: &Scenario, layout: &Layout, s: &Scales) -> Scenario {
             position_mm: o.position_mm,
             sigma: match &o.noise {
                 ObserverNoise::Given(c) => crashrig_mc::ObserverSigma::Given(sigmas(&(c * *k))),
-                ObserverNoise::From(cam) => crashrig_mc::ObserverSigma::From(
-                    chain.camera_index(cam.name()).unwrap_or(0),
-                ),
+                ObserverNoise::From(cam) => {
+                    crashrig_mc::ObserverSigma::From(chain.camera_index(cam.name()).unwrap_or(0))
+                }
             },
         })
         .collect();
@@ -191,7 +203,9 @@ fn layout_scenario(chain: &Scenario, layout: &Layout, s: &Scales) -> Scenario {
         z: axis(layout.z_mm),
         threshold_mm: layout.threshold_mm,
         observers,
-        pixel: layout.pixel.map(|(sigma_px, focal_px)| crashrig_mc::PixelNoise { sigma_px, focal_px }),
+        pixel: layout
+            .pixel
+            .map(|(sigma_px, focal_px)| crashrig_mc::PixelNoise { sigma_px, focal_px }),
         correlated: layout.correlated,
         adaptive: None,
     });
@@ -206,7 +220,9 @@ pub fn calibration_config(study: &Study) -> CalibrationConfig {
         camera_a: c.camera_a.clone(),
         camera_b: c.camera_b.clone(),
         scale: match c.scale {
-            StudyScale::ScaleBar { points, length_mm } => calibration::Scale::ScaleBar { points, length_mm },
+            StudyScale::ScaleBar { points, length_mm } => {
+                calibration::Scale::ScaleBar { points, length_mm }
+            }
             StudyScale::MmPerUnit(f) => calibration::Scale::MmPerUnit(f),
         },
         max_lag: c.max_lag,
@@ -282,7 +298,10 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
             .iter()
             .map(|l| {
                 chain_inputs_used(l).iter().filter(|u| **u).count()
-                    + l.observers.iter().filter(|o| matches!(o.noise, ObserverNoise::Given(_))).count()
+                    + l.observers
+                        .iter()
+                        .filter(|o| matches!(o.noise, ObserverNoise::Given(_)))
+                        .count()
             })
             .sum()
     };
@@ -300,7 +319,8 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
     tick("calibration");
     let tie = match &study.tie {
         Some(t) => {
-            let r = tie::bootstrap(&tie_config(t, seed)).map_err(|e| study.step_error("tie", 0, e.to_string()))?;
+            let r = tie::bootstrap(&tie_config(t, seed))
+                .map_err(|e| study.step_error("tie", 0, e.to_string()))?;
             tick("tie");
             Some(r)
         }
@@ -334,17 +354,18 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
         .collect();
     tick("propagation");
 
-    let run_layout = |layout: &Layout, s: &Scales| -> Result<(crashrig_mc::Grid, GridResult), Error> {
-        let chain = chain_scenario(&inputs, s, study.chain_samples, seed);
-        let sc = layout_scenario(&chain, layout, s);
-        let g = GridStudy::new(&sc, samples, seed).map_err(mc_err)?;
-        let r = g.run(samples, seed).map_err(mc_err)?;
-        let mut grid = g.grid().clone();
-        for (o, sig) in grid.observers.iter_mut().zip(&r.observer_sigma) {
-            o.sigma = crashrig_mc::ObserverSigma::Given(*sig);
-        }
-        Ok((grid, r))
-    };
+    let run_layout =
+        |layout: &Layout, s: &Scales| -> Result<(crashrig_mc::Grid, GridResult), Error> {
+            let chain = chain_scenario(&inputs, s, study.chain_samples, seed);
+            let sc = layout_scenario(&chain, layout, s);
+            let g = GridStudy::new(&sc, samples, seed).map_err(mc_err)?;
+            let r = g.run(samples, seed).map_err(mc_err)?;
+            let mut grid = g.grid().clone();
+            for (o, sig) in grid.observers.iter_mut().zip(&r.observer_sigma) {
+                o.sigma = crashrig_mc::ObserverSigma::Given(*sig);
+            }
+            Ok((grid, r))
+        };
     let mut layouts = Vec::new();
     for layout in &study.layouts {
         let unit = Scales::unit(layout.observers.len());
@@ -410,8 +431,17 @@ fn deg3(v: Vector3<f64>) -> [f64; 3] {
 
 /// A 6×6 covariance (mm, rad) in the contract's units (mm, deg) as rows.
 pub fn covariance_deg_rows(c: &Mat6) -> Vec<[f64; 6]> {
-    let k = [1.0, 1.0, 1.0, 180.0 / std::f64::consts::PI, 180.0 / std::f64::consts::PI, 180.0 / std::f64::consts::PI];
-    (0..6).map(|i| std::array::from_fn(|j| c[(i, j)] * k[i] * k[j])).collect()
+    let k = [
+        1.0,
+        1.0,
+        1.0,
+        180.0 / std::f64::consts::PI,
+        180.0 / std::f64::consts::PI,
+        180.0 / std::f64::consts::PI,
+    ];
+    (0..6)
+        .map(|i| std::array::from_fn(|j| c[(i, j)] * k[i] * k[j]))
+        .collect()
 }
 
 impl StudyResult {
@@ -477,7 +507,9 @@ impl StudyResult {
 /// The world φ of a pose or link (deg): where ω and κ become correlated (|φ| → 90°).
 pub fn phi_deg(p: &UncertainPose) -> f64 {
     let r: crashrig_geometry::Rot3 = p.b_from_a.rotation.to_rotation_matrix();
-    crashrig_geometry::opk::opk_from_rotation(&r).phi.to_degrees()
+    crashrig_geometry::opk::opk_from_rotation(&r)
+        .phi
+        .to_degrees()
 }
 
 /// σ of a link's tangent rotation (deg) from its covariance.

@@ -2,11 +2,11 @@
 //! `report.html` (verdict per layout, plan sketch, full-width heat maps, per-axis maps, error
 //! ellipses, inputs with provenance and the commands that regenerate every number).
 
+use crate::Error;
 use crate::grids::{self, HeatMapPng};
 use crate::html::{Block, Report, Table, escape};
 use crate::pipeline::{LayoutResult, StudyResult, phi_deg};
 use crate::study_file::{ChainCamera, ObserverNoise, Study, StudyScale, TieMethod, TieResample};
-use crate::Error;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -34,9 +34,14 @@ pub mod published {
     /// Table 2: σ/√n (deg).
     pub const ANGLES_SEM_DEG: [f64; 3] = [0.004, 0.005, 0.008];
     /// Table 3: σ of the translation in the world (mm), cam1..cam3.
-    pub const TABLE3_MM: [[f64; 3]; 3] = [[1.00, 1.00, 1.00], [1.52, 1.54, 1.52], [2.53, 2.51, 2.55]];
+    pub const TABLE3_MM: [[f64; 3]; 3] =
+        [[1.00, 1.00, 1.00], [1.52, 1.54, 1.52], [2.53, 2.51, 2.55]];
     /// Table 4: σ of the orientation in the world (deg), cam1..cam3.
-    pub const TABLE4_DEG: [[f64; 3]; 3] = [[0.01, 0.01, 0.01], [0.011, 0.011, 0.013], [0.023, 0.023, 0.024]];
+    pub const TABLE4_DEG: [[f64; 3]; 3] = [
+        [0.01, 0.01, 0.01],
+        [0.011, 0.011, 0.013],
+        [0.023, 0.023, 0.024],
+    ];
 }
 
 fn f3(v: [f64; 3], d: usize) -> String {
@@ -54,20 +59,38 @@ fn json_pretty(v: &serde_json::Value) -> Vec<u8> {
 ///
 /// # Errors
 /// [`Error::Write`] or [`Error::Plot`].
-pub fn write_outputs(dir: &Path, study: &Study, r: &StudyResult, prov: &Provenance) -> Result<(), Error> {
+pub fn write_outputs(
+    dir: &Path,
+    study: &Study,
+    r: &StudyResult,
+    prov: &Provenance,
+) -> Result<(), Error> {
     let results = r.to_json();
-    grids::write(&dir.join("calibration"), "calibrate.json", &json_pretty(&r.calibration.to_json()))?;
+    grids::write(
+        &dir.join("calibration"),
+        "calibrate.json",
+        &json_pretty(&r.calibration.to_json()),
+    )?;
     if let Some(t) = &r.tie {
-        grids::write(&dir.join("tie"), "bootstrap.json", &json_pretty(&t.to_json()))?;
+        grids::write(
+            &dir.join("tie"),
+            "bootstrap.json",
+            &json_pretty(&t.to_json()),
+        )?;
     }
     let mut maps = Vec::new();
-    for (l, lj) in r.layouts.iter().zip(results["layouts"].as_array().into_iter().flatten()) {
+    for (l, lj) in r
+        .layouts
+        .iter()
+        .zip(results["layouts"].as_array().into_iter().flatten())
+    {
         let d = dir.join("grid").join(l.layout.slug());
         grids::write(&d, "grid.csv", grids::grid_csv(&l.result).as_bytes())?;
         grids::write(&d, "summary.json", &json_pretty(lj))?;
         let m = grids::heat_maps(&l.grid, &l.result)?;
         for h in &m {
             grids::write(&d, &h.file, &h.png)?;
+            grids::write(&d, &h.file.replace(".png", ".svg"), &h.svg)?;
         }
         maps.push(m);
     }
@@ -82,24 +105,59 @@ pub fn write_outputs(dir: &Path, study: &Study, r: &StudyResult, prov: &Provenan
 fn plan_sketch(l: &LayoutResult) -> String {
     let g = &l.grid;
     let pts = g.points();
-    let mut xs: Vec<f64> = pts.iter().map(|p| p.x).chain(g.observers.iter().map(|o| o.position_mm.x)).collect();
-    let mut ys: Vec<f64> = pts.iter().map(|p| p.y).chain(g.observers.iter().map(|o| o.position_mm.y)).collect();
+    let mut xs: Vec<f64> = pts
+        .iter()
+        .map(|p| p.x)
+        .chain(g.observers.iter().map(|o| o.position_mm.x))
+        .collect();
+    let mut ys: Vec<f64> = pts
+        .iter()
+        .map(|p| p.y)
+        .chain(g.observers.iter().map(|o| o.position_mm.y))
+        .collect();
     xs.push(0.0);
     ys.push(0.0);
-    let (x0, x1) = (xs.iter().copied().fold(f64::INFINITY, f64::min) - 150.0, xs.iter().copied().fold(f64::NEG_INFINITY, f64::max) + 150.0);
-    let (y0, y1) = (ys.iter().copied().fold(f64::INFINITY, f64::min) - 150.0, ys.iter().copied().fold(f64::NEG_INFINITY, f64::max) + 150.0);
+    let (x0, x1) = (
+        xs.iter().copied().fold(f64::INFINITY, f64::min) - 150.0,
+        xs.iter().copied().fold(f64::NEG_INFINITY, f64::max) + 150.0,
+    );
+    let (y0, y1) = (
+        ys.iter().copied().fold(f64::INFINITY, f64::min) - 150.0,
+        ys.iter().copied().fold(f64::NEG_INFINITY, f64::max) + 150.0,
+    );
     let w = 900.0;
     let k = w / (x1 - x0);
     let h = (y1 - y0) * k;
     let px = |x: f64| (x - x0) * k;
     let py = |y: f64| (y1 - y) * k;
     let mut s = String::new();
-    let _ = write!(s, "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w:.0}\" height=\"{:.0}\" viewBox=\"0 0 {w:.0} {:.0}\" style=\"background:#fafafa;border:1px solid #ccc;max-width:100%\">", h + 20.0, h + 20.0);
-    let _ = write!(s, "<text x=\"6\" y=\"{:.0}\" font-size=\"12\">plan view (vehicle frame): x forwards from the trunk opening, y left; grey dots = grid points; red = below threshold missed (σ_max ≥ threshold)</text>", h + 15.0);
-    let _ = write!(s, "<line x1=\"{:.1}\" y1=\"0\" x2=\"{:.1}\" y2=\"{h:.1}\" stroke=\"#888\" stroke-dasharray=\"4 3\"/><text x=\"{:.1}\" y=\"12\" font-size=\"11\" fill=\"#666\">x = 0 (trunk opening)</text>", px(0.0), px(0.0), px(0.0) + 3.0);
+    let _ = write!(
+        s,
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w:.0}\" height=\"{:.0}\" viewBox=\"0 0 {w:.0} {:.0}\" style=\"background:#fafafa;border:1px solid #ccc;max-width:100%\">",
+        h + 20.0,
+        h + 20.0
+    );
+    let _ = write!(
+        s,
+        "<text x=\"6\" y=\"{:.0}\" font-size=\"12\">plan view (vehicle frame): x forwards from the trunk opening, y left; grey dots = grid points; red = below threshold missed (σ_max ≥ threshold)</text>",
+        h + 15.0
+    );
+    let _ = write!(
+        s,
+        "<line x1=\"{:.1}\" y1=\"0\" x2=\"{:.1}\" y2=\"{h:.1}\" stroke=\"#888\" stroke-dasharray=\"4 3\"/><text x=\"{:.1}\" y=\"12\" font-size=\"11\" fill=\"#666\">x = 0 (trunk opening)</text>",
+        px(0.0),
+        px(0.0),
+        px(0.0) + 3.0
+    );
     for p in &l.result.points {
         let bad = !(p.sigma_max_mm < g.threshold_mm);
-        let _ = write!(s, "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"2\" fill=\"{}\"/>", px(p.point.x), py(p.point.y), if bad { "#d22" } else { "#999" });
+        let _ = write!(
+            s,
+            "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"2\" fill=\"{}\"/>",
+            px(p.point.x),
+            py(p.point.y),
+            if bad { "#d22" } else { "#999" }
+        );
     }
     let cx = pts.iter().map(|p| p.x).sum::<f64>() / pts.len().max(1) as f64;
     let cy = pts.iter().map(|p| p.y).sum::<f64>() / pts.len().max(1) as f64;
@@ -108,14 +166,44 @@ fn plan_sketch(l: &LayoutResult) -> String {
         let (dx, dy) = (cx - ox, cy - oy);
         let n = (dx * dx + dy * dy).sqrt().max(1e-9);
         let (ux, uy) = (dx / n * 250.0, dy / n * 250.0);
-        let _ = write!(s, "<line x1=\"{:.1}\" y1=\"{:.1}\" x2=\"{:.1}\" y2=\"{:.1}\" stroke=\"#06c\" stroke-width=\"2\" marker-end=\"url(#arr)\"/>", px(ox), py(oy), px(ox + ux), py(oy + uy));
-        let _ = write!(s, "<rect x=\"{:.1}\" y=\"{:.1}\" width=\"10\" height=\"10\" fill=\"#06c\"/><text x=\"{:.1}\" y=\"{:.1}\" font-size=\"12\" fill=\"#036\">{}</text>", px(ox) - 5.0, py(oy) - 5.0, px(ox) + 8.0, py(oy) - 8.0, escape(&o.name));
+        let _ = write!(
+            s,
+            "<line x1=\"{:.1}\" y1=\"{:.1}\" x2=\"{:.1}\" y2=\"{:.1}\" stroke=\"#06c\" stroke-width=\"2\" marker-end=\"url(#arr)\"/>",
+            px(ox),
+            py(oy),
+            px(ox + ux),
+            py(oy + uy)
+        );
+        let _ = write!(
+            s,
+            "<rect x=\"{:.1}\" y=\"{:.1}\" width=\"10\" height=\"10\" fill=\"#06c\"/><text x=\"{:.1}\" y=\"{:.1}\" font-size=\"12\" fill=\"#036\">{}</text>",
+            px(ox) - 5.0,
+            py(oy) - 5.0,
+            px(ox) + 8.0,
+            py(oy) - 8.0,
+            escape(&o.name)
+        );
     }
     // The outward camera: at the rear, looking out of the trunk opening (−x).
-    let rear = g.observers.iter().map(|o| o.position_mm).min_by(|a, b| a.x.total_cmp(&b.x));
+    let rear = g
+        .observers
+        .iter()
+        .map(|o| o.position_mm)
+        .min_by(|a, b| a.x.total_cmp(&b.x));
     if let Some(r) = rear {
         let ox = r.x - 60.0;
-        let _ = write!(s, "<rect x=\"{:.1}\" y=\"{:.1}\" width=\"10\" height=\"10\" fill=\"#c60\"/><line x1=\"{:.1}\" y1=\"{:.1}\" x2=\"{:.1}\" y2=\"{:.1}\" stroke=\"#c60\" stroke-width=\"2\" marker-end=\"url(#arr)\"/><text x=\"{:.1}\" y=\"{:.1}\" font-size=\"12\" fill=\"#630\">outward camera A (looks out of the car)</text>", px(ox) - 5.0, py(r.y) - 5.0, px(ox), py(r.y), px(ox - 200.0), py(r.y), px(ox) - 5.0, py(r.y) + 22.0);
+        let _ = write!(
+            s,
+            "<rect x=\"{:.1}\" y=\"{:.1}\" width=\"10\" height=\"10\" fill=\"#c60\"/><line x1=\"{:.1}\" y1=\"{:.1}\" x2=\"{:.1}\" y2=\"{:.1}\" stroke=\"#c60\" stroke-width=\"2\" marker-end=\"url(#arr)\"/><text x=\"{:.1}\" y=\"{:.1}\" font-size=\"12\" fill=\"#630\">outward camera A (looks out of the car)</text>",
+            px(ox) - 5.0,
+            py(r.y) - 5.0,
+            px(ox),
+            py(r.y),
+            px(ox - 200.0),
+            py(r.y),
+            px(ox) - 5.0,
+            py(r.y) + 22.0
+        );
     }
     s.push_str("<defs><marker id=\"arr\" markerWidth=\"8\" markerHeight=\"8\" refX=\"6\" refY=\"3\" orient=\"auto\"><path d=\"M0,0 L6,3 L0,6 z\" fill=\"#333\"/></marker></defs></svg>");
     s
@@ -127,7 +215,11 @@ fn ellipses(l: &LayoutResult) -> String {
     let (xs, ys) = (g.x.values(), g.y.values());
     let step_x = (xs.len() / 6).max(1);
     let step_y = (ys.len() / 5).max(1);
-    let spacing = if xs.len() > 1 { (xs[1] - xs[0]).abs() } else { 100.0 };
+    let spacing = if xs.len() > 1 {
+        (xs[1] - xs[0]).abs()
+    } else {
+        100.0
+    };
     // Magnify so that an ellipse of the threshold's size spans half a cell... of the subsample.
     let mag = 0.5 * spacing * step_x as f64 / g.threshold_mm;
     let per_z = xs.len() * ys.len();
@@ -139,15 +231,32 @@ fn ellipses(l: &LayoutResult) -> String {
         .map(|(_, p)| p)
         .collect();
     let mut out = String::new();
-    for (view, a, b, label) in [("plan view (x–y)", 0usize, 1usize, "y"), ("side view (x–z)", 0, 2, "z")] {
+    for (view, a, b, label) in [
+        ("plan view (x–y)", 0usize, 1usize, "y"),
+        ("side view (x–z)", 0, 2, "z"),
+    ] {
         let us: Vec<f64> = sub.iter().map(|p| p.point[a]).collect();
-        let vs: Vec<f64> = sub.iter().map(|p| if b == 2 { p.point[1] } else { p.point[b] }).collect();
-        let (u0, u1) = (us.iter().copied().fold(f64::INFINITY, f64::min) - spacing * step_x as f64, us.iter().copied().fold(f64::NEG_INFINITY, f64::max) + spacing * step_x as f64);
-        let (v0, v1) = (vs.iter().copied().fold(f64::INFINITY, f64::min) - spacing * step_x as f64, vs.iter().copied().fold(f64::NEG_INFINITY, f64::max) + spacing * step_x as f64);
+        let vs: Vec<f64> = sub
+            .iter()
+            .map(|p| if b == 2 { p.point[1] } else { p.point[b] })
+            .collect();
+        let (u0, u1) = (
+            us.iter().copied().fold(f64::INFINITY, f64::min) - spacing * step_x as f64,
+            us.iter().copied().fold(f64::NEG_INFINITY, f64::max) + spacing * step_x as f64,
+        );
+        let (v0, v1) = (
+            vs.iter().copied().fold(f64::INFINITY, f64::min) - spacing * step_x as f64,
+            vs.iter().copied().fold(f64::NEG_INFINITY, f64::max) + spacing * step_x as f64,
+        );
         let w = 440.0;
         let k = w / (u1 - u0);
         let h = (v1 - v0) * k;
-        let _ = write!(out, "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w:.0}\" height=\"{:.0}\" style=\"border:1px solid #ccc;margin:4px\"><text x=\"4\" y=\"{:.0}\" font-size=\"11\">{view}: 1σ ellipses ×{mag:.0}; rows = y of the subsample, ellipse axes x and {label}</text>", h + 16.0, h + 12.0);
+        let _ = write!(
+            out,
+            "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w:.0}\" height=\"{:.0}\" style=\"border:1px solid #ccc;margin:4px\"><text x=\"4\" y=\"{:.0}\" font-size=\"11\">{view}: 1σ ellipses ×{mag:.0}; rows = y of the subsample, ellipse axes x and {label}</text>",
+            h + 16.0,
+            h + 12.0
+        );
         for p in &sub {
             let c = &p.covariance;
             let (saa, sbb, sab) = (c[(a, a)], c[(b, b)], c[(a, b)]);
@@ -157,7 +266,18 @@ fn ellipses(l: &LayoutResult) -> String {
             let ang = 0.5 * (2.0 * sab).atan2(saa - sbb);
             let (u, v) = (p.point[a], if b == 2 { p.point[1] } else { p.point[b] });
             let bad = !(p.sigma_max_mm < g.threshold_mm);
-            let _ = write!(out, "<ellipse cx=\"{:.1}\" cy=\"{:.1}\" rx=\"{:.2}\" ry=\"{:.2}\" transform=\"rotate({:.1} {:.1} {:.1})\" fill=\"none\" stroke=\"{}\"/>", (u - u0) * k, (v1 - v) * k, (l1 * mag * k).min(200.0), (l2 * mag * k).min(200.0), -ang.to_degrees(), (u - u0) * k, (v1 - v) * k, if bad { "#d22" } else { "#06c" });
+            let _ = write!(
+                out,
+                "<ellipse cx=\"{:.1}\" cy=\"{:.1}\" rx=\"{:.2}\" ry=\"{:.2}\" transform=\"rotate({:.1} {:.1} {:.1})\" fill=\"none\" stroke=\"{}\"/>",
+                (u - u0) * k,
+                (v1 - v) * k,
+                (l1 * mag * k).min(200.0),
+                (l2 * mag * k).min(200.0),
+                -ang.to_degrees(),
+                (u - u0) * k,
+                (v1 - v) * k,
+                if bad { "#d22" } else { "#06c" }
+            );
         }
         out.push_str("</svg>");
     }
@@ -187,11 +307,17 @@ fn verdict_rows(r: &StudyResult) -> Vec<Vec<String>> {
 }
 
 /// The report page.
-pub fn report_html(study: &Study, r: &StudyResult, maps: &[Vec<HeatMapPng>], prov: &Provenance) -> String {
+pub fn report_html(
+    study: &Study,
+    r: &StudyResult,
+    maps: &[Vec<HeatMapPng>],
+    prov: &Provenance,
+) -> String {
     let paper = study.reference.as_deref() == Some("kaminski2023");
     let mut rep = Report {
         title: if paper {
-            "crashrig: uncertainty of an on-board crash-test camera system (paper reproduction)".into()
+            "crashrig: uncertainty of an on-board crash-test camera system (paper reproduction)"
+                .into()
         } else {
             format!("crashrig study: {}", study.path.display())
         },
@@ -212,10 +338,17 @@ pub fn report_html(study: &Study, r: &StudyResult, maps: &[Vec<HeatMapPng>], pro
     let c = &r.calibration;
     let link = &c.link;
     let t = link.b_from_a.translation.vector;
-    let opk = crashrig_geometry::opk::opk_from_rotation(&link.b_from_a.rotation.to_rotation_matrix());
+    let opk =
+        crashrig_geometry::opk::opk_from_rotation(&link.b_from_a.rotation.to_rotation_matrix());
     let sem = crate::pipeline::tangent_sigma_deg(link);
-    let sem_p = [link.covariance[(0, 0)].sqrt(), link.covariance[(1, 1)].sqrt(), link.covariance[(2, 2)].sqrt()];
-    rep.push(Block::Heading("1. Rig calibration: the link A_from_B".into()));
+    let sem_p = [
+        link.covariance[(0, 0)].sqrt(),
+        link.covariance[(1, 1)].sqrt(),
+        link.covariance[(2, 2)].sqrt(),
+    ];
+    rep.push(Block::Heading(
+        "1. Rig calibration: the link A_from_B".into(),
+    ));
     rep.push(Block::Paragraph(format!(
         "{} epochs of {} (A = {:?}, B = {:?}); base = B's centre in A's frame, angles = ω φ κ of R_A_from_B. The chain uses the mean link with its SEM covariance (rule: {}).",
         c.n_epochs, study.calibration.model.display(), study.calibration.camera_a, study.calibration.camera_b, c.sem_rule
@@ -224,21 +357,63 @@ pub fn report_html(study: &Study, r: &StudyResult, maps: &[Vec<HeatMapPng>], pro
         caption: "Calibrated link (this run)".into(),
         header: ["", "x / ω", "y / φ", "z / κ"].map(String::from).to_vec(),
         rows: vec![
-            vec!["base [mm]".into(), format!("{:.2}", t.x), format!("{:.2}", t.y), format!("{:.2}", t.z)],
-            vec!["SEM base [mm]".into(), format!("{:.3}", sem_p[0]), format!("{:.3}", sem_p[1]), format!("{:.3}", sem_p[2])],
-            vec!["angles [°]".into(), format!("{:.3}", opk.omega.to_degrees()), format!("{:.3}", opk.phi.to_degrees()), format!("{:.3}", opk.kappa.to_degrees())],
-            vec!["SEM tangent θx θy θz [°]".into(), format!("{:.4}", sem[0]), format!("{:.4}", sem[1]), format!("{:.4}", sem[2])],
+            vec![
+                "base [mm]".into(),
+                format!("{:.2}", t.x),
+                format!("{:.2}", t.y),
+                format!("{:.2}", t.z),
+            ],
+            vec![
+                "SEM base [mm]".into(),
+                format!("{:.3}", sem_p[0]),
+                format!("{:.3}", sem_p[1]),
+                format!("{:.3}", sem_p[2]),
+            ],
+            vec![
+                "angles [°]".into(),
+                format!("{:.3}", opk.omega.to_degrees()),
+                format!("{:.3}", opk.phi.to_degrees()),
+                format!("{:.3}", opk.kappa.to_degrees()),
+            ],
+            vec![
+                "SEM tangent θx θy θz [°]".into(),
+                format!("{:.4}", sem[0]),
+                format!("{:.4}", sem[1]),
+                format!("{:.4}", sem[2]),
+            ],
         ],
     };
     if paper {
-        tc.rows.push(vec!["paper base [mm]".into(), format!("{:.2}", published::BASE_MM[0]), format!("{:.2}", published::BASE_MM[1]), format!("{:.2}", published::BASE_MM[2])]);
-        tc.rows.push(vec!["paper σ/√n base [mm]".into(), format!("{:.2}", published::BASE_SEM_MM[0]), format!("{:.2}", published::BASE_SEM_MM[1]), format!("{:.2}", published::BASE_SEM_MM[2])]);
-        tc.rows.push(vec!["paper angles [°]".into(), format!("{:.2}", published::ANGLES_DEG[0]), format!("{:.2}", published::ANGLES_DEG[1]), format!("{:.2}", published::ANGLES_DEG[2])]);
-        tc.rows.push(vec!["paper σ/√n angles [°]".into(), format!("{:.3}", published::ANGLES_SEM_DEG[0]), format!("{:.3}", published::ANGLES_SEM_DEG[1]), format!("{:.3}", published::ANGLES_SEM_DEG[2])]);
+        tc.rows.push(vec![
+            "paper base [mm]".into(),
+            format!("{:.2}", published::BASE_MM[0]),
+            format!("{:.2}", published::BASE_MM[1]),
+            format!("{:.2}", published::BASE_MM[2]),
+        ]);
+        tc.rows.push(vec![
+            "paper σ/√n base [mm]".into(),
+            format!("{:.2}", published::BASE_SEM_MM[0]),
+            format!("{:.2}", published::BASE_SEM_MM[1]),
+            format!("{:.2}", published::BASE_SEM_MM[2]),
+        ]);
+        tc.rows.push(vec![
+            "paper angles [°]".into(),
+            format!("{:.2}", published::ANGLES_DEG[0]),
+            format!("{:.2}", published::ANGLES_DEG[1]),
+            format!("{:.2}", published::ANGLES_DEG[2]),
+        ]);
+        tc.rows.push(vec![
+            "paper σ/√n angles [°]".into(),
+            format!("{:.3}", published::ANGLES_SEM_DEG[0]),
+            format!("{:.3}", published::ANGLES_SEM_DEG[1]),
+            format!("{:.3}", published::ANGLES_SEM_DEG[2]),
+        ]);
     }
     rep.push(Block::Table(tc));
     if !c.warnings.is_empty() {
-        rep.push(Block::List(c.warnings.iter().map(|w| format!("warning: {w}")).collect()));
+        rep.push(Block::List(
+            c.warnings.iter().map(|w| format!("warning: {w}")).collect(),
+        ));
     }
 
     // Tie.
@@ -246,9 +421,16 @@ pub fn report_html(study: &Study, r: &StudyResult, maps: &[Vec<HeatMapPng>], pro
         let l = &tie.link;
         let tt = l.b_from_a.translation.vector;
         let s = crate::pipeline::tangent_sigma_deg(l);
-        let sp = [l.covariance[(0, 0)].sqrt(), l.covariance[(1, 1)].sqrt(), l.covariance[(2, 2)].sqrt()];
-        let o = crashrig_geometry::opk::opk_from_rotation(&l.b_from_a.rotation.to_rotation_matrix());
-        rep.push(Block::Heading("2. The tie: bootstrap of the third camera".into()));
+        let sp = [
+            l.covariance[(0, 0)].sqrt(),
+            l.covariance[(1, 1)].sqrt(),
+            l.covariance[(2, 2)].sqrt(),
+        ];
+        let o =
+            crashrig_geometry::opk::opk_from_rotation(&l.b_from_a.rotation.to_rotation_matrix());
+        rep.push(Block::Heading(
+            "2. The tie: bootstrap of the third camera".into(),
+        ));
         rep.push(Block::Paragraph(format!(
             "{} replicates ({} orientation) of {:?} relative to {:?} from {} and {}; resampled: {}. The chain uses the link with the covariance of the replicates.",
             ts.iterations,
@@ -260,23 +442,55 @@ pub fn report_html(study: &Study, r: &StudyResult, maps: &[Vec<HeatMapPng>], pro
             caption: "Tie link B_from_C".into(),
             header: ["", "x / ω", "y / φ", "z / κ"].map(String::from).to_vec(),
             rows: vec![
-                vec!["base [mm]".into(), format!("{:.2}", tt.x), format!("{:.2}", tt.y), format!("{:.2}", tt.z)],
-                vec!["bootstrap σ base [mm]".into(), format!("{:.3}", sp[0]), format!("{:.3}", sp[1]), format!("{:.3}", sp[2])],
-                vec!["angles [°]".into(), format!("{:.3}", o.omega.to_degrees()), format!("{:.3}", o.phi.to_degrees()), format!("{:.3}", o.kappa.to_degrees())],
-                vec!["bootstrap σ tangent θx θy θz [°]".into(), format!("{:.4}", s[0]), format!("{:.4}", s[1]), format!("{:.4}", s[2])],
+                vec![
+                    "base [mm]".into(),
+                    format!("{:.2}", tt.x),
+                    format!("{:.2}", tt.y),
+                    format!("{:.2}", tt.z),
+                ],
+                vec![
+                    "bootstrap σ base [mm]".into(),
+                    format!("{:.3}", sp[0]),
+                    format!("{:.3}", sp[1]),
+                    format!("{:.3}", sp[2]),
+                ],
+                vec![
+                    "angles [°]".into(),
+                    format!("{:.3}", o.omega.to_degrees()),
+                    format!("{:.3}", o.phi.to_degrees()),
+                    format!("{:.3}", o.kappa.to_degrees()),
+                ],
+                vec![
+                    "bootstrap σ tangent θx θy θz [°]".into(),
+                    format!("{:.4}", s[0]),
+                    format!("{:.4}", s[1]),
+                    format!("{:.4}", s[2]),
+                ],
             ],
         }));
     }
 
     // Chain.
-    rep.push(Block::Heading("3. Propagation through the chain (world poses)".into()));
+    rep.push(Block::Heading(
+        "3. Propagation through the chain (world poses)".into(),
+    ));
     rep.push(Block::Paragraph(format!(
         "{} Monte Carlo draws of the outward camera's world pose, the calibrated link and the tie, composed; first-order propagation beside it. Position σ in world axes; rotation σ both as the tangent σ (small rotations about the camera's own axes — what the grid uses) and as σ of ω φ κ (display only).",
         r.chain_samples
     )));
     let mut t3 = Table {
         caption: "World pose σ of every camera of the chain".into(),
-        header: ["camera", "world φ [°]", "σ position MC [mm]", "σ tangent MC [°]", "σ ω φ κ MC [°]", "σ position first order [mm]", "σ tangent first order [°]"].map(String::from).to_vec(),
+        header: [
+            "camera",
+            "world φ [°]",
+            "σ position MC [mm]",
+            "σ tangent MC [°]",
+            "σ ω φ κ MC [°]",
+            "σ position first order [mm]",
+            "σ tangent first order [°]",
+        ]
+        .map(String::from)
+        .to_vec(),
         rows: Vec::new(),
     };
     for cp in &r.chain {
@@ -293,8 +507,19 @@ pub fn report_html(study: &Study, r: &StudyResult, maps: &[Vec<HeatMapPng>], pro
         ]);
     }
     if paper {
-        for (i, name) in ["paper cam1", "paper cam2", "paper cam3"].iter().enumerate() {
-            t3.rows.push(vec![name.to_string(), String::new(), f3(published::TABLE3_MM[i], 2), String::new(), f3(published::TABLE4_DEG[i], 3), String::new(), String::new()]);
+        for (i, name) in ["paper cam1", "paper cam2", "paper cam3"]
+            .iter()
+            .enumerate()
+        {
+            t3.rows.push(vec![
+                name.to_string(),
+                String::new(),
+                f3(published::TABLE3_MM[i], 2),
+                String::new(),
+                f3(published::TABLE4_DEG[i], 3),
+                String::new(),
+                String::new(),
+            ]);
         }
     }
     rep.push(Block::Table(t3));
@@ -309,7 +534,9 @@ pub fn report_html(study: &Study, r: &StudyResult, maps: &[Vec<HeatMapPng>], pro
     }
 
     // Layouts.
-    rep.push(Block::Heading("4. Forward intersection over the interior, per layout".into()));
+    rep.push(Block::Heading(
+        "4. Forward intersection over the interior, per layout".into(),
+    ));
     rep.push(Block::Paragraph("Each grid point (vehicle frame: x forwards from the trunk opening, y left, z up) is observed by the layout's cameras aimed at it without roll, intersected by linear least squares (DLT) for every draw; σx σy σz are the sample standard deviations, σ_max the largest. Heat maps share one colour scale from 0 to 3× the threshold; the white contour is the threshold; observers are marked.".into()));
     for (l, m) in r.layouts.iter().zip(maps) {
         rep.push(Block::Heading(format!("Layout: {}", l.layout.name)));
@@ -318,7 +545,15 @@ pub fn report_html(study: &Study, r: &StudyResult, maps: &[Vec<HeatMapPng>], pro
         }
         rep.push(Block::Table(Table {
             caption: "Observers".into(),
-            header: ["observer", "position [mm]", "noise from", "σ position [mm]", "σ tangent [°]"].map(String::from).to_vec(),
+            header: [
+                "observer",
+                "position [mm]",
+                "noise from",
+                "σ position [mm]",
+                "σ tangent [°]",
+            ]
+            .map(String::from)
+            .to_vec(),
             rows: l
                 .grid
                 .observers
@@ -340,9 +575,17 @@ pub fn report_html(study: &Study, r: &StudyResult, maps: &[Vec<HeatMapPng>], pro
                 .collect(),
         }));
         let s = &l.summary;
-        let mut rows = vec![vec!["as given".into(), format!("{:.2}", s.median_sigma_max_mm), format!("{:.1} %", 100.0 * s.fraction_below_threshold)]];
+        let mut rows = vec![vec![
+            "as given".into(),
+            format!("{:.2}", s.median_sigma_max_mm),
+            format!("{:.1} %", 100.0 * s.fraction_below_threshold),
+        ]];
         for x in &l.sensitivity {
-            rows.push(vec![format!("σ of {} halved", x.input), format!("{:.2}", x.median_sigma_max_mm), format!("{:.1} %", 100.0 * x.fraction_below_threshold)]);
+            rows.push(vec![
+                format!("σ of {} halved", x.input),
+                format!("{:.2}", x.median_sigma_max_mm),
+                format!("{:.1} %", 100.0 * x.fraction_below_threshold),
+            ]);
         }
         rep.push(Block::Table(Table {
             caption: format!("One-at-a-time sensitivity (median σ_x σ_y σ_z = {} mm; first-order median σ_max {:.2} mm)", f3(s.median_sigma_mm, 2), s.linear_median_sigma_max_mm),
@@ -351,10 +594,28 @@ pub fn report_html(study: &Study, r: &StudyResult, maps: &[Vec<HeatMapPng>], pro
         }));
         rep.push(Block::Raw(plan_sketch(l)));
         for h in m.iter().filter(|h| h.stem == "sigma_max") {
-            rep.push(Block::Wide { caption: format!("{}: σ_max at z = {} mm (white contour: {} mm threshold)", l.layout.name, h.z_mm, l.summary.threshold_mm), png: h.png.clone() });
+            rep.push(Block::Wide {
+                caption: format!(
+                    "{}: σ_max at z = {} mm (white contour: {} mm threshold)",
+                    l.layout.name, h.z_mm, l.summary.threshold_mm
+                ),
+                png: h.png.clone(),
+            });
         }
-        let items: Vec<(String, Vec<u8>)> = m.iter().filter(|h| h.stem != "sigma_max").map(|h| (format!("{} at z = {} mm", h.stem.replace("sigma_", "σ"), h.z_mm), h.png.clone())).collect();
-        rep.push(Block::Gallery { caption: format!("{}: per-axis σx σy σz (same colour scale)", l.layout.name), items });
+        let items: Vec<(String, Vec<u8>)> = m
+            .iter()
+            .filter(|h| h.stem != "sigma_max")
+            .map(|h| {
+                (
+                    format!("{} at z = {} mm", h.stem.replace("sigma_", "σ"), h.z_mm),
+                    h.png.clone(),
+                )
+            })
+            .collect();
+        rep.push(Block::Gallery {
+            caption: format!("{}: per-axis σx σy σz (same colour scale)", l.layout.name),
+            items,
+        });
         rep.push(Block::Raw(format!("<div>{}</div>", ellipses(l))));
     }
 
@@ -362,23 +623,58 @@ pub fn report_html(study: &Study, r: &StudyResult, maps: &[Vec<HeatMapPng>], pro
     rep.push(Block::Heading("Inputs and provenance".into()));
     let cal = &study.calibration;
     let scale = match cal.scale {
-        StudyScale::ScaleBar { points, length_mm } => format!("--scale-points {} {} --scale-length-mm {length_mm}", points[0], points[1]),
+        StudyScale::ScaleBar { points, length_mm } => format!(
+            "--scale-points {} {} --scale-length-mm {length_mm}",
+            points[0], points[1]
+        ),
         StudyScale::MmPerUnit(f) => format!("--mm-per-unit {f}"),
     };
     let mut inputs = vec![
         format!("study file: {}", study.path.display()),
-        format!("calibration model: {} (cameras {:?} and {:?}, {scale})", cal.model.display(), cal.camera_a, cal.camera_b),
-        format!("outward camera world σ (from the study file [outward]): position {} mm, tangent {}°", f3([study.outward.covariance[(0, 0)].sqrt(), study.outward.covariance[(1, 1)].sqrt(), study.outward.covariance[(2, 2)].sqrt()], 3), f3(crate::pipeline::tangent_sigma_deg(&study.outward), 4)),
-        format!("seed {} (every random step), {} grid draws per point, {} chain draws", r.seed, r.samples, r.chain_samples),
+        format!(
+            "calibration model: {} (cameras {:?} and {:?}, {scale})",
+            cal.model.display(),
+            cal.camera_a,
+            cal.camera_b
+        ),
+        format!(
+            "outward camera world σ (from the study file [outward]): position {} mm, tangent {}°",
+            f3(
+                [
+                    study.outward.covariance[(0, 0)].sqrt(),
+                    study.outward.covariance[(1, 1)].sqrt(),
+                    study.outward.covariance[(2, 2)].sqrt()
+                ],
+                3
+            ),
+            f3(crate::pipeline::tangent_sigma_deg(&study.outward), 4)
+        ),
+        format!(
+            "seed {} (every random step), {} grid draws per point, {} chain draws",
+            r.seed, r.samples, r.chain_samples
+        ),
     ];
     if let Some(t) = &study.tie {
-        inputs.push(format!("tie: database {}, model {}, images {:?} → {:?}", t.database.display(), t.model.display(), t.image_a, t.image_b));
+        inputs.push(format!(
+            "tie: database {}, model {}, images {:?} → {:?}",
+            t.database.display(),
+            t.model.display(),
+            t.image_a,
+            t.image_b
+        ));
     }
     rep.push(Block::List(inputs));
-    rep.push(Block::Heading("Commands that regenerate every number".into()));
-    let mut cmds = vec![
-        format!("crashrig calibrate {} --camera-a {} --camera-b {} {scale} --max-lag {}{} --json   # = results.json \"calibration\"", cal.model.display(), cal.camera_a, cal.camera_b, cal.max_lag, if cal.refine { "" } else { " --no-refine" }),
-    ];
+    rep.push(Block::Heading(
+        "Commands that regenerate every number".into(),
+    ));
+    let mut cmds = vec![format!(
+        "crashrig calibrate {} --camera-a {} --camera-b {} {scale} --max-lag {}{} --json   # = results.json \"calibration\"",
+        cal.model.display(),
+        cal.camera_a,
+        cal.camera_b,
+        cal.max_lag,
+        if cal.refine { "" } else { " --no-refine" }
+    )];
     if let Some(t) = &study.tie {
         cmds.push(format!(
             "crashrig bootstrap {} --model {} --image-a {} --image-b {} --method {} --iterations {} --mm-per-unit {} --max-error-px {} --seed {} --json   # = results.json \"tie\"",
@@ -387,14 +683,32 @@ pub fn report_html(study: &Study, r: &StudyResult, maps: &[Vec<HeatMapPng>], pro
             t.iterations, t.mm_per_unit, t.max_error_px, r.seed
         ));
     }
-    cmds.push(format!("crashrig study {} --out {} --seed {} --samples {}   # everything, this page included", study.path.display(), if prov.out_dir.is_empty() { "DIR" } else { &prov.out_dir }, r.seed, r.samples));
+    cmds.push(format!(
+        "crashrig study {} --out {} --seed {} --samples {}   # everything, this page included",
+        study.path.display(),
+        if prov.out_dir.is_empty() {
+            "DIR"
+        } else {
+            &prov.out_dir
+        },
+        r.seed,
+        r.samples
+    ));
     rep.push(Block::List(cmds));
 
     if paper {
-        rep.push(Block::Heading("What differs from the paper, and why".into()));
+        rep.push(Block::Heading(
+            "What differs from the paper, and why".into(),
+        ));
         let rear = |stem: &str| {
             r.layouts.iter().find(|l| l.layout.slug() == stem).map(|l| {
-                let rb: Vec<f64> = l.result.points.iter().filter(|p| p.point.x <= 800.0).map(|p| p.sigma_max_mm).collect();
+                let rb: Vec<f64> = l
+                    .result
+                    .points
+                    .iter()
+                    .filter(|p| p.point.x <= 800.0)
+                    .map(|p| p.sigma_max_mm)
+                    .collect();
                 grids::median(&rb)
             })
         };
@@ -406,8 +720,12 @@ pub fn report_html(study: &Study, r: &StudyResult, maps: &[Vec<HeatMapPng>], pro
             _ => "Figure 13: layouts three_cameras_z0_paper / three_cameras_z300_paper not in this study.".into(),
         };
         let resample = match study.tie.as_ref().map(|t| t.resample) {
-            Some(TieResample::AllMatches) => "The bootstrap resampled all matches, as paper §2.3.1 describes.",
-            _ => "The bootstrap resampled the verified inliers only (crashrig's default, `resample = \"inliers\"`); paper §2.3.1 says all matches are resampled (`resample = \"all\"`).",
+            Some(TieResample::AllMatches) => {
+                "The bootstrap resampled all matches, as paper §2.3.1 describes."
+            }
+            _ => {
+                "The bootstrap resampled the verified inliers only (crashrig's default, `resample = \"inliers\"`); paper §2.3.1 says all matches are resampled (`resample = \"all\"`)."
+            }
         };
         rep.push(Block::List(vec![
             "Tables 1–2: the bundled sequence was generated with the paper's statistics, so agreement checks the estimator (pairing, SO(3) mean, wrap-safe angles, scale bar), not the lab.".into(),

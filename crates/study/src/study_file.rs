@@ -306,7 +306,12 @@ struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
-    fn err<T>(&self, span: Option<std::ops::Range<usize>>, key: &str, message: impl Into<String>) -> Result<T, Error> {
+    fn err<T>(
+        &self,
+        span: Option<std::ops::Range<usize>>,
+        key: &str,
+        message: impl Into<String>,
+    ) -> Result<T, Error> {
         Err(Error::Key {
             path: self.path.to_path_buf(),
             line: span.map(|s| line_of(self.text, s.start)),
@@ -315,7 +320,12 @@ impl Ctx<'_> {
         })
     }
 
-    fn required<'v, T>(&self, v: &'v Option<Spanned<T>>, section: std::ops::Range<usize>, key: &str) -> Result<&'v Spanned<T>, Error> {
+    fn required<'v, T>(
+        &self,
+        v: &'v Option<Spanned<T>>,
+        section: std::ops::Range<usize>,
+        key: &str,
+    ) -> Result<&'v Spanned<T>, Error> {
         match v {
             Some(s) => Ok(s),
             None => self.err(Some(section), key, "missing (required)"),
@@ -323,9 +333,18 @@ impl Ctx<'_> {
     }
 
     /// A path relative to the study file that must exist.
-    fn existing_path(&self, v: &Spanned<String>, key: &str, dir_expected: bool) -> Result<PathBuf, Error> {
+    fn existing_path(
+        &self,
+        v: &Spanned<String>,
+        key: &str,
+        dir_expected: bool,
+    ) -> Result<PathBuf, Error> {
         let p = self.dir.join(v.get_ref());
-        let ok = if dir_expected { p.is_dir() } else { p.is_file() };
+        let ok = if dir_expected {
+            p.is_dir()
+        } else {
+            p.is_file()
+        };
         if !ok {
             let what = if dir_expected { "directory" } else { "file" };
             return self.err(
@@ -340,7 +359,11 @@ impl Ctx<'_> {
     fn positive(&self, v: &Spanned<f64>, key: &str) -> Result<f64, Error> {
         let x = *v.get_ref();
         if !(x.is_finite() && x > 0.0) {
-            return self.err(Some(v.span()), key, format!("must be a positive number, got {x}"));
+            return self.err(
+                Some(v.span()),
+                key,
+                format!("must be a positive number, got {x}"),
+            );
         }
         Ok(x)
     }
@@ -348,7 +371,11 @@ impl Ctx<'_> {
     fn count(&self, v: &Spanned<i64>, key: &str, min: i64) -> Result<usize, Error> {
         let x = *v.get_ref();
         if x < min {
-            return self.err(Some(v.span()), key, format!("must be at least {min}, got {x}"));
+            return self.err(
+                Some(v.span()),
+                key,
+                format!("must be at least {min}, got {x}"),
+            );
         }
         Ok(x as usize)
     }
@@ -373,7 +400,11 @@ impl Ctx<'_> {
     fn covariance(&self, v: &Spanned<Vec<Vec<f64>>>, key: &str) -> Result<Mat6, Error> {
         let rows = v.get_ref();
         if rows.len() != 6 || rows.iter().any(|r| r.len() != 6) {
-            return self.err(Some(v.span()), key, "must be 6 rows of 6 numbers (x y z mm, θx θy θz deg)");
+            return self.err(
+                Some(v.span()),
+                key,
+                "must be 6 rows of 6 numbers (x y z mm, θx θy θz deg)",
+            );
         }
         let m = Mat6::from_fn(|i, j| rows[i][j]);
         match UncertainPose::from_covariance_deg(Rigid3::identity(), m) {
@@ -404,17 +435,34 @@ impl Ctx<'_> {
                 &k("covariance_tangent"),
                 "give either covariance_tangent or sigma_position_mm + sigma_angles_deg, not both",
             ),
-            (None, _, None) => self.err(Some(section), &k("sigma_position_mm"), "missing (or give covariance_tangent)"),
-            (_, None, None) => self.err(Some(section), &k("sigma_angles_deg"), "missing (or give covariance_tangent)"),
+            (None, _, None) => self.err(
+                Some(section),
+                &k("sigma_position_mm"),
+                "missing (or give covariance_tangent)",
+            ),
+            (_, None, None) => self.err(
+                Some(section),
+                &k("sigma_angles_deg"),
+                "missing (or give covariance_tangent)",
+            ),
         }
     }
 
-    fn axis(&self, v: &Option<Spanned<[f64; 3]>>, section: std::ops::Range<usize>, key: &str) -> Result<(f64, f64, usize), Error> {
+    fn axis(
+        &self,
+        v: &Option<Spanned<[f64; 3]>>,
+        section: std::ops::Range<usize>,
+        key: &str,
+    ) -> Result<(f64, f64, usize), Error> {
         let v = self.required(v, section, key)?;
         let a = v.get_ref();
         let c = a[2];
         if !(a[0].is_finite() && a[1].is_finite()) || c < 1.0 || c.fract() != 0.0 || c > 1e6 {
-            return self.err(Some(v.span()), key, "must be [start, stop, count] with finite mm and a whole count ≥ 1");
+            return self.err(
+                Some(v.span()),
+                key,
+                "must be [start, stop, count] with finite mm and a whole count ≥ 1",
+            );
         }
         Ok((a[0], a[1], c as usize))
     }
@@ -441,7 +489,10 @@ impl Study {
         let raw: Raw = toml::from_str(text).map_err(|e| {
             let offset = e.span().map_or(0, |s| s.start);
             let line = line_of(text, offset);
-            let col = text[..offset.min(text.len())].rfind('\n').map_or(offset, |p| offset - p - 1) + 1;
+            let col = text[..offset.min(text.len())]
+                .rfind('\n')
+                .map_or(offset, |p| offset - p - 1)
+                + 1;
             Error::Toml {
                 path: path.to_path_buf(),
                 line,
@@ -463,26 +514,45 @@ impl Study {
         };
 
         let samples = match raw.samples {
-            Some(n) if n < 2 => return cx.err(None, "samples", format!("must be at least 2, got {n}")),
+            Some(n) if n < 2 => {
+                return cx.err(None, "samples", format!("must be at least 2, got {n}"));
+            }
             Some(n) => n as usize,
             None => 2000,
         };
         let chain_samples = match raw.chain_samples {
-            Some(n) if n < 2 => return cx.err(None, "chain_samples", format!("must be at least 2, got {n}")),
+            Some(n) if n < 2 => {
+                return cx.err(
+                    None,
+                    "chain_samples",
+                    format!("must be at least 2, got {n}"),
+                );
+            }
             Some(n) => n as usize,
             None => 200_000,
         };
         if let Some(r) = &raw.reference
             && r != "kaminski2023"
         {
-            return cx.err(None, "reference", format!("unknown reference {r:?} (known: \"kaminski2023\")"));
+            return cx.err(
+                None,
+                "reference",
+                format!("unknown reference {r:?} (known: \"kaminski2023\")"),
+            );
         }
 
         // [calibration]
-        let c = raw.calibration.as_ref().ok_or_else(|| missing_section("[calibration]"))?;
+        let c = raw
+            .calibration
+            .as_ref()
+            .ok_or_else(|| missing_section("[calibration]"))?;
         let cs = c.span();
         let c = c.get_ref();
-        let model = cx.existing_path(cx.required(&c.model, cs.clone(), "calibration.model")?, "calibration.model", true)?;
+        let model = cx.existing_path(
+            cx.required(&c.model, cs.clone(), "calibration.model")?,
+            "calibration.model",
+            true,
+        )?;
         let name = |v: &Option<Spanned<String>>, key: &str| -> Result<String, Error> {
             let v = cx.required(v, cs.clone(), key)?;
             if v.get_ref().trim().is_empty() {
@@ -495,21 +565,47 @@ impl Study {
         let scale = match (&c.scale_points, &c.scale_length_mm, &c.mm_per_unit) {
             (Some(p), Some(l), None) => {
                 if p.get_ref().len() != 2 || p.get_ref()[0] == p.get_ref()[1] {
-                    return cx.err(Some(p.span()), "calibration.scale_points", "must be two different point3D ids");
+                    return cx.err(
+                        Some(p.span()),
+                        "calibration.scale_points",
+                        "must be two different point3D ids",
+                    );
                 }
                 StudyScale::ScaleBar {
                     points: [p.get_ref()[0], p.get_ref()[1]],
                     length_mm: cx.positive(l, "calibration.scale_length_mm")?,
                 }
             }
-            (None, None, Some(f)) => StudyScale::MmPerUnit(cx.positive(f, "calibration.mm_per_unit")?),
-            (Some(_), None, _) => return cx.err(Some(cs), "calibration.scale_length_mm", "required with scale_points"),
-            (None, Some(_), _) => return cx.err(Some(cs), "calibration.scale_points", "required with scale_length_mm"),
+            (None, None, Some(f)) => {
+                StudyScale::MmPerUnit(cx.positive(f, "calibration.mm_per_unit")?)
+            }
+            (Some(_), None, _) => {
+                return cx.err(
+                    Some(cs),
+                    "calibration.scale_length_mm",
+                    "required with scale_points",
+                );
+            }
+            (None, Some(_), _) => {
+                return cx.err(
+                    Some(cs),
+                    "calibration.scale_points",
+                    "required with scale_length_mm",
+                );
+            }
             (Some(_), Some(_), Some(f)) => {
-                return cx.err(Some(f.span()), "calibration.mm_per_unit", "give either mm_per_unit or the scale bar, not both");
+                return cx.err(
+                    Some(f.span()),
+                    "calibration.mm_per_unit",
+                    "give either mm_per_unit or the scale bar, not both",
+                );
             }
             (None, None, None) => {
-                return cx.err(Some(cs), "calibration.scale_points", "missing: give scale_points + scale_length_mm or mm_per_unit");
+                return cx.err(
+                    Some(cs),
+                    "calibration.scale_points",
+                    "missing: give scale_points + scale_length_mm or mm_per_unit",
+                );
             }
         };
         let calibration = CalibrationSection {
@@ -517,7 +613,10 @@ impl Study {
             camera_a,
             camera_b,
             scale,
-            max_lag: c.max_lag.as_ref().map_or(Ok(10), |v| cx.count(v, "calibration.max_lag", 1))?,
+            max_lag: c
+                .max_lag
+                .as_ref()
+                .map_or(Ok(10), |v| cx.count(v, "calibration.max_lag", 1))?,
             refine: c.refine.unwrap_or(true),
         };
 
@@ -527,23 +626,37 @@ impl Study {
             Some(t) => {
                 let ts = t.span();
                 let t = t.get_ref();
-                let req = |v: &Option<Spanned<String>>, key: &str| -> Result<Spanned<String>, Error> {
-                    cx.required(v, ts.clone(), key).cloned()
-                };
-                let database = cx.existing_path(&req(&t.database, "tie.database")?, "tie.database", false)?;
+                let req =
+                    |v: &Option<Spanned<String>>, key: &str| -> Result<Spanned<String>, Error> {
+                        cx.required(v, ts.clone(), key).cloned()
+                    };
+                let database =
+                    cx.existing_path(&req(&t.database, "tie.database")?, "tie.database", false)?;
                 let model = cx.existing_path(&req(&t.model, "tie.model")?, "tie.model", true)?;
                 let method = match t.method.as_ref().map(|m| (m.get_ref().as_str(), m.span())) {
                     None | Some(("absolute", _)) => TieMethod::Absolute,
                     Some(("relative", _)) => TieMethod::Relative,
                     Some((other, span)) => {
-                        return cx.err(Some(span), "tie.method", format!("must be \"absolute\" or \"relative\", got {other:?}"));
+                        return cx.err(
+                            Some(span),
+                            "tie.method",
+                            format!("must be \"absolute\" or \"relative\", got {other:?}"),
+                        );
                     }
                 };
-                let resample = match t.resample.as_ref().map(|m| (m.get_ref().as_str(), m.span())) {
+                let resample = match t
+                    .resample
+                    .as_ref()
+                    .map(|m| (m.get_ref().as_str(), m.span()))
+                {
                     None | Some(("inliers", _)) => TieResample::Inliers,
                     Some(("all", _)) => TieResample::AllMatches,
                     Some((other, span)) => {
-                        return cx.err(Some(span), "tie.resample", format!("must be \"inliers\" or \"all\", got {other:?}"));
+                        return cx.err(
+                            Some(span),
+                            "tie.resample",
+                            format!("must be \"inliers\" or \"all\", got {other:?}"),
+                        );
                     }
                 };
                 Some(TieSection {
@@ -552,24 +665,52 @@ impl Study {
                     image_a: req(&t.image_a, "tie.image_a")?.into_inner(),
                     image_b: req(&t.image_b, "tie.image_b")?.into_inner(),
                     method,
-                    iterations: t.iterations.as_ref().map_or(Ok(500), |v| cx.count(v, "tie.iterations", 2))?,
-                    mm_per_unit: t.mm_per_unit.as_ref().map_or(Ok(1.0), |v| cx.positive(v, "tie.mm_per_unit"))?,
-                    max_error_px: t.max_error_px.as_ref().map_or(Ok(4.0), |v| cx.positive(v, "tie.max_error_px"))?,
-                    base_mm: t.base_mm.as_ref().map(|v| cx.positive(v, "tie.base_mm")).transpose()?,
+                    iterations: t
+                        .iterations
+                        .as_ref()
+                        .map_or(Ok(500), |v| cx.count(v, "tie.iterations", 2))?,
+                    mm_per_unit: t
+                        .mm_per_unit
+                        .as_ref()
+                        .map_or(Ok(1.0), |v| cx.positive(v, "tie.mm_per_unit"))?,
+                    max_error_px: t
+                        .max_error_px
+                        .as_ref()
+                        .map_or(Ok(4.0), |v| cx.positive(v, "tie.max_error_px"))?,
+                    base_mm: t
+                        .base_mm
+                        .as_ref()
+                        .map(|v| cx.positive(v, "tie.base_mm"))
+                        .transpose()?,
                     resample,
                 })
             }
         };
 
         // [outward]
-        let o = raw.outward.as_ref().ok_or_else(|| missing_section("[outward]"))?;
+        let o = raw
+            .outward
+            .as_ref()
+            .ok_or_else(|| missing_section("[outward]"))?;
         let os = o.span();
         let o = o.get_ref();
-        let position = cx.finite3(cx.required(&o.position_mm, os.clone(), "outward.position_mm")?, "outward.position_mm")?;
+        let position = cx.finite3(
+            cx.required(&o.position_mm, os.clone(), "outward.position_mm")?,
+            "outward.position_mm",
+        )?;
         let angles = cx
-            .finite3(cx.required(&o.angles_deg, os.clone(), "outward.angles_deg")?, "outward.angles_deg")?
+            .finite3(
+                cx.required(&o.angles_deg, os.clone(), "outward.angles_deg")?,
+                "outward.angles_deg",
+            )?
             .map(f64::to_radians);
-        let covariance = cx.noise(os, "outward", &o.sigma_position_mm, &o.sigma_angles_deg, &o.covariance_tangent)?;
+        let covariance = cx.noise(
+            os,
+            "outward",
+            &o.sigma_position_mm,
+            &o.sigma_angles_deg,
+            &o.covariance_tangent,
+        )?;
         let world_from_a = Rigid3::from_parts(
             position.into(),
             crashrig_geometry::opk::rotation_from_opk(angles.x, angles.y, angles.z).into(),
@@ -599,38 +740,81 @@ impl Study {
                 (Some(s), Some(f)) => {
                     let sv = *s.get_ref();
                     if !(sv.is_finite() && sv >= 0.0) {
-                        return cx.err(Some(s.span()), &k("pixel_sigma_px"), "must be finite and not negative");
+                        return cx.err(
+                            Some(s.span()),
+                            &k("pixel_sigma_px"),
+                            "must be finite and not negative",
+                        );
                     }
                     Some((sv, cx.positive(f, &k("focal_px"))?))
                 }
-                (Some(_), None) => return cx.err(Some(ls), &k("focal_px"), "required with pixel_sigma_px"),
-                (None, Some(_)) => return cx.err(Some(ls), &k("pixel_sigma_px"), "required with focal_px"),
+                (Some(_), None) => {
+                    return cx.err(Some(ls), &k("focal_px"), "required with pixel_sigma_px");
+                }
+                (None, Some(_)) => {
+                    return cx.err(Some(ls), &k("pixel_sigma_px"), "required with focal_px");
+                }
             };
             if l.observer.len() < 2 {
-                return cx.err(Some(ls), &k("observer"), format!("needs at least two [[layout.observer]], found {}", l.observer.len()));
+                return cx.err(
+                    Some(ls),
+                    &k("observer"),
+                    format!(
+                        "needs at least two [[layout.observer]], found {}",
+                        l.observer.len()
+                    ),
+                );
             }
             let mut observers = Vec::new();
             for (oi, ob) in l.observer.iter().enumerate() {
                 let obs = ob.span();
                 let ob = ob.get_ref();
                 let ko = |f: &str| format!("layout[{li}].observer[{oi}].{f}");
-                let position_mm = cx.finite3(cx.required(&ob.position_mm, obs.clone(), &ko("position_mm"))?, &ko("position_mm"))?;
+                let position_mm = cx.finite3(
+                    cx.required(&ob.position_mm, obs.clone(), &ko("position_mm"))?,
+                    &ko("position_mm"),
+                )?;
                 let noise = match &ob.from {
                     Some(f) => {
-                        if ob.sigma_position_mm.is_some() || ob.sigma_angles_deg.is_some() || ob.covariance_tangent.is_some() {
-                            return cx.err(Some(f.span()), &ko("from"), "give either from or the σ / covariance_tangent keys, not both");
+                        if ob.sigma_position_mm.is_some()
+                            || ob.sigma_angles_deg.is_some()
+                            || ob.covariance_tangent.is_some()
+                        {
+                            return cx.err(
+                                Some(f.span()),
+                                &ko("from"),
+                                "give either from or the σ / covariance_tangent keys, not both",
+                            );
                         }
                         match f.get_ref().as_str() {
                             "outward" => ObserverNoise::From(ChainCamera::Outward),
                             "inward" => ObserverNoise::From(ChainCamera::Inward),
                             "tie" if tie.is_some() => ObserverNoise::From(ChainCamera::Tie),
-                            "tie" => return cx.err(Some(f.span()), &ko("from"), "\"tie\" needs a [tie] section"),
+                            "tie" => {
+                                return cx.err(
+                                    Some(f.span()),
+                                    &ko("from"),
+                                    "\"tie\" needs a [tie] section",
+                                );
+                            }
                             other => {
-                                return cx.err(Some(f.span()), &ko("from"), format!("must be \"outward\", \"inward\" or \"tie\", got {other:?}"));
+                                return cx.err(
+                                    Some(f.span()),
+                                    &ko("from"),
+                                    format!(
+                                        "must be \"outward\", \"inward\" or \"tie\", got {other:?}"
+                                    ),
+                                );
                             }
                         }
                     }
-                    None => ObserverNoise::Given(cx.noise(obs, &format!("layout[{li}].observer[{oi}]"), &ob.sigma_position_mm, &ob.sigma_angles_deg, &ob.covariance_tangent)?),
+                    None => ObserverNoise::Given(cx.noise(
+                        obs,
+                        &format!("layout[{li}].observer[{oi}]"),
+                        &ob.sigma_position_mm,
+                        &ob.sigma_angles_deg,
+                        &ob.covariance_tangent,
+                    )?),
                 };
                 observers.push(Observer {
                     name: ob.name.clone().unwrap_or_else(|| format!("obs{}", oi + 1)),
@@ -644,13 +828,23 @@ impl Study {
                 x_mm: cx.axis(&l.x_mm, ls.clone(), &k("x_mm"))?,
                 y_mm: cx.axis(&l.y_mm, ls.clone(), &k("y_mm"))?,
                 z_mm: cx.axis(&l.z_mm, ls.clone(), &k("z_mm"))?,
-                threshold_mm: l.threshold_mm.as_ref().map_or(Ok(5.0), |v| cx.positive(v, &k("threshold_mm")))?,
+                threshold_mm: l
+                    .threshold_mm
+                    .as_ref()
+                    .map_or(Ok(5.0), |v| cx.positive(v, &k("threshold_mm")))?,
                 pixel,
                 correlated: l.correlated.unwrap_or(false),
                 observers,
             };
             if layout.slug().is_empty() || layouts.iter().any(|o| o.slug() == layout.slug()) {
-                return cx.err(Some(layout_name_span), &k("name"), format!("{:?} is empty or not unique once made file-name safe", layout.name));
+                return cx.err(
+                    Some(layout_name_span),
+                    &k("name"),
+                    format!(
+                        "{:?} is empty or not unique once made file-name safe",
+                        layout.name
+                    ),
+                );
             }
             layouts.push(layout);
         }
@@ -683,5 +877,120 @@ impl Study {
             key: key.to_string(),
             message: message.into(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn own() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/study/own/study.toml")
+    }
+
+    fn text() -> String {
+        std::fs::read_to_string(own()).unwrap()
+    }
+
+    /// Parses `t` as if it were the own project's study file (same folder, so paths resolve).
+    fn parse(t: &str) -> Result<Study, Error> {
+        Study::from_toml_str(t, &own())
+    }
+
+    fn message(t: &str) -> String {
+        parse(t).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn own_project_study_file_reads() {
+        let s = Study::from_path(&own()).unwrap();
+        assert_eq!(s.seed, 11);
+        assert_eq!(s.samples, 300);
+        assert_eq!(s.layouts.len(), 2);
+        assert!(s.calibration.model.is_dir());
+        assert_eq!(s.tie.as_ref().unwrap().iterations, 60);
+        assert_eq!(
+            s.layouts[0].observers[1].noise,
+            ObserverNoise::From(ChainCamera::Tie)
+        );
+        // σ keys → diagonal covariance (mm², rad²).
+        let c = s.outward.covariance;
+        assert!((c[(2, 2)] - 1.44).abs() < 1e-15);
+        assert!((c[(5, 5)] - 0.012_f64.to_radians().powi(2)).abs() < 1e-20);
+        // covariance_tangent is taken in mm and deg and kept with its off-diagonal term.
+        let ObserverNoise::Given(g) = &s.layouts[1].observers[1].noise else {
+            panic!()
+        };
+        assert!((g[(0, 1)] - 0.2).abs() < 1e-15);
+        assert!((g[(3, 3)] - 1e-4 * (std::f64::consts::PI / 180.0).powi(2)).abs() < 1e-20);
+    }
+
+    #[test]
+    fn missing_section_names_file_and_section() {
+        let t = text().replace("[calibration]", "[calibrationx]");
+        let m = message(&t);
+        assert!(m.contains("study.toml"), "{m}");
+        assert!(m.contains("calibrationx"), "{m}");
+        let cut = text();
+        let i = cut.find("[outward]").unwrap();
+        let j = cut.find("[[layout]]").unwrap();
+        let t = format!("{}{}", &cut[..i], &cut[j..]);
+        let m = message(&t);
+        assert!(
+            m.contains("study.toml") && m.contains("[outward]") && m.contains("missing section"),
+            "{m}"
+        );
+    }
+
+    #[test]
+    fn missing_path_names_key_and_line() {
+        let t = text().replace("model = \"calibration\"", "model = \"no/such/model\"");
+        let line = t.lines().position(|l| l.contains("no/such/model")).unwrap() + 1;
+        let m = message(&t);
+        assert!(
+            m.contains(&format!("study.toml:{line}: `calibration.model`")),
+            "{m}"
+        );
+        assert!(m.contains("does not exist"), "{m}");
+        let t = text().replace("tie/database.db", "tie/nothing.db");
+        let m = message(&t);
+        assert!(
+            m.contains("`tie.database`") && m.contains("nothing.db"),
+            "{m}"
+        );
+    }
+
+    #[test]
+    fn bad_values_name_their_keys() {
+        let m = message(&text().replace("from = \"tie\"", "from = \"door\""));
+        assert!(m.contains("`layout[0].observer[1].from`"), "{m}");
+        let m = message(&text().replace(
+            "[0.0, 0.0, 0.0, 1.0e-4, 0.0, 0.0]",
+            "[0.0, 0.0, 0.0, 1.0e-4, 0.5, 0.0]",
+        ));
+        assert!(
+            m.contains("`layout[1].observer[1].covariance_tangent`") && m.contains("symmetric"),
+            "{m}"
+        );
+        let m = message(&text().replace("threshold_mm = 3.0", "threshold_mm = -3.0"));
+        assert!(m.contains("`layout[0].threshold_mm`"), "{m}");
+        let m = message(&text().replace("samples = 300", "samples = 300\nsmaples = 3"));
+        assert!(m.contains("study.toml:") && m.contains("smaples"), "{m}");
+        let m = message(&text().replace("method = \"absolute\"", "method = \"magic\""));
+        assert!(m.contains("`tie.method`"), "{m}");
+    }
+
+    #[test]
+    fn one_observer_is_an_error() {
+        let t = text();
+        let i = t
+            .find("[[layout.observer]]\nname = \"side (tie)\"")
+            .unwrap();
+        let j = t[i..].find("\n[[layout]]").unwrap() + i;
+        let m = message(&format!("{}{}", &t[..i], &t[j..]));
+        assert!(
+            m.contains("`layout[0].observer`") && m.contains("at least two"),
+            "{m}"
+        );
     }
 }

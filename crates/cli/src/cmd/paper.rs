@@ -64,10 +64,26 @@ const INPUTS: &[Embedded] = embed![
 
 /// The four heat-map layouts of Figures 10–13: (figure, scenario stem, description).
 const LAYOUTS: [(&str, &str, &str); 4] = [
-    ("Figure 10", "four_cameras_z0", "four-camera system, points at camera height"),
-    ("Figure 11", "four_cameras_z300", "four-camera system, points 30 cm higher"),
-    ("Figure 12", "three_cameras_z0", "three-camera system, points at camera height"),
-    ("Figure 13", "three_cameras_z300", "three-camera system, points 30 cm higher"),
+    (
+        "Figure 10",
+        "four_cameras_z0",
+        "four-camera system, points at camera height",
+    ),
+    (
+        "Figure 11",
+        "four_cameras_z300",
+        "four-camera system, points 30 cm higher",
+    ),
+    (
+        "Figure 12",
+        "three_cameras_z0",
+        "three-camera system, points at camera height",
+    ),
+    (
+        "Figure 13",
+        "three_cameras_z300",
+        "three-camera system, points 30 cm higher",
+    ),
 ];
 
 /// Writes the embedded inputs below `dir`.
@@ -92,13 +108,36 @@ fn arr(v: [f64; 3]) -> String {
 /// (`*_this_run`) — plus the three-camera layout with pixel noise.
 pub fn study_toml(a: &PaperArgs, seed: u64) -> anyhow::Result<String> {
     let mut s = String::new();
-    writeln!(s, "# Written by `crashrig paper`: the paper reproduction as a study file.")?;
-    writeln!(s, "# `crashrig study <this file> --out DIR` reproduces the paper run's results.json.")?;
-    writeln!(s, "seed = {seed}\nsamples = {}\nchain_samples = {}\nreference = \"kaminski2023\"\n", a.samples, a.chain_samples)?;
-    writeln!(s, "[calibration]\nmodel = \"rig_sequence\"\ncamera_a = \"cam_out/\"\ncamera_b = \"cam_in/\"\nscale_points = [1, 2]\nscale_length_mm = 2000.0\n")?;
-    writeln!(s, "[tie]\ndatabase = \"twoview/database.db\"\nmodel = \"twoview/model\"\nimage_a = \"cam_in/000001.png\"\nimage_b = \"cam_door/000001.png\"\nmethod = \"absolute\"\niterations = {}\nmm_per_unit = 1000.0\n", a.iterations)?;
-    writeln!(s, "# World frame = the outward camera's frame; its bundle-adjustment uncertainty is the paper's 1 mm / 0.01 deg (section 3.2.1).")?;
-    writeln!(s, "[outward]\nposition_mm = [0.0, 0.0, 0.0]\nangles_deg = [0.0, 0.0, 0.0]\nsigma_position_mm = [1.0, 1.0, 1.0]\nsigma_angles_deg = [0.01, 0.01, 0.01]\n")?;
+    writeln!(
+        s,
+        "# Written by `crashrig paper`: the paper reproduction as a study file."
+    )?;
+    writeln!(
+        s,
+        "# `crashrig study <this file> --out DIR` reproduces the paper run's results.json."
+    )?;
+    writeln!(
+        s,
+        "seed = {seed}\nsamples = {}\nchain_samples = {}\nreference = \"kaminski2023\"\n",
+        a.samples, a.chain_samples
+    )?;
+    writeln!(
+        s,
+        "[calibration]\nmodel = \"rig_sequence\"\ncamera_a = \"cam_out/\"\ncamera_b = \"cam_in/\"\nscale_points = [1, 2]\nscale_length_mm = 2000.0\n"
+    )?;
+    writeln!(
+        s,
+        "[tie]\ndatabase = \"twoview/database.db\"\nmodel = \"twoview/model\"\nimage_a = \"cam_in/000001.png\"\nimage_b = \"cam_door/000001.png\"\nmethod = \"absolute\"\niterations = {}\nmm_per_unit = 1000.0\n",
+        a.iterations
+    )?;
+    writeln!(
+        s,
+        "# World frame = the outward camera's frame; its bundle-adjustment uncertainty is the paper's 1 mm / 0.01 deg (section 3.2.1)."
+    )?;
+    writeln!(
+        s,
+        "[outward]\nposition_mm = [0.0, 0.0, 0.0]\nangles_deg = [0.0, 0.0, 0.0]\nsigma_position_mm = [1.0, 1.0, 1.0]\nsigma_angles_deg = [0.01, 0.01, 0.01]\n"
+    )?;
     let paper_sigma = |cam3: bool| -> (String, String) {
         let i = usize::from(cam3) + 1;
         (
@@ -114,30 +153,38 @@ pub fn study_toml(a: &PaperArgs, seed: u64) -> anyhow::Result<String> {
         crashrig_mc::Scenario::from_toml_str(std::str::from_utf8(bytes)?, Path::new(stem))
             .with_context(|| format!("internal: bundled scenario {stem}"))
     };
-    let mut layout = |name: &str, desc: &str, stem: &str, this_run: bool, pixel: bool| -> anyhow::Result<()> {
-        let sc = scenario(stem)?;
-        let g = sc.grid.context("internal: bundled scenario without a grid")?;
-        writeln!(s, "[[layout]]\nname = \"{name}\"\ndescription = \"{desc}\"")?;
-        for (k, ax) in [("x_mm", g.x), ("y_mm", g.y), ("z_mm", g.z)] {
-            writeln!(s, "{k} = [{:?}, {:?}, {}]", ax.start, ax.stop, ax.count)?;
-        }
-        writeln!(s, "threshold_mm = {:?}", g.threshold_mm)?;
-        if pixel {
-            writeln!(s, "pixel_sigma_px = 0.5\nfocal_px = 1600.0")?;
-        }
-        for o in &g.observers {
-            let cam3 = o.name.contains("cam3");
-            writeln!(s, "\n[[layout.observer]]\nname = \"{}\"\nposition_mm = {}", o.name, arr(o.position_mm.into()))?;
-            if this_run {
-                writeln!(s, "from = \"{}\"", if cam3 { "tie" } else { "inward" })?;
-            } else {
-                let (p, r) = paper_sigma(cam3);
-                writeln!(s, "sigma_position_mm = {p}\nsigma_angles_deg = {r}")?;
+    let mut layout =
+        |name: &str, desc: &str, stem: &str, this_run: bool, pixel: bool| -> anyhow::Result<()> {
+            let sc = scenario(stem)?;
+            let g = sc
+                .grid
+                .context("internal: bundled scenario without a grid")?;
+            writeln!(s, "[[layout]]\nname = \"{name}\"\ndescription = \"{desc}\"")?;
+            for (k, ax) in [("x_mm", g.x), ("y_mm", g.y), ("z_mm", g.z)] {
+                writeln!(s, "{k} = [{:?}, {:?}, {}]", ax.start, ax.stop, ax.count)?;
             }
-        }
-        writeln!(s)?;
-        Ok(())
-    };
+            writeln!(s, "threshold_mm = {:?}", g.threshold_mm)?;
+            if pixel {
+                writeln!(s, "pixel_sigma_px = 0.5\nfocal_px = 1600.0")?;
+            }
+            for o in &g.observers {
+                let cam3 = o.name.contains("cam3");
+                writeln!(
+                    s,
+                    "\n[[layout.observer]]\nname = \"{}\"\nposition_mm = {}",
+                    o.name,
+                    arr(o.position_mm.into())
+                )?;
+                if this_run {
+                    writeln!(s, "from = \"{}\"", if cam3 { "tie" } else { "inward" })?;
+                } else {
+                    let (p, r) = paper_sigma(cam3);
+                    writeln!(s, "sigma_position_mm = {p}\nsigma_angles_deg = {r}")?;
+                }
+            }
+            writeln!(s)?;
+            Ok(())
+        };
     for (figure, stem, what) in LAYOUTS {
         layout(
             &format!("{stem}_paper"),
@@ -170,7 +217,10 @@ pub fn run(a: PaperArgs, g: &Global) -> anyhow::Result<()> {
     if g.json {
         crate::output::print_json(&results)?;
     } else {
-        println!("crashrig paper: {}", super::study::summary_line(&a.out, &results));
+        println!(
+            "crashrig paper: {}",
+            super::study::summary_line(&a.out, &results)
+        );
     }
     Ok(())
 }

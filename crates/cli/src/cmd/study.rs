@@ -25,14 +25,25 @@ pub struct StudyArgs {
 
 /// Runs `crashrig study`.
 pub fn run(a: StudyArgs, g: &Global) -> anyhow::Result<()> {
-    let mut command = format!("crashrig study {} --out {}", a.study.display(), a.out.display());
+    let mut command = format!(
+        "crashrig study {} --out {}",
+        a.study.display(),
+        a.out.display()
+    );
     if let Some(s) = g.seed {
         command.push_str(&format!(" --seed {s}"));
     }
     if let Some(n) = a.samples {
         command.push_str(&format!(" --samples {n}"));
     }
-    let results = execute(&a.study, &a.out, g.seed, a.samples, a.no_sensitivity, &command)?;
+    let results = execute(
+        &a.study,
+        &a.out,
+        g.seed,
+        a.samples,
+        a.no_sensitivity,
+        &command,
+    )?;
     if g.json {
         return crate::output::print_json(&results);
     }
@@ -50,7 +61,10 @@ pub fn summary_line(out: &Path, results: &serde_json::Value) -> String {
             format!(
                 "{} {:.0} %",
                 l["name"].as_str().unwrap_or(""),
-                100.0 * l["summary"]["fraction_below_threshold"].as_f64().unwrap_or(f64::NAN)
+                100.0
+                    * l["summary"]["fraction_below_threshold"]
+                        .as_f64()
+                        .unwrap_or(f64::NAN)
             )
         })
         .collect();

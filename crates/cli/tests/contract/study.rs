@@ -1,0 +1,182 @@
+//! `crashrig study STUDY.toml --out DIR` on an own project written by pycolmap
+//! (`fixtures/study/own/`, generator `fixtures/gen/own_study.py`).
+
+use crate::common::{assert_clean_error, json_of, read_json, run};
+use std::path::{Path, PathBuf};
+
+/// Copies the own project into a temporary directory (so a run never writes into the repo).
+fn own_project(tmp: &Path) -> PathBuf {
+    fn copy(from: &Path, to: &Path) {
+        std::fs::create_dir_all(to).expect("mkdir");
+        for e in std::fs::read_dir(from).expect("read dir") {
+            let p = e.expect("entry").path();
+            let q = to.join(p.file_name().expect("name"));
+            if p.is_dir() {
+                copy(&p, &q);
+            } else {
+                std::fs::copy(&p, &q).expect("copy");
+            }
+        }
+    }
+    let dst = tmp.join("own");
+    copy(&crate::common::fixture("study/own"), &dst);
+    dst
+}
+
+/// `results.json` holds `calibration` and `tie` exactly as `calibrate --json` and
+/// `bootstrap --json` print them on the same inputs and seed; the layouts' grid files exist and
+/// their summaries are the ones in results.json; the same seed on another thread count gives
+/// the same bytes.
+#[test]
+fn study_own_project_matches_the_commands() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let own = own_project(tmp.path());
+    let study = own.join("study.toml");
+    let out = tmp.path().join("out");
+    let (s, o) = (study.display().to_string(), out.display().to_string());
+    let r = run([
+        "study",
+        s.as_str(),
+        "--out",
+        o.as_str(),
+        "--samples",
+        "40",
+        "--json",
+    ]);
+    let v = json_of(&r);
+    let results = read_json(&out.join("results.json"));
+    assert_eq!(v, results, "--json prints results.json");
+    assert_eq!(results["seed"], 11);
+
+    let m = own.join("calibration").display().to_string();
+    let cal = json_of(&run([
+        "calibrate",
+        m.as_str(),
+        "--camera-a",
+        "cam_out/",
+        "--camera-b",
+        "cam_in/",
+        "--scale-points",
+        "1",
+        "2",
+        "--scale-length-mm",
+        "1500",
+        "--json",
+    ]));
+    assert_eq!(
+        results["calibration"], cal,
+        "calibration = calibrate --json"
+    );
+
+    let db = own.join("tie/database.db").display().to_string();
+    let tm = own.join("tie/model").display().to_string();
+    let boot = json_of(&run([
+        "bootstrap",
+        db.as_str(),
+        "--model",
+        tm.as_str(),
+        "--image-a",
+        "in/0001.png",
+        "--image-b",
+        "side/0001.png",
+        "--method",
+        "absolute",
+        "--iterations",
+        "60",
+        "--mm-per-unit",
+        "1000",
+        "--seed",
+        "11",
+        "--json",
+    ]));
+    assert_eq!(results["tie"], boot, "tie = bootstrap --json");
+
+    let layouts = results["layouts"].as_array().expect("layouts");
+    assert_eq!(layouts.len(), 2);
+    for l in layouts {
+        let dir = out.join(l["dir"].as_str().expect("dir"));
+        assert_eq!(read_json(&dir.join("summary.json")), *l);
+        let csv = std::fs::read_to_string(dir.join("grid.csv")).expect("grid.csv");
+        let n = csv.lines().count() - 1;
+        assert_eq!(n as u64, l["summary"]["points"].as_u64().expect("points"));
+        assert_eq!(l["summary"]["samples_per_point"], 40);
+    }
+    let html = std::fs::read_to_string(out.join("report.html")).expect("report.html");
+    assert!(html.contains("Verdict per layout") && html.contains("rear_and_side"));
+
+    let out2 = tmp.path().join("out2");
+    let o2 = out2.display().to_string();
+    let r2 = run([
+        "study",
+        s.as_str(),
+        "--out",
+        o2.as_str(),
+        "--samples",
+        "40",
+        "--threads",
+        "1",
+    ]);
+    assert!(r2.success, "{}", r2.stderr);
+    assert_eq!(
+        std::fs::read(out.join("results.json")).expect("a"),
+        std::fs::read(out2.join("results.json")).expect("b"),
+        "same seed, one thread vs default: identical results.json"
+    );
+}
+
+fn study_error(edit: impl Fn(&str) -> String, needles: &[&str]) {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let own = own_project(tmp.path());
+    let study = own.join("study.toml");
+    let text = std::fs::read_to_string(&study).expect("study");
+    std::fs::write(&study, edit(&text)).expect("write");
+    let out = tmp.path().join("out");
+    let (s, o) = (study.display().to_string(), out.display().to_string());
+    let r = run(["study", s.as_str(), "--out", o.as_str(), "--samples", "4"]);
+    let mut all = vec!["study.toml"];
+    all.extend_from_slice(needles);
+    assert_clean_error(&r, &all);
+    assert!(
+        !out.join("results.json").exists(),
+        "no results after an error"
+    );
+}
+
+#[test]
+fn study_missing_section_is_one_error_line() {
+    study_error(
+        |t| {
+            let i = t.find("[outward]").expect("outward");
+            let j = t.find("[[layout]]").expect("layout");
+            format!("{}{}", &t[..i], &t[j..])
+        },
+        &["[outward]", "missing section"],
+    );
+}
+
+#[test]
+fn study_missing_path_names_key_and_line() {
+    study_error(
+        |t| t.replace("model = \"tie/model\"", "model = \"tie/nowhere\""),
+        &["`tie.model`", "nowhere", "does not exist"],
+    );
+    // The line of the key: `study.toml:<line>:`.
+    let line = std::fs::read_to_string(crate::common::fixture("study/own/study.toml"))
+        .expect("study")
+        .lines()
+        .position(|l| l.starts_with("model = \"tie/model\""))
+        .expect("line")
+        + 1;
+    study_error(
+        |t| t.replace("model = \"tie/model\"", "model = \"tie/nowhere\""),
+        &[&format!("study.toml:{line}:")],
+    );
+}
+
+#[test]
+fn study_model_without_the_named_cameras() {
+    study_error(
+        |t| t.replace("camera_a = \"cam_out/\"", "camera_a = \"cam_front/\""),
+        &["[calibration]", "cam_front/"],
+    );
+}
