@@ -139,7 +139,7 @@ fn plan_sketch(l: &LayoutResult) -> String {
     );
     let _ = write!(
         s,
-        "<text x=\"6\" y=\"{:.0}\" font-size=\"12\">plan view (vehicle frame): x forwards from the trunk opening, y left; grey dots = grid points; red = below threshold missed (σ_max ≥ threshold)</text>",
+        "<text x=\"6\" y=\"{:.0}\" font-size=\"12\">plan view (vehicle frame): x forwards from the trunk opening, y left; grey dots = grid points, red dots = σ_max at or above the threshold; blue = interior cameras (arrow: towards the grid, they re-aim at every point)</text>",
         h + 15.0
     );
     let _ = write!(
