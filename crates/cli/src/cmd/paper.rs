@@ -864,7 +864,7 @@ pub fn compute(a: &PaperArgs, g: &Global) -> anyhow::Result<Value> {
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
-    use crashrig_rig::colmap::{CameraSelector, epochs_from_model, scale_from_points};
+    use crashrig_study::epochs::{CameraSelector, epochs_from_model, scale_from_points};
 
     /// The pipeline on reduced counts: every number in results.json and the report's tables
     /// comes from the library calls a user would make on the same inputs (issue 7).
