@@ -15,10 +15,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
     ("crashrig-plot", &[]),
     ("crashrig-camera", &[]),
     ("crashrig-colmap", &["crashrig-geometry", "crashrig-camera"]),
-    (
-        "crashrig-rig",
-        &["crashrig-geometry", "crashrig-colmap", "crashrig-stats"],
-    ),
+    ("crashrig-rig", &["crashrig-geometry", "crashrig-stats"]),
     (
         "crashrig-pose",
         &["crashrig-geometry", "crashrig-camera", "crashrig-stats"],

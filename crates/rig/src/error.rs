@@ -1,7 +1,5 @@
 //! The error type of `crashrig-rig`.
 
-use std::path::PathBuf;
-
 /// Everything that can go wrong in a rig calibration.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -30,87 +28,20 @@ pub enum Error {
         /// The rejected value.
         mm_per_unit: f64,
     },
-    /// The known length of a scale bar is zero, negative or not finite.
-    #[error("invalid scale-bar length {length_mm} mm (must be finite and > 0)")]
-    InvalidScaleLength {
-        /// The rejected value.
-        length_mm: f64,
-    },
-    /// The two scale-bar points coincide (zero model distance), so no scale follows.
+    /// Every epoch gives the same link (spread at numerical zero): the poses come from a
+    /// bundle with a rig constraint, so the epochs are not independent measurements of it.
     #[error(
-        "{}: scale-bar points {point_1} and {point_2} are {distance} model units apart; \
-         a scale needs two distinct points",
-        model.display()
+        "all {n_epochs} epochs give the same link A_from_B (spread {spread_mm:.1e} mm, \
+         {spread_rad:.1e} rad: numerical zero); the poses were adjusted with a rig constraint, \
+         so the epochs carry no independent evidence of the link"
     )]
-    ZeroLengthScaleBar {
-        /// The model directory.
-        model: PathBuf,
-        /// First point3D id.
-        point_1: u64,
-        /// Second point3D id.
-        point_2: u64,
-        /// Their distance in model units.
-        distance: f64,
-    },
-    /// A point3D id that is not in the model.
-    #[error("{}: no point3D with id {point_id}", model.display())]
-    UnknownPoint {
-        /// The model directory.
-        model: PathBuf,
-        /// The missing id.
-        point_id: u64,
-    },
-    /// A camera selector (prefix or camera id) that matches no image of the model.
-    #[error(
-        "{}: camera {role} `{selector}` matches no image (a name prefix such as `cam_out/`, \
-         or a camera id; the model has {n_images} images)",
-        model.display()
-    )]
-    NoImagesForCamera {
-        /// The model directory.
-        model: PathBuf,
-        /// `'A'` or `'B'`.
-        role: char,
-        /// The selector as given.
-        selector: String,
-        /// Number of images in the model.
-        n_images: usize,
-    },
-    /// Cameras A and B select the same images.
-    #[error("{}: cameras A and B both select image `{image}`", model.display())]
-    OverlappingCameras {
-        /// The model directory.
-        model: PathBuf,
-        /// An image selected by both.
-        image: String,
-    },
-    /// Images of both cameras exist but none pair up.
-    #[error(
-        "{}: no epoch pairs camera A and B: {unpaired_a} image(s) of A and {unpaired_b} of B \
-         share neither a name (after removing the prefix) nor a frame",
-        model.display()
-    )]
-    NoEpochs {
-        /// The model directory.
-        model: PathBuf,
-        /// Number of A images without a partner.
-        unpaired_a: usize,
-        /// Number of B images without a partner.
-        unpaired_b: usize,
-    },
-    /// Two images of the same camera claim the same epoch key.
-    #[error("{}: images `{first}` and `{second}` of camera {role} both pair as epoch `{key}`", model.display())]
-    DuplicateEpoch {
-        /// The model directory.
-        model: PathBuf,
-        /// `'A'` or `'B'`.
-        role: char,
-        /// The epoch key.
-        key: String,
-        /// First image name.
-        first: String,
-        /// Second image name.
-        second: String,
+    RigConstrained {
+        /// Number of epochs.
+        n_epochs: usize,
+        /// Largest σ of the base over the epochs (mm).
+        spread_mm: f64,
+        /// Largest σ of the tangent rotation over the epochs (rad).
+        spread_rad: f64,
     },
     /// The rig-constrained normal equations are singular.
     #[error("rig refinement: the normal matrix is not positive definite ({n_unknowns} unknowns)")]
@@ -129,7 +60,4 @@ pub enum Error {
     /// A geometric operation failed (degenerate rotation mean, gimbal lock, …).
     #[error(transparent)]
     Geometry(#[from] crashrig_geometry::Error),
-    /// Reading the COLMAP model failed.
-    #[error(transparent)]
-    Colmap(#[from] crashrig_colmap::Error),
 }

@@ -13,16 +13,25 @@
 //!   each series is unwrapped to within ±π of its circular mean first. The rotation mean is also
 //!   given on SO(3) (Karcher mean).
 //! - Covariances are ordered (x, y, z mm, ω, φ, κ rad).
-//! - Outliers: modified z-score `0.6745 (x − median)/MAD`, `|M| > 3.5` on any parameter
-//!   ([`robust`]).
+//! - Outliers: modified z-score `0.6745 (x − median)/MAD` on each parameter, flagged above a
+//!   threshold `t(n)` that holds the per-sequence false-flag rate at 0.5 % ([`robust`]).
+//! - The spread of one epoch's link and the uncertainty of the mean link are 6×6 tangent
+//!   covariances ([`crashrig_geometry::UncertainPose`]: centre in A's axes, rotation
+//!   `log(R̄ᵀ·R)` about B's axes); the latter accounts for autocorrelation ([`sem`]).
+//! - A sequence whose links are all identical (a bundle adjusted with a rig constraint) is
+//!   refused ([`Error::RigConstrained`]) unless accepted explicitly.
 //!
 //! # Entry points
 //! - [`Epoch`], [`link_of`], [`links_of`]: per-epoch links.
 //! - [`link_statistics`] → [`LinkStatistics`]: mean, σ, SEM, covariance, SO(3) mean.
 //! - [`flag_outliers`] → [`OutlierReport`]; [`drift_report`] → [`DriftReport`].
-//! - [`refine`] → [`Refinement`]: one link fitted jointly with all poses of A, with covariance.
+//! - [`sem::sem_covariance`] → [`sem::SemEstimate`]: the uncertainty of the mean link.
+//! - [`refine`] → [`Refinement`]: one link fitted jointly with all poses of A, with covariance
+//!   (a weighted mean of the same poses, floored at the uncertainty of the mean).
 //! - [`calibrate`] → [`Calibration`]: all of the above in one call.
-//! - [`colmap`]: epochs and scale from a COLMAP model (prefix or camera-id pairing, scale bar).
+//!
+//! Epochs from a COLMAP model (camera selectors, pairing, scale bar) are read by
+//! `crashrig_study::epochs`; this crate works on poses only.
 //!
 //! # Example
 //! ```
@@ -52,23 +61,29 @@
 //! assert!((c.all.base_mm.x - 62.0).abs() < 1e-9);
 //! assert!((c.all.angles.x.to_degrees() - 179.9).abs() < 1e-9);
 //! assert!(c.outliers.indices().is_empty());
+//! // The mean link with the uncertainty of the mean (6×6 tangent covariance, mm and rad).
+//! assert!((c.link.center().x - 62.0).abs() < 1e-9);
+//! assert!(c.link.sigma_position().x > 0.0);
 //! # Ok::<(), crashrig_rig::Error>(())
 //! ```
 #![deny(missing_docs)]
 
 mod calibrate;
-pub mod colmap;
 pub mod drift;
 mod error;
 mod link;
 pub mod refine;
 pub mod robust;
+pub mod sem;
 pub mod stats;
 
-pub use calibrate::{CalibrateOptions, Calibration, calibrate};
+pub use calibrate::{
+    CalibrateOptions, Calibration, ZERO_SPREAD_RAD, ZERO_SPREAD_RELATIVE, calibrate, epoch_spread,
+};
 pub use drift::{DriftReport, drift_report};
 pub use error::Error;
 pub use link::{Epoch, Link, check_scale, link_of, links_of};
 pub use refine::{RefineOptions, Refinement, refine};
-pub use robust::{OUTLIER_THRESHOLD, OutlierReport, flag_outliers};
+pub use robust::{OutlierReport, flag_outliers, outlier_threshold};
+pub use sem::SemEstimate;
 pub use stats::{LinkStatistics, link_statistics};

@@ -1,20 +1,40 @@
-//! Outlier epochs: the Iglewicz–Hoaglin modified z-score on each of the six parameters.
+//! Outlier epochs: robust z-scores on each of the six parameters, with a threshold that holds
+//! the **per-sequence** false-flag rate (multiple testing over `6n` scores).
 //!
 //! For a series `x` with median `m` and median absolute deviation `MAD = median |x − m|`, the
-//! modified z-score is `M = 0.6745 (x − m) / MAD` (0.6745 makes `MAD/0.6745` a consistent σ for
-//! Gaussian data). An epoch is an **outlier when `|M| > 3.5` on any of the six parameters**
-//! (x, y, z, ω, φ, κ; angles unwrapped about their circular mean). Iglewicz & Hoaglin (1993),
-//! *How to Detect and Handle Outliers*, recommend 3.5. When `MAD = 0` (more than half the values
-//! equal) the mean absolute deviation is used instead, `M = (x − m) / (1.253314 · MeanAD)`;
-//! when that is 0 too, every value is equal and every score is 0. Both spreads are floored at
-//! the numerical resolution of a link computed from f64 poses ([`BASE_RESOLUTION_MM`],
-//! [`ANGLE_RESOLUTION_RAD`]), so a series that is constant up to rounding has no outliers.
+//! modified z-score is `M = 0.6745 (x − m) / MAD` (Iglewicz–Hoaglin; `MAD/0.6745` is a
+//! consistent σ for Gaussian data). A fixed cut-off such as their `|M| > 3.5` is a per-score
+//! rule: over the `6n` scores of a 140-epoch sequence it flags clean epochs in most sequences.
+//! Here an epoch is an **outlier when `|M| > t(n)` on any of the six parameters** (x, y, z, ω,
+//! φ, κ; angles unwrapped about their circular mean), with
+//!
+//! `t(n) = t_ν⁻¹(1 − α / (2·6n))`, `α` = [`FAMILY_WISE_FALSE_FLAG_RATE`] = 0.5 %,
+//! `ν = 0.3675 n`:
+//!
+//! - `α/(2·6n)` is Bonferroni over the `6n` two-sided scores, so a clean Gaussian sequence gets
+//!   **any** flag with probability at most about `α` (less when the parameters are correlated);
+//! - the Student-t quantile accounts for the MAD's own sampling error: the MAD estimate of σ has
+//!   the variance of a sample σ with `ν = n/(2·1.3605) = 0.3675 n` degrees of freedom
+//!   (its asymptotic variance is `1.3605 σ²/n`).
+//!
+//! `t(140) = 5.04`, `t(60) = 5.54`, `t(30) = 6.9`: a gross error of 10 σ is flagged in a
+//! 140-epoch sequence whatever the other epochs do. Measured on clean simulated sequences
+//! (`docs/CALIBRATE.md`, test `outlier_rule_false_flag_rate_slow`), the per-sequence
+//! false-flag rate is below 1 %.
+//!
+//! When `MAD = 0` (more than half the values equal) the mean absolute deviation is used instead,
+//! `M = (x − m) / (1.253314 · MeanAD)`; when that is 0 too, every value is equal and every score
+//! is 0. Both spreads are floored at the numerical resolution of a link computed from f64 poses
+//! ([`BASE_RESOLUTION_MM`], [`ANGLE_RESOLUTION_RAD`]), so a series that is constant up to
+//! rounding has no outliers.
 
 use crate::stats::parameter_series;
 use crate::{Error, Link};
 
-/// The outlier threshold on `|M|` (Iglewicz–Hoaglin).
-pub const OUTLIER_THRESHOLD: f64 = 3.5;
+/// Nominal probability that a clean sequence (Gaussian, independent epochs) gets any flag.
+pub const FAMILY_WISE_FALSE_FLAG_RATE: f64 = 0.005;
+/// Degrees of freedom of the MAD scale estimate per epoch (`1/(2·1.3605)`).
+pub const MAD_DEGREES_OF_FREEDOM_PER_EPOCH: f64 = 0.3675;
 /// Resolution of a base coordinate: ~10⁴ ulps of a 10 m coordinate, far below any measurement.
 pub const BASE_RESOLUTION_MM: f64 = 1e-9;
 /// Resolution of an angle (rad): ~10⁴ ulps of π, far below any measurement.
@@ -23,6 +43,31 @@ pub const ANGLE_RESOLUTION_RAD: f64 = 1e-12;
 const MAD_TO_Z: f64 = 0.6745;
 /// `√(π/2)`: `MeanAD · 1.253314` estimates σ for Gaussian data.
 const MEAN_AD_TO_SIGMA: f64 = 1.253314;
+
+/// The threshold `t(n)` on `|M|` for a sequence of `n` epochs (see the module doc);
+/// infinite for fewer than two epochs.
+pub fn outlier_threshold(n: usize) -> f64 {
+    if n < 2 {
+        return f64::INFINITY;
+    }
+    let nu = MAD_DEGREES_OF_FREEDOM_PER_EPOCH * n as f64;
+    let tail = FAMILY_WISE_FALSE_FLAG_RATE / (2.0 * 6.0 * n as f64);
+    // Upper tail of Student's t: P(T > t) = ½·I_{ν/(ν+t²)}(ν/2, ½), inverted directly (no
+    // `1 − p` cancellation).
+    let y = statrs::function::beta::inv_beta_reg(0.5 * nu, 0.5, 2.0 * tail);
+    (nu * (1.0 - y) / y).sqrt()
+}
+
+/// A one-line description of the rule, for reports.
+pub fn outlier_rule_description(n: usize) -> String {
+    format!(
+        "modified z-score 0.6745·(x − median)/MAD on each of x y z ω φ κ; flagged when any \
+         |z| > t(n) = {:.3} (Student-t quantile 1 − α/(12n), α = {} per sequence, ν = {}·n)",
+        outlier_threshold(n),
+        FAMILY_WISE_FALSE_FLAG_RATE,
+        MAD_DEGREES_OF_FREEDOM_PER_EPOCH
+    )
+}
 
 /// Median of a non-empty finite slice (mean of the two middle values for even length).
 pub(crate) fn median(values: &[f64]) -> f64 {
@@ -61,8 +106,10 @@ pub fn modified_z_scores(values: &[f64], resolution: f64) -> Vec<f64> {
 pub struct OutlierReport {
     /// Modified z-score of each epoch on (x, y, z, ω, φ, κ).
     pub z_scores: Vec<[f64; 6]>,
-    /// True when any `|z| > `[`OUTLIER_THRESHOLD`].
+    /// True when any `|z|` exceeds [`OutlierReport::threshold`].
     pub outlier: Vec<bool>,
+    /// The threshold `t(n)` used ([`outlier_threshold`]).
+    pub threshold: f64,
 }
 
 impl OutlierReport {
@@ -85,6 +132,7 @@ pub fn flag_outliers(links: &[Link]) -> Result<OutlierReport, Error> {
         return Ok(OutlierReport {
             z_scores: Vec::new(),
             outlier: Vec::new(),
+            threshold: f64::INFINITY,
         });
     }
     let series = parameter_series(links)?;
@@ -105,11 +153,16 @@ pub fn flag_outliers(links: &[Link]) -> Result<OutlierReport, Error> {
     let z_scores: Vec<[f64; 6]> = (0..links.len())
         .map(|i| std::array::from_fn(|j| z[j][i]))
         .collect();
+    let threshold = outlier_threshold(links.len());
     let outlier = z_scores
         .iter()
-        .map(|zs| zs.iter().any(|v| v.abs() > OUTLIER_THRESHOLD))
+        .map(|zs| zs.iter().any(|v| v.abs() > threshold))
         .collect();
-    Ok(OutlierReport { z_scores, outlier })
+    Ok(OutlierReport {
+        z_scores,
+        outlier,
+        threshold,
+    })
 }
 
 #[cfg(test)]
@@ -117,6 +170,22 @@ mod tests {
     use super::*;
     use crate::link::tests_support::link;
     use approx::assert_abs_diff_eq;
+
+    #[test]
+    fn outlier_threshold_matches_scipy() {
+        // scipy 1.x: stats.t.isf(0.005 / (12 n), 0.3675 n) (fixtures/gen/rig_statistics.py).
+        for (n, want) in [
+            (10, 19.022426890816206),
+            (20, 8.641585477127837),
+            (60, 5.551954923027369),
+            (140, 5.047665877229857),
+            (500, 4.950727455530289),
+        ] {
+            // statrs' incomplete-beta inversion: ~1e-9 relative at these tails.
+            assert_abs_diff_eq!(outlier_threshold(n) / want, 1.0, epsilon = 1e-8);
+        }
+        assert!(outlier_threshold(1).is_infinite());
+    }
 
     #[test]
     fn modified_z_scores_nominal() {
@@ -157,7 +226,7 @@ mod tests {
         links[11] = link([62.0, -1.7, 179.8], [-179.0, -0.09, 179.76]);
         let r = flag_outliers(&links).unwrap();
         assert_eq!(r.indices(), vec![4, 11]);
-        assert!(r.z_scores[4][0] > OUTLIER_THRESHOLD);
-        assert!(r.z_scores[11][3] > OUTLIER_THRESHOLD);
+        assert!(r.z_scores[4][0] > r.threshold);
+        assert!(r.z_scores[11][3] > r.threshold);
     }
 }

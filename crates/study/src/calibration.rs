@@ -1,131 +1,936 @@
 //! Rig calibration from a COLMAP model: epochs → link `A_from_B` with its tangent covariance.
 //!
-//! INTERIM (H11): a minimal implementation of the STUDY_API interface so the pipeline builds and
-//! runs before H12a's module lands; at the merge this file is replaced by H12a's.
+//! One call, [`calibrate`], reads the model, pairs the images of cameras A and B into epochs
+//! ([`crate::epochs`]), converts model units to mm (scale bar or a factor), and calibrates the
+//! link with `crashrig_rig::calibrate`: statistics over the epochs (the paper's Tables 1–2),
+//! outliers, drift, the spread of one epoch's link (`covariance_tangent`) and the uncertainty
+//! of the mean link (`sem_covariance_tangent`, autocorrelation-aware, rule in `sem_rule`).
+//! The [`CalibrationResult`] prints itself as the `calibrate --json` document
+//! ([`CalibrationResult::to_json`]) or the text report ([`CalibrationResult::text_report`]),
+//! and writes its plots ([`CalibrationResult::write_plots`]). Library values are in mm and
+//! radians; the JSON and the report use degrees. Every field is documented in
+//! `docs/CALIBRATE.md`.
+//!
+//! # Example
+//! ```no_run
+//! use crashrig_study::calibration::{CalibrationConfig, Scale, calibrate};
+//!
+//! let config = CalibrationConfig {
+//!     model: "calibration/sparse/0".into(),
+//!     camera_a: "cam_out/".into(),
+//!     camera_b: "cam_in/".into(),
+//!     scale: Scale::ScaleBar { points: [1, 2], length_mm: 2000.0 },
+//!     ..CalibrationConfig::default()
+//! };
+//! let result = calibrate(&config)?;
+//! // The mean link A_from_B with the uncertainty of the mean (mm, rad): what a chain uses.
+//! let link = result.link;
+//! println!("{}", result.to_json());
+//! # Ok::<(), crashrig_study::calibration::CalibrationError>(())
+//! ```
 
-use crashrig_geometry::{Mat6, UncertainPose};
+use crate::epochs::{CameraSelector, EpochSet, ScaleBar, epochs_from_model, scale_from_points};
+use crashrig_colmap::Reconstruction;
+use crashrig_geometry::{Mat6, UncertainPose, Vec3, opk};
+use crashrig_rig::refine::RefineOptions;
+use crashrig_rig::robust::outlier_rule_description;
+use crashrig_rig::stats::LinkStatistics;
+use crashrig_rig::{CalibrateOptions, Calibration, DriftReport, Error as RigError, Refinement};
 use serde_json::{Value, json};
-use std::path::PathBuf;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
 
-/// How the model is scaled.
-#[derive(Debug, Clone, PartialEq)]
+/// Names of the six ω φ κ parameters, in the library's order.
+const PARAMS: [&str; 6] = ["x", "y", "z", "omega", "phi", "kappa"];
+/// Names of the six tangent axes (centre in A's axes, rotation about B's axes).
+const TANGENT: [&str; 6] = ["x", "y", "z", "theta_x", "theta_y", "theta_z"];
+/// Axis labels of the six parameters.
+const LABELS: [&str; 6] = [
+    "base X [mm]",
+    "base Y [mm]",
+    "base Z [mm]",
+    "omega [deg]",
+    "phi [deg]",
+    "kappa [deg]",
+];
+
+/// Everything that can go wrong in a calibration; each message names the model directory (and
+/// the option at fault).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CalibrationError {
+    /// Reading the COLMAP model failed (the message names the file).
+    #[error(transparent)]
+    Colmap(#[from] crashrig_colmap::Error),
+    /// The known length of a scale bar is zero, negative or not finite.
+    #[error(
+        "{}: invalid scale-bar length {length_mm} mm (--scale-length-mm / scale_length_mm must be finite and > 0)",
+        model.display()
+    )]
+    InvalidScaleLength {
+        /// The model directory.
+        model: PathBuf,
+        /// The rejected value.
+        length_mm: f64,
+    },
+    /// The two scale-bar points coincide (zero model distance), so no scale follows.
+    #[error(
+        "{}: scale-bar points {point_1} and {point_2} are {distance} model units apart; \
+         a scale needs two distinct points",
+        model.display()
+    )]
+    ZeroLengthScaleBar {
+        /// The model directory.
+        model: PathBuf,
+        /// First point3D id.
+        point_1: u64,
+        /// Second point3D id.
+        point_2: u64,
+        /// Their distance in model units.
+        distance: f64,
+    },
+    /// A point3D id that is not in the model.
+    #[error("{}: no point3D with id {point_id} (--scale-points / scale_points)", model.display())]
+    UnknownPoint {
+        /// The model directory.
+        model: PathBuf,
+        /// The missing id.
+        point_id: u64,
+    },
+    /// A camera selector (prefix or camera id) that matches no image of the model.
+    #[error(
+        "{}: camera {role} `{selector}` matches no image (a name prefix such as `cam_out/`, \
+         or a camera id; the model has {n_images} images)",
+        model.display()
+    )]
+    NoImagesForCamera {
+        /// The model directory.
+        model: PathBuf,
+        /// `'A'` or `'B'`.
+        role: char,
+        /// The selector as given.
+        selector: String,
+        /// Number of images in the model.
+        n_images: usize,
+    },
+    /// Cameras A and B select the same images.
+    #[error("{}: cameras A and B both select image `{image}`", model.display())]
+    OverlappingCameras {
+        /// The model directory.
+        model: PathBuf,
+        /// An image selected by both.
+        image: String,
+    },
+    /// Images of both cameras exist but none pair up.
+    #[error(
+        "{}: no epoch pairs camera A and B: {unpaired_a} image(s) of A and {unpaired_b} of B \
+         share neither a name (after removing the prefix) nor a frame",
+        model.display()
+    )]
+    NoEpochs {
+        /// The model directory.
+        model: PathBuf,
+        /// Number of A images without a partner.
+        unpaired_a: usize,
+        /// Number of B images without a partner.
+        unpaired_b: usize,
+    },
+    /// Two images of the same camera claim the same epoch key.
+    #[error("{}: images `{first}` and `{second}` of camera {role} both pair as epoch `{key}`", model.display())]
+    DuplicateEpoch {
+        /// The model directory.
+        model: PathBuf,
+        /// `'A'` or `'B'`.
+        role: char,
+        /// The epoch key.
+        key: String,
+        /// First image name.
+        first: String,
+        /// Second image name.
+        second: String,
+    },
+    /// Every epoch gives the same link: the model was adjusted with a rig constraint.
+    #[error(
+        "{}: all {n_epochs} epochs give the same link A_from_B (spread {spread_mm:.1e} mm, \
+         {spread_deg:.1e} deg: numerical zero). The model was adjusted with a rig constraint \
+         (frames sharing one sensor_from_rig), so its epochs are not independent measurements \
+         of the link and σ = σ/√n = 0 would mean nothing. Calibrate a model reconstructed \
+         without rig constraints (each image in its own frame, as COLMAP's rig workflow does \
+         before `rig_configurator`), or pass --accept-rig-constrained \
+         (study file: accept_rig_constrained = true) to inspect this one",
+        model.display()
+    )]
+    RigConstrained {
+        /// The model directory.
+        model: PathBuf,
+        /// Number of epochs.
+        n_epochs: usize,
+        /// Largest σ of the base over the epochs (mm).
+        spread_mm: f64,
+        /// Largest σ of the rotation over the epochs (deg).
+        spread_deg: f64,
+    },
+    /// The calibration of the epochs failed (scale, too few epochs, degenerate rotations).
+    #[error("{}: calibration failed: {source}", model.display())]
+    Rig {
+        /// The model directory.
+        model: PathBuf,
+        /// What failed.
+        source: RigError,
+    },
+    /// A plot could not be drawn.
+    #[error("{}: plotting {what}: {source}", dir.display())]
+    Plot {
+        /// The plot directory.
+        dir: PathBuf,
+        /// Which figure.
+        what: String,
+        /// What failed.
+        source: crashrig_plot::Error,
+    },
+    /// A plot file could not be written.
+    #[error("{}: {what}: {source}", path.display())]
+    Io {
+        /// The file or directory.
+        path: PathBuf,
+        /// What was being done.
+        what: &'static str,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+}
+
+/// Where the scale (mm per model unit) comes from.
+#[derive(Debug, Clone, PartialEq, Default)]
 pub enum Scale {
-    /// A fixed factor.
+    /// No scale given: 1 mm per model unit.
+    #[default]
+    Default,
+    /// A given factor (`--mm-per-unit F`).
     MmPerUnit(f64),
-    /// A scale bar.
+    /// Two point3D ids a known distance apart (`--scale-points ID1 ID2 --scale-length-mm L`).
     ScaleBar {
-        /// point3D ids.
+        /// The two point3D ids.
         points: [u64; 2],
-        /// Length (mm).
+        /// Their known distance (mm).
         length_mm: f64,
     },
 }
 
-/// What `calibrate` takes.
+/// What `crashrig calibrate` takes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CalibrationConfig {
-    /// Model directory.
+    /// COLMAP model directory.
     pub model: PathBuf,
-    /// Camera A selector.
+    /// Camera A: an image-name prefix (e.g. `cam_out/`) or a camera id.
     pub camera_a: String,
-    /// Camera B selector.
+    /// Camera B: an image-name prefix or a camera id.
     pub camera_b: String,
-    /// Scale.
+    /// The scale.
     pub scale: Scale,
-    /// Autocorrelation lags.
+    /// Largest lag of the autocorrelation report (default 10).
     pub max_lag: usize,
-    /// Rig-constrained refinement.
+    /// Run the rig-constrained refinement (default true).
     pub refine: bool,
+    /// Accept a model whose epochs all give the same link (default false: refused).
+    pub accept_rig_constrained: bool,
 }
 
 impl Default for CalibrationConfig {
     fn default() -> Self {
-        CalibrationConfig {
+        Self {
             model: PathBuf::new(),
             camera_a: String::new(),
             camera_b: String::new(),
-            scale: Scale::MmPerUnit(1.0),
+            scale: Scale::Default,
             max_lag: 10,
             refine: true,
+            accept_rig_constrained: false,
         }
     }
 }
 
-/// Why a calibration failed (names the model).
-#[derive(Debug, thiserror::Error)]
-#[error("{0}")]
-pub struct CalibrationError(String);
+/// The scale as resolved against the model.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ResolvedScale {
+    /// From a scale bar.
+    Bar(ScaleBar),
+    /// Given.
+    Given(f64),
+    /// Not given (1 mm per unit).
+    Default,
+}
 
-/// The calibration result.
-#[derive(Debug, Clone)]
+impl ResolvedScale {
+    /// mm per model unit.
+    pub fn mm_per_unit(&self) -> f64 {
+        match self {
+            ResolvedScale::Bar(b) => b.mm_per_unit,
+            ResolvedScale::Given(f) => *f,
+            ResolvedScale::Default => 1.0,
+        }
+    }
+}
+
+/// A finished calibration: typed values, printed by [`CalibrationResult::to_json`] and
+/// [`CalibrationResult::text_report`].
+#[derive(Debug, Clone, PartialEq)]
 pub struct CalibrationResult {
-    /// Mean link with its SEM covariance.
+    /// The mean link `A_from_B` (mm) with `sem_covariance_tangent` (mm, rad): what a crash
+    /// test uses.
     pub link: UncertainPose,
-    /// Spread of one epoch's link.
+    /// Spread of one epoch's link over the epochs (n − 1), mm and rad: `covariance_tangent`.
     pub epoch_covariance: Mat6,
-    /// SEM rule.
+    /// The rule of `sem_covariance_tangent` (`crashrig_rig::sem`).
     pub sem_rule: String,
-    /// Epochs.
+    /// Number of epochs.
     pub n_epochs: usize,
-    /// Warnings.
+    /// Warnings (unpaired images, autocorrelation, a skipped refinement, an accepted
+    /// rig-constrained model), one line each; printed on stderr by the CLI.
     pub warnings: Vec<String>,
-    mm_per_unit: f64,
+    /// The configuration it was computed from.
+    pub config: CalibrationConfig,
+    /// The pairing of the images into epochs.
+    pub pairing: EpochSet,
+    /// The scale used.
+    pub scale: ResolvedScale,
+    /// Everything the rig crate computed (statistics, outliers, drift, refinement).
+    pub calibration: Calibration,
+}
+
+/// Calibrates as `crashrig calibrate` does (see the module doc).
+///
+/// A refinement that fails to converge or is singular does not fail the calibration: the
+/// epoch statistics do not depend on it; it is left out with a warning.
+///
+/// # Errors
+/// Every [`CalibrationError`]: an unreadable model, a bad selector or scale, no epochs, a
+/// rig-constrained model (unless accepted), too few epochs.
+pub fn calibrate(config: &CalibrationConfig) -> Result<CalibrationResult, CalibrationError> {
+    let model = Reconstruction::read(&config.model)?;
+    let sel_a = CameraSelector::parse(&config.camera_a);
+    let sel_b = CameraSelector::parse(&config.camera_b);
+    let set = epochs_from_model(&model, &sel_a, &sel_b)?;
+    let rig_err = |source: RigError| CalibrationError::Rig {
+        model: config.model.clone(),
+        source,
+    };
+    let scale = match &config.scale {
+        Scale::ScaleBar { points, length_mm } => {
+            ResolvedScale::Bar(scale_from_points(&model, points[0], points[1], *length_mm)?)
+        }
+        Scale::MmPerUnit(f) => {
+            ResolvedScale::Given(crashrig_rig::check_scale(*f).map_err(rig_err)?)
+        }
+        Scale::Default => ResolvedScale::Default,
+    };
+    let mut warnings = unpaired_warnings(&set);
+    let options = CalibrateOptions {
+        max_lag: config.max_lag,
+        refine: config.refine.then(RefineOptions::default),
+        accept_rig_constrained: config.accept_rig_constrained,
+    };
+    let run = |o: &CalibrateOptions| crashrig_rig::calibrate(&set.epochs, scale.mm_per_unit(), o);
+    let cal = match run(&options) {
+        Ok(c) => c,
+        Err(e @ (RigError::NoConvergence { .. } | RigError::SingularNormalMatrix { .. })) => {
+            warnings.push(format!("rig-constrained refinement skipped: {e}"));
+            run(&CalibrateOptions {
+                refine: None,
+                ..options
+            })
+            .map_err(rig_err)?
+        }
+        Err(RigError::RigConstrained {
+            n_epochs,
+            spread_mm,
+            spread_rad,
+        }) => {
+            return Err(CalibrationError::RigConstrained {
+                model: config.model.clone(),
+                n_epochs,
+                spread_mm,
+                spread_deg: spread_rad.to_degrees(),
+            });
+        }
+        Err(e) => return Err(rig_err(e)),
+    };
+    if cal.rig_constrained {
+        warnings.push(format!(
+            "all {} epochs give the same link (a rig-constrained model, accepted for inspection): \
+             σ, SEM and every covariance are 0 and are no measure of the link's uncertainty",
+            cal.links.len()
+        ));
+    }
+    if let Some(d) = &cal.drift
+        && d.any_optimistic()
+    {
+        warnings.push(format!(
+            "the epoch series is autocorrelated ({}); σ/√n is likely optimistic",
+            optimistic_list(d)
+        ));
+    }
+    if cal.sem.rule == crashrig_rig::sem::RULE_AR1 {
+        let axes: Vec<String> = (0..6)
+            .filter(|&j| cal.sem.autocorrelated[j])
+            .map(|j| format!("{} × {:.2}", TANGENT[j], cal.sem.inflation[j].sqrt()))
+            .collect();
+        warnings.push(format!(
+            "sem_covariance_tangent is widened for autocorrelation (rule {}; SE {})",
+            cal.sem.rule,
+            axes.join(", ")
+        ));
+    }
+    Ok(CalibrationResult {
+        link: cal.link,
+        epoch_covariance: cal.epoch_spread.covariance,
+        sem_rule: cal.sem.rule.to_string(),
+        n_epochs: cal.links.len(),
+        warnings,
+        config: config.clone(),
+        pairing: set,
+        scale,
+        calibration: cal,
+    })
+}
+
+fn unpaired_warnings(set: &EpochSet) -> Vec<String> {
+    let mut out = Vec::new();
+    for (what, v) in [
+        ("image(s) of camera A have no partner in B", &set.unpaired_a),
+        ("image(s) of camera B have no partner in A", &set.unpaired_b),
+        (
+            "paired image(s) have no pose (epoch skipped)",
+            &set.without_pose,
+        ),
+    ] {
+        if !v.is_empty() {
+            let shown: Vec<&str> = v.iter().take(10).map(String::as_str).collect();
+            let more = if v.len() > 10 { ", …" } else { "" };
+            out.push(format!("{} {what}: {}{more}", v.len(), shown.join(", ")));
+        }
+    }
+    out
+}
+
+fn optimistic_list(d: &DriftReport) -> String {
+    (0..6)
+        .filter(|&j| d.optimistic[j])
+        .map(|j| {
+            format!(
+                "{}: lag-1 r = {:.2}, n_eff ≈ {:.0}, SEM × {:.2}",
+                PARAMS[j], d.autocorrelation[j][0], d.effective_n[j], d.sem_inflation[j]
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
+fn deg3(v: &Vec3) -> [f64; 3] {
+    [v[0].to_degrees(), v[1].to_degrees(), v[2].to_degrees()]
+}
+
+fn arr3(v: &Vec3) -> [f64; 3] {
+    [v[0], v[1], v[2]]
+}
+
+/// A (mm, rad) covariance as nested arrays in (mm, deg).
+fn cov_deg(c: &Mat6) -> Vec<Vec<f64>> {
+    let f = |k: usize| if k < 3 { 1.0 } else { 1f64.to_degrees() };
+    (0..6)
+        .map(|i| (0..6).map(|j| c[(i, j)] * f(i) * f(j)).collect())
+        .collect()
+}
+
+fn stats_json(s: &LinkStatistics) -> Value {
+    json!({
+        "n_epochs": s.n,
+        "base_mm": arr3(&s.base_mm),
+        "base_sigma_mm": arr3(&s.base_sigma_mm),
+        "base_sem_mm": arr3(&s.base_sem_mm),
+        "angles_deg": deg3(&s.angles),
+        "angles_sigma_deg": deg3(&s.angles_sigma),
+        "angles_sem_deg": deg3(&s.angles_sem),
+        "mean_rotation_angles_deg": deg3(&s.mean_rotation_angles),
+        "covariance": cov_deg(&s.covariance),
+    })
+}
+
+/// What the refinement's covariance is (in the JSON and the report).
+const REFINED_LABEL: &str = "a weighted mean of the same per-epoch poses (not independent \
+evidence); covariance from the normal equations, which treat the epochs as independent, \
+raised on each tangent axis to at least sem_covariance_tangent";
+
+fn refined_json(r: &Refinement) -> Value {
+    json!({
+        "base_mm": arr3(&r.base_mm),
+        "base_sigma_mm": arr3(&r.base_sigma_mm),
+        "angles_deg": deg3(&r.angles),
+        "angles_sigma_deg": deg3(&r.angles_sigma),
+        "covariance": cov_deg(&r.covariance),
+        "covariance_tangent": cov_deg(&r.tangent_covariance),
+        "covariance_tangent_independent": cov_deg(&r.tangent_covariance_independent),
+        "floor_factors": r.floor_factors,
+        "what": REFINED_LABEL,
+        "sigma_rotation_deg": deg3(&r.sigma_rotation),
+        "sigma_position_mm": arr3(&r.sigma_position_mm),
+        "variance_factor": r.variance_factor,
+        "n_unknowns": r.n_unknowns,
+        "redundancy": r.redundancy,
+        "iterations": r.iterations,
+    })
+}
+
+/// ω φ κ (deg) of a rotation.
+fn opk_deg(u: &UncertainPose) -> [f64; 3] {
+    let a = opk::opk_from_rotation(&u.rotation());
+    [
+        a.omega.to_degrees(),
+        a.phi.to_degrees(),
+        a.kappa.to_degrees(),
+    ]
 }
 
 impl CalibrationResult {
-    /// JSON.
+    /// The `calibrate --json` document: the contract's fields, `covariance_tangent`,
+    /// `sem_covariance_tangent`, `sem_rule`, and the extension fields of `docs/CALIBRATE.md`.
     pub fn to_json(&self) -> Value {
-        let l = UncertainPose {
-            b_from_a: self.link.b_from_a,
-            covariance: self.epoch_covariance,
+        let c = &self.calibration;
+        let epochs: Vec<Value> = c
+            .links
+            .iter()
+            .zip(&c.outliers.outlier)
+            .zip(&c.outliers.z_scores)
+            .map(|((l, o), z)| {
+                json!({
+                    "name": l.name,
+                    "base_mm": arr3(&l.base_mm),
+                    "angles_deg": deg3(&l.angles),
+                    "outlier": o,
+                    "z_scores": z,
+                })
+            })
+            .collect();
+        let scale_json = match &self.scale {
+            ResolvedScale::Bar(b) => json!({
+                "source": "scale_bar", "point_ids": [b.point_1, b.point_2],
+                "length_mm": b.length_mm, "distance_units": b.distance_units,
+            }),
+            ResolvedScale::Given(_) => json!({"source": "mm_per_unit"}),
+            ResolvedScale::Default => json!({"source": "default"}),
         };
-        json!({
-            "n_epochs": self.n_epochs,
-            "mm_per_unit": self.mm_per_unit,
-            "base_mm": <[f64; 3]>::from(self.link.b_from_a.translation.vector),
-            "covariance_tangent": crate::pipeline::covariance_deg_rows(&l.covariance),
-            "sem_covariance_tangent": crate::pipeline::covariance_deg_rows(&self.link.covariance),
+        let drift = c.drift.as_ref().map(|d| {
+            json!({
+                "order": PARAMS,
+                "lags": d.autocorrelation,
+                "effective_n": d.effective_n,
+                "sem_inflation": d.sem_inflation,
+                "white_noise_band": d.white_noise_band,
+                "sem_optimistic": d.optimistic,
+                "warning": d.any_optimistic(),
+            })
+        });
+        let set = &self.pairing;
+        // The contract's statistics over all epochs are exactly `stats_json` of them; the rest
+        // are extension fields.
+        let mut out = stats_json(&c.all);
+        let extra = json!({
+            "model": self.config.model.display().to_string(),
+            "camera_a": self.config.camera_a,
+            "camera_b": self.config.camera_b,
+            "mm_per_unit": c.mm_per_unit,
+            "scale_factor": c.mm_per_unit,
+            "scale": scale_json,
+            "link": {
+                "base_mm": arr3(&self.link.center()),
+                "angles_deg": opk_deg(&self.link),
+            },
+            "covariance_tangent": cov_deg(&self.epoch_covariance),
+            "sem_covariance_tangent": cov_deg(&self.link.covariance),
             "sem_rule": self.sem_rule,
-        })
+            "sem_detail": {
+                "order": TANGENT,
+                "lag1": c.sem.lag1,
+                "autocorrelated": c.sem.autocorrelated,
+                "variance_inflation": c.sem.inflation,
+            },
+            "rig_constrained": c.rig_constrained,
+            "outlier_rule": outlier_rule_description(c.links.len()),
+            "outlier_threshold": c.outliers.threshold,
+            "n_outliers": c.outliers.indices().len(),
+            "without_outliers": c.without_outliers.as_ref().map(stats_json),
+            "autocorrelation": drift,
+            "refined": c.refined.as_ref().map(refined_json),
+            "refined_without_outliers": c.refined_without_outliers.as_ref().map(refined_json),
+            "pairing": {
+                "by_name": set.paired_by_name,
+                "by_frame": set.paired_by_frame,
+                "unpaired_a": set.unpaired_a,
+                "unpaired_b": set.unpaired_b,
+                "without_pose": set.without_pose,
+            },
+            "warnings": self.warnings,
+            "epochs": epochs,
+        });
+        if let (Some(o), Value::Object(e)) = (out.as_object_mut(), extra) {
+            o.extend(e);
+        }
+        out
+    }
+
+    /// What `crashrig calibrate` prints without `--json`: Tables 1–2 and the rest.
+    pub fn text_report(&self) -> String {
+        let c = &self.calibration;
+        let set = &self.pairing;
+        let mut o = String::new();
+        let s = &c.all;
+        let _ = writeln!(
+            o,
+            "Rig calibration of {}: B ({}) relative to A ({}), {} epochs ({} by name, {} by frame)",
+            self.config.model.display(),
+            self.config.camera_b,
+            self.config.camera_a,
+            s.n,
+            set.paired_by_name,
+            set.paired_by_frame
+        );
+        let _ = match &self.scale {
+            ResolvedScale::Bar(b) => writeln!(
+                o,
+                "Scale: {:.6} mm per model unit (scale bar: points {} and {}, {:.3} mm = {:.6} units)",
+                b.mm_per_unit, b.point_1, b.point_2, b.length_mm, b.distance_units
+            ),
+            ResolvedScale::Given(f) => writeln!(o, "Scale: {f} mm per model unit (given)"),
+            ResolvedScale::Default => {
+                writeln!(o, "Scale: 1 mm per model unit (default; no scale given)")
+            }
+        };
+        if c.rig_constrained {
+            let _ = writeln!(
+                o,
+                "RIG-CONSTRAINED MODEL (accepted for inspection): every epoch gives the same link; \
+                 the σ, SEM and covariances below are 0 and mean nothing."
+            );
+        }
+        let _ = writeln!(o);
+        let _ = writeln!(o, "Table 1 – base: B's projection centre in A's frame (mm)");
+        header(&mut o, ["X", "Y", "Z"]);
+        stats_rows(&mut o, s, true);
+        let _ = writeln!(o);
+        let _ = writeln!(o, "Table 2 – orientation: ω φ κ of R_A_from_B (deg)");
+        header(&mut o, ["ω", "φ", "κ"]);
+        stats_rows(&mut o, s, false);
+        row(&mut o, "SO(3) mean", deg3(&s.mean_rotation_angles), 4);
+        let _ = writeln!(o);
+        let sd = |m: &Mat6, j: usize| {
+            let f = if j < 3 { 1.0 } else { 1f64.to_degrees() };
+            m[(j, j)].max(0.0).sqrt() * f
+        };
+        let _ = writeln!(
+            o,
+            "Tangent covariance (centre in A's axes, mm; rotation about B's axes, deg)"
+        );
+        let _ = writeln!(
+            o,
+            "  {:<10}{:>14}{:>18}{:>12}",
+            "axis", "σ one epoch", "SE of the mean", "SE × "
+        );
+        for (j, name) in TANGENT.iter().enumerate() {
+            let d = if j < 3 { 3 } else { 4 };
+            let _ = writeln!(
+                o,
+                "  {:<10}{:>14.d$}{:>18.d$}{:>12.2}",
+                name,
+                sd(&self.epoch_covariance, j),
+                sd(&self.link.covariance, j),
+                c.sem.inflation[j].sqrt(),
+                d = d + 1
+            );
+        }
+        let _ = writeln!(
+            o,
+            "  SE rule: {} (docs/CALIBRATE.md); Tables 1–2 keep the paper's σ/√n",
+            self.sem_rule
+        );
+        let _ = writeln!(o);
+        let idx = c.outliers.indices();
+        let _ = writeln!(
+            o,
+            "Outliers (|modified z| > {:.2} on any parameter, ≤ 0.5 % false-flag rate per sequence): {}",
+            c.outliers.threshold,
+            idx.len()
+        );
+        for &i in &idx {
+            let z = c.outliers.z_scores[i];
+            let _ = writeln!(
+                o,
+                "  {:<16} z = [{}]",
+                c.links[i].name,
+                z.iter()
+                    .map(|v| format!("{v:.1}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
+        if !idx.is_empty() {
+            match &c.without_outliers {
+                Some(w) => {
+                    let _ = writeln!(o, "Without outliers ({} epochs):", w.n);
+                    header(&mut o, ["X (mm)", "Y (mm)", "Z (mm)"]);
+                    stats_rows(&mut o, w, true);
+                    header(&mut o, ["ω (deg)", "φ (deg)", "κ (deg)"]);
+                    stats_rows(&mut o, w, false);
+                }
+                None => {
+                    let _ = writeln!(o, "Without outliers: fewer than two epochs remain");
+                }
+            }
+        }
+        if let Some(d) = &c.drift {
+            let _ = writeln!(o);
+            let _ = writeln!(
+                o,
+                "Drift: lag-1 autocorrelation (white-noise band ±{:.3})",
+                d.white_noise_band
+            );
+            for (j, name) in PARAMS.iter().enumerate() {
+                let _ = writeln!(
+                    o,
+                    "  {:<6} r1 = {:>6.3}   n_eff ≈ {:>6.1}   SEM × {:.2}{}",
+                    name,
+                    d.autocorrelation[j][0],
+                    d.effective_n[j],
+                    d.sem_inflation[j],
+                    if d.optimistic[j] {
+                        "   σ/√n likely optimistic"
+                    } else {
+                        ""
+                    }
+                );
+            }
+        }
+        if let Some(r) = &c.refined {
+            let _ = writeln!(o);
+            let _ = writeln!(
+                o,
+                "Rig-constrained refinement ({} unknowns, redundancy {}, {} Gauss–Newton steps)",
+                r.n_unknowns, r.redundancy, r.iterations,
+            );
+            let _ = writeln!(
+                o,
+                "  A weighted mean of the same per-epoch poses, not independent evidence; its σ is\n  \
+                 raised on each axis to at least the SE of the mean above."
+            );
+            let sr = deg3(&r.sigma_rotation);
+            let sp = arr3(&r.sigma_position_mm);
+            let _ = writeln!(
+                o,
+                "  per-pose σ in A's axes: rotation ({:.4}, {:.4}, {:.4}) deg, centre ({:.3}, {:.3}, {:.3}) mm",
+                sr[0], sr[1], sr[2], sp[0], sp[1], sp[2]
+            );
+            let _ = writeln!(
+                o,
+                "  {:<8}{:>27}{:>27}",
+                "", "epoch mean ± σ/√n", "refined ± σ"
+            );
+            for (j, name) in PARAMS.iter().enumerate() {
+                let (m, e, rv, rs, d) = if j < 3 {
+                    (
+                        s.base_mm[j],
+                        s.base_sem_mm[j],
+                        r.base_mm[j],
+                        r.base_sigma_mm[j],
+                        3,
+                    )
+                } else {
+                    let k = j - 3;
+                    (
+                        s.angles[k].to_degrees(),
+                        s.angles_sem[k].to_degrees(),
+                        r.angles[k].to_degrees(),
+                        r.angles_sigma[k].to_degrees(),
+                        4,
+                    )
+                };
+                let _ = writeln!(
+                    o,
+                    "  {:<8}{:>16.d$} ± {:>8.d$}{:>16.d$} ± {:>8.d$}",
+                    name,
+                    m,
+                    e,
+                    rv,
+                    rs,
+                    d = d
+                );
+            }
+        }
+        if let (Some(r), Some(w)) = (&c.refined_without_outliers, &c.without_outliers) {
+            let _ = writeln!(
+                o,
+                "Rig-constrained refinement without the {} outlier epoch(s) ({} epochs):",
+                idx.len(),
+                w.n
+            );
+            for (j, name) in PARAMS.iter().enumerate() {
+                let (v, sd, d) = if j < 3 {
+                    (r.base_mm[j], r.base_sigma_mm[j], 3)
+                } else {
+                    (
+                        r.angles[j - 3].to_degrees(),
+                        r.angles_sigma[j - 3].to_degrees(),
+                        4,
+                    )
+                };
+                let _ = writeln!(o, "  {name:<8}{:>43.d$} ± {:>8.d$}", v, sd, d = d);
+            }
+        }
+        o
+    }
+
+    /// The per-epoch series, histograms and autocorrelation plots of the six parameters, as
+    /// (file name, bytes): `series_<p>.png|svg`, `hist_<p>.png|svg`, `acf_<p>.png|svg` with
+    /// `p` in x y z omega phi kappa (`acf_*` only when there is a drift report).
+    ///
+    /// # Errors
+    /// [`CalibrationError::Plot`] (with `dir` empty) when a figure cannot be drawn.
+    pub fn plots(&self) -> Result<Vec<(String, Vec<u8>)>, CalibrationError> {
+        use crashrig_plot::{Format, histogram, series};
+        let c = &self.calibration;
+        let plot_err = |what: String| {
+            move |source| CalibrationError::Plot {
+                dir: PathBuf::new(),
+                what,
+                source,
+            }
+        };
+        let series_rad = crashrig_rig::stats::parameter_series(&c.links).map_err(|source| {
+            CalibrationError::Rig {
+                model: self.config.model.clone(),
+                source,
+            }
+        })?;
+        let xs: Vec<f64> = (1..=c.links.len()).map(|i| i as f64).collect();
+        let mut out = Vec::new();
+        for j in 0..6 {
+            let f = if j < 3 { 1.0 } else { 1f64.to_degrees() };
+            let ys: Vec<f64> = series_rad[j].iter().map(|v| v * f).collect();
+            let (mean, sigma) = if j < 3 {
+                (c.all.base_mm[j], c.all.base_sigma_mm[j])
+            } else {
+                // Unwrapped series: the mean is continuous with the values.
+                let m = ys.iter().sum::<f64>() / ys.len() as f64;
+                (m, c.all.angles_sigma[j - 3].to_degrees())
+            };
+            for (fmt, ext) in [(Format::Png, "png"), (Format::Svg, "svg")] {
+                let bytes = series(
+                    &xs,
+                    &ys,
+                    &format!("{} per epoch", LABELS[j]),
+                    "epoch",
+                    LABELS[j],
+                    fmt,
+                )
+                .map_err(plot_err(format!("the {} series", PARAMS[j])))?;
+                out.push((format!("series_{}.{ext}", PARAMS[j]), bytes));
+                let bytes = histogram(
+                    &ys,
+                    &[mean - sigma, mean, mean + sigma],
+                    &format!(
+                        "{} over {} epochs (lines: mean, mean ± σ)",
+                        LABELS[j],
+                        ys.len()
+                    ),
+                    LABELS[j],
+                    fmt,
+                )
+                .map_err(plot_err(format!("the {} histogram", PARAMS[j])))?;
+                out.push((format!("hist_{}.{ext}", PARAMS[j]), bytes));
+                if let Some(d) = &c.drift {
+                    let r = &d.autocorrelation[j];
+                    let lags: Vec<f64> = (1..=r.len()).map(|k| k as f64).collect();
+                    let bytes = series(
+                        &lags,
+                        r,
+                        &format!(
+                            "autocorrelation of {} (white-noise bound {:.3})",
+                            LABELS[j], d.white_noise_band
+                        ),
+                        "lag [epochs]",
+                        "r",
+                        fmt,
+                    )
+                    .map_err(plot_err(format!("the {} autocorrelation", PARAMS[j])))?;
+                    out.push((format!("acf_{}.{ext}", PARAMS[j]), bytes));
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// Writes [`CalibrationResult::plots`] into `dir` (created if needed); each file is
+    /// written to a temporary name first and renamed into place.
+    ///
+    /// # Errors
+    /// [`CalibrationError::Plot`] or [`CalibrationError::Io`].
+    pub fn write_plots(&self, dir: &Path) -> Result<(), CalibrationError> {
+        let plots = self.plots().map_err(|e| match e {
+            CalibrationError::Plot { what, source, .. } => CalibrationError::Plot {
+                dir: dir.to_path_buf(),
+                what,
+                source,
+            },
+            e => e,
+        })?;
+        std::fs::create_dir_all(dir).map_err(|source| CalibrationError::Io {
+            path: dir.to_path_buf(),
+            what: "cannot create the plot directory",
+            source,
+        })?;
+        for (name, bytes) in plots {
+            let path = dir.join(&name);
+            let tmp = dir.join(format!(".{name}.tmp"));
+            std::fs::write(&tmp, &bytes).map_err(|source| CalibrationError::Io {
+                path: tmp.clone(),
+                what: "write failed",
+                source,
+            })?;
+            std::fs::rename(&tmp, &path).map_err(|source| CalibrationError::Io {
+                path: path.clone(),
+                what: "cannot rename into place",
+                source,
+            })?;
+        }
+        Ok(())
     }
 }
 
-/// Calibrates.
-///
-/// # Errors
-/// Any failure, naming the model.
-pub fn calibrate(c: &CalibrationConfig) -> Result<CalibrationResult, CalibrationError> {
-    use crashrig_rig::colmap::{CameraSelector, epochs_from_model, scale_from_points};
-    let e = |x: &dyn std::fmt::Display| CalibrationError(format!("{}: {x}", c.model.display()));
-    let model = crashrig_colmap::Reconstruction::read(&c.model)
-        .map_err(|x| CalibrationError(x.to_string()))?;
-    let set = epochs_from_model(
-        &model,
-        &CameraSelector::parse(&c.camera_a),
-        &CameraSelector::parse(&c.camera_b),
-    )
-    .map_err(|x| CalibrationError(x.to_string()))?;
-    let mm = match c.scale {
-        Scale::MmPerUnit(f) => f,
-        Scale::ScaleBar { points, length_mm } => {
-            scale_from_points(&model, points[0], points[1], length_mm)
-                .map_err(|x| CalibrationError(x.to_string()))?
-                .mm_per_unit
-        }
-    };
-    let links = crashrig_rig::links_of(&set.epochs, mm).map_err(|x| e(&x))?;
-    let samples: Vec<_> = links.iter().map(|l| l.a_from_b).collect();
-    let spread = UncertainPose::from_samples(&samples).map_err(|x| e(&x))?;
-    let n = samples.len();
-    Ok(CalibrationResult {
-        link: UncertainPose {
-            b_from_a: spread.b_from_a,
-            covariance: spread.covariance / n as f64,
-        },
-        epoch_covariance: spread.covariance,
-        sem_rule: "covariance_tangent / n".into(),
-        n_epochs: n,
-        warnings: Vec::new(),
-        mm_per_unit: mm,
-    })
+fn row(out: &mut String, label: &str, v: [f64; 3], decimals: usize) {
+    let _ = writeln!(
+        out,
+        "  {label:<12}{:>12.d$}{:>12.d$}{:>12.d$}",
+        v[0],
+        v[1],
+        v[2],
+        d = decimals
+    );
+}
+
+fn header(o: &mut String, names: [&str; 3]) {
+    let _ = writeln!(
+        o,
+        "  {:<12}{:>12}{:>12}{:>12}",
+        "", names[0], names[1], names[2]
+    );
+}
+
+fn stats_rows(o: &mut String, s: &LinkStatistics, base: bool) {
+    if base {
+        row(o, "mean", arr3(&s.base_mm), 3);
+        row(o, "σ (n−1)", arr3(&s.base_sigma_mm), 3);
+        row(o, "σ/√n", arr3(&s.base_sem_mm), 3);
+    } else {
+        row(o, "mean", deg3(&s.angles), 4);
+        row(o, "σ (n−1)", deg3(&s.angles_sigma), 4);
+        row(o, "σ/√n", deg3(&s.angles_sem), 4);
+    }
 }

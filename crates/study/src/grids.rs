@@ -82,13 +82,13 @@ impl GridSummary {
             )
         };
         let n = result.points.len().max(1) as f64;
-        let (imax, max) = sm
-            .iter()
-            .copied()
-            .enumerate()
-            .fold((0, f64::NEG_INFINITY), |(bi, bv), (i, v)| {
-                if v > bv { (i, v) } else { (bi, bv) }
-            });
+        let (imax, max) =
+            sm.iter()
+                .copied()
+                .enumerate()
+                .fold((0, f64::NEG_INFINITY), |(bi, bv), (i, v)| {
+                    if v > bv { (i, v) } else { (bi, bv) }
+                });
         let above: Vec<_> = result
             .points
             .iter()

@@ -67,12 +67,6 @@ fn deg(v: nalgebra::Vector3<f64>) -> [f64; 3] {
     v.map(f64::to_degrees).into()
 }
 
-/// Runs the propagation and returns the JSON document of the contract (used by
-/// `crashrig paper` too). `seed` overrides the scenario's seed.
-pub fn compute(a: &PropagateArgs, seed: Option<u64>) -> anyhow::Result<serde_json::Value> {
-    serde_json::to_value(compute_typed(a, seed)?).context("formatting the propagation result")
-}
-
 /// Runs `crashrig propagate`.
 pub fn run(a: PropagateArgs, g: &Global) -> anyhow::Result<()> {
     let out = compute_typed(&a, g.seed)?;

@@ -1,4 +1,5 @@
-//! Epochs and scale from a COLMAP model (a bundle without a rig constraint).
+//! Epochs and scale from a COLMAP model (a bundle without a rig constraint): the COLMAP
+//! adapter of the calibration (moved here from `crashrig-rig`, which works on poses only).
 //!
 //! # Selecting cameras A and B
 //! A [`CameraSelector`] is a camera id when the text is made only of digits (`"2"`), and an
@@ -6,7 +7,8 @@
 //!
 //! # Pairing images into epochs
 //! 1. **Shared frame**: an image of A and an image of B that belong to the same COLMAP frame
-//!    form an epoch (a rig-constrained model).
+//!    form an epoch (a model with rigs and frames; if it was adjusted with the rig constraint,
+//!    every epoch has the same link and the calibration refuses it).
 //! 2. **Name**: the remaining images pair when their names are equal after removing the
 //!    prefix (`cam_out/000123.png` ↔ `cam_in/000123.png`). For a camera-id selector the
 //!    prefix is the name up to and including the first `/` (the whole name if there is none).
@@ -15,8 +17,9 @@
 //! silently dropped. Epochs are ordered by their key (the name without the prefix), which is
 //! the sequence order for COLMAP's zero-padded frame names.
 
-use crate::{Epoch, Error};
+use crate::calibration::CalibrationError as Error;
 use crashrig_colmap::{Image, Reconstruction};
+use crashrig_rig::Epoch;
 use std::collections::{BTreeMap, HashMap};
 
 /// Relative size, against the coordinates, below which two scale-bar points coincide
@@ -263,7 +266,10 @@ pub fn scale_from_points(
     length_mm: f64,
 ) -> Result<ScaleBar, Error> {
     if !(length_mm.is_finite() && length_mm > 0.0) {
-        return Err(Error::InvalidScaleLength { length_mm });
+        return Err(Error::InvalidScaleLength {
+            model: model.dir().to_path_buf(),
+            length_mm,
+        });
     }
     let get = |id: u64| {
         model.point3d(id).ok_or_else(|| Error::UnknownPoint {

@@ -1,4 +1,5 @@
-//! Integration tests of `crashrig-rig` on the pycolmap-written fixtures in `fixtures/rig/`.
+//! Integration tests of the calibration (`crashrig_study::epochs` + `crashrig-rig`) on the
+//! pycolmap-written fixtures in `fixtures/rig/`.
 //!
 //! Each fixture directory holds a COLMAP model and `expected.json`, the injected per-epoch links
 //! and the statistics computed from them directly with numpy (see `fixtures/rig/README.md`).
@@ -6,8 +7,9 @@
 use approx::assert_abs_diff_eq;
 use crashrig_colmap::Reconstruction;
 use crashrig_geometry::angles::wrap_pi;
-use crashrig_rig::colmap::{CameraSelector, epochs_from_model, scale_from_points};
-use crashrig_rig::{CalibrateOptions, Calibration, Error, calibrate};
+use crashrig_rig::{CalibrateOptions, Calibration, calibrate};
+use crashrig_study::calibration::CalibrationError as Error;
+use crashrig_study::epochs::{CameraSelector, epochs_from_model, scale_from_points};
 use serde_json::Value;
 use std::path::PathBuf;
 
@@ -178,8 +180,12 @@ mod paper {
                 0.0,
                 epsilon = 3.0 * c.all.angles_sem[k]
             );
-            let ratio = r.base_sigma_mm[k] / c.all.base_sem_mm[k];
+            // The normal-equation σ (epochs as independent) is of the order of σ/√n (the same
+            // data, other weights); the reported σ is floored at the uncertainty of the mean.
+            let independent = r.tangent_covariance_independent[(k, k)].sqrt();
+            let ratio = independent / c.all.base_sem_mm[k];
             assert!((0.5..2.0).contains(&ratio), "base {k}: σ/SEM = {ratio}");
+            assert!(r.tangent_covariance[(k, k)] >= c.sem.covariance[(k, k)] * (1.0 - 1e-12));
         }
     }
 }
@@ -265,13 +271,37 @@ mod pairing {
     }
 
     #[test]
+    fn pairing_by_shared_frame_rig_constrained_is_refused() {
+        // The shared_frame model was adjusted with a rig constraint: every epoch has the same
+        // link, so the epochs are no independent evidence of it (issue 12).
+        let model = Reconstruction::read(&fixture("shared_frame")).unwrap();
+        let set = epochs_from_model(&model, &sel("1"), &sel("2")).unwrap();
+        let r = calibrate(&set.epochs, 1.0, &CalibrateOptions::default());
+        assert!(
+            matches!(
+                r,
+                Err(crashrig_rig::Error::RigConstrained { n_epochs: 6, .. })
+            ),
+            "{r:?}"
+        );
+    }
+
+    #[test]
     fn pairing_by_shared_frame() {
         let e = expected("shared_frame");
         let model = Reconstruction::read(&fixture("shared_frame")).unwrap();
         let set = epochs_from_model(&model, &sel("1"), &sel("2")).unwrap();
         assert_eq!(set.paired_by_frame, 6);
         assert_eq!(set.paired_by_name, 0);
-        let c = calibrate(&set.epochs, 1.0, &CalibrateOptions::default()).unwrap();
+        let options = CalibrateOptions {
+            accept_rig_constrained: true,
+            ..CalibrateOptions::default()
+        };
+        let c = calibrate(&set.epochs, 1.0, &options).unwrap();
+        // Accepted for inspection: flagged, no autocorrelation analysis of rounding noise.
+        assert!(c.rig_constrained);
+        assert!(c.drift.is_none());
+        assert_eq!(c.sem.rule, crashrig_rig::sem::RULE_IID);
         let b = v3(&e["base_mm"]);
         let a = v3(&e["angles_deg"]);
         for k in 0..3 {
@@ -281,8 +311,8 @@ mod pairing {
                 0.0,
                 epsilon = DEG_TOL
             );
-            // Rig-constrained poses: no spread beyond rounding.
-            assert_abs_diff_eq!(c.all.base_sigma_mm[k], 0.0, epsilon = 1e-9);
+            // The pairing recovers the rig's link; its spread is rounding only.
+            assert!(c.all.base_sigma_mm[k] < 1e-9);
         }
         assert!(c.outliers.indices().is_empty());
     }
