@@ -35,3 +35,6 @@ mod paper;
 
 #[path = "contract/regressions.rs"]
 mod regressions;
+
+#[path = "contract/uncertain.rs"]
+mod uncertain;
