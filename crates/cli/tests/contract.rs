@@ -38,3 +38,6 @@ mod regressions;
 
 #[path = "contract/study.rs"]
 mod study;
+
+#[path = "contract/uncertain.rs"]
+mod uncertain;

@@ -3,8 +3,9 @@
 use crate::kernel::{exp_matrix, log_near_identity, rot_opk};
 use crate::scenario::{PoseSigma, RotationNoise, Scenario};
 use crate::{CHUNK, Error, FastNormal};
+use crashrig_geometry::{Rigid3, Rot3, UncertainPose, quat};
 use crashrig_stats::{Moments, stream};
-use nalgebra::{DMatrix, Matrix3, Matrix6, Vector3};
+use nalgebra::{DMatrix, Matrix3, Matrix6, Vector3, Vector6};
 use rayon::prelude::*;
 
 /// A world pose: projection centre and `R_world_from_cam`.
@@ -26,23 +27,238 @@ impl WorldPose {
     }
 }
 
+impl WorldPose {
+    /// The pose as a rigid transform `world_from_cam`.
+    pub fn world_from_cam(&self) -> Rigid3 {
+        quat::rigid_from_rotation(
+            &Rot3::from_matrix_unchecked(self.rotation),
+            &self.position_mm,
+        )
+    }
+}
+
+/// One camera's own pose (world) or link (parent), with the factor its draws use.
 #[derive(Debug, Clone)]
 struct Link {
     parent: Option<usize>,
     position_mm: Vector3<f64>,
     angles_rad: Vector3<f64>,
     rotation: Matrix3<f64>,
-    sigma: PoseSigma,
+    noise: RotationNoise,
+    /// Covariance (mm, rad; the rotation block in `noise`'s meaning).
+    covariance: Matrix6<f64>,
+    /// Lower-triangular `L`, `L·Lᵀ = covariance`: a draw is `δ = L·ε`.
+    factor: Matrix6<f64>,
+    /// `(σ position, σ rotation)` when the covariance is diagonal (the fast path `σ∘ε`).
+    diagonal: Option<(Vector3<f64>, Vector3<f64>)>,
 }
 
-/// The camera chain of a scenario, ready for repeated draws.
+impl Link {
+    fn new(
+        parent: Option<usize>,
+        pose: &UncertainPose,
+        angles_rad: Vector3<f64>,
+        noise: RotationNoise,
+    ) -> Self {
+        let rotation = match noise {
+            // The Euler noise is added to the given angles: start from exactly those.
+            RotationNoise::Euler => rot_opk(&angles_rad),
+            RotationNoise::Tangent => pose.rotation().into_inner(),
+        };
+        Link {
+            parent,
+            position_mm: pose.center(),
+            angles_rad,
+            rotation,
+            noise,
+            covariance: pose.covariance,
+            factor: pose.factor(),
+            diagonal: pose
+                .is_diagonal()
+                .then(|| (pose.sigma_position(), pose.sigma_rotation())),
+        }
+    }
+
+    /// `(δC, δθ)` of a draw from six standard normals.
+    #[inline(always)]
+    fn delta(&self, e: &[f64]) -> (Vector3<f64>, Vector3<f64>) {
+        match &self.diagonal {
+            Some((sp, sr)) => (
+                sp.component_mul(&Vector3::new(e[0], e[1], e[2])),
+                sr.component_mul(&Vector3::new(e[3], e[4], e[5])),
+            ),
+            None => {
+                let d = self.factor * Vector6::from_column_slice(e);
+                (
+                    d.fixed_rows::<3>(0).into_owned(),
+                    d.fixed_rows::<3>(3).into_owned(),
+                )
+            }
+        }
+    }
+}
+
+/// The camera chain, ready for repeated draws: built by [`ChainBuilder`] or from a
+/// [`Scenario`] ([`Chain::new`]).
 #[derive(Debug, Clone)]
 pub struct Chain {
     names: Vec<String>,
     links: Vec<Link>,
     order: Vec<usize>,
-    noise: RotationNoise,
     nominal: Vec<WorldPose>,
+}
+
+/// Handle of a camera added to a [`ChainBuilder`]: its index in the chain (insertion order).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct CameraId(usize);
+
+impl CameraId {
+    /// Index of the camera in [`Chain::names`], [`Chain::monte_carlo`] and [`Chain::linear`].
+    pub fn index(self) -> usize {
+        self.0
+    }
+}
+
+/// Builds a [`Chain`] without a scenario file: world poses and links, each an
+/// [`UncertainPose`] (mm, rad). A link names its parent by the [`CameraId`] the builder
+/// returned for it, so every parent exists and comes first: the chain order is correct by
+/// construction.
+///
+/// ```
+/// use crashrig_geometry::{Rigid3, UncertainPose, Vec3};
+/// use crashrig_mc::ChainBuilder;
+///
+/// let mut b = ChainBuilder::new();
+/// let cam1 = b.world(
+///     "cam1",
+///     UncertainPose::from_sigmas(Rigid3::identity(), Vec3::repeat(1.0), Vec3::repeat(1e-4)),
+/// )?;
+/// let link = UncertainPose::certain(Rigid3::translation(0.0, 0.0, 1000.0));
+/// let cam2 = b.link("cam2", cam1, link)?;
+/// let chain = b.build();
+/// let lin = chain.linear();
+/// // 1 mm of cam1's centre plus 1000 mm × 1e-4 rad of lever arm on x and y.
+/// assert!((lin[cam2.index()].position_sigma_mm.x - 2f64.sqrt()).abs() < 1e-12);
+/// # Ok::<(), crashrig_mc::Error>(())
+/// ```
+#[derive(Debug, Clone, Default)]
+pub struct ChainBuilder {
+    names: Vec<String>,
+    links: Vec<Link>,
+}
+
+impl ChainBuilder {
+    /// An empty chain.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    fn add(&mut self, name: String, link: Link) -> Result<CameraId, Error> {
+        if name.is_empty() {
+            return Err(Error::Invalid {
+                key: "camera.name".into(),
+                problem: "must not be empty",
+            });
+        }
+        if self.names.contains(&name) {
+            return Err(Error::DuplicateName {
+                key: "camera.name".into(),
+                name,
+            });
+        }
+        if let Err(problem) = crashrig_geometry::uncertain::check_covariance(&link.covariance) {
+            return Err(Error::Covariance {
+                key: format!("camera `{name}`"),
+                problem,
+            });
+        }
+        if let Some(p) = link.parent
+            && p >= self.links.len()
+        {
+            return Err(Error::UnknownCamera {
+                key: format!("camera `{name}`.parent"),
+                name: format!("#{p}"),
+            });
+        }
+        self.names.push(name);
+        self.links.push(link);
+        Ok(CameraId(self.links.len() - 1))
+    }
+
+    /// Adds a camera with its world pose `world_from_cam` (tangent noise).
+    ///
+    /// # Errors
+    /// A duplicate or empty name; a covariance that is not symmetric positive semi-definite.
+    pub fn world(
+        &mut self,
+        name: impl Into<String>,
+        world_from_cam: UncertainPose,
+    ) -> Result<CameraId, Error> {
+        let angles = opk_of(&world_from_cam);
+        self.add(
+            name.into(),
+            Link::new(None, &world_from_cam, angles, RotationNoise::Tangent),
+        )
+    }
+
+    /// Adds a camera tied to `parent` by the link `parent_from_cam` (tangent noise; the
+    /// translation is the camera's centre in the parent's axes, e.g. a `calibrate` result).
+    ///
+    /// # Errors
+    /// As [`ChainBuilder::world`]; a `parent` from another builder that is out of range.
+    pub fn link(
+        &mut self,
+        name: impl Into<String>,
+        parent: CameraId,
+        parent_from_cam: UncertainPose,
+    ) -> Result<CameraId, Error> {
+        let angles = opk_of(&parent_from_cam);
+        self.add(
+            name.into(),
+            Link::new(
+                Some(parent.0),
+                &parent_from_cam,
+                angles,
+                RotationNoise::Tangent,
+            ),
+        )
+    }
+
+    /// Adds a camera with the legacy Euler noise: ω, φ, κ (rad) each get `N(0, σ)`, the
+    /// centre independent `N(0, σ)` per axis; `parent: None` for a world pose.
+    ///
+    /// # Errors
+    /// As [`ChainBuilder::link`]; a negative or non-finite σ.
+    pub fn euler(
+        &mut self,
+        name: impl Into<String>,
+        parent: Option<CameraId>,
+        position_mm: Vector3<f64>,
+        angles_rad: Vector3<f64>,
+        sigma: PoseSigma,
+    ) -> Result<CameraId, Error> {
+        let r = crashrig_geometry::opk::rotation_from_opk(angles_rad.x, angles_rad.y, angles_rad.z);
+        let pose = UncertainPose::from_sigmas(
+            quat::rigid_from_rotation(&r, &position_mm),
+            sigma.position_mm,
+            sigma.angles_rad,
+        );
+        self.add(
+            name.into(),
+            Link::new(parent.map(|p| p.0), &pose, angles_rad, RotationNoise::Euler),
+        )
+    }
+
+    /// The chain, cameras in insertion order.
+    pub fn build(self) -> Chain {
+        let order = (0..self.links.len()).collect();
+        Chain::assemble(self.names, self.links, order)
+    }
+}
+
+fn opk_of(p: &UncertainPose) -> Vector3<f64> {
+    let o = crashrig_geometry::opk::opk_from_rotation(&p.rotation());
+    Vector3::new(o.omega, o.phi, o.kappa)
 }
 
 /// Monte Carlo statistics of one camera's world pose.
@@ -67,6 +283,23 @@ pub struct PoseMc {
     pub tangent_sigma_rad: Vector3<f64>,
     /// Covariance of (position mm, ω φ κ rad).
     pub covariance: Matrix6<f64>,
+    /// Covariance of the world pose in the contract's tangent parametrization: centre in world
+    /// axes (mm), rotation `log(R_nomᵀ·R)` about the camera's own axes (rad), n − 1.
+    pub covariance_tangent: Matrix6<f64>,
+    /// True when the nominal ω φ κ are at gimbal lock (|cos φ| tiny): the ω and κ statistics
+    /// are then meaningless (the tangent ones are fine).
+    pub angles_singular: bool,
+}
+
+impl PoseMc {
+    /// The propagated world pose `world_from_cam` (nominal) with its Monte Carlo tangent
+    /// covariance.
+    pub fn uncertain(&self) -> UncertainPose {
+        UncertainPose {
+            b_from_a: self.nominal.world_from_cam(),
+            covariance: self.covariance_tangent,
+        }
+    }
 }
 
 /// First-order propagation of one camera's world pose.
@@ -82,6 +315,18 @@ pub struct PoseLinear {
     pub tangent_sigma_rad: Vector3<f64>,
     /// σ of ω φ κ (rad); `None` at gimbal lock.
     pub angles_sigma_rad: Option<Vector3<f64>>,
+    /// Nominal world pose.
+    pub nominal: WorldPose,
+}
+
+impl PoseLinear {
+    /// The propagated world pose with its first-order tangent covariance.
+    pub fn uncertain(&self) -> UncertainPose {
+        UncertainPose {
+            b_from_a: self.nominal.world_from_cam(),
+            covariance: self.covariance_tangent,
+        }
+    }
 }
 
 /// Body angular-rate matrix `M` of ω φ κ: `R(a + dε) = R(a)·Exp(M dε)` to first order.
@@ -110,29 +355,49 @@ fn wrap_pi(a: f64) -> f64 {
 }
 
 impl Chain {
-    /// Builds the chain and its nominal world poses.
+    /// The chain of a scenario's cameras (file order), the TOML front end of
+    /// [`ChainBuilder`]. The draw order (parents first) is derived from the `parent` links.
+    ///
+    /// # Panics
+    /// If `scenario.cameras` was edited after validation into a parent index out of range or
+    /// a cycle of parent links (a validated [`Scenario`] has neither); build such chains with
+    /// [`ChainBuilder`].
     pub fn new(scenario: &Scenario) -> Self {
         let links: Vec<Link> = scenario
             .cameras
             .iter()
-            .map(|c| Link {
-                parent: c.parent,
-                position_mm: c.position_mm,
-                angles_rad: c.angles_rad,
-                rotation: rot_opk(&c.angles_rad),
-                sigma: c.sigma,
-            })
+            .map(|c| Link::new(c.parent, &c.pose, c.angles_rad, c.rotation_noise))
             .collect();
-        let mut chain = Chain {
-            names: scenario.cameras.iter().map(|c| c.name.clone()).collect(),
+        let order = crate::scenario::topological_order(&scenario.cameras)
+            .expect("a validated scenario has no cycle of parent links");
+        assert!(
+            links
+                .iter()
+                .all(|l| l.parent.is_none_or(|p| p < links.len())),
+            "a camera's parent index is out of range"
+        );
+        Chain::assemble(
+            scenario.cameras.iter().map(|c| c.name.clone()).collect(),
             links,
-            order: scenario.order.clone(),
-            noise: scenario.rotation_noise,
+            order,
+        )
+    }
+
+    fn assemble(names: Vec<String>, links: Vec<Link>, order: Vec<usize>) -> Self {
+        let mut chain = Chain {
+            names,
+            links,
+            order,
             nominal: Vec::new(),
         };
         let zeros = vec![0.0; 6 * chain.len()];
         chain.nominal = chain.compose(&zeros);
         chain
+    }
+
+    /// Index of the camera called `name`.
+    pub fn index(&self, name: &str) -> Option<usize> {
+        self.names.iter().position(|n| n == name)
     }
 
     /// Number of cameras.
@@ -155,8 +420,9 @@ impl Chain {
         &self.nominal
     }
 
-    /// World poses for standard-normal inputs `eps` (6 per camera in file order: position
-    /// x y z, then the three rotation components), scaled by each camera's σ.
+    /// World poses for standard-normal inputs `eps` (6 per camera in chain order), each
+    /// camera's perturbation being `δ = L·ε` with its covariance factor `L` (`σ∘ε` for a
+    /// diagonal covariance): position x y z, then the three rotation components.
     pub fn compose(&self, eps: &[f64]) -> Vec<WorldPose> {
         let mut out = vec![
             WorldPose {
@@ -173,16 +439,9 @@ impl Chain {
     fn compose_into(&self, eps: &[f64], out: &mut [WorldPose]) {
         for &i in &self.order {
             let l = &self.links[i];
-            let e = &eps[6 * i..6 * i + 6];
-            let p = l.position_mm
-                + l.sigma
-                    .position_mm
-                    .component_mul(&Vector3::new(e[0], e[1], e[2]));
-            let de = l
-                .sigma
-                .angles_rad
-                .component_mul(&Vector3::new(e[3], e[4], e[5]));
-            let r = match self.noise {
+            let (dp, de) = l.delta(&eps[6 * i..6 * i + 6]);
+            let p = l.position_mm + dp;
+            let r = match l.noise {
                 RotationNoise::Tangent => l.rotation * exp_matrix(&de),
                 RotationNoise::Euler => rot_opk(&(l.angles_rad + de)),
             };
@@ -237,12 +496,12 @@ impl Chain {
     pub fn monte_carlo(&self, samples: usize, seed: u64) -> Vec<PoseMc> {
         let n = self.len();
         let chunks = samples.div_ceil(CHUNK);
-        let parts: Vec<Vec<(Moments<6>, Moments<3>)>> = (0..chunks)
+        let parts: Vec<Vec<(Moments<6>, Moments<6>)>> = (0..chunks)
             .into_par_iter()
             .map(|k| {
                 let mut rng = stream(seed, k as u64);
                 let m = CHUNK.min(samples - k * CHUNK);
-                let mut acc = vec![(Moments::<6>::new(), Moments::<3>::new()); n];
+                let mut acc = vec![(Moments::<6>::new(), Moments::<6>::new()); n];
                 let mut eps = vec![0.0; 6 * n];
                 let mut out = self.nominal.clone();
                 let nominal_angles: Vec<Vector3<f64>> =
@@ -255,14 +514,14 @@ impl Chain {
                         acc[i]
                             .0
                             .push(&[c.x, c.y, c.z, wrap_pi(a.x), wrap_pi(a.y), wrap_pi(a.z)]);
-                        let (_, th) = self.error_of(i, &out[i]);
-                        acc[i].1.push(&[th.x, th.y, th.z]);
+                        let (dc, th) = self.error_of(i, &out[i]);
+                        acc[i].1.push(&[dc.x, dc.y, dc.z, th.x, th.y, th.z]);
                     }
                 }
                 acc
             })
             .collect();
-        let mut total = vec![(Moments::<6>::new(), Moments::<3>::new()); n];
+        let mut total = vec![(Moments::<6>::new(), Moments::<6>::new()); n];
         for part in &parts {
             for (t, p) in total.iter_mut().zip(part) {
                 t.0.merge(&p.0);
@@ -284,8 +543,10 @@ impl Chain {
                     position_sigma_mm: sd.fixed_rows::<3>(0).into_owned(),
                     angles_mean_rad: (nom_a + mean.fixed_rows::<3>(3)).map(wrap_pi),
                     angles_sigma_rad: sd.fixed_rows::<3>(3).into_owned(),
-                    tangent_sigma_rad: t.std_dev(),
+                    tangent_sigma_rad: t.std_dev().fixed_rows::<3>(3).into_owned(),
                     covariance: m.covariance(),
+                    covariance_tangent: t.covariance(),
+                    angles_singular: self.angles_singular(i),
                 }
             })
             .collect()
@@ -299,17 +560,18 @@ impl Chain {
         for &i in &self.order {
             let l = &self.links[i];
             let mut j = DMatrix::<f64>::zeros(6, 6 * n);
-            let rot_cols = match self.noise {
-                RotationNoise::Tangent => Matrix3::from_diagonal(&l.sigma.angles_rad),
+            // Columns of this camera's own inputs: δ = L·ε.
+            let pos_cols = l.factor.fixed_rows::<3>(0).into_owned();
+            let rot_cols = match l.noise {
+                RotationNoise::Tangent => l.factor.fixed_rows::<3>(3).into_owned(),
                 RotationNoise::Euler => {
-                    opk_rate_matrix(&l.angles_rad) * Matrix3::from_diagonal(&l.sigma.angles_rad)
+                    opk_rate_matrix(&l.angles_rad) * l.factor.fixed_rows::<3>(3)
                 }
             };
-            let pos_cols = Matrix3::from_diagonal(&l.sigma.position_mm);
             match l.parent {
                 None => {
-                    j.view_mut((0, 6 * i), (3, 3)).copy_from(&pos_cols);
-                    j.view_mut((3, 6 * i + 3), (3, 3)).copy_from(&rot_cols);
+                    j.view_mut((0, 6 * i), (3, 6)).copy_from(&pos_cols);
+                    j.view_mut((3, 6 * i), (3, 6)).copy_from(&rot_cols);
                 }
                 Some(p) => {
                     let rp = self.nominal[p].rotation;
@@ -323,9 +585,9 @@ impl Chain {
                     j.rows_mut(3, 3).copy_from(&new_t);
                     let pc = rp * pos_cols;
                     for r in 0..3 {
-                        for c in 0..3 {
+                        for c in 0..6 {
                             j[(r, 6 * i + c)] += pc[(r, c)];
-                            j[(3 + r, 6 * i + 3 + c)] += rot_cols[(r, c)];
+                            j[(3 + r, 6 * i + c)] += rot_cols[(r, c)];
                         }
                     }
                 }
@@ -358,9 +620,19 @@ impl Chain {
                     position_sigma_mm: Vector3::from_fn(|r, _| cov6[(r, r)].sqrt()),
                     tangent_sigma_rad: Vector3::from_fn(|r, _| cov6[(3 + r, 3 + r)].sqrt()),
                     angles_sigma_rad,
+                    nominal: self.nominal[i],
                 }
             })
             .collect()
+    }
+
+    /// True when camera `i`'s nominal world ω φ κ are at gimbal lock: its ω φ κ σ are
+    /// undefined (its tangent covariance is not). Any ω φ κ *input* is a valid rotation.
+    pub fn angles_singular(&self, i: usize) -> bool {
+        crashrig_geometry::opk::opk_from_rotation(&Rot3::from_matrix_unchecked(
+            self.nominal[i].rotation,
+        ))
+        .gimbal_lock
     }
 
     /// Checks that no camera's world orientation is at gimbal lock (ω φ κ σ undefined).

@@ -97,6 +97,41 @@ pub enum Error {
         /// The camera.
         name: String,
     },
+    /// A `covariance_tangent` (or a propagated covariance) is not a valid covariance.
+    #[error("`{key}`: {problem}")]
+    Covariance {
+        /// Dotted key of the matrix, e.g. `camera[1].covariance_tangent`.
+        key: String,
+        /// What is wrong with it.
+        problem: crashrig_geometry::uncertain::CovarianceProblem,
+    },
+    /// A JSON result referenced by `from = "…"` (or read by
+    /// [`crate::reference::link_from_result_json`]) is missing, unreadable, of the wrong kind
+    /// or lacks a field.
+    #[error("{}{}: {problem}", key_prefix(key.as_deref()), file.display())]
+    Reference {
+        /// Dotted scenario key of the reference (`camera[1].from`), when read for a scenario.
+        key: Option<String>,
+        /// The referenced file.
+        file: PathBuf,
+        /// What is wrong.
+        problem: String,
+    },
+    /// A correlated observer does not stand at its chain camera's nominal position.
+    #[error(
+        "`{key}`: with `correlated = true` the observer takes camera `{camera}`'s draw and must stand at its nominal position ({:.3}, {:.3}, {:.3}) mm; it is {distance_mm:.3} mm away (the chain and the grid share one frame)",
+        nominal_mm[0], nominal_mm[1], nominal_mm[2]
+    )]
+    ObserverOffChain {
+        /// Key of the observer's position, e.g. `grid.observer[0].position_mm`.
+        key: String,
+        /// The chain camera.
+        camera: String,
+        /// Its nominal world position (mm).
+        nominal_mm: [f64; 3],
+        /// Distance between the observer and that position (mm).
+        distance_mm: f64,
+    },
     /// An error of the geometry layer.
     #[error(transparent)]
     Geometry(#[from] crashrig_geometry::Error),
@@ -121,11 +156,18 @@ impl Error {
             | Error::DuplicateName { key, .. }
             | Error::UnknownCamera { key, .. }
             | Error::ObserverAtGridPoint { key, .. }
-            | Error::VerticalAim { key, .. } => Some(key),
+            | Error::VerticalAim { key, .. }
+            | Error::Covariance { key, .. }
+            | Error::ObserverOffChain { key, .. } => Some(key),
+            Error::Reference { key, .. } => key.as_deref(),
             Error::Cycle { .. } => Some("camera"),
             Error::TooFewObservers { .. } => Some("grid.observer"),
             Error::NoGrid => Some("grid"),
             _ => None,
         }
     }
+}
+
+fn key_prefix(key: Option<&str>) -> String {
+    key.map_or_else(String::new, |k| format!("`{k}`: "))
 }

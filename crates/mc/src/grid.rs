@@ -2,13 +2,16 @@
 //! and intersected; streaming statistics, linear propagation and adaptive stopping.
 
 use crate::accumulate::Acc3;
-use crate::chain::{Chain, WorldPose};
+use crate::chain::{CameraId, Chain, WorldPose};
 use crate::kernel::SMALL_ANGLE_SQ;
 use crate::kernel::{Normal3, exp_e3, exp_matrix, opk_e3, rot_opk};
-use crate::scenario::{Grid, ObserverSigma, PoseSigma, RotationNoise, Scenario};
+use crate::scenario::{
+    Adaptive, Axis, Grid, Observer, ObserverSigma, PixelNoise, PoseSigma, RotationNoise, Scenario,
+};
 use crate::{CHUNK, Error, FastNormal};
+use crashrig_geometry::uncertain::psd_factor;
 use crashrig_stats::{Moments, stream};
-use nalgebra::{DMatrix, Matrix3, SymmetricEigen, Vector3};
+use nalgebra::{DMatrix, Matrix3, Matrix6, SymmetricEigen, Vector3, Vector6};
 use rayon::prelude::*;
 
 /// Statistics of the intersected points at one grid point.
@@ -57,8 +60,12 @@ pub struct GridResult {
     /// One entry per grid point, in [`Grid::points`] order.
     pub points: Vec<PointStats>,
     /// The noise each observer was given (σ of `sigma_from` cameras resolved from the chain's
-    /// Monte Carlo propagation; rotation σ in the scenario's [`RotationNoise`] meaning).
+    /// Monte Carlo propagation; rotation σ in the observer's [`RotationNoise`] meaning): the
+    /// square roots of the diagonal of [`GridResult::observer_covariance`].
     pub observer_sigma: Vec<PoseSigma>,
+    /// The full covariance of each observer's noise (mm, rad; tangent about the observer's
+    /// own axes, or ω φ κ for Euler noise).
+    pub observer_covariance: Vec<Matrix6<f64>>,
     /// Whether observers from the same chain were drawn jointly.
     pub correlated: bool,
 }
@@ -75,6 +82,24 @@ impl GridResult {
     }
 }
 
+/// The resolved noise of one observer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct ObserverNoise {
+    /// Covariance (mm, rad), rotation block in `noise`'s meaning.
+    covariance: Matrix6<f64>,
+    noise: RotationNoise,
+}
+
+impl ObserverNoise {
+    fn sigma(&self) -> PoseSigma {
+        let d = |i: usize| self.covariance[(i, i)].max(0.0).sqrt();
+        PoseSigma {
+            position_mm: Vector3::new(d(0), d(1), d(2)),
+            angles_rad: Vector3::new(d(3), d(4), d(5)),
+        }
+    }
+}
+
 /// One observer aimed at one grid point.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Aimed {
@@ -83,14 +108,21 @@ pub(crate) struct Aimed {
     opk: Vector3<f64>,
     sp: Vector3<f64>,
     sr: Vector3<f64>,
+    noise: RotationNoise,
+    /// Lower-triangular factor of a non-diagonal covariance (`None`: `σ∘ε` with `sp`, `sr`).
+    factor: Option<Matrix6<f64>>,
+    /// The covariance in the observer's own frame (for the first-order map).
+    covariance: Matrix6<f64>,
     /// Chain camera whose joint draw this observer takes (correlated mode).
     source: Option<usize>,
+    /// Correlated mode: `Lᵀ·R̄`, mapping the chain camera's body-axis rotation error θ to this
+    /// observer's own axes, so that its world rotation is `Exp(R̄·θ)·L`.
+    chain_to_own: Matrix3<f64>,
 }
 
 /// Everything the per-draw kernel needs that is shared by all points.
 #[derive(Debug, Clone)]
 pub(crate) struct Ctx {
-    noise: RotationNoise,
     /// σ of the normalized image coordinates, if pixel noise is on.
     pixel: Option<f64>,
     /// The chain, when at least one observer is drawn jointly from it.
@@ -102,35 +134,209 @@ pub(crate) struct Ctx {
 pub struct GridStudy {
     grid: Grid,
     ctx: Ctx,
-    observer_sigma: Vec<PoseSigma>,
+    observer_noise: Vec<ObserverNoise>,
     correlated: bool,
+    /// Nominal world poses of the chain (for correlated observers).
+    chain_nominal: Vec<WorldPose>,
+    samples: usize,
+    seed: u64,
 }
 
 fn aim(
     grid: &Grid,
-    sigmas: &[PoseSigma],
+    noises: &[ObserverNoise],
     correlated: bool,
+    chain_nominal: &[WorldPose],
     point: &Vector3<f64>,
 ) -> Result<Vec<Aimed>, Error> {
     grid.observers
         .iter()
-        .zip(sigmas)
+        .zip(noises)
         .map(|(o, s)| {
-            let r = crashrig_geometry::look_at::world_from_cam_look_at(&o.position_mm, point)?;
+            let source = match (correlated, o.sigma) {
+                (true, ObserverSigma::From(i)) => Some(i),
+                _ => None,
+            };
+            // A correlated observer stands at its chain camera's nominal centre (validated to
+            // within 1 mm of its `position_mm`).
+            let c = source.map_or(o.position_mm, |i| chain_nominal[i].position_mm);
+            let r = crashrig_geometry::look_at::world_from_cam_look_at(&c, point)?;
             let a = crashrig_geometry::opk::opk_from_rotation(&r);
+            let r = r.into_inner();
+            let chain_to_own = source.map_or(Matrix3::identity(), |i| {
+                r.transpose() * chain_nominal[i].rotation
+            });
+            // The covariance in the observer's own frame: the chain camera's body-axis
+            // rotation error θ acts as `chain_to_own·θ` on a correlated observer.
+            let mut t = Matrix6::identity();
+            t.fixed_view_mut::<3, 3>(3, 3).copy_from(&chain_to_own);
+            let covariance = t * s.covariance * t.transpose();
+            let sigma = s.sigma();
+            let diagonal = (0..6).all(|i| (0..6).all(|j| i == j || s.covariance[(i, j)] == 0.0));
             Ok(Aimed {
-                c: o.position_mm,
-                r: r.into_inner(),
+                c,
+                r,
                 opk: Vector3::new(a.omega, a.phi, a.kappa),
-                sp: s.position_mm,
-                sr: s.angles_rad,
-                source: match (correlated, o.sigma) {
-                    (true, ObserverSigma::From(i)) => Some(i),
-                    _ => None,
-                },
+                sp: sigma.position_mm,
+                sr: sigma.angles_rad,
+                noise: s.noise,
+                factor: (!diagonal).then(|| psd_factor(&s.covariance)),
+                covariance,
+                source,
+                chain_to_own,
             })
         })
         .collect()
+}
+
+/// Builds a [`GridStudy`] without a scenario file: the grid axes, the observers (each with a
+/// covariance or taking a chain camera's propagated one), options, and the number of draws
+/// and the seed, given once.
+///
+/// ```
+/// use crashrig_geometry::{Rigid3, UncertainPose, Vec3};
+/// use crashrig_mc::{Axis, ChainBuilder, GridBuilder};
+/// use nalgebra::{Matrix6, Vector3};
+///
+/// let mut b = ChainBuilder::new();
+/// let rig = b.world(
+///     "rig",
+///     UncertainPose::from_sigmas(Rigid3::translation(0.0, -300.0, 0.0), Vec3::repeat(0.5), Vec3::repeat(1e-4)),
+/// )?;
+/// let chain = b.build();
+/// let axis = |a: f64, b: f64, n: usize| Axis { start: a, stop: b, count: n };
+/// let study = GridBuilder::new(axis(1000.0, 1500.0, 2), axis(0.0, 0.0, 1), axis(0.0, 0.0, 1))
+///     .chain(chain)
+///     .observer_from("rig", Vector3::new(0.0, -300.0, 0.0), rig)
+///     .observer("door", Vector3::new(0.0, 300.0, 0.0), Matrix6::from_diagonal_element(1e-2))
+///     .threshold_mm(2.0)
+///     .build(2000, 7)?;
+/// let result = study.evaluate()?;
+/// assert_eq!(result.points.len(), 2);
+/// # Ok::<(), crashrig_mc::Error>(())
+/// ```
+#[derive(Debug, Clone)]
+pub struct GridBuilder {
+    grid: Grid,
+    chain: Option<Chain>,
+    rotation_noise: RotationNoise,
+}
+
+impl GridBuilder {
+    /// A grid over the three axes (mm), threshold 5 mm, no observer yet, no chain.
+    pub fn new(x: Axis, y: Axis, z: Axis) -> Self {
+        GridBuilder {
+            grid: Grid {
+                x,
+                y,
+                z,
+                threshold_mm: 5.0,
+                observers: Vec::new(),
+                pixel: None,
+                correlated: false,
+                adaptive: None,
+            },
+            chain: None,
+            rotation_noise: RotationNoise::Tangent,
+        }
+    }
+
+    /// The chain the `observer_from` observers take their noise from.
+    pub fn chain(mut self, chain: Chain) -> Self {
+        self.chain = Some(chain);
+        self
+    }
+
+    /// Threshold on σ_max (mm).
+    pub fn threshold_mm(mut self, threshold_mm: f64) -> Self {
+        self.grid.threshold_mm = threshold_mm;
+        self
+    }
+
+    /// An observer at `position_mm` with a tangent covariance (mm, rad about its own axes).
+    pub fn observer(
+        mut self,
+        name: impl Into<String>,
+        position_mm: Vector3<f64>,
+        covariance: Matrix6<f64>,
+    ) -> Self {
+        self.grid.observers.push(Observer {
+            name: name.into(),
+            position_mm,
+            sigma: ObserverSigma::Covariance(covariance),
+        });
+        self
+    }
+
+    /// An observer taking chain camera `camera`'s propagated world covariance (or, with
+    /// [`GridBuilder::correlated`], its joint draw; it must then stand at that camera).
+    pub fn observer_from(
+        mut self,
+        name: impl Into<String>,
+        position_mm: Vector3<f64>,
+        camera: CameraId,
+    ) -> Self {
+        self.grid.observers.push(Observer {
+            name: name.into(),
+            position_mm,
+            sigma: ObserverSigma::From(camera.index()),
+        });
+        self
+    }
+
+    /// Pixel noise at every observer.
+    pub fn pixel_noise(mut self, pixel: PixelNoise) -> Self {
+        self.grid.pixel = Some(pixel);
+        self
+    }
+
+    /// Draw the `observer_from` observers jointly from the chain (world-frame errors).
+    pub fn correlated(mut self, correlated: bool) -> Self {
+        self.grid.correlated = correlated;
+        self
+    }
+
+    /// Adaptive number of draws per point.
+    pub fn adaptive(mut self, adaptive: Adaptive) -> Self {
+        self.grid.adaptive = Some(adaptive);
+        self
+    }
+
+    /// The prepared study with `samples` draws per point (the maximum comes from
+    /// [`Adaptive`] when set) and `seed`.
+    ///
+    /// # Errors
+    /// Fewer than two observers, an `observer_from` without a chain or with a camera not in
+    /// it, a correlated observer away from its camera, an observer on or vertically above a
+    /// grid point, invalid covariances.
+    pub fn build(self, samples: usize, seed: u64) -> Result<GridStudy, Error> {
+        let chain = self
+            .chain
+            .unwrap_or_else(|| crate::ChainBuilder::new().build());
+        for (i, o) in self.grid.observers.iter().enumerate() {
+            match o.sigma {
+                ObserverSigma::From(c) if c >= chain.len() => {
+                    return Err(Error::UnknownCamera {
+                        key: format!("grid.observer[{i}].sigma_from"),
+                        name: format!("#{c}"),
+                    });
+                }
+                ObserverSigma::Covariance(m) => {
+                    crashrig_geometry::uncertain::check_covariance(&m).map_err(|problem| {
+                        Error::Covariance {
+                            key: format!("grid.observer[{i}].covariance_tangent"),
+                            problem,
+                        }
+                    })?;
+                }
+                _ => {}
+            }
+        }
+        let positions: Vec<Vector3<f64>> = chain.nominal().iter().map(|p| p.position_mm).collect();
+        let names: Vec<String> = chain.names().to_vec();
+        crate::scenario::check_grid(&self.grid, &positions, &names)?;
+        GridStudy::assemble(self.grid, chain, self.rotation_noise, samples, seed)
+    }
 }
 
 impl GridStudy {
@@ -141,6 +347,16 @@ impl GridStudy {
     pub fn new(scenario: &Scenario, samples: usize, seed: u64) -> Result<Self, Error> {
         let grid = scenario.grid.clone().ok_or(Error::NoGrid)?;
         let chain = Chain::new(scenario);
+        Self::assemble(grid, chain, scenario.rotation_noise, samples, seed)
+    }
+
+    fn assemble(
+        grid: Grid,
+        chain: Chain,
+        rotation_noise: RotationNoise,
+        samples: usize,
+        seed: u64,
+    ) -> Result<Self, Error> {
         let needs_chain = grid
             .observers
             .iter()
@@ -150,32 +366,104 @@ impl GridStudy {
         } else {
             Vec::new()
         };
-        let observer_sigma: Vec<PoseSigma> = grid
+        let observer_noise: Vec<ObserverNoise> = grid
             .observers
             .iter()
             .map(|o| match o.sigma {
-                ObserverSigma::Given(s) => s,
-                ObserverSigma::From(i) => PoseSigma {
-                    position_mm: mc[i].position_sigma_mm,
-                    angles_rad: match scenario.rotation_noise {
-                        RotationNoise::Tangent => mc[i].tangent_sigma_rad,
-                        RotationNoise::Euler => mc[i].angles_sigma_rad,
+                ObserverSigma::Given(s) => {
+                    let d = Vector6::new(
+                        s.position_mm.x,
+                        s.position_mm.y,
+                        s.position_mm.z,
+                        s.angles_rad.x,
+                        s.angles_rad.y,
+                        s.angles_rad.z,
+                    );
+                    ObserverNoise {
+                        covariance: Matrix6::from_diagonal(&d.component_mul(&d)),
+                        noise: rotation_noise,
+                    }
+                }
+                ObserverSigma::Covariance(m) => ObserverNoise {
+                    covariance: m,
+                    noise: RotationNoise::Tangent,
+                },
+                // The chain camera's full propagated world covariance: tangent (centre in
+                // world axes, rotation about its own axes) for tangent noise, of (centre,
+                // ω φ κ) for Euler noise.
+                ObserverSigma::From(i) => match rotation_noise {
+                    RotationNoise::Tangent => ObserverNoise {
+                        covariance: mc[i].covariance_tangent,
+                        noise: RotationNoise::Tangent,
+                    },
+                    RotationNoise::Euler => ObserverNoise {
+                        covariance: mc[i].covariance,
+                        noise: RotationNoise::Euler,
                     },
                 },
             })
             .collect();
         let correlated = grid.correlated && needs_chain;
+        let chain_nominal = chain.nominal().to_vec();
         let study = GridStudy {
             ctx: Ctx {
-                noise: scenario.rotation_noise,
                 pixel: grid.pixel.map(|p| p.sigma_normalized()),
                 chain: correlated.then_some(chain),
             },
             grid,
-            observer_sigma,
+            observer_noise,
             correlated,
+            chain_nominal,
+            samples,
+            seed,
         };
         Ok(study)
+    }
+
+    /// Runs the study with the draws and seed it was built with: [`GridStudy::run_adaptive`]
+    /// when the grid has [`Adaptive`] settings, else [`GridStudy::run`].
+    ///
+    /// # Errors
+    /// As [`GridStudy::run`].
+    pub fn evaluate(&self) -> Result<GridResult, Error> {
+        match &self.grid.adaptive {
+            Some(a) => self.run_adaptive(a, self.seed),
+            None => self.run(self.samples, self.seed),
+        }
+    }
+
+    /// Draws per point this study was built with.
+    pub fn samples(&self) -> usize {
+        self.samples
+    }
+
+    /// Seed this study was built with.
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    fn aim_all(&self, points: &[Vector3<f64>]) -> Result<Vec<Vec<Aimed>>, Error> {
+        points
+            .iter()
+            .map(|p| {
+                aim(
+                    &self.grid,
+                    &self.observer_noise,
+                    self.correlated,
+                    &self.chain_nominal,
+                    p,
+                )
+            })
+            .collect()
+    }
+
+    fn result(&self, points: Vec<PointStats>) -> GridResult {
+        GridResult {
+            points,
+            observer_sigma: self.observer_noise.iter().map(|n| n.sigma()).collect(),
+            observer_covariance: self.observer_noise.iter().map(|n| n.covariance).collect(),
+            correlated: self.correlated,
+        }
     }
 
     /// The same study with correlation switched off (observers drawn independently with
@@ -199,10 +487,7 @@ impl GridStudy {
     /// result is bit-identical for any number of threads.
     pub fn run(&self, samples: usize, seed: u64) -> Result<GridResult, Error> {
         let points = self.grid.points();
-        let aimed: Vec<Vec<Aimed>> = points
-            .iter()
-            .map(|p| aim(&self.grid, &self.observer_sigma, self.correlated, p))
-            .collect::<Result<_, _>>()?;
+        let aimed = self.aim_all(&points)?;
         let chunks = samples.div_ceil(CHUNK);
         let tasks: Vec<(usize, usize)> = (0..points.len())
             .flat_map(|p| (0..chunks).map(move |k| (p, k)))
@@ -228,11 +513,7 @@ impl GridStudy {
                 self.finish(point, &aimed[p], &m)
             })
             .collect();
-        Ok(GridResult {
-            points: stats,
-            observer_sigma: self.observer_sigma.clone(),
-            correlated: self.correlated,
-        })
+        Ok(self.result(stats))
     }
 
     /// Runs with the adaptive stopping rule of GUM-S1 §7.9 per point: batches of
@@ -245,10 +526,7 @@ impl GridStudy {
         seed: u64,
     ) -> Result<GridResult, Error> {
         let points = self.grid.points();
-        let aimed: Vec<Vec<Aimed>> = points
-            .iter()
-            .map(|p| aim(&self.grid, &self.observer_sigma, self.correlated, p))
-            .collect::<Result<_, _>>()?;
+        let aimed = self.aim_all(&points)?;
         let stats = points
             .par_iter()
             .enumerate()
@@ -284,11 +562,7 @@ impl GridStudy {
                 self.finish(point, &aimed[p], &total)
             })
             .collect();
-        Ok(GridResult {
-            points: stats,
-            observer_sigma: self.observer_sigma.clone(),
-            correlated: self.correlated,
-        })
+        Ok(self.result(stats))
     }
 
     fn finish(&self, point: &Vector3<f64>, aimed: &[Aimed], m: &Acc3) -> PointStats {
@@ -328,7 +602,9 @@ pub(crate) fn run_chunk<R: rand::Rng>(
     let nd = FastNormal::new();
     let simple = ctx.pixel.is_none()
         && ctx.chain.is_none()
-        && ctx.noise == RotationNoise::Tangent
+        && obs
+            .iter()
+            .all(|o| o.noise == RotationNoise::Tangent && o.factor.is_none())
         && obs.len() == 2;
     if simple {
         run_two_observers(&obs[0], &obs[1], &nd, rng, m, acc);
@@ -347,16 +623,26 @@ pub(crate) fn run_chunk<R: rand::Rng>(
         for o in obs {
             let (dc, rot) = match (o.source, &ctx.chain) {
                 (Some(i), Some(chain)) => {
+                    // World-frame rotation Exp(R̄θ) on the look-at L: L·Exp(Lᵀ R̄ θ).
                     let (dc, th) = chain.error_of(i, &drawn[i]);
-                    (dc, Rot::Tangent(th))
+                    (dc, Rot::Tangent(o.chain_to_own * th))
                 }
                 _ => {
                     let ep = normal3(&nd, rng);
                     let er = normal3(&nd, rng);
-                    let dr = o.sr.component_mul(&er);
+                    let (dp, dr) = match &o.factor {
+                        None => (o.sp.component_mul(&ep), o.sr.component_mul(&er)),
+                        Some(l) => {
+                            let d = l * Vector6::new(ep.x, ep.y, ep.z, er.x, er.y, er.z);
+                            (
+                                d.fixed_rows::<3>(0).into_owned(),
+                                d.fixed_rows::<3>(3).into_owned(),
+                            )
+                        }
+                    };
                     (
-                        o.sp.component_mul(&ep),
-                        match ctx.noise {
+                        dp,
+                        match o.noise {
                             RotationNoise::Tangent => Rot::Tangent(dr),
                             RotationNoise::Euler => Rot::Euler(dr),
                         },
@@ -418,17 +704,13 @@ pub const INPUTS_PER_OBSERVER: usize = 8;
 /// The intersected point for explicit perturbations (8 per observer, see
 /// [`INPUTS_PER_OBSERVER`]): the same model as the Monte Carlo kernel.
 #[cfg(test)]
-pub(crate) fn intersect_perturbed(
-    obs: &[Aimed],
-    noise: RotationNoise,
-    delta: &[f64],
-) -> Vector3<f64> {
+pub(crate) fn intersect_perturbed(obs: &[Aimed], delta: &[f64]) -> Vector3<f64> {
     let mut n = Normal3::default();
     for (j, o) in obs.iter().enumerate() {
         let d = &delta[INPUTS_PER_OBSERVER * j..INPUTS_PER_OBSERVER * (j + 1)];
         let c = o.c + Vector3::new(d[0], d[1], d[2]);
         let w = Vector3::new(d[3], d[4], d[5]);
-        let r = match noise {
+        let r = match o.noise {
             RotationNoise::Tangent => o.r * exp_matrix(&w),
             RotationNoise::Euler => rot_opk(&(o.opk + w)),
         };
@@ -442,11 +724,7 @@ pub(crate) fn intersect_perturbed(
 /// With `A = Σ(I − dⱼdⱼᵀ)`, `ρⱼ` the distance and `dⱼ` the unit ray of observer j:
 /// `dX = A⁻¹ Σⱼ [(I − dⱼdⱼᵀ) δCⱼ + ρⱼ δdⱼ]`, where `δdⱼ = Rⱼ(δ × e₃)` (tangent) or
 /// `Σ ∂(R e₃)/∂aₖ δaₖ` (euler), plus `ρⱼ(c₁ δx + c₂ δy)` for the pixel inputs.
-pub(crate) fn intersection_jacobian(
-    obs: &[Aimed],
-    noise: RotationNoise,
-    point: &Vector3<f64>,
-) -> DMatrix<f64> {
+pub(crate) fn intersection_jacobian(obs: &[Aimed], point: &Vector3<f64>) -> DMatrix<f64> {
     let mut a = Matrix3::zeros();
     for o in obs {
         let d = o.r.column(2).into_owned();
@@ -458,7 +736,7 @@ pub(crate) fn intersection_jacobian(
         let d = o.r.column(2).into_owned();
         let rho = (point - o.c).norm();
         let p = Matrix3::identity() - d * d.transpose();
-        let g = match noise {
+        let g = match o.noise {
             // δ × e₃ = (δy, −δx, 0) = −[e₃]× δ
             RotationNoise::Tangent => o.r * (-Vector3::z().cross_matrix()),
             RotationNoise::Euler => {
@@ -492,18 +770,19 @@ pub(crate) fn intersection_jacobian(
     j
 }
 
-/// First-order covariance of the intersection (observers independent).
+/// First-order covariance of the intersection (observers independent, each with its full
+/// covariance in its own frame).
 pub(crate) fn linear_covariance(obs: &[Aimed], ctx: &Ctx, point: &Vector3<f64>) -> Matrix3<f64> {
-    let j = intersection_jacobian(obs, ctx.noise, point);
+    let j = intersection_jacobian(obs, point);
     let sn = ctx.pixel.unwrap_or(0.0);
-    let mut var = Vec::with_capacity(j.ncols());
-    for o in obs {
-        var.extend(o.sp.iter().map(|s| s * s));
-        var.extend(o.sr.iter().map(|s| s * s));
-        var.extend([sn * sn, sn * sn]);
+    let mut inputs = DMatrix::zeros(j.ncols(), j.ncols());
+    for (k, o) in obs.iter().enumerate() {
+        let b = INPUTS_PER_OBSERVER * k;
+        inputs.view_mut((b, b), (6, 6)).copy_from(&o.covariance);
+        inputs[(b + 6, b + 6)] = sn * sn;
+        inputs[(b + 7, b + 7)] = sn * sn;
     }
-    let js = &j * DMatrix::from_diagonal(&nalgebra::DVector::from_vec(var));
-    let c = js * j.transpose();
+    let c = &j * inputs * j.transpose();
     Matrix3::from_fn(|r, cc| c[(r, cc)])
 }
 

@@ -83,15 +83,19 @@ mod error;
 mod grid;
 mod kernel;
 mod normal;
+pub mod reference;
 mod scenario;
 
-pub use chain::{Chain, PoseLinear, PoseMc, WorldPose};
+pub use chain::{CameraId, Chain, ChainBuilder, PoseLinear, PoseMc, WorldPose};
 pub use error::Error;
-pub use grid::{CHAIN_SAMPLES_MIN, GridResult, GridStudy, INPUTS_PER_OBSERVER, PointStats};
+pub use grid::{
+    CHAIN_SAMPLES_MIN, GridBuilder, GridResult, GridStudy, INPUTS_PER_OBSERVER, PointStats,
+};
 pub use normal::FastNormal;
+pub use reference::{ResultKind, link_from_result_json};
 pub use scenario::{
-    Adaptive, Axis, Camera, Grid, Observer, ObserverSigma, PixelNoise, PoseSigma, RotationNoise,
-    Scenario,
+    Adaptive, Axis, CORRELATED_POSITION_TOLERANCE_MM, Camera, Grid, Observer, ObserverSigma,
+    PixelNoise, PoseSigma, RotationNoise, Scenario,
 };
 
 /// Draws per work chunk (and per RNG stream). Fixed, so results do not depend on the thread

@@ -5,7 +5,10 @@
 //! here.
 
 use crate::Error;
-use nalgebra::Vector3;
+use crate::reference::ResultKind;
+use crashrig_geometry::uncertain::check_covariance;
+use crashrig_geometry::{Mat6, Rigid3, UncertainPose, opk, quat};
+use nalgebra::{Matrix6, Vector3};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -35,21 +38,47 @@ pub struct Camera {
     pub name: String,
     /// Index of the parent camera in [`Scenario::cameras`], `None` for a world pose.
     pub parent: Option<usize>,
-    /// Projection centre (mm): in the world, or in the parent's frame for a link (the base).
-    pub position_mm: Vector3<f64>,
-    /// ω, φ, κ (rad) of `R_world_from_cam`, or of `R_parent_from_cam` for a link.
+    /// The nominal `world_from_cam` (or `parent_from_cam` for a link; its translation is the
+    /// projection centre / base, mm) with the covariance of its noise (mm, rad).
+    ///
+    /// For [`RotationNoise::Tangent`] the covariance is the contract's tangent covariance. For
+    /// [`RotationNoise::Euler`] (σ keys with `rotation_noise = "euler"`) it is diagonal and
+    /// its rotation block holds the variances of ω, φ, κ (rad²).
+    pub pose: UncertainPose,
+    /// ω, φ, κ (rad) of the nominal rotation as given (the Euler noise is added to these).
     pub angles_rad: Vector3<f64>,
-    /// Noise of this pose or link.
-    pub sigma: PoseSigma,
+    /// How this camera's rotation noise acts: `Tangent` for `covariance_tangent` and `from`,
+    /// the scenario's `rotation_noise` for the σ keys.
+    pub rotation_noise: RotationNoise,
+    /// The result file a `from = "…"` link was read from (path as resolved) and its kind.
+    pub from: Option<(PathBuf, ResultKind)>,
+}
+
+impl Camera {
+    /// Nominal projection centre (mm): in the world, or in the parent's frame (the base).
+    pub fn position_mm(&self) -> Vector3<f64> {
+        self.pose.center()
+    }
+
+    /// σ of the noise components (diagonal of the covariance; mm, rad).
+    pub fn sigma(&self) -> PoseSigma {
+        PoseSigma {
+            position_mm: self.pose.sigma_position(),
+            angles_rad: self.pose.sigma_rotation(),
+        }
+    }
 }
 
 /// Where an observer's pose noise comes from.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ObserverSigma {
-    /// Given σ values.
+    /// Given σ values (rotation meaning from the scenario's [`RotationNoise`]).
     Given(PoseSigma),
-    /// The propagated world-pose σ of camera `index` of the chain (`sigma_from = "name"`);
-    /// with `correlated = true` the observer takes that camera's joint chain draw instead.
+    /// A full tangent covariance (`covariance_tangent`; mm, rad; always tangent noise).
+    Covariance(Matrix6<f64>),
+    /// The propagated world-pose covariance of camera `index` of the chain
+    /// (`sigma_from = "name"`); with `correlated = true` the observer takes that camera's
+    /// joint chain draw instead.
     From(usize),
 }
 
@@ -169,10 +198,9 @@ pub struct Scenario {
     pub samples: usize,
     /// Rotation noise semantics.
     pub rotation_noise: RotationNoise,
-    /// The cameras in file order.
+    /// The cameras in file order (every `parent` index names another camera; the parent
+    /// links form no cycle).
     pub cameras: Vec<Camera>,
-    /// Indices of [`Scenario::cameras`] with every parent before its children.
-    pub order: Vec<usize>,
     /// The grid study, if any.
     pub grid: Option<Grid>,
 }
@@ -195,10 +223,12 @@ struct RawScenario {
 struct RawCamera {
     name: String,
     parent: Option<String>,
-    position_mm: [f64; 3],
-    angles_deg: [f64; 3],
-    sigma_position_mm: [f64; 3],
-    sigma_angles_deg: [f64; 3],
+    position_mm: Option<[f64; 3]>,
+    angles_deg: Option<[f64; 3]>,
+    sigma_position_mm: Option<[f64; 3]>,
+    sigma_angles_deg: Option<[f64; 3]>,
+    covariance_tangent: Option<toml::Value>,
+    from: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -248,6 +278,7 @@ struct RawObserver {
     position_mm: [f64; 3],
     sigma_position_mm: Option<[f64; 3]>,
     sigma_angles_deg: Option<[f64; 3]>,
+    covariance_tangent: Option<toml::Value>,
     sigma_from: Option<String>,
 }
 
@@ -273,6 +304,41 @@ fn sigma3(key: String, v: [f64; 3]) -> Result<Vector3<f64>, Error> {
         });
     }
     Ok(v)
+}
+
+fn required(key: String, v: Option<[f64; 3]>) -> Result<[f64; 3], Error> {
+    v.ok_or(Error::Invalid {
+        key,
+        problem: "is missing",
+    })
+}
+
+/// A `covariance_tangent` value: 6 rows of 6 numbers in the contract's units (mm², mm·deg,
+/// deg²), symmetric and positive semi-definite; returned in mm and rad.
+fn covariance_tangent(key: String, v: &toml::Value) -> Result<Mat6, Error> {
+    let shape = || Error::Invalid {
+        key: key.clone(),
+        problem: "must be 6 rows of 6 numbers (order x y z θx θy θz; mm², mm·deg, deg²)",
+    };
+    let rows = v.as_array().filter(|r| r.len() == 6).ok_or_else(shape)?;
+    let mut m = Mat6::zeros();
+    for (i, row) in rows.iter().enumerate() {
+        let row = row.as_array().filter(|r| r.len() == 6).ok_or_else(shape)?;
+        for (j, x) in row.iter().enumerate() {
+            m[(i, j)] = match x {
+                toml::Value::Float(f) => *f,
+                toml::Value::Integer(n) => *n as f64,
+                _ => return Err(shape()),
+            };
+        }
+    }
+    check_covariance(&m).map_err(|problem| Error::Covariance {
+        key: key.clone(),
+        problem,
+    })?;
+    let pose = UncertainPose::from_covariance_deg(Rigid3::identity(), m)
+        .map_err(|problem| Error::Covariance { key, problem })?;
+    Ok(pose.covariance)
 }
 
 fn positive(key: &str, v: f64) -> Result<f64, Error> {
@@ -420,7 +486,8 @@ impl Scenario {
         Self::from_toml_str(&text, path)
     }
 
-    /// Parses and validates scenario text; `path` is only used in error messages.
+    /// Parses and validates scenario text; `path` names the file in error messages, and the
+    /// files of `from = "…"` references are relative to its directory.
     pub fn from_toml_str(text: &str, path: &Path) -> Result<Self, Error> {
         let raw: RawScenario = toml::from_str(text).map_err(|e| {
             let (line, column) = e.span().map_or((0, 0), |span| line_col(text, span.start));
@@ -431,7 +498,8 @@ impl Scenario {
                 message: e.message().trim().to_string(),
             }
         })?;
-        Self::validate(raw).map_err(|e| match e.key().and_then(|k| key_line(text, k)) {
+        let base = path.parent().unwrap_or(Path::new(""));
+        Self::validate(raw, base).map_err(|e| match e.key().and_then(|k| key_line(text, k)) {
             Some(line) => Error::Located {
                 path: PathBuf::from(path),
                 line,
@@ -441,7 +509,7 @@ impl Scenario {
         })
     }
 
-    fn validate(raw: RawScenario) -> Result<Self, Error> {
+    fn validate(raw: RawScenario, base: &Path) -> Result<Self, Error> {
         let samples = count("samples", raw.samples.unwrap_or(2000), 2)?;
         let rotation_noise = match raw.rotation_noise.as_deref().unwrap_or("tangent") {
             "tangent" => RotationNoise::Tangent,
@@ -468,16 +536,14 @@ impl Scenario {
                     name: c.name.clone(),
                 });
             }
+            let (pose, angles_rad, noise, from) = camera_pose(c, &k, rotation_noise, base)?;
             cameras.push(Camera {
                 name: c.name.clone(),
                 parent: None,
-                position_mm: finite3(k("position_mm"), c.position_mm)?,
-                angles_rad: finite3(k("angles_deg"), c.angles_deg)?.map(f64::to_radians),
-                sigma: PoseSigma {
-                    position_mm: sigma3(k("sigma_position_mm"), c.sigma_position_mm)?,
-                    angles_rad: sigma3(k("sigma_angles_deg"), c.sigma_angles_deg)?
-                        .map(f64::to_radians),
-                },
+                pose,
+                angles_rad,
+                rotation_noise: noise,
+                from,
             });
         }
         let find = |key: String, name: &str| {
@@ -503,16 +569,20 @@ impl Scenario {
         for (c, p) in cameras.iter_mut().zip(&parents) {
             c.parent = *p;
         }
-        let order = topological_order(&cameras)?;
+        topological_order(&cameras)?;
         let grid = raw.grid.map(|g| validate_grid(g, &cameras)).transpose()?;
         Ok(Scenario {
             seed: raw.seed.unwrap_or(0),
             samples,
             rotation_noise,
             cameras,
-            order,
             grid,
         })
+    }
+
+    /// Nominal world poses `world_from_cam` of the cameras, in file order.
+    pub fn nominal_world_poses(&self) -> Vec<Rigid3> {
+        nominal_world_poses(&self.cameras)
     }
 
     /// Index of the camera called `name`.
@@ -521,8 +591,122 @@ impl Scenario {
     }
 }
 
+/// The pose of one `[[camera]]`: from a `from = "…"` result, or from `position_mm` /
+/// `angles_deg` with `covariance_tangent` or the σ keys.
+fn camera_pose(
+    c: &RawCamera,
+    k: &dyn Fn(&str) -> String,
+    rotation_noise: RotationNoise,
+    base: &Path,
+) -> Result<
+    (
+        UncertainPose,
+        Vector3<f64>,
+        RotationNoise,
+        Option<(PathBuf, ResultKind)>,
+    ),
+    Error,
+> {
+    if let Some(f) = &c.from {
+        if c.parent.is_none() {
+            return Err(Error::Invalid {
+                key: k("from"),
+                problem: "takes a link (A_from_B) from a calibrate or bootstrap result: the camera needs a `parent`",
+            });
+        }
+        for (name, given) in [
+            ("position_mm", c.position_mm.is_some()),
+            ("angles_deg", c.angles_deg.is_some()),
+            ("sigma_position_mm", c.sigma_position_mm.is_some()),
+            ("sigma_angles_deg", c.sigma_angles_deg.is_some()),
+            ("covariance_tangent", c.covariance_tangent.is_some()),
+        ] {
+            if given {
+                return Err(Error::Invalid {
+                    key: k(name),
+                    problem: "is taken from the `from` result; remove it",
+                });
+            }
+        }
+        let file = base.join(f);
+        let (kind, pose) = crate::reference::link_from_result_json(&file).map_err(|e| match e {
+            Error::Reference { file, problem, .. } => Error::Reference {
+                key: Some(k("from")),
+                file,
+                problem,
+            },
+            other => other,
+        })?;
+        let o = opk::opk_from_rotation(&pose.rotation());
+        let angles = Vector3::new(o.omega, o.phi, o.kappa);
+        return Ok((pose, angles, RotationNoise::Tangent, Some((file, kind))));
+    }
+    let position = finite3(k("position_mm"), required(k("position_mm"), c.position_mm)?)?;
+    let angles =
+        finite3(k("angles_deg"), required(k("angles_deg"), c.angles_deg)?)?.map(f64::to_radians);
+    let nominal = quat::rigid_from_rotation(
+        &opk::rotation_from_opk(angles.x, angles.y, angles.z),
+        &position,
+    );
+    match (
+        &c.covariance_tangent,
+        c.sigma_position_mm,
+        c.sigma_angles_deg,
+    ) {
+        (Some(v), None, None) => {
+            let covariance = covariance_tangent(k("covariance_tangent"), v)?;
+            Ok((
+                UncertainPose {
+                    b_from_a: nominal,
+                    covariance,
+                },
+                angles,
+                RotationNoise::Tangent,
+                None,
+            ))
+        }
+        (Some(_), _, _) => Err(Error::Invalid {
+            key: k("covariance_tangent"),
+            problem: "give either covariance_tangent or sigma_position_mm with sigma_angles_deg, not both",
+        }),
+        (None, Some(p), Some(a)) => Ok((
+            UncertainPose::from_sigmas(
+                nominal,
+                sigma3(k("sigma_position_mm"), p)?,
+                sigma3(k("sigma_angles_deg"), a)?.map(f64::to_radians),
+            ),
+            angles,
+            rotation_noise,
+            None,
+        )),
+        (None, None, _) => Err(Error::Invalid {
+            key: k("sigma_position_mm"),
+            problem: "is missing (or give covariance_tangent, or `from` for a link)",
+        }),
+        (None, _, None) => Err(Error::Invalid {
+            key: k("sigma_angles_deg"),
+            problem: "is missing (or give covariance_tangent, or `from` for a link)",
+        }),
+    }
+}
+
+/// Nominal `world_from_cam` of every camera (file order); the parent links must be acyclic.
+pub(crate) fn nominal_world_poses(cameras: &[Camera]) -> Vec<Rigid3> {
+    let mut out = vec![Rigid3::identity(); cameras.len()];
+    // A validated scenario has no cycle; an edited one falls back to file order.
+    let order = topological_order(cameras).unwrap_or_else(|_| (0..cameras.len()).collect());
+    for i in order {
+        let own = cameras[i].pose.b_from_a;
+        out[i] = match cameras[i].parent {
+            Some(p) if p < cameras.len() => out[p] * own,
+            _ => own,
+        };
+    }
+    out
+}
+
 /// Parents before children; a cycle is an error naming its cameras.
-fn topological_order(cameras: &[Camera]) -> Result<Vec<usize>, Error> {
+pub(crate) fn topological_order(cameras: &[Camera]) -> Result<Vec<usize>, Error> {
     let n = cameras.len();
     // 0 = unvisited, 1 = on the stack, 2 = done.
     let mut state = vec![0u8; n];
@@ -556,6 +740,9 @@ fn topological_order(cameras: &[Camera]) -> Result<Vec<usize>, Error> {
     }
     Ok(order)
 }
+
+/// Largest distance (mm) between a correlated observer and its chain camera's nominal centre.
+pub const CORRELATED_POSITION_TOLERANCE_MM: f64 = 1.0;
 
 fn validate_grid(g: RawGrid, cameras: &[Camera]) -> Result<Grid, Error> {
     let x = axis("grid.x_mm", &g.x_mm)?;
@@ -612,8 +799,13 @@ fn validate_grid(g: RawGrid, cameras: &[Camera]) -> Result<Grid, Error> {
     let mut observers = Vec::with_capacity(g.observer.len());
     for (i, o) in g.observer.iter().enumerate() {
         let k = |f: &str| format!("grid.observer[{i}].{f}");
-        let sigma = match (&o.sigma_from, o.sigma_position_mm, o.sigma_angles_deg) {
-            (Some(name), None, None) => {
+        let sigma = match (
+            &o.sigma_from,
+            &o.covariance_tangent,
+            o.sigma_position_mm,
+            o.sigma_angles_deg,
+        ) {
+            (Some(name), None, None, None) => {
                 let idx =
                     cameras
                         .iter()
@@ -624,26 +816,35 @@ fn validate_grid(g: RawGrid, cameras: &[Camera]) -> Result<Grid, Error> {
                         })?;
                 ObserverSigma::From(idx)
             }
-            (None, Some(p), Some(a)) => ObserverSigma::Given(PoseSigma {
+            (None, Some(v), None, None) => {
+                ObserverSigma::Covariance(covariance_tangent(k("covariance_tangent"), v)?)
+            }
+            (None, None, Some(p), Some(a)) => ObserverSigma::Given(PoseSigma {
                 position_mm: sigma3(k("sigma_position_mm"), p)?,
                 angles_rad: sigma3(k("sigma_angles_deg"), a)?.map(f64::to_radians),
             }),
-            (Some(_), _, _) => {
+            (Some(_), _, _, _) => {
                 return Err(Error::Invalid {
                     key: k("sigma_from"),
-                    problem: "give either sigma_from or both sigma_position_mm and sigma_angles_deg, not both",
+                    problem: "give one of sigma_from, covariance_tangent, or sigma_position_mm with sigma_angles_deg",
                 });
             }
-            (None, None, _) => {
+            (None, Some(_), _, _) => {
+                return Err(Error::Invalid {
+                    key: k("covariance_tangent"),
+                    problem: "give either covariance_tangent or sigma_position_mm with sigma_angles_deg, not both",
+                });
+            }
+            (None, None, None, _) => {
                 return Err(Error::Invalid {
                     key: k("sigma_position_mm"),
-                    problem: "is missing (or give sigma_from)",
+                    problem: "is missing (or give sigma_from or covariance_tangent)",
                 });
             }
-            (None, _, None) => {
+            (None, None, _, None) => {
                 return Err(Error::Invalid {
                     key: k("sigma_angles_deg"),
-                    problem: "is missing (or give sigma_from)",
+                    problem: "is missing (or give sigma_from or covariance_tangent)",
                 });
             }
         };
@@ -663,6 +864,45 @@ fn validate_grid(g: RawGrid, cameras: &[Camera]) -> Result<Grid, Error> {
         correlated: g.correlated,
         adaptive,
     };
+    let world: Vec<Vector3<f64>> = nominal_world_poses(cameras)
+        .iter()
+        .map(|p| p.translation.vector)
+        .collect();
+    let names: Vec<String> = cameras.iter().map(|c| c.name.clone()).collect();
+    check_grid(&grid, &world, &names)?;
+    Ok(grid)
+}
+
+/// Checks of a grid against its chain (`chain_positions`: nominal world centres, `names`):
+/// at least two observers; correlated observers at their chain camera; no observer on or
+/// vertically above/below a grid point.
+pub(crate) fn check_grid(
+    grid: &Grid,
+    chain_positions: &[Vector3<f64>],
+    names: &[String],
+) -> Result<(), Error> {
+    if grid.observers.len() < 2 {
+        return Err(Error::TooFewObservers {
+            found: grid.observers.len(),
+        });
+    }
+    // Correlated observers stand where their chain camera is (one frame for chain and grid).
+    if grid.correlated {
+        for (i, o) in grid.observers.iter().enumerate() {
+            if let ObserverSigma::From(c) = o.sigma {
+                let nominal = chain_positions[c];
+                let distance_mm = (o.position_mm - nominal).norm();
+                if distance_mm > CORRELATED_POSITION_TOLERANCE_MM {
+                    return Err(Error::ObserverOffChain {
+                        key: format!("grid.observer[{i}].position_mm"),
+                        camera: names[c].clone(),
+                        nominal_mm: nominal.into(),
+                        distance_mm,
+                    });
+                }
+            }
+        }
+    }
     // Geometric checks against every grid point.
     for p in grid.points() {
         for (i, o) in grid.observers.iter().enumerate() {
@@ -684,7 +924,7 @@ fn validate_grid(g: RawGrid, cameras: &[Camera]) -> Result<Grid, Error> {
             }
         }
     }
-    Ok(grid)
+    Ok(())
 }
 
 #[cfg(test)]

@@ -15,7 +15,9 @@ use crate::study_file::{
 };
 use crate::tie::{self, TieConfig, TieResult};
 use crashrig_geometry::{Mat6, UncertainPose};
-use crashrig_mc::{GridResult, GridStudy, PoseLinear, PoseMc, Scenario};
+use crashrig_mc::{
+    CameraId, Chain, ChainBuilder, GridBuilder, GridResult, GridStudy, PoseLinear, PoseMc,
+};
 use nalgebra::Vector3;
 use serde_json::{Value, json};
 
@@ -123,52 +125,31 @@ fn sigmas(c: &Mat6) -> crashrig_mc::PoseSigma {
     }
 }
 
-/// The Monte Carlo library's camera for an uncertain pose (world pose or link).
-fn mc_camera(
-    name: &str,
-    parent: Option<usize>,
-    p: &UncertainPose,
-    scale: f64,
-) -> crashrig_mc::Camera {
-    let r: crashrig_geometry::Rot3 = p.b_from_a.rotation.to_rotation_matrix();
-    let opk = crashrig_geometry::opk::opk_from_rotation(&r);
-    crashrig_mc::Camera {
-        name: name.to_string(),
-        parent,
-        position_mm: p.b_from_a.translation.vector,
-        angles_rad: Vector3::new(opk.omega, opk.phi, opk.kappa),
-        sigma: sigmas(&(p.covariance * scale)),
-    }
-}
-
-/// The chain as a scenario of the Monte Carlo library (typed, no TOML), with the inputs'
-/// covariances scaled.
-fn chain_scenario(
+/// The chain outward → inward → tie from the typed inputs (covariances scaled), with the id
+/// of each camera.
+fn build_chain(
     inputs: &[(ChainCamera, UncertainPose)],
     s: &Scales,
-    samples: usize,
-    seed: u64,
-) -> Scenario {
-    let cameras: Vec<crashrig_mc::Camera> = inputs
-        .iter()
-        .enumerate()
-        .map(|(i, (c, p))| {
-            let (parent, k) = match c {
-                ChainCamera::Outward => (None, s.outward),
-                ChainCamera::Inward => (Some(i - 1), s.link),
-                ChainCamera::Tie => (Some(i - 1), s.tie),
-            };
-            mc_camera(c.name(), parent, p, k)
-        })
-        .collect();
-    Scenario {
-        seed,
-        samples,
-        rotation_noise: crashrig_mc::RotationNoise::Tangent,
-        order: (0..cameras.len()).collect(),
-        cameras,
-        grid: None,
+) -> Result<(Chain, Vec<(ChainCamera, CameraId)>), crashrig_mc::Error> {
+    let mut b = ChainBuilder::new();
+    let mut ids: Vec<(ChainCamera, CameraId)> = Vec::new();
+    for (c, p) in inputs {
+        let k = match c {
+            ChainCamera::Outward => s.outward,
+            ChainCamera::Inward => s.link,
+            ChainCamera::Tie => s.tie,
+        };
+        let scaled = UncertainPose {
+            b_from_a: p.b_from_a,
+            covariance: p.covariance * k,
+        };
+        let id = match ids.last() {
+            None => b.world(c.name(), scaled)?,
+            Some((_, parent)) => b.link(c.name(), *parent, scaled)?,
+        };
+        ids.push((*c, id));
     }
+    Ok((b.build(), ids))
 }
 
 fn axis(a: (f64, f64, usize)) -> crashrig_mc::Axis {
@@ -179,37 +160,39 @@ fn axis(a: (f64, f64, usize)) -> crashrig_mc::Axis {
     }
 }
 
-/// The layout's grid on the chain scenario.
-fn layout_scenario(chain: &Scenario, layout: &Layout, s: &Scales) -> Scenario {
-    let observers = layout
-        .observers
-        .iter()
-        .zip(&s.observers)
-        .map(|(o, k)| crashrig_mc::Observer {
-            name: o.name.clone(),
-            position_mm: o.position_mm,
-            sigma: match &o.noise {
-                ObserverNoise::Given(c) => crashrig_mc::ObserverSigma::Given(sigmas(&(c * *k))),
-                ObserverNoise::From(cam) => {
-                    crashrig_mc::ObserverSigma::From(chain.camera_index(cam.name()).unwrap_or(0))
-                }
-            },
-        })
-        .collect();
-    let mut sc = chain.clone();
-    sc.grid = Some(crashrig_mc::Grid {
-        x: axis(layout.x_mm),
-        y: axis(layout.y_mm),
-        z: axis(layout.z_mm),
-        threshold_mm: layout.threshold_mm,
-        observers,
-        pixel: layout
-            .pixel
-            .map(|(sigma_px, focal_px)| crashrig_mc::PixelNoise { sigma_px, focal_px }),
-        correlated: layout.correlated,
-        adaptive: None,
-    });
-    sc
+/// The layout's grid study on the chain built from the (scaled) inputs.
+fn layout_study(
+    inputs: &[(ChainCamera, UncertainPose)],
+    layout: &Layout,
+    s: &Scales,
+    samples: usize,
+    seed: u64,
+) -> Result<GridStudy, crashrig_mc::Error> {
+    let (chain, ids) = build_chain(inputs, s)?;
+    let mut g = GridBuilder::new(axis(layout.x_mm), axis(layout.y_mm), axis(layout.z_mm))
+        .chain(chain)
+        .threshold_mm(layout.threshold_mm)
+        .correlated(layout.correlated);
+    if let Some((sigma_px, focal_px)) = layout.pixel {
+        g = g.pixel_noise(crashrig_mc::PixelNoise { sigma_px, focal_px });
+    }
+    for (o, k) in layout.observers.iter().zip(&s.observers) {
+        g = match &o.noise {
+            ObserverNoise::Given(c) => g.observer(o.name.clone(), o.position_mm, c * *k),
+            ObserverNoise::From(cam) => {
+                let id = ids
+                    .iter()
+                    .find(|(c, _)| c == cam)
+                    .map(|(_, id)| *id)
+                    .ok_or_else(|| crashrig_mc::Error::UnknownCamera {
+                        key: "layout.observer.from".into(),
+                        name: cam.name().into(),
+                    })?;
+                g.observer_from(o.name.clone(), o.position_mm, id)
+            }
+        };
+    }
+    g.build(samples, seed)
 }
 
 /// The calibration configuration of `[calibration]`.
@@ -227,7 +210,7 @@ pub fn calibration_config(study: &Study) -> CalibrationConfig {
         },
         max_lag: c.max_lag,
         refine: c.refine,
-        ..CalibrationConfig::default()
+        accept_rig_constrained: c.accept_rig_constrained,
     }
 }
 
@@ -338,9 +321,7 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
         path: study.path.clone(),
         source,
     };
-    let unit_chain = chain_scenario(&inputs, &Scales::unit(0), study.chain_samples, seed);
-    let chain_mc = crashrig_mc::Chain::new(&unit_chain);
-    chain_mc.check_gimbal().map_err(mc_err)?;
+    let (chain_mc, _) = build_chain(&inputs, &Scales::unit(0)).map_err(mc_err)?;
     let mc = chain_mc.monte_carlo(study.chain_samples, seed);
     let linear = chain_mc.linear();
     let chain: Vec<ChainPose> = inputs
@@ -356,13 +337,11 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
 
     let run_layout =
         |layout: &Layout, s: &Scales| -> Result<(crashrig_mc::Grid, GridResult), Error> {
-            let chain = chain_scenario(&inputs, s, study.chain_samples, seed);
-            let sc = layout_scenario(&chain, layout, s);
-            let g = GridStudy::new(&sc, samples, seed).map_err(mc_err)?;
-            let r = g.run(samples, seed).map_err(mc_err)?;
+            let g = layout_study(&inputs, layout, s, samples, seed).map_err(mc_err)?;
+            let r = g.evaluate().map_err(mc_err)?;
             let mut grid = g.grid().clone();
-            for (o, sig) in grid.observers.iter_mut().zip(&r.observer_sigma) {
-                o.sigma = crashrig_mc::ObserverSigma::Given(*sig);
+            for (o, c) in grid.observers.iter_mut().zip(&r.observer_covariance) {
+                o.sigma = crashrig_mc::ObserverSigma::Covariance(*c);
             }
             Ok((grid, r))
         };
@@ -461,6 +440,8 @@ impl StudyResult {
                     "position_sigma_mm": <[f64; 3]>::from(m.position_sigma_mm),
                     "angles_sigma_deg": deg3(m.angles_sigma_rad),
                     "tangent_sigma_deg": deg3(m.tangent_sigma_rad),
+                    "covariance_tangent": covariance_deg_rows(&m.covariance_tangent),
+                    "angles_singular": m.angles_singular,
                     "linear": {
                         "position_sigma_mm": <[f64; 3]>::from(c.linear.position_sigma_mm),
                         "angles_sigma_deg": c.linear.angles_sigma_rad.map(deg3),
@@ -478,14 +459,15 @@ impl StudyResult {
                     "name": l.layout.name,
                     "dir": format!("grid/{}", l.layout.slug()),
                     "description": l.layout.description,
-                    "observers": l.grid.observers.iter().zip(&l.layout.observers).map(|(o, lo)| {
-                        let s = match o.sigma { crashrig_mc::ObserverSigma::Given(s) => s, crashrig_mc::ObserverSigma::From(_) => sigmas(&Mat6::zeros()) };
+                    "observers": l.grid.observers.iter().zip(&l.layout.observers).zip(&l.result.observer_covariance).map(|((o, lo), c)| {
+                        let s = sigmas(c);
                         json!({
                             "name": o.name,
                             "position_mm": <[f64; 3]>::from(o.position_mm),
                             "from": match lo.noise { ObserverNoise::From(c) => Some(c.name()), ObserverNoise::Given(_) => None },
                             "sigma_position_mm": <[f64; 3]>::from(s.position_mm),
                             "sigma_angles_deg": deg3(s.angles_rad),
+                            "covariance_tangent": covariance_deg_rows(c),
                         })
                     }).collect::<Vec<_>>(),
                     "summary": l.summary,

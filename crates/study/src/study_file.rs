@@ -44,6 +44,9 @@ pub struct CalibrationSection {
     pub max_lag: usize,
     /// Rig-constrained refinement (default true).
     pub refine: bool,
+    /// Accept a model adjusted with a rig constraint (default false; see `calibrate
+    /// --accept-rig-constrained`).
+    pub accept_rig_constrained: bool,
 }
 
 /// Bootstrap method of the tie.
@@ -228,6 +231,7 @@ struct RawCalibration {
     mm_per_unit: Option<Spanned<f64>>,
     max_lag: Option<Spanned<i64>>,
     refine: Option<bool>,
+    accept_rig_constrained: Option<bool>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -618,6 +622,7 @@ impl Study {
                 .as_ref()
                 .map_or(Ok(10), |v| cx.count(v, "calibration.max_lag", 1))?,
             refine: c.refine.unwrap_or(true),
+            accept_rig_constrained: c.accept_rig_constrained.unwrap_or(false),
         };
 
         // [tie]

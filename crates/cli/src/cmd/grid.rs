@@ -243,6 +243,14 @@ pub fn run(a: GridArgs, g: &Global) -> anyhow::Result<()> {
     super::propagate::quiet_pipe(print())
 }
 
+/// Runs the grid study, writes every output file into `a.out` and returns `summary.json`'s
+/// content (for the tests). `seed` overrides the scenario's seed.
+#[cfg(test)]
+fn compute(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<serde_json::Value> {
+    let (summary, _) = compute_typed(a, seed)?;
+    serde_json::to_value(summary).context("formatting summary.json")
+}
+
 fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, usize)> {
     let scenario = load_scenario(&a.scenario)?;
     let samples = resolve_samples(a.samples, &scenario)?;

@@ -36,8 +36,10 @@ pub fn resolve_samples(option: Option<usize>, scenario: &Scenario) -> anyhow::Re
 #[derive(Serialize)]
 struct LinearJson {
     position_sigma_mm: [f64; 3],
-    angles_sigma_deg: [f64; 3],
+    /// `null` where the nominal ω φ κ are at gimbal lock (see `angles_singular`).
+    angles_sigma_deg: Option<[f64; 3]>,
     tangent_sigma_deg: [f64; 3],
+    covariance_tangent: [[f64; 6]; 6],
 }
 
 #[derive(Serialize)]
@@ -47,10 +49,19 @@ struct CameraJson {
     position_mm: [f64; 3],
     angles_deg: [f64; 3],
     position_sigma_mm: [f64; 3],
-    angles_sigma_deg: [f64; 3],
+    /// `null` at gimbal lock of the nominal world ω φ κ.
+    angles_sigma_deg: Option<[f64; 3]>,
     tangent_sigma_deg: [f64; 3],
     position_mean_mm: [f64; 3],
-    angles_mean_deg: [f64; 3],
+    /// `null` at gimbal lock of the nominal world ω φ κ.
+    angles_mean_deg: Option<[f64; 3]>,
+    /// True when the nominal world rotation is at φ = ±90° (to within
+    /// `crashrig_geometry::opk::GIMBAL_LOCK_COS_PHI`): ω and κ are then not separable, so the
+    /// ω φ κ σ are `null`; the tangent covariance is unaffected.
+    angles_singular: bool,
+    /// The world pose's covariance over the draws: centre in world axes (mm), rotation about
+    /// the camera's own axes (deg); n − 1.
+    covariance_tangent: [[f64; 6]; 6],
     linear: LinearJson,
 }
 
@@ -65,6 +76,22 @@ struct PropagateJson {
 
 fn deg(v: nalgebra::Vector3<f64>) -> [f64; 3] {
     v.map(f64::to_degrees).into()
+}
+
+/// A tangent covariance (mm, rad) in the contract's units (mm, deg) as 6 rows.
+fn rows_deg(c: &nalgebra::Matrix6<f64>) -> [[f64; 6]; 6] {
+    let u = crashrig_geometry::UncertainPose {
+        b_from_a: crashrig_geometry::Rigid3::identity(),
+        covariance: *c,
+    }
+    .covariance_deg();
+    std::array::from_fn(|i| std::array::from_fn(|j| u[(i, j)]))
+}
+
+/// Runs the propagation and returns the JSON document of the contract (for the tests).
+#[cfg(test)]
+fn compute(a: &PropagateArgs, seed: Option<u64>) -> anyhow::Result<serde_json::Value> {
+    serde_json::to_value(compute_typed(a, seed)?).context("formatting the propagation result")
 }
 
 /// Runs `crashrig propagate`.
@@ -87,9 +114,16 @@ fn compute_typed(a: &PropagateArgs, seed: Option<u64>) -> anyhow::Result<Propaga
     let samples = resolve_samples(a.samples, &scenario)?;
     let seed = seed.unwrap_or(scenario.seed);
     let chain = Chain::new(&scenario);
-    chain
-        .check_gimbal()
-        .map_err(|e| anyhow::Error::new(e).context(a.scenario.display().to_string()))?;
+    // Any ω φ κ input is a valid rotation; only the ω φ κ *output* of a camera at φ = ±90° is
+    // singular: its angle σ are null, with one warning.
+    for (i, name) in chain.names().iter().enumerate() {
+        if chain.angles_singular(i) {
+            eprintln!(
+                "warning: {}: camera `{name}`: its world orientation is at φ = ±90° (gimbal lock), where ω and κ are not separable; its ω φ κ σ are null (see covariance_tangent / tangent_sigma_deg)",
+                a.scenario.display()
+            );
+        }
+    }
     let start = std::time::Instant::now();
     let mc = chain.monte_carlo(samples, seed);
     let elapsed_s = start.elapsed().as_secs_f64();
@@ -98,22 +132,27 @@ fn compute_typed(a: &PropagateArgs, seed: Option<u64>) -> anyhow::Result<Propaga
         .iter()
         .zip(&lin)
         .zip(&scenario.cameras)
-        .map(|((m, l), c)| CameraJson {
-            name: m.name.clone(),
-            parent: c.parent.map(|p| scenario.cameras[p].name.clone()),
-            position_mm: m.nominal.position_mm.into(),
-            angles_deg: deg(m.nominal.angles_rad()),
-            position_sigma_mm: m.position_sigma_mm.into(),
-            angles_sigma_deg: deg(m.angles_sigma_rad),
-            tangent_sigma_deg: deg(m.tangent_sigma_rad),
-            position_mean_mm: m.position_mean_mm.into(),
-            angles_mean_deg: deg(m.angles_mean_rad),
-            linear: LinearJson {
-                position_sigma_mm: l.position_sigma_mm.into(),
-                // check_gimbal above guarantees the ω φ κ σ exist.
-                angles_sigma_deg: l.angles_sigma_rad.map_or([f64::NAN; 3], deg),
-                tangent_sigma_deg: deg(l.tangent_sigma_rad),
-            },
+        .map(|((m, l), c)| {
+            let ok = !m.angles_singular;
+            CameraJson {
+                name: m.name.clone(),
+                parent: c.parent.map(|p| scenario.cameras[p].name.clone()),
+                position_mm: m.nominal.position_mm.into(),
+                angles_deg: deg(m.nominal.angles_rad()),
+                position_sigma_mm: m.position_sigma_mm.into(),
+                angles_sigma_deg: ok.then(|| deg(m.angles_sigma_rad)),
+                tangent_sigma_deg: deg(m.tangent_sigma_rad),
+                position_mean_mm: m.position_mean_mm.into(),
+                angles_mean_deg: ok.then(|| deg(m.angles_mean_rad)),
+                angles_singular: m.angles_singular,
+                covariance_tangent: rows_deg(&m.covariance_tangent),
+                linear: LinearJson {
+                    position_sigma_mm: l.position_sigma_mm.into(),
+                    angles_sigma_deg: l.angles_sigma_rad.filter(|_| ok).map(deg),
+                    tangent_sigma_deg: deg(l.tangent_sigma_rad),
+                    covariance_tangent: rows_deg(&l.covariance_tangent),
+                },
+            }
         })
         .collect();
     let out = PropagateJson {
@@ -148,7 +187,12 @@ fn print_table(out: &PropagateJson) -> std::io::Result<()> {
     )?;
     for c in &out.cameras {
         let p = |v: [f64; 3]| format!("{:8.3} {:8.3} {:8.3}", v[0], v[1], v[2]);
-        let q = |v: [f64; 3]| format!("{:9.5} {:9.5} {:9.5}", v[0], v[1], v[2]);
+        let q = |v: Option<[f64; 3]>| {
+            v.map_or_else(
+                || format!("{:>29}", "(φ = ±90°: see tangent σ)"),
+                |v| format!("{:9.5} {:9.5} {:9.5}", v[0], v[1], v[2]),
+            )
+        };
         writeln!(
             w,
             "{:<12} {:>26} {:>29} {:>26} {:>29}",

@@ -71,15 +71,8 @@ fn grid_nominal_symmetric_closed_form() {
 fn aimed_for(sc: &Scenario) -> (Vec<Aimed>, Vector3<f64>) {
     let g = sc.grid.as_ref().unwrap();
     let p = g.points()[0];
-    let sig: Vec<PoseSigma> = g
-        .observers
-        .iter()
-        .map(|o| match o.sigma {
-            ObserverSigma::Given(s) => s,
-            ObserverSigma::From(_) => unreachable!("test scenarios give σ"),
-        })
-        .collect();
-    (aim(g, &sig, false, &p).unwrap(), p)
+    let study = GridStudy::new(sc, 0, 0).unwrap();
+    (study.aim_all(&[p]).unwrap().remove(0), p)
 }
 
 #[test]
@@ -95,9 +88,9 @@ fn intersection_jacobian_nominal_matches_finite_differences() {
         };
         let sc = scenario("", &obs3, "", name);
         let (obs, p) = aimed_for(&sc);
-        let j = intersection_jacobian(&obs, noise, &p);
+        let j = intersection_jacobian(&obs, &p);
         let n = INPUTS_PER_OBSERVER * obs.len();
-        let x0 = intersect_perturbed(&obs, noise, &vec![0.0; n]);
+        let x0 = intersect_perturbed(&obs, &vec![0.0; n]);
         assert_abs_diff_eq!(x0, p, epsilon = 1e-9);
         for col in 0..n {
             // Step 1e-3 mm for positions, 1e-7 for angles / normalized coordinates.
@@ -110,9 +103,7 @@ fn intersection_jacobian_nominal_matches_finite_differences() {
             let mut dm = vec![0.0; n];
             dp[col] = h;
             dm[col] = -h;
-            let fd = (intersect_perturbed(&obs, noise, &dp)
-                - intersect_perturbed(&obs, noise, &dm))
-                / (2.0 * h);
+            let fd = (intersect_perturbed(&obs, &dp) - intersect_perturbed(&obs, &dm)) / (2.0 * h);
             for r in 0..3 {
                 // Truncation O(h²) plus rounding ε·|X|/h ≈ 1e-16·1e3/1e-7 ≈ 1e-6 mm/rad on
                 // columns of size ~1e3.

@@ -56,7 +56,7 @@ fn scenario_nominal_interface_example() {
     assert_eq!(s.rotation_noise, RotationNoise::Tangent);
     assert_eq!(s.cameras.len(), 2);
     assert_eq!(s.cameras[1].parent, Some(0));
-    assert_eq!(s.order, vec![0, 1]);
+    assert_eq!(topological_order(&s.cameras).unwrap(), vec![0, 1]);
     // Degrees become radians exactly as f64::to_radians does.
     assert_relative_eq!(
         s.cameras[1].angles_rad.x,
@@ -76,7 +76,7 @@ fn scenario_parent_after_child_is_ordered() {
     let text = BASE.replacen("name = \"cam1\"", "name = \"camX\"", 1);
     let text = text.replace("parent = \"cam1\"", "parent = \"camX\"");
     let s = parse(&text).unwrap();
-    assert_eq!(s.order, vec![0, 1]);
+    assert_eq!(topological_order(&s.cameras).unwrap(), vec![0, 1]);
 }
 
 #[test]
