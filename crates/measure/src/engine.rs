@@ -86,8 +86,43 @@ pub struct Settings {
     pub frame_rate_hz: Option<f64>,
     /// Rows with σ_max above this (mm) are flagged.
     pub threshold_mm: f64,
-    /// Rows whose largest reprojection residual exceeds this (px) are flagged.
-    pub max_reprojection_px: f64,
+    /// Rows whose largest reprojection residual exceeds this (px) are flagged; `None`: the
+    /// robust limit of the sequence, [`robust_reprojection_limit`].
+    pub max_reprojection_px: Option<f64>,
+}
+
+/// Modified-z limit of the reprojection check: a residual is an outlier when it exceeds the
+/// median of the sequence's residuals by more than this many robust σ (1.4826·MAD).
+pub const REPROJECTION_OUTLIER_ROBUST_SIGMAS: f64 = 5.0;
+
+/// The default reprojection limit: `median + 5 · 1.4826 · MAD` of the residuals of all rows
+/// with a position. Residuals come from pixel noise *and* from the link, tie and A errors
+/// (which make the rays miss each other), so a limit in units of the pixel σ alone would flag
+/// good rows; the robust limit flags rows that disagree with the rest of the sequence (a
+/// mislabelled or mis-detected marker). `None` for fewer than 3 residuals.
+pub fn robust_reprojection_limit(residuals: &[f64]) -> Option<f64> {
+    let mut v: Vec<f64> = residuals
+        .iter()
+        .copied()
+        .filter(|r| r.is_finite())
+        .collect();
+    if v.len() < 3 {
+        return None;
+    }
+    let med = median_sorted(&mut v);
+    let mut dev: Vec<f64> = v.iter().map(|r| (r - med).abs()).collect();
+    let mad = median_sorted(&mut dev);
+    Some(med + REPROJECTION_OUTLIER_ROBUST_SIGMAS * 1.4826 * mad)
+}
+
+fn median_sorted(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
 }
 
 /// Why a row is flagged.
@@ -203,6 +238,9 @@ pub struct Measurement {
     pub skipped: Vec<SkippedEpoch>,
     /// Monte Carlo replicates per row.
     pub samples: usize,
+    /// The reprojection limit used for the flags (px; given or robust), `None` when no row
+    /// has a position or the robust limit had too few residuals.
+    pub reprojection_limit_px: Option<f64>,
 }
 
 impl Measurement {
@@ -408,11 +446,10 @@ fn check_settings(s: &Settings) -> Result<(), Error> {
             format!("{} (a number > 0)", s.threshold_mm),
         );
     }
-    if !(s.max_reprojection_px.is_finite() && s.max_reprojection_px > 0.0) {
-        return bad(
-            "--max-reprojection-px",
-            format!("{} (a number > 0)", s.max_reprojection_px),
-        );
+    if let Some(p) = s.max_reprojection_px
+        && !(p.is_finite() && p > 0.0)
+    {
+        return bad("--max-reprojection-px", format!("{p} (a number > 0)"));
     }
     if let Some(f) = s.frame_rate_hz
         && !(f.is_finite() && f > 0.0)
@@ -645,8 +682,21 @@ pub fn measure(
         });
     }
 
+    let reprojection_limit_px = settings.max_reprojection_px.or_else(|| {
+        let all: Vec<f64> = preps
+            .iter()
+            .flat_map(|p| p.slots.iter().filter_map(|s| s.reprojection_px))
+            .collect();
+        robust_reprojection_limit(&all)
+    });
     let accs = run_monte_carlo(&preps, &link, settings, reference_epoch);
-    let rows = assemble(&preps, &accs, settings, reference_epoch);
+    let rows = assemble(
+        &preps,
+        &accs,
+        settings,
+        reference_epoch,
+        reprojection_limit_px,
+    );
     Ok(Measurement {
         epochs: measured,
         markers,
@@ -660,6 +710,7 @@ pub fn measure(
             })
             .collect(),
         samples: settings.samples,
+        reprojection_limit_px,
     })
 }
 
@@ -760,6 +811,7 @@ fn assemble(
     accs: &[Vec<Acc>],
     settings: &Settings,
     reference: usize,
+    reprojection_limit_px: Option<f64>,
 ) -> Vec<Row> {
     let mut rows = Vec::new();
     for (e, ep) in preps.iter().enumerate() {
@@ -788,9 +840,11 @@ fn assemble(
                 fewer_than_two_views: slot.n_views < 2,
                 degenerate: slot.degenerate,
                 sigma_above_threshold: sigma_mm.is_some_and(|s| s.max() > settings.threshold_mm),
-                reprojection_outlier: slot
-                    .reprojection_px
-                    .is_some_and(|r| r > settings.max_reprojection_px),
+                reprojection_outlier: match (slot.reprojection_px, reprojection_limit_px) {
+                    (Some(r), Some(l)) => r > l,
+                    (Some(r), None) => !r.is_finite(),
+                    _ => false,
+                },
             };
             rows.push(Row {
                 epoch: e,

@@ -76,7 +76,7 @@
 //!     reference_epoch: None,
 //!     frame_rate_hz: Some(1000.0),
 //!     threshold_mm: 5.0,
-//!     max_reprojection_px: 1.0,
+//!     max_reprojection_px: None,
 //! };
 //! let m = measure(&epochs, &rig, &obs, &settings)?;
 //! assert_eq!(m.rows.len(), 3);

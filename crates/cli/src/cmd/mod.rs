@@ -4,5 +4,6 @@ pub mod bootstrap;
 pub mod calibrate;
 pub mod colmap;
 pub mod grid;
+pub mod measure;
 pub mod paper;
 pub mod propagate;
