@@ -871,3 +871,66 @@ fn assemble(
     }
     rows
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crashrig_geometry::{Rigid3, quat};
+
+    #[test]
+    fn intersect_matches_geometry_dlt() {
+        // Three cameras around a point, observations slightly off (residuals ≠ 0): the lean
+        // solver of the draws must give the geometry crate's DLT solution.
+        let cams: Vec<Rigid3> = [(0.1, -0.2, 0.05), (-0.3, 0.4, 0.2), (0.2, 0.1, -0.3)]
+            .iter()
+            .enumerate()
+            .map(|(i, &(a, b, c))| {
+                let r = so3::exp(&Vector3::new(a, b, c));
+                let centre = Vec3::new(300.0 * i as f64, -100.0, -2000.0 + 50.0 * i as f64);
+                quat::rigid_from_rotation(&r, &centre) // world_from_cam
+            })
+            .collect();
+        let x = Vec3::new(120.0, 40.0, 500.0);
+        let noise = [(1e-3, -2e-3), (-5e-4, 1e-3), (2e-3, 4e-4)];
+        let views: Vec<View> = cams
+            .iter()
+            .zip(noise)
+            .map(|(w, (du, dv))| {
+                let p = w.inverse() * nalgebra::Point3::from(x);
+                View {
+                    cam_from_world: w.inverse(),
+                    normalized: Vector2::new(p.x / p.z + du, p.y / p.z + dv),
+                }
+            })
+            .collect();
+        let expected = triangulate::dlt(&views).unwrap();
+        let mats: Vec<(Mat3, Vec3)> = cams
+            .iter()
+            .map(|w| {
+                (
+                    w.rotation.to_rotation_matrix().into_inner(),
+                    w.translation.vector,
+                )
+            })
+            .collect();
+        let got = intersect(
+            mats.iter()
+                .zip(&views)
+                .map(|((r, c), v)| (r, c, v.normalized)),
+        )
+        .unwrap();
+        assert!(
+            (got - expected).norm() < 1e-9 * expected.norm(),
+            "{got} vs {expected}"
+        );
+        assert!((got - x).norm() > 1e-3, "the noise must move the solution");
+    }
+
+    #[test]
+    fn robust_limit_known_answer() {
+        // median 3, |dev| = 2 1 0 1 2 → MAD 1: limit 3 + 5·1.4826.
+        let l = robust_reprojection_limit(&[1.0, 2.0, 3.0, 4.0, 5.0]).unwrap();
+        assert!((l - (3.0 + 5.0 * 1.4826)).abs() < 1e-12);
+        assert_eq!(robust_reprojection_limit(&[1.0, f64::INFINITY]), None);
+    }
+}
