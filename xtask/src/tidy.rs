@@ -24,6 +24,15 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
     ("crashrig-mc", &["crashrig-geometry", "crashrig-stats"]),
     ("crashrig-testkit", &["crashrig-geometry"]),
     (
+        "crashrig-measure",
+        &[
+            "crashrig-geometry",
+            "crashrig-camera",
+            "crashrig-colmap",
+            "crashrig-stats",
+        ],
+    ),
+    (
         "crashrig-study",
         &[
             "crashrig-geometry",
@@ -50,6 +59,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-mc",
             "crashrig-plot",
             "crashrig-study",
+            "crashrig-measure",
         ],
     ),
     (

@@ -17,6 +17,7 @@
 //!   contour and marked points (observers).
 //! - [`histogram`]: a histogram of values with vertical lines (e.g. mean ± 1σ).
 //! - [`series`]: a line series `ys` against `xs`.
+//! - [`banded_panels`] with [`BandPanel`]: stacked line panels with shaded bands (e.g. ±3σ).
 //! - [`Format`]: PNG or SVG; [`Format::from_path`] picks it from a file extension.
 //!
 //! # Example
@@ -651,6 +652,137 @@ fn draw_series<DB: DrawingBackend>(
     Ok(())
 }
 
+/// One panel of [`banded_panels`]: a line `ys` with a shaded band `ys ± half_widths`.
+#[derive(Debug, Clone, Copy)]
+pub struct BandPanel<'a> {
+    /// Axis label of the panel (with its unit).
+    pub y_label: &'a str,
+    /// Values, one per x (non-finite: not drawn).
+    pub ys: &'a [f64],
+    /// Half-width of the band at each x (non-finite: no band there).
+    pub half_widths: &'a [f64],
+}
+
+/// Renders panels stacked vertically over a shared x axis, each a line with a shaded band
+/// (e.g. a coordinate of a trajectory with ±3σ).
+///
+/// Errors: no panel, a panel whose `ys` or `half_widths` length differs from `xs`, or a panel
+/// with no finite value.
+pub fn banded_panels(
+    xs: &[f64],
+    panels: &[BandPanel<'_>],
+    title: &str,
+    x_label: &str,
+    format: Format,
+) -> Result<Vec<u8>, Error> {
+    const FIG: &str = "banded_panels";
+    if panels.is_empty() {
+        return Err(Error::BadInput {
+            figure: FIG,
+            field: "panels",
+            problem: "is empty",
+        });
+    }
+    let xr = finite_range(xs).ok_or(Error::BadInput {
+        figure: FIG,
+        field: "xs",
+        problem: "holds no finite value",
+    })?;
+    let mut ranges = Vec::with_capacity(panels.len());
+    for p in panels {
+        if p.ys.len() != xs.len() || p.half_widths.len() != xs.len() {
+            return Err(Error::BadInput {
+                figure: FIG,
+                field: "panels",
+                problem: "a panel's length differs from xs",
+            });
+        }
+        let mut ext = Vec::with_capacity(3 * xs.len());
+        for (&y, &h) in p.ys.iter().zip(p.half_widths) {
+            ext.push(y);
+            if h.is_finite() {
+                ext.push(y - h);
+                ext.push(y + h);
+            }
+        }
+        let yr = finite_range(&ext).ok_or(Error::BadInput {
+            figure: FIG,
+            field: "panels",
+            problem: "a panel holds no finite value",
+        })?;
+        let pad = 0.05 * (yr.1 - yr.0);
+        ranges.push((yr.0 - pad, yr.1 + pad));
+    }
+    let height = 60 + 260 * panels.len() as u32;
+    render(
+        FIG,
+        (900, height),
+        format,
+        |root| draw_bands(xs, panels, &ranges, xr, title, x_label, root),
+        |root| draw_bands(xs, panels, &ranges, xr, title, x_label, root),
+    )
+}
+
+fn draw_bands<DB: DrawingBackend>(
+    xs: &[f64],
+    panels: &[BandPanel<'_>],
+    ranges: &[(f64, f64)],
+    xr: (f64, f64),
+    title: &str,
+    x_label: &str,
+    root: DrawingArea<DB, Shift>,
+) -> Result<(), Error> {
+    let e = draw_err::<DrawingAreaErrorKind<DB::ErrorType>>("banded_panels");
+    let root = root.titled(title, (FONT, 22)).map_err(&e)?;
+    let areas = root.split_evenly((panels.len(), 1));
+    for ((p, area), yr) in panels.iter().zip(areas).zip(ranges) {
+        let mut chart = ChartBuilder::on(&area)
+            .margin(10)
+            .x_label_area_size(40)
+            .y_label_area_size(80)
+            .build_cartesian_2d(xr.0..xr.1, yr.0..yr.1)
+            .map_err(&e)?;
+        chart
+            .configure_mesh()
+            .x_desc(x_label)
+            .y_desc(p.y_label)
+            .label_style((FONT, 13))
+            .axis_desc_style((FONT, 15))
+            .draw()
+            .map_err(&e)?;
+        // The band: one quadrilateral per interval where both ends have a finite band.
+        let band = |i: usize| {
+            let (x, y, h) = (xs[i], p.ys[i], p.half_widths[i]);
+            (x.is_finite() && y.is_finite() && h.is_finite()).then_some((x, y, h))
+        };
+        chart
+            .draw_series((1..xs.len()).filter_map(|i| {
+                let (x0, y0, h0) = band(i - 1)?;
+                let (x1, y1, h1) = band(i)?;
+                Some(Polygon::new(
+                    vec![(x0, y0 - h0), (x1, y1 - h1), (x1, y1 + h1), (x0, y0 + h0)],
+                    BLUE.mix(0.25).filled(),
+                ))
+            }))
+            .map_err(&e)?;
+        let pts: Vec<(f64, f64)> = xs
+            .iter()
+            .zip(p.ys)
+            .map(|(&x, &y)| (x, y))
+            .filter(|(x, y)| x.is_finite() && y.is_finite())
+            .collect();
+        chart
+            .draw_series(LineSeries::new(pts.iter().copied(), BLUE.stroke_width(2)))
+            .map_err(&e)?;
+        if pts.len() <= 200 {
+            chart
+                .draw_series(pts.iter().map(|&q| Circle::new(q, 2, BLUE.filled())))
+                .map_err(&e)?;
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -670,6 +802,39 @@ mod tests {
             markers,
             value_range: None,
         }
+    }
+
+    #[test]
+    fn banded_panels_png_and_svg() {
+        let xs = [0.0, 1.0, 2.0, 3.0];
+        let ys = [1.0, 2.0, f64::NAN, 4.0];
+        let hw = [0.1, 0.2, 0.3, f64::NAN];
+        let panels = [
+            BandPanel {
+                y_label: "x [mm]",
+                ys: &ys,
+                half_widths: &hw,
+            },
+            BandPanel {
+                y_label: "y [mm]",
+                ys: &ys,
+                half_widths: &hw,
+            },
+        ];
+        let png = banded_panels(&xs, &panels, "marker m", "t [s]", Format::Png).unwrap();
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+        let svg = String::from_utf8(
+            banded_panels(&xs, &panels, "marker m", "t [s]", Format::Svg).unwrap(),
+        )
+        .unwrap();
+        assert!(svg.contains("y [mm]") && svg.contains("marker m"));
+        let bad = [BandPanel {
+            y_label: "x",
+            ys: &ys[..2],
+            half_widths: &hw,
+        }];
+        assert!(banded_panels(&xs, &bad, "m", "t", Format::Png).is_err());
+        assert!(banded_panels(&xs, &[], "m", "t", Format::Png).is_err());
     }
 
     #[test]

@@ -4,6 +4,7 @@ pub mod bootstrap;
 pub mod calibrate;
 pub mod colmap;
 pub mod grid;
+pub mod measure;
 pub mod paper;
 pub mod propagate;
 pub mod study;

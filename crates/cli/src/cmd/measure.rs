@@ -1,0 +1,555 @@
+//! `crashrig measure`: marker trajectories with their uncertainty from a crash-test sequence.
+
+use crate::Global;
+use anyhow::Context;
+use crashrig_colmap::Reconstruction;
+use crashrig_geometry::{Mat6, UncertainPose, Vec3};
+use crashrig_measure::engine::{Epoch, Measurement, Rig, Row, Settings};
+use crashrig_measure::input::{self, CameraNames};
+use crashrig_measure::sequence::{self, CameraSelector};
+use crashrig_plot::{BandPanel, Format};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Default seed of `measure` when `--seed` is not given.
+pub const DEFAULT_SEED: u64 = 1;
+
+/// Arguments of `crashrig measure`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct MeasureArgs {
+    /// COLMAP model of the sequence (camera A registered against the lab per epoch).
+    pub model: PathBuf,
+    /// Camera A: image-name prefix (e.g. `cam_out/`) or camera id; epochs are its images.
+    #[arg(long, value_name = "A")]
+    pub camera_a: String,
+    /// Camera B (inward, linked to A): camera id or an image-name prefix, for its intrinsics.
+    #[arg(long, value_name = "B")]
+    pub camera_b: String,
+    /// Camera C (tied to B by `--tie`): camera id or an image-name prefix.
+    #[arg(long, value_name = "C")]
+    pub camera_c: Option<String>,
+    /// The calibrated link A_from_B: a `calibrate --json` result (uses sem_covariance_tangent).
+    #[arg(long, value_name = "JSON")]
+    pub link: PathBuf,
+    /// The tie B_from_C: a `bootstrap --json` result (uses covariance_tangent).
+    #[arg(long, value_name = "JSON")]
+    pub tie: Option<PathBuf>,
+    /// Marker observations: CSV `epoch,camera,marker,u_px,v_px` (COLMAP pixels).
+    #[arg(long, value_name = "CSV")]
+    pub observations: PathBuf,
+    /// Output directory (written all-or-nothing).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Model units → mm.
+    #[arg(long, value_name = "F", default_value_t = 1.0)]
+    pub mm_per_unit: f64,
+    /// σ of A's projection centre per epoch (world axes, mm).
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    pub sigma_a_position_mm: Option<Vec<f64>>,
+    /// σ of A's rotation per epoch about its own axes (tangent, degrees).
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    pub sigma_a_angles_deg: Option<Vec<f64>>,
+    /// A's pose covariance per epoch: JSON with `covariance_tangent` and/or `epochs`.
+    #[arg(long, value_name = "JSON", conflicts_with_all = ["sigma_a_position_mm", "sigma_a_angles_deg"])]
+    pub a_covariance: Option<PathBuf>,
+    /// σ of each pixel coordinate of an observation (px).
+    #[arg(long, value_name = "PX", default_value_t = 0.5)]
+    pub pixel_sigma_px: f64,
+    /// Monte Carlo replicates per row.
+    #[arg(long, value_name = "N", default_value_t = 2000)]
+    pub samples: usize,
+    /// Reference epoch of the displacements (default: the first measured epoch).
+    #[arg(long, value_name = "EPOCH")]
+    pub reference_epoch: Option<String>,
+    /// Frame rate (Hz): adds times and velocities (finite differences).
+    #[arg(long, value_name = "HZ")]
+    pub frame_rate_hz: Option<f64>,
+    /// Rows whose σ_max exceeds this are flagged (mm).
+    #[arg(long, value_name = "MM", default_value_t = 5.0)]
+    pub threshold_mm: f64,
+    /// Rows whose largest reprojection residual exceeds this are flagged (px; default: the
+    /// robust limit median + 5·1.4826·MAD of the sequence's residuals).
+    #[arg(long, value_name = "PX")]
+    pub max_reprojection_px: Option<f64>,
+    /// Skip the trajectory plots.
+    #[arg(long)]
+    pub no_plots: bool,
+}
+
+#[derive(Debug, Serialize)]
+struct Skipped {
+    epoch: String,
+    observations: usize,
+}
+
+/// `summary.json` (and the `--json` output).
+#[derive(Debug, Serialize)]
+pub struct Summary {
+    epochs: usize,
+    markers: usize,
+    rows: usize,
+    samples_per_point: usize,
+    threshold_mm: f64,
+    fraction_below_threshold: f64,
+    seed: u64,
+    reference_epoch: String,
+    frame_rate_hz: Option<f64>,
+    pixel_sigma_px: f64,
+    max_reprojection_px: Option<f64>,
+    mm_per_unit: f64,
+    cameras: Vec<&'static str>,
+    rows_measured: usize,
+    rows_fewer_than_two_views: usize,
+    rows_above_threshold: usize,
+    rows_reprojection_outlier: usize,
+    rows_flagged: usize,
+    max_sigma_mm: Option<f64>,
+    median_sigma_max_mm: Option<f64>,
+    max_displacement_sigma_mm: Option<f64>,
+    median_displacement_sigma_max_mm: Option<f64>,
+    skipped_epochs: Vec<Skipped>,
+    epoch_names: Vec<String>,
+    marker_names: Vec<String>,
+    files: Vec<String>,
+    elapsed_s: f64,
+}
+
+/// Runs the command: computes, writes DIR, prints the summary.
+pub fn run(a: MeasureArgs, g: &Global) -> anyhow::Result<()> {
+    let summary = compute(&a, g.seed)?;
+    if g.json {
+        crate::output::print_json(&summary)?;
+    } else {
+        println!(
+            "measured {} rows ({} epochs × {} markers seen), {} draws each; {:.1} % below {} mm; {} flagged; written to {}",
+            summary.rows,
+            summary.epochs,
+            summary.markers,
+            summary.samples_per_point,
+            100.0 * summary.fraction_below_threshold,
+            summary.threshold_mm,
+            summary.rows_flagged,
+            a.out.display()
+        );
+    }
+    Ok(())
+}
+
+fn vec3(v: &Option<Vec<f64>>, name: &str) -> anyhow::Result<Vec3> {
+    match v {
+        None => Ok(Vec3::zeros()),
+        Some(v) => {
+            let x = Vec3::new(v[0], v[1], v[2]);
+            anyhow::ensure!(
+                x.iter().all(|c| c.is_finite() && *c >= 0.0),
+                "{name}: σ must be finite numbers ≥ 0"
+            );
+            Ok(x)
+        }
+    }
+}
+
+/// Reads the inputs, measures, and writes `DIR` (all-or-nothing); returns the summary.
+pub fn compute(a: &MeasureArgs, seed: Option<u64>) -> anyhow::Result<Summary> {
+    let started = std::time::Instant::now();
+    let seed = seed.unwrap_or(DEFAULT_SEED);
+    check_out_dir(&a.out)?;
+    anyhow::ensure!(
+        a.camera_c.is_some() == a.tie.is_some(),
+        "--camera-c and --tie go together (give both for a tied-in camera C, or neither)"
+    );
+    let model = Reconstruction::read(&a.model)?;
+    let sel_a = CameraSelector::parse(&a.camera_a);
+    let seq = sequence::a_sequence(&model, &sel_a, a.mm_per_unit)?;
+    let (b_id, camera_b) =
+        sequence::inward_camera(&model, &CameraSelector::parse(&a.camera_b), 'B')?;
+    let c = match (&a.camera_c, &a.tie) {
+        (Some(sel), Some(tie)) => {
+            let (id, cam) = sequence::inward_camera(&model, &CameraSelector::parse(sel), 'C')?;
+            Some((id, input::load_link(tie)?, cam))
+        }
+        _ => None,
+    };
+    let a_from_b = input::load_link(&a.link)?;
+    let names = CameraNames {
+        b_id: Some(b_id),
+        c_id: c.as_ref().map(|(id, _, _)| *id),
+        has_c: c.is_some(),
+    };
+    let observations = input::read_observations(&a.observations, &names)?;
+
+    // A's per-epoch uncertainty.
+    let a_cov = a
+        .a_covariance
+        .as_deref()
+        .map(input::read_a_covariance)
+        .transpose()?;
+    if a_cov.is_none() && a.sigma_a_position_mm.is_none() && a.sigma_a_angles_deg.is_none() {
+        eprintln!(
+            "warning: no uncertainty given for camera A's pose (--sigma-a-position-mm, --sigma-a-angles-deg or --a-covariance): it is treated as exact"
+        );
+    }
+    let sig_pos = vec3(&a.sigma_a_position_mm, "--sigma-a-position-mm")?;
+    let sig_ang = vec3(&a.sigma_a_angles_deg, "--sigma-a-angles-deg")?.map(f64::to_radians);
+    let mut epochs = Vec::with_capacity(seq.poses.len());
+    for p in &seq.poses {
+        let world_from_a = match &a_cov {
+            Some(cov) => {
+                let m: Mat6 = cov.for_epoch(&[&p.key, &p.name]).with_context(|| {
+                    format!(
+                        "{}: epochs: no covariance for epoch `{}` and no default covariance_tangent",
+                        cov.path.display(),
+                        p.name
+                    )
+                })?;
+                UncertainPose::from_covariance_deg(p.world_from_a, m)
+                    .map_err(|e| anyhow::anyhow!("{}: {e}", cov.path.display()))?
+            }
+            None => UncertainPose::from_sigmas(p.world_from_a, sig_pos, sig_ang),
+        };
+        epochs.push(Epoch {
+            key: p.key.clone(),
+            name: p.name.clone(),
+            world_from_a,
+        });
+    }
+    let settings = Settings {
+        samples: a.samples,
+        seed,
+        pixel_sigma_px: a.pixel_sigma_px,
+        reference_epoch: a.reference_epoch.clone(),
+        frame_rate_hz: a.frame_rate_hz,
+        threshold_mm: a.threshold_mm,
+        max_reprojection_px: a.max_reprojection_px,
+    };
+    let rig = Rig {
+        a_from_b,
+        camera_b,
+        c: c.map(|(_, tie, cam)| (tie, cam)),
+    };
+    let m = crashrig_measure::measure(&epochs, &rig, &observations, &settings)?;
+    for s in &m.skipped {
+        eprintln!(
+            "warning: epoch `{}` has no pose of camera A ({}) in {}: its {} observation(s) are skipped",
+            s.epoch,
+            a.camera_a,
+            a.model.display(),
+            s.observations
+        );
+    }
+
+    // Files.
+    let mut files: Vec<(String, Vec<u8>)> = vec![
+        ("trajectories.csv".into(), trajectories_csv(&m).into_bytes()),
+        (
+            "displacements.csv".into(),
+            displacements_csv(&m).into_bytes(),
+        ),
+    ];
+    if !a.no_plots {
+        files.extend(plots(&m)?);
+    }
+    let mut summary = summarize(&m, a, seed, &files);
+    summary.files.push("summary.json".into());
+    summary.elapsed_s = started.elapsed().as_secs_f64();
+    let mut json = serde_json::to_vec_pretty(&summary).context("serializing summary.json")?;
+    json.push(b'\n');
+    files.push(("summary.json".into(), json));
+    write_dir(&a.out, &files)?;
+    Ok(summary)
+}
+
+fn num(x: f64) -> String {
+    format!("{x}")
+}
+
+fn opt3(v: Option<Vec3>) -> [String; 3] {
+    match v {
+        Some(v) => [num(v.x), num(v.y), num(v.z)],
+        None => Default::default(),
+    }
+}
+
+/// `trajectories.csv`: the contract's fixed header.
+fn trajectories_csv(m: &Measurement) -> String {
+    let mut s = String::from(
+        "epoch,marker,x_mm,y_mm,z_mm,sigma_x_mm,sigma_y_mm,sigma_z_mm,sigma_max_mm,n_views\n",
+    );
+    for r in &m.rows {
+        let [x, y, z] = opt3(r.position_mm);
+        let [sx, sy, sz] = opt3(r.sigma_mm);
+        let smax = r.sigma_max_mm().map(num).unwrap_or_default();
+        let _ = writeln!(
+            s,
+            "{},{},{x},{y},{z},{sx},{sy},{sz},{smax},{}",
+            csv_field(&m.epochs[r.epoch].name),
+            csv_field(&m.markers[r.marker]),
+            r.n_views
+        );
+    }
+    s
+}
+
+/// Header of `displacements.csv`.
+pub const DISPLACEMENTS_HEADER: &str = "epoch,marker,time_s,dx_mm,dy_mm,dz_mm,sigma_dx_mm,sigma_dy_mm,sigma_dz_mm,sigma_dmax_mm,vx_mm_s,vy_mm_s,vz_mm_s,sigma_vx_mm_s,sigma_vy_mm_s,sigma_vz_mm_s,reprojection_px,flags";
+
+fn displacements_csv(m: &Measurement) -> String {
+    let mut s = format!("{DISPLACEMENTS_HEADER}\n");
+    for r in &m.rows {
+        let ep = &m.epochs[r.epoch];
+        let t = ep.time_s.map(num).unwrap_or_default();
+        let [dx, dy, dz] = opt3(r.displacement_mm);
+        let [sdx, sdy, sdz] = opt3(r.displacement_sigma_mm);
+        let sdmax = r
+            .displacement_sigma_mm
+            .map(|v| num(v.max()))
+            .unwrap_or_default();
+        let [vx, vy, vz] = opt3(r.velocity_mm_s);
+        let [svx, svy, svz] = opt3(r.velocity_sigma_mm_s);
+        let rep = r.reprojection_px.map(num).unwrap_or_default();
+        let _ = writeln!(
+            s,
+            "{},{},{t},{dx},{dy},{dz},{sdx},{sdy},{sdz},{sdmax},{vx},{vy},{vz},{svx},{svy},{svz},{rep},{}",
+            csv_field(&ep.name),
+            csv_field(&m.markers[r.marker]),
+            r.flags.names().join(";")
+        );
+    }
+    s
+}
+
+/// Quotes a text field when CSV needs it.
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// File-name-safe version of a marker name (other characters become `_`).
+fn file_stem(marker: &str) -> String {
+    marker
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// One figure per marker: x, y, z against time (or sequence index) with ±3σ bands.
+fn plots(m: &Measurement) -> anyhow::Result<Vec<(String, Vec<u8>)>> {
+    let xs: Vec<f64> = m
+        .epochs
+        .iter()
+        .enumerate()
+        .map(|(i, e)| e.time_s.map_or(i as f64, |t| t * 1000.0))
+        .collect();
+    let x_label = if m.epochs.iter().all(|e| e.time_s.is_some()) {
+        "t [ms]"
+    } else {
+        "epoch (sequence index)"
+    };
+    let mut stems: Vec<String> = Vec::with_capacity(m.markers.len());
+    for (i, name) in m.markers.iter().enumerate() {
+        let mut stem = file_stem(name);
+        if stems.contains(&stem) {
+            stem = format!("{stem}_{i}");
+        }
+        stems.push(stem);
+    }
+    let per_marker: Vec<anyhow::Result<Vec<(String, Vec<u8>)>>> = (0..m.markers.len())
+        .into_par_iter()
+        .map(|k| {
+            let mut ys = vec![vec![f64::NAN; xs.len()]; 3];
+            let mut hw = vec![vec![f64::NAN; xs.len()]; 3];
+            let mut any = false;
+            for r in m.rows.iter().filter(|r| r.marker == k) {
+                if let Some(p) = r.position_mm {
+                    any = true;
+                    for c in 0..3 {
+                        ys[c][r.epoch] = p[c];
+                        hw[c][r.epoch] = r.sigma_mm.map_or(f64::NAN, |s| 3.0 * s[c]);
+                    }
+                }
+            }
+            if !any {
+                return Ok(Vec::new());
+            }
+            let labels = ["x [mm] (±3σ)", "y [mm] (±3σ)", "z [mm] (±3σ)"];
+            let panels: Vec<BandPanel<'_>> = (0..3)
+                .map(|c| BandPanel {
+                    y_label: labels[c],
+                    ys: &ys[c],
+                    half_widths: &hw[c],
+                })
+                .collect();
+            let title = format!("marker {} (world frame)", m.markers[k]);
+            let mut out = Vec::new();
+            for (fmt, ext) in [(Format::Png, "png"), (Format::Svg, "svg")] {
+                let bytes = crashrig_plot::banded_panels(&xs, &panels, &title, x_label, fmt)
+                    .with_context(|| format!("plotting marker `{}`", m.markers[k]))?;
+                out.push((format!("plots/{}.{ext}", stems[k]), bytes));
+            }
+            Ok(out)
+        })
+        .collect();
+    let mut files = Vec::new();
+    for f in per_marker {
+        files.extend(f?);
+    }
+    Ok(files)
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    Some(if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    })
+}
+
+fn summarize(m: &Measurement, a: &MeasureArgs, seed: u64, files: &[(String, Vec<u8>)]) -> Summary {
+    let smax: Vec<f64> = m.rows.iter().filter_map(Row::sigma_max_mm).collect();
+    let dmax: Vec<f64> = m
+        .rows
+        .iter()
+        .filter(|r| r.epoch != m.reference_epoch)
+        .filter_map(|r| r.displacement_sigma_mm.map(|v| v.max()))
+        .collect();
+    let count = |f: &dyn Fn(&Row) -> bool| m.rows.iter().filter(|r| f(r)).count();
+    Summary {
+        epochs: m.epochs.len(),
+        markers: m.markers.len(),
+        rows: m.rows.len(),
+        samples_per_point: m.samples,
+        threshold_mm: a.threshold_mm,
+        fraction_below_threshold: m.fraction_below(a.threshold_mm),
+        seed,
+        reference_epoch: m.epochs[m.reference_epoch].name.clone(),
+        frame_rate_hz: a.frame_rate_hz,
+        pixel_sigma_px: a.pixel_sigma_px,
+        max_reprojection_px: m.reprojection_limit_px,
+        mm_per_unit: a.mm_per_unit,
+        cameras: if a.tie.is_some() {
+            vec!["B", "C"]
+        } else {
+            vec!["B"]
+        },
+        rows_measured: smax.len(),
+        rows_fewer_than_two_views: count(&|r| r.flags.fewer_than_two_views),
+        rows_above_threshold: count(&|r| r.flags.sigma_above_threshold),
+        rows_reprojection_outlier: count(&|r| r.flags.reprojection_outlier),
+        rows_flagged: count(&|r| r.flags.any()),
+        max_sigma_mm: smax.iter().copied().reduce(f64::max),
+        median_sigma_max_mm: median(smax),
+        max_displacement_sigma_mm: dmax.iter().copied().reduce(f64::max),
+        median_displacement_sigma_max_mm: median(dmax),
+        skipped_epochs: m
+            .skipped
+            .iter()
+            .map(|s| Skipped {
+                epoch: s.epoch.clone(),
+                observations: s.observations,
+            })
+            .collect(),
+        epoch_names: m.epochs.iter().map(|e| e.name.clone()).collect(),
+        marker_names: m.markers.clone(),
+        files: files.iter().map(|(n, _)| n.clone()).collect(),
+        elapsed_s: 0.0,
+    }
+}
+
+/// A directory `measure` may replace: absent, empty, or a previous `measure` output (it holds
+/// `trajectories.csv` and `summary.json`). Anything else is refused before any work is done.
+fn check_out_dir(dir: &Path) -> anyhow::Result<()> {
+    if !dir.exists() {
+        return Ok(());
+    }
+    anyhow::ensure!(
+        dir.is_dir(),
+        "{}: exists and is not a directory",
+        dir.display()
+    );
+    let mut entries =
+        std::fs::read_dir(dir).with_context(|| format!("{}: cannot list", dir.display()))?;
+    if entries.next().is_none() {
+        return Ok(());
+    }
+    anyhow::ensure!(
+        dir.join("trajectories.csv").is_file() && dir.join("summary.json").is_file(),
+        "{}: exists and is not empty and not a previous `measure` output; choose another --out",
+        dir.display()
+    );
+    Ok(())
+}
+
+/// Writes `files` (paths relative to `dir`) as one unit: everything goes into a temporary
+/// sibling directory, which is then renamed to `dir` (a previous output there is moved aside
+/// first and removed after the rename). On any failure nothing of this run remains and a
+/// previous output is restored. This is the only function that writes the output directory.
+fn write_dir(dir: &Path, files: &[(String, Vec<u8>)]) -> anyhow::Result<()> {
+    check_out_dir(dir)?;
+    let parent = dir
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    std::fs::create_dir_all(parent)
+        .with_context(|| format!("{}: cannot create the directory", parent.display()))?;
+    let stage = tempfile::Builder::new()
+        .prefix(".measure-new-")
+        .tempdir_in(parent)
+        .with_context(|| format!("{}: cannot create a temporary directory", parent.display()))?;
+    for (name, bytes) in files {
+        let path = stage.path().join(name);
+        if let Some(p) = path.parent() {
+            std::fs::create_dir_all(p)
+                .with_context(|| format!("{}: cannot create the directory", p.display()))?;
+        }
+        std::fs::write(&path, bytes)
+            .with_context(|| format!("{}: write failed", dir.join(name).display()))?;
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(stage.path(), std::fs::Permissions::from_mode(0o755))
+            .with_context(|| format!("{}: cannot set permissions", dir.display()))?;
+    }
+    let old = if dir.exists() {
+        let aside = tempfile::Builder::new()
+            .prefix(".measure-old-")
+            .tempdir_in(parent)
+            .with_context(|| {
+                format!("{}: cannot create a temporary directory", parent.display())
+            })?;
+        let aside_path = aside.path().join("previous");
+        std::fs::rename(dir, &aside_path)
+            .with_context(|| format!("{}: cannot move the previous output aside", dir.display()))?;
+        Some((aside, aside_path))
+    } else {
+        None
+    };
+    if let Err(e) = std::fs::rename(stage.path(), dir) {
+        if let Some((_, aside_path)) = &old {
+            let _ = std::fs::rename(aside_path, dir);
+        }
+        return Err(anyhow::Error::new(e).context(format!(
+            "{}: cannot rename the output into place",
+            dir.display()
+        )));
+    }
+    // `stage` now names nothing; dropping `old` removes the previous output.
+    drop(old);
+    Ok(())
+}

@@ -1,0 +1,936 @@
+//! The measurement: nominal forward intersection per (epoch, marker) and the Monte Carlo with
+//! the physical correlation structure.
+//!
+//! # The model of one Monte Carlo replicate `r`
+//! - the link `A_from_B` and the tie `B_from_C` are drawn **once per replicate** (they are
+//!   fixed, systematic errors during a test): `δ_link ~ N(0, Σ_link)`, `δ_tie ~ N(0, Σ_tie)`;
+//! - camera A's world pose is drawn **per epoch**: `δ_A(e) ~ N(0, Σ_A(e))`;
+//! - every observation gets its own pixel noise `N(0, σ_px²)` on each image axis.
+//!
+//! All perturbations act as the contract's tangent perturbation ([`UncertainPose::perturbed`]):
+//! `C = C̄ + δ_xyz` in the parent's axes, `R = R̄·Exp(δθ)` about the child's own axes. Then
+//! `world_from_B = world_from_A · A_from_B`, `world_from_C = world_from_B · B_from_C`, and the
+//! marker is intersected by the same linear least squares (DLT) as
+//! [`crashrig_geometry::triangulate::dlt`].
+//!
+//! Pixel noise reaches the normalized ray through the lens to first order: `δn = J⁻¹·δpx`,
+//! `J = ∂px/∂n` of the camera model at the undistorted observation (exact Jacobian). The
+//! neglected term is of relative size `σ_px/f` (≈ 10⁻⁴ for 0.3 px at f = 2000 px) and saves the
+//! Newton undistortion in every draw.
+//!
+//! # Determinism and memory
+//! Replicates are processed in blocks of [`BLOCK`]. Block `b`'s link and tie draws come from
+//! `stream(seed, b)`; epoch `e`'s draws in block `b` (its pose, then its observations' pixel
+//! noise, replicate by replicate) from `stream(seed, (e + 1)·2³² + b)`. Every task that needs
+//! epoch `e`'s positions in block `b` (its own rows, the reference epoch, a velocity neighbour)
+//! recomputes them from that stream, so they are identical wherever they are computed. Epochs
+//! are split into runs of [`RUN`] epochs processed in parallel; each run owns its rows'
+//! streaming accumulators and feeds them in replicate order, so the result is bit-identical
+//! for any thread count. Memory is O(rows + threads·RUN·markers·BLOCK), independent of the
+//! number of draws.
+
+use crate::Error;
+use crate::input::{Inward, Observation};
+use crate::sequence::frame_number;
+use crashrig_camera::Camera;
+use crashrig_geometry::triangulate::{self, View};
+use crashrig_geometry::{Mat3, Mat6, UncertainPose, Vec3, Vec6, so3};
+use crashrig_stats::{Moments, StreamRng, stream};
+use nalgebra::{Matrix2, Vector2, Vector3};
+use rand::RngExt;
+use rand_distr::StandardNormal;
+use rayon::prelude::*;
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+
+/// Replicates per block (fixed: the streams depend on it, the thread count does not).
+pub const BLOCK: usize = 256;
+/// Epochs per parallel task.
+pub const RUN: usize = 8;
+
+/// The rig: the calibrated link, the optional tie, and the inward cameras' intrinsics.
+#[derive(Debug, Clone)]
+pub struct Rig {
+    /// `A_from_B` (translation = B's centre in A's axes, mm) with the uncertainty of the
+    /// calibrated mean link (mm, rad).
+    pub a_from_b: UncertainPose,
+    /// Camera B's intrinsics (COLMAP model and pixel convention).
+    pub camera_b: Camera,
+    /// The tied-in camera C: `B_from_C` with its uncertainty, and its intrinsics.
+    pub c: Option<(UncertainPose, Camera)>,
+}
+
+/// One epoch of the sequence with camera A's uncertain world pose.
+#[derive(Debug, Clone)]
+pub struct Epoch {
+    /// Epoch key (A's image name without the prefix).
+    pub key: String,
+    /// Epoch name (the key without its extension); the outputs use it.
+    pub name: String,
+    /// `world_from_A` (mm) with its tangent covariance (mm, rad; centre in world axes,
+    /// rotation about A's own axes).
+    pub world_from_a: UncertainPose,
+}
+
+/// Settings of a measurement.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Settings {
+    /// Monte Carlo replicates per row (≥ 2).
+    pub samples: usize,
+    /// Master seed.
+    pub seed: u64,
+    /// σ of each pixel coordinate (px, ≥ 0).
+    pub pixel_sigma_px: f64,
+    /// Reference epoch of the displacements (key or name); `None`: the first measured epoch.
+    pub reference_epoch: Option<String>,
+    /// Frame rate (Hz) for velocities; `None`: no velocities.
+    pub frame_rate_hz: Option<f64>,
+    /// Rows with σ_max above this (mm) are flagged.
+    pub threshold_mm: f64,
+    /// Rows whose largest reprojection residual exceeds this (px) are flagged; `None`: the
+    /// robust limit of the sequence, [`robust_reprojection_limit`].
+    pub max_reprojection_px: Option<f64>,
+}
+
+/// Modified-z limit of the reprojection check: a residual is an outlier when it exceeds the
+/// median of the sequence's residuals by more than this many robust σ (1.4826·MAD).
+pub const REPROJECTION_OUTLIER_ROBUST_SIGMAS: f64 = 5.0;
+
+/// The default reprojection limit: `median + 5 · 1.4826 · MAD` of the residuals of all rows
+/// with a position. Residuals come from pixel noise *and* from the link, tie and A errors
+/// (which make the rays miss each other), so a limit in units of the pixel σ alone would flag
+/// good rows; the robust limit flags rows that disagree with the rest of the sequence (a
+/// mislabelled or mis-detected marker). `None` for fewer than 3 residuals.
+pub fn robust_reprojection_limit(residuals: &[f64]) -> Option<f64> {
+    let mut v: Vec<f64> = residuals
+        .iter()
+        .copied()
+        .filter(|r| r.is_finite())
+        .collect();
+    if v.len() < 3 {
+        return None;
+    }
+    let med = median_sorted(&mut v);
+    let mut dev: Vec<f64> = v.iter().map(|r| (r - med).abs()).collect();
+    let mad = median_sorted(&mut dev);
+    Some(med + REPROJECTION_OUTLIER_ROBUST_SIGMAS * 1.4826 * mad)
+}
+
+fn median_sorted(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Why a row is flagged.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Flags {
+    /// Fewer than two cameras saw the marker in this epoch (no position).
+    pub fewer_than_two_views: bool,
+    /// The rays are (nearly) parallel: the intersection failed (no position).
+    pub degenerate: bool,
+    /// σ_max exceeds the threshold.
+    pub sigma_above_threshold: bool,
+    /// The largest reprojection residual exceeds the limit.
+    pub reprojection_outlier: bool,
+}
+
+impl Flags {
+    /// The flag names that are set, in a fixed order.
+    pub fn names(&self) -> Vec<&'static str> {
+        let mut v = Vec::new();
+        if self.fewer_than_two_views {
+            v.push("fewer_than_two_views");
+        }
+        if self.degenerate {
+            v.push("degenerate");
+        }
+        if self.sigma_above_threshold {
+            v.push("sigma_above_threshold");
+        }
+        if self.reprojection_outlier {
+            v.push("reprojection_outlier");
+        }
+        v
+    }
+
+    /// True when any flag is set.
+    pub fn any(&self) -> bool {
+        !self.names().is_empty()
+    }
+}
+
+/// One (epoch, marker) row of the result. Positions are in the model's world frame (mm).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Row {
+    /// Index into [`Measurement::epochs`].
+    pub epoch: usize,
+    /// Index into [`Measurement::markers`].
+    pub marker: usize,
+    /// Number of cameras that saw the marker in this epoch.
+    pub n_views: usize,
+    /// Nominal intersection (mm).
+    pub position_mm: Option<Vec3>,
+    /// Monte Carlo σ of the position (mm, n − 1).
+    pub sigma_mm: Option<Vec3>,
+    /// Monte Carlo covariance of the position (mm²).
+    pub covariance_mm2: Option<Mat3>,
+    /// Nominal displacement from the reference epoch (mm).
+    pub displacement_mm: Option<Vec3>,
+    /// Its Monte Carlo σ (mm).
+    pub displacement_sigma_mm: Option<Vec3>,
+    /// Nominal velocity by finite differences (mm/s).
+    pub velocity_mm_s: Option<Vec3>,
+    /// Its Monte Carlo σ (mm/s).
+    pub velocity_sigma_mm_s: Option<Vec3>,
+    /// Largest reprojection residual of the nominal intersection over its views (px).
+    pub reprojection_px: Option<f64>,
+    /// Monte Carlo draws that produced a position (= samples unless a draw was degenerate).
+    pub draws: u64,
+    /// Flags.
+    pub flags: Flags,
+}
+
+impl Row {
+    /// max(σx, σy, σz) (mm).
+    pub fn sigma_max_mm(&self) -> Option<f64> {
+        self.sigma_mm.map(|s| s.max())
+    }
+}
+
+/// A measured epoch.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeasuredEpoch {
+    /// Epoch key.
+    pub key: String,
+    /// Epoch name.
+    pub name: String,
+    /// Frame number (last digits of the name), if any.
+    pub frame: Option<u64>,
+    /// `frame / frame_rate` (s), with a frame rate.
+    pub time_s: Option<f64>,
+}
+
+/// Observations of an epoch that the model does not pose (skipped).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SkippedEpoch {
+    /// The epoch as the observations spell it.
+    pub epoch: String,
+    /// How many observations were skipped.
+    pub observations: usize,
+}
+
+/// The result of [`measure`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Measurement {
+    /// Measured epochs in sequence order (those with observations and a pose of A).
+    pub epochs: Vec<MeasuredEpoch>,
+    /// Marker names, sorted.
+    pub markers: Vec<String>,
+    /// One row per observed (epoch, marker), epoch-major, markers in order.
+    pub rows: Vec<Row>,
+    /// Index of the reference epoch of the displacements.
+    pub reference_epoch: usize,
+    /// Epochs of the observations without a pose of camera A.
+    pub skipped: Vec<SkippedEpoch>,
+    /// Monte Carlo replicates per row.
+    pub samples: usize,
+    /// The reprojection limit used for the flags (px; given or robust), `None` when no row
+    /// has a position or the robust limit had too few residuals.
+    pub reprojection_limit_px: Option<f64>,
+}
+
+impl Measurement {
+    /// Fraction of rows with σ_max below `threshold_mm` (rows without σ count as not below).
+    pub fn fraction_below(&self, threshold_mm: f64) -> f64 {
+        let n = self.rows.len().max(1) as f64;
+        self.rows
+            .iter()
+            .filter(|r| r.sigma_max_mm().is_some_and(|s| s < threshold_mm))
+            .count() as f64
+            / n
+    }
+}
+
+/// One view of a marker prepared for the draws.
+#[derive(Debug, Clone, Copy)]
+struct ViewPrep {
+    cam: usize,
+    n0: Vector2<f64>,
+    /// `σ_px · J⁻¹`: normalized perturbation per unit normal.
+    m: Matrix2<f64>,
+}
+
+#[derive(Debug, Clone)]
+struct Slot {
+    marker: usize,
+    n_views: usize,
+    views: Vec<ViewPrep>,
+    nominal: Option<Vec3>,
+    reprojection_px: Option<f64>,
+    degenerate: bool,
+}
+
+impl Slot {
+    fn drawable(&self) -> bool {
+        self.nominal.is_some()
+    }
+}
+
+#[derive(Debug, Clone)]
+struct EpochPrep {
+    r_wa: Mat3,
+    c_a: Vec3,
+    l_a: Mat6,
+    slots: Vec<Slot>,
+    /// marker index → slot index.
+    slot_of: Vec<Option<usize>>,
+    time_s: Option<f64>,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct LinkDraw {
+    r_ab: Mat3,
+    c_ab: Vec3,
+    r_bc: Mat3,
+    c_bc: Vec3,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct LinkPrep {
+    r_ab: Mat3,
+    c_ab: Vec3,
+    l_ab: Mat6,
+    c: Option<(Mat3, Vec3, Mat6)>,
+}
+
+#[derive(Debug, Clone, Copy, Default)]
+struct Acc {
+    pos: Moments<3>,
+    disp: Moments<3>,
+    vel: Moments<3>,
+}
+
+fn normals6(rng: &mut StreamRng) -> Vec6 {
+    Vec6::from_fn(|_, _| rng.sample(StandardNormal))
+}
+
+/// Draws `R̄·Exp(δθ)`, `C̄ + δC` with `δ = L·ε`.
+fn perturb(r: &Mat3, c: &Vec3, l: &Mat6, rng: &mut StreamRng) -> (Mat3, Vec3) {
+    let d = l * normals6(rng);
+    let dr = so3::exp(&Vector3::new(d[3], d[4], d[5])).into_inner();
+    (r * dr, c + Vector3::new(d[0], d[1], d[2]))
+}
+
+/// Stream index of epoch `e` in block `b`.
+fn epoch_stream(e: usize, b: usize) -> u64 {
+    ((e as u64 + 1) << 32) | b as u64
+}
+
+fn link_draws(link: &LinkPrep, seed: u64, block: usize, len: usize) -> Vec<LinkDraw> {
+    let mut rng = stream(seed, block as u64);
+    (0..len)
+        .map(|_| {
+            let (r_ab, c_ab) = perturb(&link.r_ab, &link.c_ab, &link.l_ab, &mut rng);
+            let (r_bc, c_bc) = match &link.c {
+                Some((r, c, l)) => perturb(r, c, l, &mut rng),
+                None => (Mat3::identity(), Vec3::zeros()),
+            };
+            LinkDraw {
+                r_ab,
+                c_ab,
+                r_bc,
+                c_bc,
+            }
+        })
+        .collect()
+}
+
+/// Linear least-squares intersection of rays given as (world_from_cam rotation, centre,
+/// normalized observation): the DLT rows `(u·c₃ − c₁)·X = (u·c₃ − c₁)·C` with `cᵢ` the columns
+/// of `R_world_from_cam` (the rows of `R_cam_from_world`), as [`triangulate::dlt`].
+#[inline]
+fn intersect<'a>(views: impl Iterator<Item = (&'a Mat3, &'a Vec3, Vector2<f64>)>) -> Option<Vec3> {
+    let mut n = Mat3::zeros();
+    let mut rhs = Vec3::zeros();
+    for (r, c, uv) in views {
+        let c1 = r.column(0);
+        let c2 = r.column(1);
+        let c3 = r.column(2);
+        let a1: Vec3 = c3 * uv.x - c1;
+        let a2: Vec3 = c3 * uv.y - c2;
+        n += a1 * a1.transpose() + a2 * a2.transpose();
+        rhs += a1 * a1.dot(c) + a2 * a2.dot(c);
+    }
+    n.try_inverse().map(|inv| inv * rhs)
+}
+
+/// Positions of epoch `e`'s slots for the replicates of block `b`: `out[slot·len + r]`
+/// (NaN where the slot has no position or a draw is degenerate).
+fn epoch_positions(
+    ep: &EpochPrep,
+    e: usize,
+    b: usize,
+    seed: u64,
+    links: &[LinkDraw],
+    out: &mut Vec<Vec3>,
+) {
+    let len = links.len();
+    out.clear();
+    out.resize(ep.slots.len() * len, Vec3::repeat(f64::NAN));
+    let mut rng = stream(seed, epoch_stream(e, b));
+    for (r, link) in links.iter().enumerate() {
+        let (r_wa, c_a) = perturb(&ep.r_wa, &ep.c_a, &ep.l_a, &mut rng);
+        let r_wb = r_wa * link.r_ab;
+        let c_b = c_a + r_wa * link.c_ab;
+        let r_wc = r_wb * link.r_bc;
+        let c_c = c_b + r_wb * link.c_bc;
+        let cams = [(r_wb, c_b), (r_wc, c_c)];
+        for (s, slot) in ep.slots.iter().enumerate() {
+            if !slot.drawable() {
+                continue;
+            }
+            let mut noisy = [Vector2::zeros(); 2];
+            for (k, v) in slot.views.iter().enumerate() {
+                let eps = Vector2::new(rng.sample(StandardNormal), rng.sample(StandardNormal));
+                noisy[k] = v.n0 + v.m * eps;
+            }
+            let x = intersect(
+                slot.views
+                    .iter()
+                    .zip(noisy)
+                    .map(|(v, uv)| (&cams[v.cam].0, &cams[v.cam].1, uv)),
+            );
+            if let Some(x) = x.filter(|x| x.iter().all(|v| v.is_finite())) {
+                out[s * len + r] = x;
+            }
+        }
+    }
+}
+
+fn finite(x: &Vec3) -> bool {
+    x.iter().all(|v| v.is_finite())
+}
+
+/// How epoch `e` differentiates in time: `(previous epoch, next epoch)` whose difference gives
+/// the velocity of a marker (central where both neighbours measured it, one-sided otherwise).
+fn velocity_pair(e: usize, marker: usize, preps: &[EpochPrep]) -> Option<(usize, usize)> {
+    let has = |k: usize| preps[k].slot_of[marker].is_some_and(|s| preps[k].slots[s].drawable());
+    let prev = (e > 0 && has(e - 1)).then(|| e - 1);
+    let next = (e + 1 < preps.len() && has(e + 1)).then_some(e + 1);
+    match (prev, next) {
+        (Some(p), Some(n)) => Some((p, n)),
+        (Some(p), None) if has(e) => Some((p, e)),
+        (None, Some(n)) if has(e) => Some((e, n)),
+        _ => None,
+    }
+}
+
+fn check_settings(s: &Settings) -> Result<(), Error> {
+    let bad = |name, problem: String| Err(Error::Setting { name, problem });
+    if s.samples < 2 {
+        return bad("--samples", format!("{} (at least 2)", s.samples));
+    }
+    if !(s.pixel_sigma_px.is_finite() && s.pixel_sigma_px >= 0.0) {
+        return bad(
+            "--pixel-sigma-px",
+            format!("{} (a number ≥ 0)", s.pixel_sigma_px),
+        );
+    }
+    if !(s.threshold_mm.is_finite() && s.threshold_mm > 0.0) {
+        return bad(
+            "--threshold-mm",
+            format!("{} (a number > 0)", s.threshold_mm),
+        );
+    }
+    if let Some(p) = s.max_reprojection_px
+        && !(p.is_finite() && p > 0.0)
+    {
+        return bad("--max-reprojection-px", format!("{p} (a number > 0)"));
+    }
+    if let Some(f) = s.frame_rate_hz
+        && !(f.is_finite() && f > 0.0)
+    {
+        return bad("--frame-rate-hz", format!("{f} (a number > 0)"));
+    }
+    Ok(())
+}
+
+/// Prepares a view: the undistorted normalized observation and `σ·J⁻¹`.
+fn prep_view(
+    camera: &Camera,
+    cam: usize,
+    obs: &Observation,
+    sigma: f64,
+) -> Result<ViewPrep, Error> {
+    let fail = |what: String| {
+        Error::Input(format!(
+            "observation on line {} (epoch `{}`, camera {}, marker `{}`): {what}",
+            obs.line,
+            obs.epoch,
+            obs.camera.letter(),
+            obs.marker
+        ))
+    };
+    let und = camera
+        .cam_from_img(&obs.pixel)
+        .map_err(|e| fail(format!("the pixel cannot be undistorted: {e}")))?;
+    let n0 = und.normalized;
+    let j = camera
+        .dx_img_from_cam_point(&Vector3::new(n0.x, n0.y, 1.0))
+        .map_err(|e| fail(format!("the lens Jacobian is undefined: {e:?}")))?;
+    let j2 = Matrix2::new(j[(0, 0)], j[(0, 1)], j[(1, 0)], j[(1, 1)]);
+    let inv = j2
+        .try_inverse()
+        .ok_or_else(|| fail("the lens Jacobian is singular".into()))?;
+    Ok(ViewPrep {
+        cam,
+        n0,
+        m: inv * sigma,
+    })
+}
+
+/// Measures every observed (epoch, marker): nominal DLT position, reprojection check, and the
+/// Monte Carlo σ of position, displacement from the reference epoch and (with a frame rate)
+/// velocity. See the module doc for the model and the streams.
+///
+/// `epochs` must be in sequence order (as [`crate::sequence::a_sequence`] returns them).
+/// Observations whose epoch (key or name) is not in `epochs` are skipped and reported in
+/// [`Measurement::skipped`].
+///
+/// # Errors
+/// [`Error::Setting`] for settings out of range or an unknown reference epoch;
+/// [`Error::Input`] when no observation has a posed epoch, an observation names camera C
+/// without a tie, a pixel cannot be undistorted, or (with a frame rate) an epoch name has no
+/// frame number or frame numbers do not increase along the sequence.
+pub fn measure(
+    epochs: &[Epoch],
+    rig: &Rig,
+    observations: &[Observation],
+    settings: &Settings,
+) -> Result<Measurement, Error> {
+    check_settings(settings)?;
+    let mut lookup: HashMap<&str, usize> = HashMap::new();
+    for (i, e) in epochs.iter().enumerate() {
+        lookup.insert(e.key.as_str(), i);
+        lookup.insert(e.name.as_str(), i);
+    }
+    // Group the observations: epoch → marker → camera → observation.
+    let mut grouped: BTreeMap<usize, BTreeMap<&str, BTreeMap<Inward, &Observation>>> =
+        BTreeMap::new();
+    let mut skipped: BTreeMap<&str, usize> = BTreeMap::new();
+    let mut markers: BTreeSet<&str> = BTreeSet::new();
+    for obs in observations {
+        if obs.camera == Inward::C && rig.c.is_none() {
+            return Err(Error::Input(format!(
+                "observation on line {} is from camera C, but no camera C is configured",
+                obs.line
+            )));
+        }
+        match lookup.get(obs.epoch.as_str()) {
+            Some(&e) => {
+                markers.insert(obs.marker.as_str());
+                grouped
+                    .entry(e)
+                    .or_default()
+                    .entry(obs.marker.as_str())
+                    .or_default()
+                    .insert(obs.camera, obs);
+            }
+            None => *skipped.entry(obs.epoch.as_str()).or_default() += 1,
+        }
+    }
+    if grouped.is_empty() {
+        return Err(Error::Input(format!(
+            "no observation belongs to an epoch with a pose of camera A ({} epochs skipped)",
+            skipped.len()
+        )));
+    }
+    let markers: Vec<String> = markers.into_iter().map(String::from).collect();
+    let marker_idx: HashMap<&str, usize> = markers
+        .iter()
+        .enumerate()
+        .map(|(i, m)| (m.as_str(), i))
+        .collect();
+
+    // Epochs, times, reference.
+    let mut measured: Vec<MeasuredEpoch> = Vec::new();
+    for &e in grouped.keys() {
+        let ep = &epochs[e];
+        let frame = frame_number(&ep.name);
+        let time_s = match settings.frame_rate_hz {
+            Some(hz) => {
+                let f = frame.ok_or_else(|| {
+                    Error::Input(format!(
+                        "epoch `{}` has no frame number (digits in its name), needed for velocities",
+                        ep.name
+                    ))
+                })?;
+                Some(f as f64 / hz)
+            }
+            None => None,
+        };
+        if let (Some(t), Some(last)) = (time_s, measured.last())
+            && last.time_s.is_some_and(|lt| lt >= t)
+        {
+            return Err(Error::Input(format!(
+                "frame numbers do not increase along the sequence: epoch `{}` follows `{}` (zero-pad the image names)",
+                ep.name, last.name
+            )));
+        }
+        measured.push(MeasuredEpoch {
+            key: ep.key.clone(),
+            name: ep.name.clone(),
+            frame,
+            time_s,
+        });
+    }
+    let reference_epoch = match &settings.reference_epoch {
+        None => 0,
+        Some(r) => measured
+            .iter()
+            .position(|m| &m.key == r || &m.name == r)
+            .ok_or_else(|| Error::Setting {
+                name: "--reference-epoch",
+                problem: format!("`{r}` is not a measured epoch"),
+            })?,
+    };
+
+    // Link preparation.
+    let link = LinkPrep {
+        r_ab: rig.a_from_b.rotation().into_inner(),
+        c_ab: rig.a_from_b.center(),
+        l_ab: rig.a_from_b.factor(),
+        c: rig
+            .c
+            .as_ref()
+            .map(|(p, _)| (p.rotation().into_inner(), p.center(), p.factor())),
+    };
+    let cameras: Vec<&Camera> = std::iter::once(&rig.camera_b)
+        .chain(rig.c.as_ref().map(|(_, c)| c))
+        .collect();
+
+    // Per-epoch preparation (nominal intersections).
+    let mut preps: Vec<EpochPrep> = Vec::with_capacity(grouped.len());
+    for (k, (&e, by_marker)) in grouped.iter().enumerate() {
+        let ep = &epochs[e];
+        let world_from_b = ep.world_from_a.b_from_a * rig.a_from_b.b_from_a;
+        let world_from_c = rig.c.as_ref().map(|(p, _)| world_from_b * p.b_from_a);
+        let cam_from_world = [
+            Some(world_from_b.inverse()),
+            world_from_c.map(|w| w.inverse()),
+        ];
+        let mut slots = Vec::with_capacity(by_marker.len());
+        let mut slot_of = vec![None; markers.len()];
+        for (&marker, by_cam) in by_marker {
+            let mut views = Vec::with_capacity(by_cam.len());
+            for (&cam, &obs) in by_cam {
+                let ci = usize::from(cam == Inward::C);
+                views.push(prep_view(cameras[ci], ci, obs, settings.pixel_sigma_px)?);
+            }
+            let n_views = views.len();
+            let mut nominal = None;
+            let mut degenerate = false;
+            let mut reprojection_px = None;
+            if n_views >= 2 {
+                let dlt_views: Vec<View> = views
+                    .iter()
+                    .map(|v| View {
+                        cam_from_world: cam_from_world[v.cam].expect("camera present"),
+                        normalized: v.n0,
+                    })
+                    .collect();
+                match triangulate::dlt(&dlt_views) {
+                    Ok(x) => {
+                        nominal = Some(x);
+                        let mut worst = 0.0_f64;
+                        for (&cam, &obs) in by_cam {
+                            let ci = usize::from(cam == Inward::C);
+                            let p = cam_from_world[ci].expect("camera present")
+                                * nalgebra::Point3::from(x);
+                            let res = match cameras[ci].img_from_cam(&p.coords) {
+                                Ok(px) => (px - obs.pixel).norm(),
+                                Err(_) => f64::INFINITY,
+                            };
+                            worst = worst.max(res);
+                        }
+                        reprojection_px = Some(worst);
+                    }
+                    Err(_) => degenerate = true,
+                }
+            }
+            slot_of[marker_idx[marker]] = Some(slots.len());
+            slots.push(Slot {
+                marker: marker_idx[marker],
+                n_views,
+                views,
+                nominal,
+                reprojection_px,
+                degenerate,
+            });
+        }
+        preps.push(EpochPrep {
+            r_wa: ep.world_from_a.rotation().into_inner(),
+            c_a: ep.world_from_a.center(),
+            l_a: ep.world_from_a.factor(),
+            slots,
+            slot_of,
+            time_s: measured[k].time_s,
+        });
+    }
+
+    let reprojection_limit_px = settings.max_reprojection_px.or_else(|| {
+        let all: Vec<f64> = preps
+            .iter()
+            .flat_map(|p| p.slots.iter().filter_map(|s| s.reprojection_px))
+            .collect();
+        robust_reprojection_limit(&all)
+    });
+    let accs = run_monte_carlo(&preps, &link, settings, reference_epoch);
+    let rows = assemble(
+        &preps,
+        &accs,
+        settings,
+        reference_epoch,
+        reprojection_limit_px,
+    );
+    Ok(Measurement {
+        epochs: measured,
+        markers,
+        rows,
+        reference_epoch,
+        skipped: skipped
+            .into_iter()
+            .map(|(epoch, observations)| SkippedEpoch {
+                epoch: epoch.to_string(),
+                observations,
+            })
+            .collect(),
+        samples: settings.samples,
+        reprojection_limit_px,
+    })
+}
+
+/// The Monte Carlo: per-(epoch, slot) accumulators.
+fn run_monte_carlo(
+    preps: &[EpochPrep],
+    link: &LinkPrep,
+    settings: &Settings,
+    reference: usize,
+) -> Vec<Vec<Acc>> {
+    let n_epochs = preps.len();
+    let with_velocity = settings.frame_rate_hz.is_some();
+    let mut runs: Vec<(usize, Vec<Vec<Acc>>, Vec<Vec<Vec3>>)> = (0..n_epochs)
+        .step_by(RUN)
+        .map(|s| {
+            let end = (s + RUN).min(n_epochs);
+            let accs = (s..end)
+                .map(|e| vec![Acc::default(); preps[e].slots.len()])
+                .collect();
+            (s, accs, Vec::new())
+        })
+        .collect();
+    let n_blocks = settings.samples.div_ceil(BLOCK);
+    let seed = settings.seed;
+    let mut ref_pos: Vec<Vec3> = Vec::new();
+    for b in 0..n_blocks {
+        let len = BLOCK.min(settings.samples - b * BLOCK);
+        let links = link_draws(link, seed, b, len);
+        epoch_positions(&preps[reference], reference, b, seed, &links, &mut ref_pos);
+        let ref_pos = &ref_pos;
+        let links = &links;
+        runs.par_iter_mut().for_each(|(start, accs, bufs)| {
+            let start = *start;
+            let end = start + accs.len();
+            let lo = if with_velocity {
+                start.saturating_sub(1)
+            } else {
+                start
+            };
+            let hi = if with_velocity {
+                (end + 1).min(n_epochs)
+            } else {
+                end
+            };
+            bufs.resize(hi - lo, Vec::new());
+            for e in lo..hi {
+                epoch_positions(&preps[e], e, b, seed, links, &mut bufs[e - lo]);
+            }
+            let pos = |e: usize, marker: usize, r: usize| -> Option<Vec3> {
+                let s = preps[e].slot_of[marker]?;
+                let x = bufs[e - lo][s * len + r];
+                finite(&x).then_some(x)
+            };
+            let ref_slot = |marker: usize| preps[reference].slot_of[marker];
+            for e in start..end {
+                for (s, slot) in preps[e].slots.iter().enumerate() {
+                    if !slot.drawable() {
+                        continue;
+                    }
+                    let acc = &mut accs[e - start][s];
+                    let m = slot.marker;
+                    let rs = ref_slot(m);
+                    let vpair = if with_velocity {
+                        velocity_pair(e, m, preps)
+                    } else {
+                        None
+                    };
+                    for r in 0..len {
+                        let Some(x) = pos(e, m, r) else { continue };
+                        acc.pos.push_vec(&x);
+                        if let Some(rs) = rs {
+                            let xr = ref_pos[rs * len + r];
+                            if finite(&xr) {
+                                acc.disp.push_vec(&(x - xr));
+                            }
+                        }
+                        if let Some((p, n)) = vpair
+                            && let (Some(xp), Some(xn)) = (pos(p, m, r), pos(n, m, r))
+                        {
+                            let dt =
+                                preps[n].time_s.unwrap_or(0.0) - preps[p].time_s.unwrap_or(0.0);
+                            acc.vel.push_vec(&((xn - xp) / dt));
+                        }
+                    }
+                }
+            }
+        });
+    }
+    runs.into_iter().flat_map(|(_, accs, _)| accs).collect()
+}
+
+fn sigma_of(m: &Moments<3>) -> Option<Vec3> {
+    (m.count() >= 2).then(|| m.std_dev())
+}
+
+fn assemble(
+    preps: &[EpochPrep],
+    accs: &[Vec<Acc>],
+    settings: &Settings,
+    reference: usize,
+    reprojection_limit_px: Option<f64>,
+) -> Vec<Row> {
+    let mut rows = Vec::new();
+    for (e, ep) in preps.iter().enumerate() {
+        for (s, slot) in ep.slots.iter().enumerate() {
+            let acc = &accs[e][s];
+            let m = slot.marker;
+            let nominal_of = |k: usize| preps[k].slot_of[m].and_then(|s| preps[k].slots[s].nominal);
+            let displacement_mm = match (slot.nominal, nominal_of(reference)) {
+                (Some(x), Some(xr)) => Some(x - xr),
+                _ => None,
+            };
+            let velocity_mm_s = if settings.frame_rate_hz.is_some() {
+                velocity_pair(e, m, preps).and_then(|(p, n)| {
+                    let dt = preps[n].time_s? - preps[p].time_s?;
+                    Some((nominal_of(n)? - nominal_of(p)?) / dt)
+                })
+            } else {
+                None
+            };
+            let sigma_mm = if slot.drawable() {
+                sigma_of(&acc.pos)
+            } else {
+                None
+            };
+            let flags = Flags {
+                fewer_than_two_views: slot.n_views < 2,
+                degenerate: slot.degenerate,
+                sigma_above_threshold: sigma_mm.is_some_and(|s| s.max() > settings.threshold_mm),
+                reprojection_outlier: match (slot.reprojection_px, reprojection_limit_px) {
+                    (Some(r), Some(l)) => r > l,
+                    (Some(r), None) => !r.is_finite(),
+                    _ => false,
+                },
+            };
+            rows.push(Row {
+                epoch: e,
+                marker: m,
+                n_views: slot.n_views,
+                position_mm: slot.nominal,
+                sigma_mm,
+                covariance_mm2: sigma_mm.map(|_| acc.pos.covariance()),
+                displacement_mm,
+                displacement_sigma_mm: displacement_mm.and_then(|_| {
+                    if e == reference {
+                        Some(Vec3::zeros())
+                    } else {
+                        sigma_of(&acc.disp)
+                    }
+                }),
+                velocity_mm_s,
+                velocity_sigma_mm_s: velocity_mm_s.and_then(|_| sigma_of(&acc.vel)),
+                reprojection_px: slot.reprojection_px,
+                draws: acc.pos.count(),
+                flags,
+            });
+        }
+    }
+    rows
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crashrig_geometry::{Rigid3, quat};
+
+    #[test]
+    fn intersect_matches_geometry_dlt() {
+        // Three cameras around a point, observations slightly off (residuals ≠ 0): the lean
+        // solver of the draws must give the geometry crate's DLT solution.
+        let cams: Vec<Rigid3> = [(0.1, -0.2, 0.05), (-0.3, 0.4, 0.2), (0.2, 0.1, -0.3)]
+            .iter()
+            .enumerate()
+            .map(|(i, &(a, b, c))| {
+                let r = so3::exp(&Vector3::new(a, b, c));
+                let centre = Vec3::new(300.0 * i as f64, -100.0, -2000.0 + 50.0 * i as f64);
+                quat::rigid_from_rotation(&r, &centre) // world_from_cam
+            })
+            .collect();
+        let x = Vec3::new(120.0, 40.0, 500.0);
+        let noise = [(1e-3, -2e-3), (-5e-4, 1e-3), (2e-3, 4e-4)];
+        let views: Vec<View> = cams
+            .iter()
+            .zip(noise)
+            .map(|(w, (du, dv))| {
+                let p = w.inverse() * nalgebra::Point3::from(x);
+                View {
+                    cam_from_world: w.inverse(),
+                    normalized: Vector2::new(p.x / p.z + du, p.y / p.z + dv),
+                }
+            })
+            .collect();
+        let expected = triangulate::dlt(&views).unwrap();
+        let mats: Vec<(Mat3, Vec3)> = cams
+            .iter()
+            .map(|w| {
+                (
+                    w.rotation.to_rotation_matrix().into_inner(),
+                    w.translation.vector,
+                )
+            })
+            .collect();
+        let got = intersect(
+            mats.iter()
+                .zip(&views)
+                .map(|((r, c), v)| (r, c, v.normalized)),
+        )
+        .unwrap();
+        assert!(
+            (got - expected).norm() < 1e-9 * expected.norm(),
+            "{got} vs {expected}"
+        );
+        assert!((got - x).norm() > 1e-3, "the noise must move the solution");
+    }
+
+    #[test]
+    fn robust_limit_known_answer() {
+        // median 3, |dev| = 2 1 0 1 2 → MAD 1: limit 3 + 5·1.4826.
+        let l = robust_reprojection_limit(&[1.0, 2.0, 3.0, 4.0, 5.0]).unwrap();
+        assert!((l - (3.0 + 5.0 * 1.4826)).abs() < 1e-12);
+        assert_eq!(robust_reprojection_limit(&[1.0, f64::INFINITY]), None);
+    }
+}

@@ -1,0 +1,66 @@
+//! The single error type of `crashrig-measure`.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong while reading the inputs of a measurement or running it.
+///
+/// Every variant that comes from a file names the file (and the line for CSV, the key for
+/// JSON), so the CLI prints it as one `error:` line without adding context.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A file could not be read.
+    #[error("{}: cannot read: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The operating-system error.
+        source: std::io::Error,
+    },
+    /// A bad line (or header, line 1) of a CSV file.
+    #[error("{}:{line}: {problem}", path.display())]
+    Csv {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: u64,
+        /// What is wrong.
+        problem: String,
+    },
+    /// A bad or missing key in a JSON file.
+    #[error("{}: {key}: {problem}", path.display())]
+    Json {
+        /// The file.
+        path: PathBuf,
+        /// The key (`$` for the document itself).
+        key: String,
+        /// What is wrong.
+        problem: String,
+    },
+    /// A camera selector that does not name a usable camera of the model.
+    #[error("{}: camera {role} ({selector}): {problem}", model.display())]
+    Camera {
+        /// The model directory.
+        model: PathBuf,
+        /// `A`, `B` or `C`.
+        role: char,
+        /// The selector as given (prefix or camera id).
+        selector: String,
+        /// What is wrong.
+        problem: String,
+    },
+    /// The model and the observations have no epoch in common, or similar whole-input problems.
+    #[error("{0}")]
+    Input(String),
+    /// A setting out of its range (e.g. zero samples, a negative σ).
+    #[error("invalid setting {name}: {problem}")]
+    Setting {
+        /// The setting (as the CLI spells it).
+        name: &'static str,
+        /// What is wrong.
+        problem: String,
+    },
+    /// The COLMAP model could not be read.
+    #[error(transparent)]
+    Colmap(#[from] crashrig_colmap::Error),
+}

@@ -1,0 +1,392 @@
+//! Input files: marker observations (CSV), link results (`calibrate`/`bootstrap` JSON) and the
+//! outward camera's pose covariance (JSON).
+
+use crate::Error;
+use crashrig_geometry::{Mat6, Rigid3, UncertainPose, Vec3, opk, quat};
+use nalgebra::Vector2;
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+
+/// Which inward camera took an observation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Inward {
+    /// Camera B, linked to the outward camera A by the calibrated link `A_from_B`.
+    B,
+    /// Camera C, tied to B by `B_from_C`.
+    C,
+}
+
+impl Inward {
+    /// `'B'` or `'C'`.
+    pub fn letter(self) -> char {
+        match self {
+            Inward::B => 'B',
+            Inward::C => 'C',
+        }
+    }
+}
+
+/// One marker observation: a line of the observations CSV.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Observation {
+    /// The epoch as written (an image name after the camera-A prefix, with or without its
+    /// extension).
+    pub epoch: String,
+    /// The camera that saw the marker.
+    pub camera: Inward,
+    /// The marker's name.
+    pub marker: String,
+    /// Pixel position, COLMAP convention (centre of the upper-left pixel at (0.5, 0.5)).
+    pub pixel: Vector2<f64>,
+    /// 1-based line in the file (for messages).
+    pub line: u64,
+}
+
+/// How the `camera` column names the inward cameras: the letters `B`/`C` always, and the
+/// COLMAP camera ids of B and C when they are known.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CameraNames {
+    /// COLMAP camera id of B (accepted in the `camera` column besides `B`).
+    pub b_id: Option<u32>,
+    /// COLMAP camera id of C; `None` with `has_c == true` accepts only the letter.
+    pub c_id: Option<u32>,
+    /// Whether a camera C is configured at all (else `C` is an unknown camera).
+    pub has_c: bool,
+}
+
+impl CameraNames {
+    fn parse(&self, text: &str) -> Option<Inward> {
+        match text {
+            "B" | "b" => return Some(Inward::B),
+            "C" | "c" if self.has_c => return Some(Inward::C),
+            _ => {}
+        }
+        let id: u32 = text.parse().ok()?;
+        if self.b_id == Some(id) {
+            Some(Inward::B)
+        } else if self.has_c && self.c_id == Some(id) {
+            Some(Inward::C)
+        } else {
+            None
+        }
+    }
+
+    fn expected(&self) -> String {
+        let mut v = vec!["B".to_string()];
+        if let Some(id) = self.b_id {
+            v.push(id.to_string());
+        }
+        if self.has_c {
+            v.push("C".into());
+            if let Some(id) = self.c_id {
+                v.push(id.to_string());
+            }
+        }
+        v.join(", ")
+    }
+}
+
+/// The columns of the observations CSV, in any order.
+pub const OBSERVATION_COLUMNS: [&str; 5] = ["epoch", "camera", "marker", "u_px", "v_px"];
+
+/// Reads the observations CSV (`epoch,camera,marker,u_px,v_px`; see `docs/MEASURE.md`).
+///
+/// The header must hold exactly the five columns (any order); the `camera` column holds `B`,
+/// `C` or the COLMAP camera id of B or C ([`CameraNames`]); pixels must be finite; an
+/// `(epoch, camera, marker)` may appear once.
+///
+/// # Errors
+/// [`Error::Io`], and [`Error::Csv`] naming the line for every problem above (an empty file is
+/// line 1).
+pub fn read_observations(path: &Path, names: &CameraNames) -> Result<Vec<Observation>, Error> {
+    let bytes = std::fs::read(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let bad = |line: u64, problem: String| Error::Csv {
+        path: path.to_path_buf(),
+        line,
+        problem,
+    };
+    let mut reader = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .flexible(false)
+        .from_reader(bytes.as_slice());
+    let headers = reader
+        .headers()
+        .map_err(|e| bad(1, format!("cannot read the header: {e}")))?
+        .clone();
+    let mut index = [usize::MAX; 5];
+    for (i, h) in headers.iter().enumerate() {
+        match OBSERVATION_COLUMNS.iter().position(|c| *c == h) {
+            Some(k) if index[k] == usize::MAX => index[k] = i,
+            Some(_) => return Err(bad(1, format!("column `{h}` appears twice"))),
+            None => {
+                return Err(bad(
+                    1,
+                    format!(
+                        "unknown column `{h}` (the columns are {})",
+                        OBSERVATION_COLUMNS.join(",")
+                    ),
+                ));
+            }
+        }
+    }
+    if let Some(k) = index.iter().position(|&i| i == usize::MAX) {
+        return Err(bad(
+            1,
+            format!(
+                "missing column `{}` (the columns are {})",
+                OBSERVATION_COLUMNS[k],
+                OBSERVATION_COLUMNS.join(",")
+            ),
+        ));
+    }
+    let mut out = Vec::new();
+    let mut seen: HashMap<(String, Inward, String), u64> = HashMap::new();
+    for record in reader.records() {
+        let record = record.map_err(|e| {
+            let line = e.position().map_or(0, |p| p.line());
+            bad(line, format!("malformed CSV: {e}"))
+        })?;
+        let line = record.position().map_or(0, |p| p.line());
+        let field = |k: usize| record.get(index[k]).unwrap_or("");
+        let epoch = field(0);
+        if epoch.is_empty() {
+            return Err(bad(line, "empty epoch".into()));
+        }
+        let camera = names.parse(field(1)).ok_or_else(|| {
+            bad(
+                line,
+                format!(
+                    "unknown camera `{}` (expected one of {})",
+                    field(1),
+                    names.expected()
+                ),
+            )
+        })?;
+        let marker = field(2);
+        if marker.is_empty() {
+            return Err(bad(line, "empty marker name".into()));
+        }
+        let mut px = [0.0; 2];
+        for (j, k) in [3, 4].into_iter().enumerate() {
+            let text = field(k);
+            let v: f64 = text.parse().map_err(|_| {
+                bad(
+                    line,
+                    format!("{} `{text}` is not a number", OBSERVATION_COLUMNS[k]),
+                )
+            })?;
+            if !v.is_finite() {
+                return Err(bad(
+                    line,
+                    format!(
+                        "{} is {text}: pixels must be finite",
+                        OBSERVATION_COLUMNS[k]
+                    ),
+                ));
+            }
+            px[j] = v;
+        }
+        let key = (epoch.to_string(), camera, marker.to_string());
+        if let Some(first) = seen.insert(key, line) {
+            return Err(bad(
+                line,
+                format!(
+                    "marker `{marker}` seen by camera {} in epoch `{epoch}` again (first on line {first})",
+                    camera.letter()
+                ),
+            ));
+        }
+        out.push(Observation {
+            epoch: epoch.to_string(),
+            camera,
+            marker: marker.to_string(),
+            pixel: Vector2::new(px[0], px[1]),
+            line,
+        });
+    }
+    if out.is_empty() {
+        return Err(bad(1, "no observations".into()));
+    }
+    Ok(out)
+}
+
+fn read_json(path: &Path) -> Result<serde_json::Value, Error> {
+    let bytes = std::fs::read(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    serde_json::from_slice(&bytes).map_err(|e| Error::Json {
+        path: path.to_path_buf(),
+        key: "$".into(),
+        problem: format!("not valid JSON: {e}"),
+    })
+}
+
+fn json_err(path: &Path, key: &str, problem: impl Into<String>) -> Error {
+    Error::Json {
+        path: path.to_path_buf(),
+        key: key.to_string(),
+        problem: problem.into(),
+    }
+}
+
+fn vec3_key(path: &Path, doc: &serde_json::Value, key: &str) -> Result<Vec3, Error> {
+    let v = doc.get(key).ok_or_else(|| json_err(path, key, "missing"))?;
+    let a = v
+        .as_array()
+        .filter(|a| a.len() == 3)
+        .ok_or_else(|| json_err(path, key, "must be an array of 3 numbers"))?;
+    let mut out = Vec3::zeros();
+    for (i, x) in a.iter().enumerate() {
+        out[i] = x
+            .as_f64()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| json_err(path, key, "must be an array of 3 finite numbers"))?;
+    }
+    Ok(out)
+}
+
+/// Parses a 6×6 matrix (6 rows of 6 numbers) at `key`.
+fn mat6_value(path: &Path, key: &str, v: &serde_json::Value) -> Result<Mat6, Error> {
+    let msg = "must be 6 rows of 6 finite numbers";
+    let rows = v
+        .as_array()
+        .filter(|r| r.len() == 6)
+        .ok_or_else(|| json_err(path, key, msg))?;
+    let mut m = Mat6::zeros();
+    for (i, row) in rows.iter().enumerate() {
+        let row = row
+            .as_array()
+            .filter(|r| r.len() == 6)
+            .ok_or_else(|| json_err(path, key, msg))?;
+        for (j, x) in row.iter().enumerate() {
+            m[(i, j)] = x
+                .as_f64()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| json_err(path, key, msg))?;
+        }
+    }
+    Ok(m)
+}
+
+/// A covariance in the contract's units (mm, deg) → the library's (mm, rad), checked.
+fn uncertain(
+    path: &Path,
+    key: &str,
+    nominal: Rigid3,
+    cov_deg: Mat6,
+) -> Result<UncertainPose, Error> {
+    UncertainPose::from_covariance_deg(nominal, cov_deg)
+        .map_err(|p| json_err(path, key, p.to_string()))
+}
+
+/// Reads a link `parent_from_child` with its covariance from a `calibrate --json` or
+/// `bootstrap --json` result.
+///
+/// - `base_mm`: the child's projection centre in the parent's axes (mm);
+/// - `angles_deg`: ω φ κ of `R_parent_from_child` (degrees);
+/// - the covariance (contract tangent units, mm and degrees): `sem_covariance_tangent` (a
+///   `calibrate` result: the uncertainty of the mean link, what a crash test uses), else
+///   `covariance_tangent` (a `bootstrap` result). A `calibrate` result (it has `n_epochs`)
+///   without `sem_covariance_tangent` is refused: its `covariance_tangent` is the spread of
+///   one epoch's link, not the uncertainty of the mean.
+///
+/// This is the crate's one private reader of link files; it will be replaced by the shared
+/// reader (`crashrig_mc::reference::link_from_result_json`) once that lands.
+///
+/// # Errors
+/// [`Error::Io`], [`Error::Json`] naming the key that is missing or invalid (a covariance that
+/// is not symmetric positive semi-definite included).
+pub fn load_link(path: &Path) -> Result<UncertainPose, Error> {
+    let doc = read_json(path)?;
+    let base = vec3_key(path, &doc, "base_mm")?;
+    let angles = vec3_key(path, &doc, "angles_deg")?;
+    let r = opk::rotation_from_opk(
+        angles.x.to_radians(),
+        angles.y.to_radians(),
+        angles.z.to_radians(),
+    );
+    let nominal = quat::rigid_from_rotation(&r, &base);
+    let (key, value) = if let Some(v) = doc.get("sem_covariance_tangent") {
+        ("sem_covariance_tangent", v)
+    } else if doc.get("n_epochs").is_some() {
+        return Err(json_err(
+            path,
+            "sem_covariance_tangent",
+            "missing: a calibrate result must give the uncertainty of its mean link",
+        ));
+    } else if let Some(v) = doc.get("covariance_tangent") {
+        ("covariance_tangent", v)
+    } else {
+        return Err(json_err(
+            path,
+            "covariance_tangent",
+            "missing (neither sem_covariance_tangent nor covariance_tangent is given)",
+        ));
+    };
+    let cov = mat6_value(path, key, value)?;
+    uncertain(path, key, nominal, cov)
+}
+
+/// The outward camera's pose covariance from a JSON file: a default for every epoch and
+/// per-epoch overrides (contract tangent units: mm and degrees; centre in world axes,
+/// rotation about A's own axes).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ACovariance {
+    /// `covariance_tangent`: used for every epoch without its own entry.
+    pub default_deg: Option<Mat6>,
+    /// `epochs`: epoch name → its covariance.
+    pub per_epoch_deg: BTreeMap<String, Mat6>,
+    /// The file (for messages).
+    pub path: PathBuf,
+}
+
+impl ACovariance {
+    /// The covariance (contract units) of an epoch known by `names` (any spelling), if any.
+    pub fn for_epoch(&self, names: &[&str]) -> Option<Mat6> {
+        names
+            .iter()
+            .find_map(|n| self.per_epoch_deg.get(*n).copied())
+            .or(self.default_deg)
+    }
+}
+
+/// Reads `{"covariance_tangent": 6×6, "epochs": {"NAME": 6×6, …}}` (either key may be absent,
+/// not both). Each matrix must be symmetric positive semi-definite.
+///
+/// # Errors
+/// [`Error::Io`], [`Error::Json`] naming the key.
+pub fn read_a_covariance(path: &Path) -> Result<ACovariance, Error> {
+    let doc = read_json(path)?;
+    let mut out = ACovariance {
+        path: path.to_path_buf(),
+        ..Default::default()
+    };
+    if let Some(v) = doc.get("covariance_tangent") {
+        let m = mat6_value(path, "covariance_tangent", v)?;
+        uncertain(path, "covariance_tangent", Rigid3::identity(), m)?;
+        out.default_deg = Some(m);
+    }
+    if let Some(v) = doc.get("epochs") {
+        let obj = v
+            .as_object()
+            .ok_or_else(|| json_err(path, "epochs", "must be an object: epoch name → 6×6"))?;
+        for (name, m) in obj {
+            let key = format!("epochs.{name}");
+            let m = mat6_value(path, &key, m)?;
+            uncertain(path, &key, Rigid3::identity(), m)?;
+            out.per_epoch_deg.insert(name.clone(), m);
+        }
+    }
+    if out.default_deg.is_none() && out.per_epoch_deg.is_empty() {
+        return Err(json_err(
+            path,
+            "covariance_tangent",
+            "missing (give covariance_tangent and/or epochs)",
+        ));
+    }
+    Ok(out)
+}
