@@ -14,6 +14,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
     ("crashrig-stats", &[]),
     ("crashrig-plot", &[]),
     ("crashrig-camera", &[]),
+    ("crashrig-outdir", &[]),
     ("crashrig-colmap", &["crashrig-geometry", "crashrig-camera"]),
     (
         "crashrig-rig",
@@ -38,6 +39,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-bootstrap",
             "crashrig-mc",
             "crashrig-plot",
+            "crashrig-outdir",
         ],
     ),
     (
