@@ -95,12 +95,32 @@ fn spread(v: &[f64]) -> Spread {
     }
 }
 
-/// Output files are collected in memory and written together at the end (all or none), so a
-/// failure never leaves a `grid.csv` without its `summary.json`.
-type Pending = Vec<(String, Vec<u8>)>;
+/// Whether a top-level entry of an existing `--out` is something `grid` writes (so an old
+/// result may be replaced as a whole): its CSV, JSON and heat-map files, and the `.tmp*` files
+/// an interrupted older version could leave.
+pub(crate) fn replaceable(name: &str) -> bool {
+    [".csv", ".json", ".png", ".svg"]
+        .iter()
+        .any(|ext| name.ends_with(ext))
+        || name.starts_with(".tmp")
+}
+
+/// The files written so far (names, in order) and the staging directory they go to; the whole
+/// directory replaces `--out` at the end, so a failed or interrupted run leaves the old result.
+struct Pending {
+    staged: crashrig_outdir::Staged,
+    names: Vec<String>,
+}
+
+impl Pending {
+    fn len(&self) -> usize {
+        self.names.len()
+    }
+}
 
 fn write(_dir: &Path, name: &str, bytes: &[u8], files: &mut Pending) -> anyhow::Result<()> {
-    files.push((name.to_string(), bytes.to_vec()));
+    files.staged.write(name, bytes)?;
+    files.names.push(name.to_string());
     Ok(())
 }
 
@@ -258,8 +278,11 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
         |e: crashrig_mc::Error| anyhow::Error::new(e).context(a.scenario.display().to_string());
     let study = GridStudy::new(&scenario, samples, seed).map_err(ctx)?;
     let grid = study.grid().clone();
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("{}: cannot create the output directory", a.out.display()))?;
+    // Fails before any work when --out holds files `grid` does not write.
+    let mut files = Pending {
+        staged: crashrig_outdir::Staged::new(&a.out, replaceable)?,
+        names: Vec::new(),
+    };
 
     let start = std::time::Instant::now();
     let result = match &grid.adaptive {
@@ -299,7 +322,6 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
         None
     };
 
-    let mut files = Pending::new();
     write(&a.out, "grid.csv", &main_csv(&result)?, &mut files)?;
     write(&a.out, "grid_detail.csv", &detail_csv(&result)?, &mut files)?;
 
@@ -433,15 +455,17 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
         }),
         correlation,
         files: files
+            .names
             .iter()
-            .map(|(name, _)| name.clone())
+            .cloned()
             .chain(std::iter::once("summary.json".to_string()))
             .collect(),
     };
     let json = serde_json::to_vec_pretty(&summary).context("formatting summary.json")?;
     write(&a.out, "summary.json", &json, &mut files)?;
-    crate::output::write_all_or_none(&a.out, &files)?;
-    Ok((summary, files.len()))
+    let n = files.len();
+    files.staged.commit()?;
+    Ok((summary, n))
 }
 
 #[cfg(test)]
