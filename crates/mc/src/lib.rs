@@ -79,9 +79,11 @@
 
 mod accumulate;
 mod chain;
+pub mod degenerate;
 mod error;
 mod grid;
 mod kernel;
+pub mod limits;
 mod normal;
 mod scenario;
 

@@ -30,6 +30,11 @@ pub fn load_scenario(path: &Path) -> anyhow::Result<Scenario> {
 pub fn resolve_samples(option: Option<usize>, scenario: &Scenario) -> anyhow::Result<usize> {
     let n = option.unwrap_or(scenario.samples);
     anyhow::ensure!(n >= 2, "--samples must be at least 2, got {n}");
+    let max = crashrig_mc::limits::MAX_SAMPLES;
+    anyhow::ensure!(
+        n <= max,
+        "--samples {n} exceeds the limit of {max} (docs/LIMITS.md)"
+    );
     Ok(n)
 }
 
@@ -95,7 +100,7 @@ fn compute_typed(a: &PropagateArgs, seed: Option<u64>) -> anyhow::Result<Propaga
     let chain = Chain::new(&scenario);
     chain
         .check_gimbal()
-        .map_err(|e| anyhow::Error::new(e).context(a.scenario.display().to_string()))?;
+        .map_err(|e| anyhow::Error::new(crashrig_mc::limits::locate(e, &a.scenario)))?;
     let start = std::time::Instant::now();
     let mc = chain.monte_carlo(samples, seed);
     let elapsed_s = start.elapsed().as_secs_f64();
