@@ -4,6 +4,21 @@ use anyhow::Context;
 use std::io::Write;
 use std::path::Path;
 
+/// `text` with every control character (ESC, BEL, CR, …; also DEL and the C1 range) written as
+/// `\u{XX}`, so input echoed in a message cannot drive the terminal. Newlines are escaped too:
+/// an error stays one line.
+pub fn escape_controls(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        if c.is_control() {
+            out.push_str(&format!("\\u{{{:x}}}", c as u32));
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
 /// Prints `value` as one pretty JSON document on stdout.
 pub fn print_json<T: serde::Serialize>(value: &T) -> anyhow::Result<()> {
     let stdout = std::io::stdout();
@@ -76,6 +91,16 @@ pub fn write_all_or_none(dir: &Path, files: &[(String, Vec<u8>)]) -> anyhow::Res
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn escape_controls_leaves_text_and_escapes_bytes() {
+        assert_eq!(escape_controls("s.toml:3: `σ` ok"), "s.toml:3: `σ` ok");
+        assert_eq!(
+            escape_controls("name \u{1b}[31mred\u{7}\r\n"),
+            "name \\u{1b}[31mred\\u{7}\\u{d}\\u{a}"
+        );
+        assert_eq!(escape_controls("\u{9b}\u{7f}"), "\\u{9b}\\u{7f}");
+    }
 
     #[test]
     fn write_all_or_none_nominal() {
