@@ -337,7 +337,7 @@ pub fn scenarios() -> Vec<Case> {
             "deep nesting",
             "s.toml",
             text.as_bytes(),
-            |_| err(&["s.toml:40:"]),
+            |_| err(&["s.toml:37:"]),
         ));
     }
     // Degenerate geometry: every point degenerate is an error (grid); gimbal lock (propagate).
