@@ -275,7 +275,9 @@ impl Staged {
     /// Starts writing the output directory `out`.
     ///
     /// `replaceable(name)` says whether a top-level entry `name` of an existing `out` is
-    /// something this command writes (so the old result may be replaced as a whole). An empty
+    /// something this command writes (so the old result may be replaced as a whole); a
+    /// directory is passed with a trailing `/` (`"grid/"`), so a directory where the command
+    /// writes a file is foreign. An empty
     /// or absent `out` is always fine; an entry that fails the test is an [`Error::NotOurs`],
     /// reported before anything is written. The parent directory is created if needed.
     pub fn new(out: &Path, replaceable: impl Fn(&str) -> bool) -> Result<Staged> {
@@ -297,8 +299,12 @@ impl Staged {
                 let entries = std::fs::read_dir(out).map_err(io(out, "cannot list"))?;
                 let mut names: Vec<String> = entries
                     .map(|e| {
-                        e.map(|e| e.file_name().to_string_lossy().into_owned())
-                            .map_err(io(out, "cannot list"))
+                        e.map(|e| {
+                            let name = e.file_name().to_string_lossy().into_owned();
+                            let dir = e.file_type().is_ok_and(|t| t.is_dir());
+                            if dir { format!("{name}/") } else { name }
+                        })
+                        .map_err(io(out, "cannot list"))
                     })
                     .collect::<Result<_>>()?;
                 names.sort();
@@ -497,7 +503,11 @@ mod tests {
         std::fs::create_dir(&out).unwrap();
         std::fs::write(out.join("old_z07.png"), b"stale").unwrap();
         std::fs::write(out.join("summary.json"), b"old").unwrap();
-        let mut s = Staged::new(&out, |n| n.ends_with(".png") || n.ends_with(".json")).unwrap();
+        std::fs::create_dir(out.join("maps")).unwrap();
+        let mut s = Staged::new(&out, |n| {
+            n.ends_with(".png") || n.ends_with(".json") || n == "maps/"
+        })
+        .unwrap();
         s.write("summary.json", b"new").unwrap();
         s.commit().unwrap();
         assert_eq!(listing(&out), ["summary.json"]);
