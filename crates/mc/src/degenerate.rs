@@ -55,7 +55,8 @@ pub fn intersection_angle_deg(centres: &[Vector3<f64>], point: &Vector3<f64>) ->
 
 /// Whether a point seen under `angle_deg` is degenerate (below [`MIN_INTERSECTION_ANGLE_DEG`]).
 pub fn is_degenerate(angle_deg: f64) -> bool {
-    !(angle_deg >= MIN_INTERSECTION_ANGLE_DEG)
+    // NaN (no angle at all) is degenerate too.
+    angle_deg.is_nan() || angle_deg < MIN_INTERSECTION_ANGLE_DEG
 }
 
 /// The intersection angle of every grid point (in [`Grid::points`] order) from the observers'

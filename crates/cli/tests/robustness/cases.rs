@@ -28,6 +28,9 @@ fn files_of(rel: &str) -> Vec<(String, Vec<u8>)> {
     v
 }
 
+/// Files of a case: (relative path, bytes).
+type Files = Vec<(String, Vec<u8>)>;
+
 /// SplitMix64: a tiny seeded generator for bit flips (no dependency needed).
 struct Mix(u64);
 impl Mix {
@@ -442,7 +445,7 @@ pub fn models() -> Vec<Case> {
         let model_files: Vec<usize> = (0..files.len())
             .filter(|&i| files[i].0.ends_with(".bin") || files[i].0.ends_with(".txt"))
             .collect();
-        let mut variants: Vec<(&'static str, Vec<(String, Vec<u8>)>)> = Vec::new();
+        let mut variants: Vec<(&'static str, Files)> = Vec::new();
         for &i in &model_files {
             let len = files[i].1.len();
             for num in [0usize, 1, 2, 3, 5, 7, 9, 11, 13, 15] {
