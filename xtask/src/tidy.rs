@@ -14,6 +14,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
     ("crashrig-stats", &[]),
     ("crashrig-plot", &[]),
     ("crashrig-camera", &[]),
+    ("crashrig-outdir", &[]),
     ("crashrig-colmap", &["crashrig-geometry", "crashrig-camera"]),
     ("crashrig-rig", &["crashrig-geometry", "crashrig-stats"]),
     (
@@ -60,6 +61,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-plot",
             "crashrig-study",
             "crashrig-measure",
+            "crashrig-outdir",
         ],
     ),
     (
