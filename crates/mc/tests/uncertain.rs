@@ -351,3 +351,35 @@ sigma_angles_deg = [0.01, 0.01, 0.01]
     // It is the full matrix, not its diagonal.
     assert!(got[(0, 3)].abs() > 0.1 * (got[(0, 0)] * got[(3, 3)]).sqrt());
 }
+
+#[test]
+fn diagonal_covariance_tangent_is_the_sigma_keys() {
+    // `covariance_tangent = diag(σ²)` (mm², deg²) and the σ keys with tangent noise are the
+    // same noise: same factor up to rounding (σ → σ² → √ and deg → rad in another order), so
+    // the same draws give the same σ to ~1e-13 relative.
+    let sigma = r#"sigma_position_mm = [0.5, 0.7, 0.9]
+sigma_angles_deg = [0.01, 0.02, 0.03]"#;
+    let cov = r#"covariance_tangent = [
+  [0.25, 0, 0, 0, 0, 0],
+  [0, 0.49, 0, 0, 0, 0],
+  [0, 0, 0.81, 0, 0, 0],
+  [0, 0, 0, 1e-4, 0, 0],
+  [0, 0, 0, 0, 4e-4, 0],
+  [0, 0, 0, 0, 0, 9e-4],
+]"#;
+    let text = |noise: &str| {
+        format!(
+            "[[camera]]\nname = \"a\"\nposition_mm = [1.0, 2.0, 3.0]\nangles_deg = [10.0, 20.0, 30.0]\n{noise}\n[[camera]]\nname = \"b\"\nparent = \"a\"\nposition_mm = [100.0, 0.0, 500.0]\nangles_deg = [0.0, 90.0, 0.0]\n{noise}\n"
+        )
+    };
+    let a = Scenario::from_toml_str(&text(sigma), Path::new("a.toml")).unwrap();
+    let b = Scenario::from_toml_str(&text(cov), Path::new("b.toml")).unwrap();
+    let (ma, mb) = (
+        Chain::new(&a).monte_carlo(5000, 1),
+        Chain::new(&b).monte_carlo(5000, 1),
+    );
+    for (x, y) in ma.iter().zip(&mb) {
+        let d = (x.covariance_tangent - y.covariance_tangent).amax();
+        assert!(d <= 1e-12 * x.covariance_tangent.amax(), "{d}");
+    }
+}
