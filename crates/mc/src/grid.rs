@@ -29,7 +29,8 @@ pub struct PointStats {
     pub sigma_mm: Vector3<f64>,
     /// max(σx, σy, σz) (mm).
     pub sigma_max_mm: f64,
-    /// First-order covariance (mm²) of the same inputs, treating observers as independent.
+    /// First-order covariance (mm²) of the same inputs (observers drawn jointly from the chain
+    /// through the chain's Jacobians, the others independent).
     pub linear_covariance: Matrix3<f64>,
 }
 
@@ -127,6 +128,8 @@ pub(crate) struct Ctx {
     pixel: Option<f64>,
     /// The chain, when at least one observer is drawn jointly from it.
     chain: Option<Chain>,
+    /// [`Chain::jacobians`] of that chain (for the first-order map of correlated observers).
+    chain_jacobians: Vec<DMatrix<f64>>,
 }
 
 /// Prepared grid study: observers resolved, ready to run.
@@ -179,7 +182,12 @@ fn aim(
                 opk: Vector3::new(a.omega, a.phi, a.kappa),
                 sp: sigma.position_mm,
                 sr: sigma.angles_rad,
-                noise: s.noise,
+                // A chain draw is always a tangent (body-axis) rotation error.
+                noise: if source.is_some() {
+                    RotationNoise::Tangent
+                } else {
+                    s.noise
+                },
                 factor: (!diagonal).then(|| psd_factor(&s.covariance)),
                 covariance,
                 source,
@@ -408,6 +416,11 @@ impl GridStudy {
         let study = GridStudy {
             ctx: Ctx {
                 pixel: grid.pixel.map(|p| p.sigma_normalized()),
+                chain_jacobians: if correlated {
+                    chain.jacobians()
+                } else {
+                    Vec::new()
+                },
                 chain: correlated.then_some(chain),
             },
             grid,
@@ -472,6 +485,7 @@ impl GridStudy {
         let mut s = self.clone();
         s.correlated = false;
         s.ctx.chain = None;
+        s.ctx.chain_jacobians = Vec::new();
         s
     }
 
@@ -770,19 +784,37 @@ pub(crate) fn intersection_jacobian(obs: &[Aimed], point: &Vector3<f64>) -> DMat
     j
 }
 
-/// First-order covariance of the intersection (observers independent, each with its full
-/// covariance in its own frame).
+/// First-order covariance of the intersection: each independent observer with its full
+/// covariance in its own frame; observers drawn jointly from the chain (correlated mode)
+/// through the chain's Jacobians, so their shared errors stay correlated:
+/// `Σ = Σⱼ Jⱼ Σⱼ Jⱼᵀ + G Gᵀ` with `G = Σ_corr Jⱼ·diag(I, Lⱼᵀ R̄ⱼ)·J_chain(cⱼ)` (inputs: the
+/// chain's standard normals).
 pub(crate) fn linear_covariance(obs: &[Aimed], ctx: &Ctx, point: &Vector3<f64>) -> Matrix3<f64> {
     let j = intersection_jacobian(obs, point);
     let sn = ctx.pixel.unwrap_or(0.0);
     let mut inputs = DMatrix::zeros(j.ncols(), j.ncols());
+    let mut shared: Option<DMatrix<f64>> = None;
     for (k, o) in obs.iter().enumerate() {
         let b = INPUTS_PER_OBSERVER * k;
-        inputs.view_mut((b, b), (6, 6)).copy_from(&o.covariance);
+        match o.source.and_then(|c| ctx.chain_jacobians.get(c)) {
+            Some(jc) => {
+                let mut t = DMatrix::<f64>::identity(6, 6);
+                t.view_mut((3, 3), (3, 3)).copy_from(&o.chain_to_own);
+                let g = j.columns(b, 6) * t * jc;
+                shared = Some(match shared {
+                    Some(s) => s + g,
+                    None => g,
+                });
+            }
+            None => inputs.view_mut((b, b), (6, 6)).copy_from(&o.covariance),
+        }
         inputs[(b + 6, b + 6)] = sn * sn;
         inputs[(b + 7, b + 7)] = sn * sn;
     }
-    let c = &j * inputs * j.transpose();
+    let mut c = &j * inputs * j.transpose();
+    if let Some(g) = shared {
+        c += &g * g.transpose();
+    }
     Matrix3::from_fn(|r, cc| c[(r, cc)])
 }
 

@@ -177,6 +177,49 @@ fn correlated_rig_yaw_moves_the_point_by_its_lever_arm() {
     let second = 1500.0 * sigma * sigma / 2f64.sqrt();
     assert!(p.sigma_mm.x < 2.0 * second, "{:?}", p.sigma_mm);
     assert!(p.sigma_mm.z < 1e-9, "{:?}", p.sigma_mm);
+    // The first-order map carries the joint draw through the chain's Jacobians: exactly
+    // 1500·σ across, nothing else (rounding only).
+    let l = p.linear_sigma_mm();
+    assert!((l.y / expect - 1.0).abs() < 1e-9, "{l:?}");
+    assert!(l.x < 1e-9 * expect && l.z < 1e-9 * expect, "{l:?}");
+}
+
+#[test]
+fn correlated_fixture_monte_carlo_matches_first_order() {
+    // The bundled correlated scenario (one vehicle frame): with the shared chain errors in the
+    // first-order map, Monte Carlo and first order agree point by point to the MC error
+    // (3 SE of a σ estimate, 1/√(2n)) plus the non-linearity at these σ (< 0.1 %).
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../fixtures/scenarios/three_cameras_correlated.toml");
+    let mut sc = Scenario::from_path(&path).unwrap();
+    let g = sc.grid.as_mut().unwrap();
+    g.x = axis(800.0, 1600.0, 3);
+    g.y = axis(-300.0, 300.0, 2);
+    let n = 40_000;
+    let study = GridStudy::new(&sc, n, 3).unwrap();
+    let r = study.run(n, 3).unwrap();
+    assert!(r.correlated);
+    let se = 1.0 / (2.0 * (n as f64 - 1.0)).sqrt();
+    for p in &r.points {
+        for k in 0..3 {
+            let l = p.linear_sigma_mm()[k];
+            assert!(
+                (p.sigma_mm[k] / l - 1.0).abs() < 3.0 * se + 1e-3,
+                "{:?} axis {k}: MC {} vs linear {l}",
+                p.point,
+                p.sigma_mm[k]
+            );
+        }
+    }
+    // Treating the same observers as independent misses the correlation by far more.
+    let ind = study.independent().run(2, 3).unwrap();
+    let off = r
+        .points
+        .iter()
+        .zip(&ind.points)
+        .map(|(c, i)| (c.sigma_max_mm / i.linear_sigma_max_mm() - 1.0).abs())
+        .fold(0.0, f64::max);
+    assert!(off > 0.05, "{off}");
 }
 
 #[test]
