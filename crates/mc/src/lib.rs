@@ -142,6 +142,7 @@ mod accumulate;
 mod chain;
 mod error;
 mod grid;
+mod grid_builder;
 mod kernel;
 mod normal;
 pub mod reference;
@@ -149,9 +150,8 @@ mod scenario;
 
 pub use chain::{CameraId, Chain, ChainBuilder, PoseLinear, PoseMc, WorldPose};
 pub use error::Error;
-pub use grid::{
-    CHAIN_SAMPLES_MIN, GridBuilder, GridResult, GridStudy, INPUTS_PER_OBSERVER, PointStats,
-};
+pub use grid::{CHAIN_SAMPLES_MIN, GridResult, GridStudy, INPUTS_PER_OBSERVER, PointStats};
+pub use grid_builder::GridBuilder;
 pub use normal::FastNormal;
 pub use reference::{ResultKind, link_from_result_json};
 pub use scenario::{
