@@ -246,8 +246,13 @@ impl GridStudy {
                 },
                 // The chain camera's full propagated world covariance: tangent (centre in
                 // world axes, rotation about its own axes) for tangent noise, of (centre,
-                // ω φ κ) for Euler noise.
+                // ω φ κ) for Euler noise — except where the camera's ω φ κ are at gimbal lock
+                // and have no covariance: the tangent one then, with tangent noise.
                 ObserverSigma::From(i) => match rotation_noise {
+                    RotationNoise::Euler if mc[i].angles_singular => ObserverNoise {
+                        covariance: mc[i].covariance_tangent,
+                        noise: RotationNoise::Tangent,
+                    },
                     RotationNoise::Tangent => ObserverNoise {
                         covariance: mc[i].covariance_tangent,
                         noise: RotationNoise::Tangent,

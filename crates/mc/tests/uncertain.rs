@@ -426,3 +426,45 @@ sigma_angles_deg = [0.01, 0.02, 0.03]"#;
         assert!(d <= 1e-12 * x.covariance_tangent.amax(), "{d}");
     }
 }
+
+#[test]
+fn euler_sigma_from_at_gimbal_lock_takes_the_tangent_covariance() {
+    // A chain camera looking along world x (φ = 90°) in an `euler` scenario: its ω φ κ have no
+    // covariance, so an observer with `sigma_from` gets its tangent covariance (≥ 10⁵ chain
+    // draws: the input σ within 1 %, > 4 SE) and tangent noise, and a finite map.
+    let text = r#"rotation_noise = "euler"
+[[camera]]
+name = "fwd"
+position_mm = [0.0, 0.0, 0.0]
+angles_deg = [0.0, 90.0, 0.0]
+sigma_position_mm = [1.0, 1.0, 1.0]
+sigma_angles_deg = [0.01, 0.02, 0.03]
+[grid]
+x_mm = [1000.0, 1000.0, 1]
+y_mm = [0.0, 0.0, 1]
+z_mm = [0.0, 0.0, 1]
+[[grid.observer]]
+position_mm = [0.0, -300.0, 0.0]
+sigma_from = "fwd"
+[[grid.observer]]
+position_mm = [0.0, 300.0, 0.0]
+sigma_position_mm = [1.0, 1.0, 1.0]
+sigma_angles_deg = [0.01, 0.01, 0.01]
+"#;
+    let sc = Scenario::from_toml_str(text, Path::new("e.toml")).unwrap();
+    let study = GridStudy::new(&sc, 2000, 1).unwrap();
+    let r = study.run(2000, 1).unwrap();
+    let s = r.observer_sigma[0].angles_rad.map(f64::to_degrees);
+    // Euler noise (a, b, c) on (0°, 90°, 0°): Rx(a)·Ry(90° + b)·Rz(c) = R̄·Exp(b e_y)·Exp((a + c) e_z)
+    // to first order (R̄ᵀe_x = e_z), so the body-axis σ are (0, σφ, √(σω² + σκ²)).
+    let want = [0.0, 0.02, (0.01f64.powi(2) + 0.03f64.powi(2)).sqrt()];
+    assert!(s.x < 1e-3 * want[2], "{s:?}");
+    for k in 1..3 {
+        assert!((s[k] / want[k] - 1.0).abs() < 0.01, "{s:?}");
+    }
+    assert!(
+        r.points[0].sigma_max_mm < 10.0,
+        "{}",
+        r.points[0].sigma_max_mm
+    );
+}
