@@ -1,8 +1,10 @@
 //! The scenario file (TOML): cameras, links, noise model and the grid study.
 //!
-//! The format is the external contract of `shared/interface.md`; extensions (all optional)
-//! are documented on [`Grid`] and in `docs/table3.md`. Degrees in the file become radians
-//! here.
+//! The format is the external contract of `shared/interface.md`; every key (extensions
+//! included: `covariance_tangent`, `from = "…"`, `correlated`, …) is documented in
+//! `docs/SCENARIO.md`. Degrees in the file become radians here; every camera and link becomes
+//! an [`UncertainPose`]. The reader is one front end of [`crate::ChainBuilder`] /
+//! [`crate::GridBuilder`].
 
 use crate::Error;
 use crate::reference::ResultKind;
