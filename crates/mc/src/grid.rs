@@ -287,7 +287,7 @@ impl GridStudy {
     }
 
     /// Runs the study with the draws and seed it was built with: [`GridStudy::run_adaptive`]
-    /// when the grid has [`Adaptive`] settings, else [`GridStudy::run`].
+    /// when the grid has [`crate::Adaptive`] settings, else [`GridStudy::run`].
     ///
     /// # Errors
     /// As [`GridStudy::run`].
