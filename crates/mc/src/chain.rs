@@ -137,8 +137,8 @@ impl CameraId {
 /// let cam2 = b.link("cam2", cam1, link)?;
 /// let chain = b.build();
 /// let lin = chain.linear();
-/// // 1 mm of cam1's centre plus 1000 mm × 1e-4 rad of lever arm on x and y.
-/// assert!((lin[cam2.index()].position_sigma_mm.x - 2f64.sqrt()).abs() < 1e-12);
+/// // 1 mm of cam1's centre plus a lever arm of 1000 mm × 1e-4 rad = 0.1 mm on x and y.
+/// assert!((lin[cam2.index()].position_sigma_mm.x - 1.01f64.sqrt()).abs() < 1e-12);
 /// # Ok::<(), crashrig_mc::Error>(())
 /// ```
 #[derive(Debug, Clone, Default)]

@@ -2,12 +2,10 @@
 //! and intersected; streaming statistics, linear propagation and adaptive stopping.
 
 use crate::accumulate::Acc3;
-use crate::chain::{CameraId, Chain, WorldPose};
+use crate::chain::{Chain, WorldPose};
 use crate::kernel::SMALL_ANGLE_SQ;
 use crate::kernel::{Normal3, exp_e3, exp_matrix, opk_e3, rot_opk};
-use crate::scenario::{
-    Adaptive, Axis, Grid, Observer, ObserverSigma, PixelNoise, PoseSigma, RotationNoise, Scenario,
-};
+use crate::scenario::{Grid, ObserverSigma, PoseSigma, RotationNoise, Scenario};
 use crate::{CHUNK, Error, FastNormal};
 use crashrig_geometry::uncertain::psd_factor;
 use crashrig_stats::{Moments, stream};
@@ -29,7 +27,8 @@ pub struct PointStats {
     pub sigma_mm: Vector3<f64>,
     /// max(σx, σy, σz) (mm).
     pub sigma_max_mm: f64,
-    /// First-order covariance (mm²) of the same inputs, treating observers as independent.
+    /// First-order covariance (mm²) of the same inputs (observers drawn jointly from the chain
+    /// through the chain's Jacobians, the others independent).
     pub linear_covariance: Matrix3<f64>,
 }
 
@@ -127,6 +126,8 @@ pub(crate) struct Ctx {
     pixel: Option<f64>,
     /// The chain, when at least one observer is drawn jointly from it.
     chain: Option<Chain>,
+    /// [`Chain::jacobians`] of that chain (for the first-order map of correlated observers).
+    chain_jacobians: Vec<DMatrix<f64>>,
 }
 
 /// Prepared grid study: observers resolved, ready to run.
@@ -179,7 +180,12 @@ fn aim(
                 opk: Vector3::new(a.omega, a.phi, a.kappa),
                 sp: sigma.position_mm,
                 sr: sigma.angles_rad,
-                noise: s.noise,
+                // A chain draw is always a tangent (body-axis) rotation error.
+                noise: if source.is_some() {
+                    RotationNoise::Tangent
+                } else {
+                    s.noise
+                },
                 factor: (!diagonal).then(|| psd_factor(&s.covariance)),
                 covariance,
                 source,
@@ -187,156 +193,6 @@ fn aim(
             })
         })
         .collect()
-}
-
-/// Builds a [`GridStudy`] without a scenario file: the grid axes, the observers (each with a
-/// covariance or taking a chain camera's propagated one), options, and the number of draws
-/// and the seed, given once.
-///
-/// ```
-/// use crashrig_geometry::{Rigid3, UncertainPose, Vec3};
-/// use crashrig_mc::{Axis, ChainBuilder, GridBuilder};
-/// use nalgebra::{Matrix6, Vector3};
-///
-/// let mut b = ChainBuilder::new();
-/// let rig = b.world(
-///     "rig",
-///     UncertainPose::from_sigmas(Rigid3::translation(0.0, -300.0, 0.0), Vec3::repeat(0.5), Vec3::repeat(1e-4)),
-/// )?;
-/// let chain = b.build();
-/// let axis = |a: f64, b: f64, n: usize| Axis { start: a, stop: b, count: n };
-/// let study = GridBuilder::new(axis(1000.0, 1500.0, 2), axis(0.0, 0.0, 1), axis(0.0, 0.0, 1))
-///     .chain(chain)
-///     .observer_from("rig", Vector3::new(0.0, -300.0, 0.0), rig)
-///     .observer("door", Vector3::new(0.0, 300.0, 0.0), Matrix6::from_diagonal_element(1e-2))
-///     .threshold_mm(2.0)
-///     .build(2000, 7)?;
-/// let result = study.evaluate()?;
-/// assert_eq!(result.points.len(), 2);
-/// # Ok::<(), crashrig_mc::Error>(())
-/// ```
-#[derive(Debug, Clone)]
-pub struct GridBuilder {
-    grid: Grid,
-    chain: Option<Chain>,
-    rotation_noise: RotationNoise,
-}
-
-impl GridBuilder {
-    /// A grid over the three axes (mm), threshold 5 mm, no observer yet, no chain.
-    pub fn new(x: Axis, y: Axis, z: Axis) -> Self {
-        GridBuilder {
-            grid: Grid {
-                x,
-                y,
-                z,
-                threshold_mm: 5.0,
-                observers: Vec::new(),
-                pixel: None,
-                correlated: false,
-                adaptive: None,
-            },
-            chain: None,
-            rotation_noise: RotationNoise::Tangent,
-        }
-    }
-
-    /// The chain the `observer_from` observers take their noise from.
-    pub fn chain(mut self, chain: Chain) -> Self {
-        self.chain = Some(chain);
-        self
-    }
-
-    /// Threshold on σ_max (mm).
-    pub fn threshold_mm(mut self, threshold_mm: f64) -> Self {
-        self.grid.threshold_mm = threshold_mm;
-        self
-    }
-
-    /// An observer at `position_mm` with a tangent covariance (mm, rad about its own axes).
-    pub fn observer(
-        mut self,
-        name: impl Into<String>,
-        position_mm: Vector3<f64>,
-        covariance: Matrix6<f64>,
-    ) -> Self {
-        self.grid.observers.push(Observer {
-            name: name.into(),
-            position_mm,
-            sigma: ObserverSigma::Covariance(covariance),
-        });
-        self
-    }
-
-    /// An observer taking chain camera `camera`'s propagated world covariance (or, with
-    /// [`GridBuilder::correlated`], its joint draw; it must then stand at that camera).
-    pub fn observer_from(
-        mut self,
-        name: impl Into<String>,
-        position_mm: Vector3<f64>,
-        camera: CameraId,
-    ) -> Self {
-        self.grid.observers.push(Observer {
-            name: name.into(),
-            position_mm,
-            sigma: ObserverSigma::From(camera.index()),
-        });
-        self
-    }
-
-    /// Pixel noise at every observer.
-    pub fn pixel_noise(mut self, pixel: PixelNoise) -> Self {
-        self.grid.pixel = Some(pixel);
-        self
-    }
-
-    /// Draw the `observer_from` observers jointly from the chain (world-frame errors).
-    pub fn correlated(mut self, correlated: bool) -> Self {
-        self.grid.correlated = correlated;
-        self
-    }
-
-    /// Adaptive number of draws per point.
-    pub fn adaptive(mut self, adaptive: Adaptive) -> Self {
-        self.grid.adaptive = Some(adaptive);
-        self
-    }
-
-    /// The prepared study with `samples` draws per point (the maximum comes from
-    /// [`Adaptive`] when set) and `seed`.
-    ///
-    /// # Errors
-    /// Fewer than two observers, an `observer_from` without a chain or with a camera not in
-    /// it, a correlated observer away from its camera, an observer on or vertically above a
-    /// grid point, invalid covariances.
-    pub fn build(self, samples: usize, seed: u64) -> Result<GridStudy, Error> {
-        let chain = self
-            .chain
-            .unwrap_or_else(|| crate::ChainBuilder::new().build());
-        for (i, o) in self.grid.observers.iter().enumerate() {
-            match o.sigma {
-                ObserverSigma::From(c) if c >= chain.len() => {
-                    return Err(Error::UnknownCamera {
-                        key: format!("grid.observer[{i}].sigma_from"),
-                        name: format!("#{c}"),
-                    });
-                }
-                ObserverSigma::Covariance(m) => {
-                    crashrig_geometry::uncertain::check_covariance(&m).map_err(|problem| {
-                        Error::Covariance {
-                            key: format!("grid.observer[{i}].covariance_tangent"),
-                            problem,
-                        }
-                    })?;
-                }
-                _ => {}
-            }
-        }
-        let positions: Vec<Vector3<f64>> = chain.nominal().iter().map(|p| p.position_mm).collect();
-        let names: Vec<String> = chain.names().to_vec();
-        crate::scenario::check_grid(&self.grid, &positions, &names)?;
-        GridStudy::assemble(self.grid, chain, self.rotation_noise, samples, seed)
-    }
 }
 
 impl GridStudy {
@@ -351,7 +207,7 @@ impl GridStudy {
         Self::assemble(grid, chain, scenario.rotation_noise, samples, seed)
     }
 
-    fn assemble(
+    pub(crate) fn assemble(
         grid: Grid,
         chain: Chain,
         rotation_noise: RotationNoise,
@@ -391,8 +247,13 @@ impl GridStudy {
                 },
                 // The chain camera's full propagated world covariance: tangent (centre in
                 // world axes, rotation about its own axes) for tangent noise, of (centre,
-                // ω φ κ) for Euler noise.
+                // ω φ κ) for Euler noise — except where the camera's ω φ κ are at gimbal lock
+                // and have no covariance: the tangent one then, with tangent noise.
                 ObserverSigma::From(i) => match rotation_noise {
+                    RotationNoise::Euler if mc[i].angles_singular => ObserverNoise {
+                        covariance: mc[i].covariance_tangent,
+                        noise: RotationNoise::Tangent,
+                    },
                     RotationNoise::Tangent => ObserverNoise {
                         covariance: mc[i].covariance_tangent,
                         noise: RotationNoise::Tangent,
@@ -409,6 +270,11 @@ impl GridStudy {
         let study = GridStudy {
             ctx: Ctx {
                 pixel: grid.pixel.map(|p| p.sigma_normalized()),
+                chain_jacobians: if correlated {
+                    chain.jacobians()
+                } else {
+                    Vec::new()
+                },
                 chain: correlated.then_some(chain),
             },
             grid,
@@ -422,7 +288,7 @@ impl GridStudy {
     }
 
     /// Runs the study with the draws and seed it was built with: [`GridStudy::run_adaptive`]
-    /// when the grid has [`Adaptive`] settings, else [`GridStudy::run`].
+    /// when the grid has [`crate::Adaptive`] settings, else [`GridStudy::run`].
     ///
     /// # Errors
     /// As [`GridStudy::run`].
@@ -473,6 +339,7 @@ impl GridStudy {
         let mut s = self.clone();
         s.correlated = false;
         s.ctx.chain = None;
+        s.ctx.chain_jacobians = Vec::new();
         s
     }
 
@@ -771,19 +638,37 @@ pub(crate) fn intersection_jacobian(obs: &[Aimed], point: &Vector3<f64>) -> DMat
     j
 }
 
-/// First-order covariance of the intersection (observers independent, each with its full
-/// covariance in its own frame).
+/// First-order covariance of the intersection: each independent observer with its full
+/// covariance in its own frame; observers drawn jointly from the chain (correlated mode)
+/// through the chain's Jacobians, so their shared errors stay correlated:
+/// `Σ = Σⱼ Jⱼ Σⱼ Jⱼᵀ + G Gᵀ` with `G = Σ_corr Jⱼ·diag(I, Lⱼᵀ R̄ⱼ)·J_chain(cⱼ)` (inputs: the
+/// chain's standard normals).
 pub(crate) fn linear_covariance(obs: &[Aimed], ctx: &Ctx, point: &Vector3<f64>) -> Matrix3<f64> {
     let j = intersection_jacobian(obs, point);
     let sn = ctx.pixel.unwrap_or(0.0);
     let mut inputs = DMatrix::zeros(j.ncols(), j.ncols());
+    let mut shared: Option<DMatrix<f64>> = None;
     for (k, o) in obs.iter().enumerate() {
         let b = INPUTS_PER_OBSERVER * k;
-        inputs.view_mut((b, b), (6, 6)).copy_from(&o.covariance);
+        match o.source.and_then(|c| ctx.chain_jacobians.get(c)) {
+            Some(jc) => {
+                let mut t = DMatrix::<f64>::identity(6, 6);
+                t.view_mut((3, 3), (3, 3)).copy_from(&o.chain_to_own);
+                let g = j.columns(b, 6) * t * jc;
+                shared = Some(match shared {
+                    Some(s) => s + g,
+                    None => g,
+                });
+            }
+            None => inputs.view_mut((b, b), (6, 6)).copy_from(&o.covariance),
+        }
         inputs[(b + 6, b + 6)] = sn * sn;
         inputs[(b + 7, b + 7)] = sn * sn;
     }
-    let c = &j * inputs * j.transpose();
+    let mut c = &j * inputs * j.transpose();
+    if let Some(g) = shared {
+        c += &g * g.transpose();
+    }
     Matrix3::from_fn(|r, cc| c[(r, cc)])
 }
 

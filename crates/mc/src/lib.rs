@@ -24,16 +24,77 @@
 //!   bit-identical results on any number of threads.
 //!
 //! # Entry points
-//! - [`Scenario::from_path`] / [`Scenario::from_toml_str`]: read and validate a scenario.
-//! - [`Chain`]: [`Chain::monte_carlo`] and [`Chain::linear`] (Table 3/4 of the paper).
-//! - [`GridStudy`]: [`GridStudy::run`], [`GridStudy::run_adaptive`] → [`GridResult`] of
+//! - [`ChainBuilder`] → [`Chain`]: world poses and links as
+//!   [`crashrig_geometry::UncertainPose`]s; [`Chain::monte_carlo`] and [`Chain::linear`]
+//!   (Tables 3/4 of the paper), each camera's world pose with its tangent covariance
+//!   ([`PoseMc::uncertain`], [`PoseLinear::uncertain`]).
+//! - [`GridBuilder`] → [`GridStudy`]: observers with a covariance or a chain camera's
+//!   (`observer_from`, optionally `correlated`); [`GridStudy::evaluate`] → [`GridResult`] of
 //!   [`PointStats`] (σ per axis, covariance, ellipsoid, linear covariance).
 //! - [`limits`]: the documented bounds every scenario value is checked against (counts that
 //!   size memory or work, magnitudes, array lengths), with errors naming key and line.
 //! - [`degenerate`]: the intersection angle of a grid point and the threshold below which it
 //!   is degenerate; [`GridStudy::new`] refuses a layout where every point is.
+//! - The scenario file, one front end of the builders: [`Scenario::from_path`] /
+//!   [`Scenario::from_toml_str`], then [`Chain::new`] and [`GridStudy::new`] (keys in
+//!   `docs/SCENARIO.md`).
+//! - [`reference::link_from_result_json`]: a `calibrate` / `bootstrap` JSON result as an
+//!   uncertain link (what `from = "…"` in a scenario reads).
 //!
-//! # Example
+//! # Example: the builders
+//! ```
+//! use crashrig_geometry::{Mat6, Rigid3, UncertainPose, Vec3, opk, quat};
+//! use crashrig_mc::{Axis, ChainBuilder, GridBuilder};
+//! use nalgebra::Vector3;
+//!
+//! // The outward camera in the world: 1 mm and 0.01° (about its own axes), independent.
+//! let world = UncertainPose::from_sigmas(
+//!     Rigid3::identity(),
+//!     Vec3::repeat(1.0),
+//!     Vec3::repeat(0.01_f64.to_radians()),
+//! );
+//! // The calibrated rig link cam1_from_cam2 (the paper's Tables 1/2) with a full tangent
+//! // covariance in the contract's units (mm, deg): here the SEM row with a correlation.
+//! let r = opk::rotation_from_opk(
+//!     179.92_f64.to_radians(),
+//!     (-0.09_f64).to_radians(),
+//!     179.76_f64.to_radians(),
+//! );
+//! let s = [0.19, 0.26, 0.13, 0.004, 0.005, 0.008];
+//! let cov = Mat6::from_fn(|i, j| if i == j { s[i] * s[i] } else if i + j == 1 { 0.3 * s[0] * s[1] } else { 0.0 });
+//! let link = UncertainPose::from_covariance_deg(
+//!     quat::rigid_from_rotation(&r, &Vec3::new(61.98, -1.71, 179.76)),
+//!     cov,
+//! )
+//! .expect("a valid covariance");
+//!
+//! let mut b = ChainBuilder::new();
+//! let cam1 = b.world("cam1", world)?;
+//! let cam2 = b.link("cam2", cam1, link)?;
+//! let chain = b.build();
+//! let mc = chain.monte_carlo(20_000, 1);
+//! let lin = chain.linear();
+//! // cam2's world position σ: Monte Carlo and first order agree for small σ.
+//! let k = cam2.index();
+//! assert!((mc[k].position_sigma_mm.x / lin[k].position_sigma_mm.x - 1.0).abs() < 0.05);
+//! // Its world pose with the full tangent covariance, ready for the next step.
+//! let cam2_world: UncertainPose = lin[k].uncertain();
+//! assert!(cam2_world.covariance[(0, 1)] != 0.0);
+//!
+//! // A grid with cam2 as one observer (its propagated covariance) and a fixed-σ one.
+//! let axis = |start: f64, stop: f64, count: usize| Axis { start, stop, count };
+//! let study = GridBuilder::new(axis(0.0, 1000.0, 3), axis(500.0, 700.0, 2), axis(0.0, 0.0, 1))
+//!     .chain(chain)
+//!     .observer_from("rear", Vector3::new(0.0, 0.0, 0.0), cam2)
+//!     .observer("door", Vector3::new(1000.0, 0.0, 0.0), Mat6::from_diagonal_element(1e-4))
+//!     .build(2000, 7)?;
+//! let result = study.evaluate()?;
+//! assert_eq!(result.points.len(), 6);
+//! assert!(result.points.iter().all(|p| p.sigma_max_mm > 0.0));
+//! # Ok::<(), crashrig_mc::Error>(())
+//! ```
+//!
+//! # Example: a scenario file
 //! ```
 //! use crashrig_mc::{Chain, GridStudy, Scenario};
 //! use std::path::Path;
@@ -86,6 +147,7 @@ mod chain;
 pub mod degenerate;
 mod error;
 mod grid;
+mod grid_builder;
 mod kernel;
 pub mod limits;
 mod normal;
@@ -94,9 +156,8 @@ mod scenario;
 
 pub use chain::{CameraId, Chain, ChainBuilder, PoseLinear, PoseMc, WorldPose};
 pub use error::Error;
-pub use grid::{
-    CHAIN_SAMPLES_MIN, GridBuilder, GridResult, GridStudy, INPUTS_PER_OBSERVER, PointStats,
-};
+pub use grid::{CHAIN_SAMPLES_MIN, GridResult, GridStudy, INPUTS_PER_OBSERVER, PointStats};
+pub use grid_builder::GridBuilder;
 pub use normal::FastNormal;
 pub use reference::{ResultKind, link_from_result_json};
 pub use scenario::{

@@ -1,8 +1,10 @@
 //! The scenario file (TOML): cameras, links, noise model and the grid study.
 //!
-//! The format is the external contract of `shared/interface.md`; extensions (all optional)
-//! are documented on [`Grid`] and in `docs/table3.md`. Degrees in the file become radians
-//! here.
+//! The format is the external contract of `shared/interface.md`; every key (extensions
+//! included: `covariance_tangent`, `from = "…"`, `correlated`, …) is documented in
+//! `docs/SCENARIO.md`. Degrees in the file become radians here; every camera and link becomes
+//! an [`UncertainPose`]. The reader is one front end of [`crate::ChainBuilder`] /
+//! [`crate::GridBuilder`].
 
 use crate::Error;
 use crate::reference::ResultKind;
@@ -71,6 +73,7 @@ impl Camera {
 
 /// Where an observer's pose noise comes from.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[allow(clippy::large_enum_variant)] // a few observers per scenario; Copy is worth the bytes
 pub enum ObserverSigma {
     /// Given σ values (rotation meaning from the scenario's [`RotationNoise`]).
     Given(PoseSigma),
@@ -592,6 +595,14 @@ impl Scenario {
     }
 }
 
+/// A camera's pose, its given ω φ κ (rad), its noise kind and the reference it came from.
+type CameraPose = (
+    UncertainPose,
+    Vector3<f64>,
+    RotationNoise,
+    Option<(PathBuf, ResultKind)>,
+);
+
 /// The pose of one `[[camera]]`: from a `from = "…"` result, or from `position_mm` /
 /// `angles_deg` with `covariance_tangent` or the σ keys.
 fn camera_pose(
@@ -599,15 +610,7 @@ fn camera_pose(
     k: &dyn Fn(&str) -> String,
     rotation_noise: RotationNoise,
     base: &Path,
-) -> Result<
-    (
-        UncertainPose,
-        Vector3<f64>,
-        RotationNoise,
-        Option<(PathBuf, ResultKind)>,
-    ),
-    Error,
-> {
+) -> Result<CameraPose, Error> {
     if let Some(f) = &c.from {
         if c.parent.is_none() {
             return Err(Error::Invalid {

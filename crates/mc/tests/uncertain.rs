@@ -177,6 +177,49 @@ fn correlated_rig_yaw_moves_the_point_by_its_lever_arm() {
     let second = 1500.0 * sigma * sigma / 2f64.sqrt();
     assert!(p.sigma_mm.x < 2.0 * second, "{:?}", p.sigma_mm);
     assert!(p.sigma_mm.z < 1e-9, "{:?}", p.sigma_mm);
+    // The first-order map carries the joint draw through the chain's Jacobians: exactly
+    // 1500·σ across, nothing else (rounding only).
+    let l = p.linear_sigma_mm();
+    assert!((l.y / expect - 1.0).abs() < 1e-9, "{l:?}");
+    assert!(l.x < 1e-9 * expect && l.z < 1e-9 * expect, "{l:?}");
+}
+
+#[test]
+fn correlated_fixture_monte_carlo_matches_first_order() {
+    // The bundled correlated scenario (one vehicle frame): with the shared chain errors in the
+    // first-order map, Monte Carlo and first order agree point by point to the MC error
+    // (3 SE of a σ estimate, 1/√(2n)) plus the non-linearity at these σ (< 0.1 %).
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../fixtures/scenarios/three_cameras_correlated.toml");
+    let mut sc = Scenario::from_path(&path).unwrap();
+    let g = sc.grid.as_mut().unwrap();
+    g.x = axis(800.0, 1600.0, 3);
+    g.y = axis(-300.0, 300.0, 2);
+    let n = 40_000;
+    let study = GridStudy::new(&sc, n, 3).unwrap();
+    let r = study.run(n, 3).unwrap();
+    assert!(r.correlated);
+    let se = 1.0 / (2.0 * (n as f64 - 1.0)).sqrt();
+    for p in &r.points {
+        for k in 0..3 {
+            let l = p.linear_sigma_mm()[k];
+            assert!(
+                (p.sigma_mm[k] / l - 1.0).abs() < 3.0 * se + 1e-3,
+                "{:?} axis {k}: MC {} vs linear {l}",
+                p.point,
+                p.sigma_mm[k]
+            );
+        }
+    }
+    // Treating the same observers as independent misses the correlation by far more.
+    let ind = study.independent().run(2, 3).unwrap();
+    let off = r
+        .points
+        .iter()
+        .zip(&ind.points)
+        .map(|(c, i)| (c.sigma_max_mm / i.linear_sigma_max_mm() - 1.0).abs())
+        .fold(0.0, f64::max);
+    assert!(off > 0.05, "{off}");
 }
 
 #[test]
@@ -350,4 +393,78 @@ sigma_angles_deg = [0.01, 0.01, 0.01]
     assert!(w < 0.02, "{w}");
     // It is the full matrix, not its diagonal.
     assert!(got[(0, 3)].abs() > 0.1 * (got[(0, 0)] * got[(3, 3)]).sqrt());
+}
+
+#[test]
+fn diagonal_covariance_tangent_is_the_sigma_keys() {
+    // `covariance_tangent = diag(σ²)` (mm², deg²) and the σ keys with tangent noise are the
+    // same noise: same factor up to rounding (σ → σ² → √ and deg → rad in another order), so
+    // the same draws give the same σ to ~1e-13 relative.
+    let sigma = r#"sigma_position_mm = [0.5, 0.7, 0.9]
+sigma_angles_deg = [0.01, 0.02, 0.03]"#;
+    let cov = r#"covariance_tangent = [
+  [0.25, 0, 0, 0, 0, 0],
+  [0, 0.49, 0, 0, 0, 0],
+  [0, 0, 0.81, 0, 0, 0],
+  [0, 0, 0, 1e-4, 0, 0],
+  [0, 0, 0, 0, 4e-4, 0],
+  [0, 0, 0, 0, 0, 9e-4],
+]"#;
+    let text = |noise: &str| {
+        format!(
+            "[[camera]]\nname = \"a\"\nposition_mm = [1.0, 2.0, 3.0]\nangles_deg = [10.0, 20.0, 30.0]\n{noise}\n[[camera]]\nname = \"b\"\nparent = \"a\"\nposition_mm = [100.0, 0.0, 500.0]\nangles_deg = [0.0, 90.0, 0.0]\n{noise}\n"
+        )
+    };
+    let a = Scenario::from_toml_str(&text(sigma), Path::new("a.toml")).unwrap();
+    let b = Scenario::from_toml_str(&text(cov), Path::new("b.toml")).unwrap();
+    let (ma, mb) = (
+        Chain::new(&a).monte_carlo(5000, 1),
+        Chain::new(&b).monte_carlo(5000, 1),
+    );
+    for (x, y) in ma.iter().zip(&mb) {
+        let d = (x.covariance_tangent - y.covariance_tangent).amax();
+        assert!(d <= 1e-12 * x.covariance_tangent.amax(), "{d}");
+    }
+}
+
+#[test]
+fn euler_sigma_from_at_gimbal_lock_takes_the_tangent_covariance() {
+    // A chain camera looking along world x (φ = 90°) in an `euler` scenario: its ω φ κ have no
+    // covariance, so an observer with `sigma_from` gets its tangent covariance (≥ 10⁵ chain
+    // draws: the input σ within 1 %, > 4 SE) and tangent noise, and a finite map.
+    let text = r#"rotation_noise = "euler"
+[[camera]]
+name = "fwd"
+position_mm = [0.0, 0.0, 0.0]
+angles_deg = [0.0, 90.0, 0.0]
+sigma_position_mm = [1.0, 1.0, 1.0]
+sigma_angles_deg = [0.01, 0.02, 0.03]
+[grid]
+x_mm = [1000.0, 1000.0, 1]
+y_mm = [0.0, 0.0, 1]
+z_mm = [0.0, 0.0, 1]
+[[grid.observer]]
+position_mm = [0.0, -300.0, 0.0]
+sigma_from = "fwd"
+[[grid.observer]]
+position_mm = [0.0, 300.0, 0.0]
+sigma_position_mm = [1.0, 1.0, 1.0]
+sigma_angles_deg = [0.01, 0.01, 0.01]
+"#;
+    let sc = Scenario::from_toml_str(text, Path::new("e.toml")).unwrap();
+    let study = GridStudy::new(&sc, 2000, 1).unwrap();
+    let r = study.run(2000, 1).unwrap();
+    let s = r.observer_sigma[0].angles_rad.map(f64::to_degrees);
+    // Euler noise (a, b, c) on (0°, 90°, 0°): Rx(a)·Ry(90° + b)·Rz(c) = R̄·Exp(b e_y)·Exp((a + c) e_z)
+    // to first order (R̄ᵀe_x = e_z), so the body-axis σ are (0, σφ, √(σω² + σκ²)).
+    let want = [0.0, 0.02, (0.01f64.powi(2) + 0.03f64.powi(2)).sqrt()];
+    assert!(s.x < 1e-3 * want[2], "{s:?}");
+    for k in 1..3 {
+        assert!((s[k] / want[k] - 1.0).abs() < 0.01, "{s:?}");
+    }
+    assert!(
+        r.points[0].sigma_max_mm < 10.0,
+        "{}",
+        r.points[0].sigma_max_mm
+    );
 }
