@@ -83,12 +83,15 @@ mod error;
 mod grid;
 mod kernel;
 mod normal;
+mod philox;
 mod scenario;
+mod simd;
 
 pub use chain::{Chain, PoseLinear, PoseMc, WorldPose};
 pub use error::Error;
 pub use grid::{CHAIN_SAMPLES_MIN, GridResult, GridStudy, INPUTS_PER_OBSERVER, PointStats};
 pub use normal::FastNormal;
+pub use simd::Isa;
 pub use scenario::{
     Adaptive, Axis, Camera, Grid, Observer, ObserverSigma, PixelNoise, PoseSigma, RotationNoise,
     Scenario,
