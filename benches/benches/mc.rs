@@ -62,7 +62,7 @@ fn pool(threads: usize) -> rayon::ThreadPool {
 
 fn normals(c: &mut Criterion) {
     let mut g = c.benchmark_group("rng");
-    let n = 12_000u64;
+    let n = 12_288u64;
     g.throughput(Throughput::Elements(n));
     g.bench_function("chacha8_standard_normal", |b| {
         let mut rng = crashrig_stats::stream(1, 0);
@@ -87,6 +87,25 @@ fn normals(c: &mut Criterion) {
             black_box(s)
         })
     });
+    for isa in crashrig_mc::Isa::LEVELS {
+        if !isa.is_available() {
+            continue;
+        }
+        g.bench_function(format!("philox_box_muller_{}", isa.name()), |b| {
+            let mut rows = vec![[0.0f64; crashrig_mc::bench::BLOCK]; 12];
+            let blocks = n / (12 * crashrig_mc::bench::BLOCK as u64);
+            let mut draw0 = 0u64;
+            b.iter(|| {
+                let mut s = 0.0f64;
+                for _ in 0..blocks {
+                    crashrig_mc::bench::philox_normals(isa, 1, 0, draw0, &mut rows);
+                    draw0 += crashrig_mc::bench::BLOCK as u64;
+                    s += rows[0][0] + rows[11][63];
+                }
+                black_box(s)
+            })
+        });
+    }
     g.bench_function("chacha8_u64", |b| {
         let mut rng = crashrig_stats::stream(1, 0);
         b.iter(|| {

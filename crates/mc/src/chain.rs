@@ -170,7 +170,7 @@ impl Chain {
     }
 
     #[inline]
-    fn compose_into(&self, eps: &[f64], out: &mut [WorldPose]) {
+    pub(crate) fn compose_into(&self, eps: &[f64], out: &mut [WorldPose]) {
         for &i in &self.order {
             let l = &self.links[i];
             let e = &eps[6 * i..6 * i + 6];

@@ -78,10 +78,12 @@
 #![deny(missing_docs)]
 
 mod accumulate;
+mod block;
 mod chain;
 mod error;
 mod grid;
 mod kernel;
+mod legacy;
 mod normal;
 mod philox;
 mod scenario;
@@ -91,11 +93,11 @@ pub use chain::{Chain, PoseLinear, PoseMc, WorldPose};
 pub use error::Error;
 pub use grid::{CHAIN_SAMPLES_MIN, GridResult, GridStudy, INPUTS_PER_OBSERVER, PointStats};
 pub use normal::FastNormal;
-pub use simd::Isa;
 pub use scenario::{
     Adaptive, Axis, Camera, Grid, Observer, ObserverSigma, PixelNoise, PoseSigma, RotationNoise,
     Scenario,
 };
+pub use simd::{Engine, Isa};
 
 /// Draws per work chunk (and per RNG stream). Fixed, so results do not depend on the thread
 /// count.
@@ -103,3 +105,26 @@ pub const CHUNK: usize = 4096;
 
 /// Smallest distance (mm) between an observer and a grid point.
 pub const MIN_OBSERVER_DISTANCE_MM: f64 = 1e-6;
+
+/// Hooks for the benchmarks (`benches/`) and external tests: the engine's building blocks
+/// with an explicit instruction-set level. Not a stable interface.
+#[doc(hidden)]
+pub mod bench {
+    use crate::normal::{LANES, fill_block};
+    use crate::philox::key_of_seed;
+    use crate::simd::{Isa, dispatch};
+
+    /// Draws per block of the vectorised kernels.
+    pub const BLOCK: usize = LANES;
+
+    /// Standard normals of draws `draw0 .. draw0 + BLOCK` of `task` under `seed`:
+    /// `rows[i][d]` is normal `i` of draw `draw0 + d` (`rows.len()` even).
+    pub fn philox_normals(isa: Isa, seed: u64, task: u64, draw0: u64, rows: &mut [[f64; BLOCK]]) {
+        let key = key_of_seed(seed);
+        dispatch(
+            isa,
+            #[inline(always)]
+            || fill_block(key, task, draw0, rows),
+        );
+    }
+}

@@ -165,7 +165,6 @@ impl FastNormal {
     }
 }
 
-
 /// Draws per block of the vectorised kernels.
 pub(crate) const LANES: usize = 64;
 
@@ -261,8 +260,8 @@ pub(crate) fn box_muller(v: u64) -> (f64, f64) {
     // Angle: quadrant q, lattice point j inside it.
     let q = (v >> 20) & 3;
     let j = v & 0xF_FFFF;
-    let a = ((f64::from_bits(MAGIC_BITS | j) - MAGIC) + 0.5) * ANGLE_STEP
-        - std::f64::consts::FRAC_PI_4;
+    let a =
+        ((f64::from_bits(MAGIC_BITS | j) - MAGIC) + 0.5) * ANGLE_STEP - std::f64::consts::FRAC_PI_4;
     let (c, s) = cos_sin_small(a);
     // Rotate (c, s) by q quarter turns: (c, s), (−s, c), (−c, −s), (s, −c).
     let swap = 0u64.wrapping_sub(q & 1);
@@ -271,10 +270,7 @@ pub(crate) fn box_muller(v: u64) -> (f64, f64) {
     let y = (cb & swap) | (sb & !swap);
     let negx = ((q ^ (q >> 1)) & 1) << 63;
     let negy = (q >> 1) << 63;
-    (
-        r * f64::from_bits(x ^ negx),
-        r * f64::from_bits(y ^ negy),
-    )
+    (r * f64::from_bits(x ^ negx), r * f64::from_bits(y ^ negy))
 }
 
 /// Fills `rows` with standard normals for the draws `draw0 .. draw0 + LANES` of `task`:
@@ -372,7 +368,10 @@ mod block_tests {
             }
         }
         for u in [1.0, 0.5, 1.0 / SQRT2, 1.0 / SQRT2 * (1.0 + 1e-15), 0.75] {
-            assert!((ln_unit(u) - u.ln()).abs() <= 4e-16 * u.ln().abs(), "u = {u}");
+            assert!(
+                (ln_unit(u) - u.ln()).abs() <= 4e-16 * u.ln().abs(),
+                "u = {u}"
+            );
         }
         // A few ulps (the atanh series and the split ln 2 round at ~1e-16).
         assert!(worst < 4e-16, "worst relative error {worst:e}");
@@ -413,7 +412,11 @@ mod block_tests {
         let mut out = Vec::with_capacity(draws as usize * rows);
         let mut block = vec![[0.0; LANES]; rows];
         for b in 0..draws.div_ceil(LANES as u64) {
-            dispatch(isa, || fill_block(key, task, b * LANES as u64, &mut block));
+            dispatch(
+                isa,
+                #[inline(always)]
+                || fill_block(key, task, b * LANES as u64, &mut block),
+            );
             out.extend(block.iter().flatten());
         }
         out
@@ -429,7 +432,9 @@ mod block_tests {
             }
             let got = normals(isa, 7, 3, 256, 12);
             assert!(
-                got.iter().zip(&base).all(|(a, b)| a.to_bits() == b.to_bits()),
+                got.iter()
+                    .zip(&base)
+                    .all(|(a, b)| a.to_bits() == b.to_bits()),
                 "{} differs from baseline",
                 isa.name()
             );
@@ -471,7 +476,11 @@ mod block_tests {
         let mut block = vec![[0.0; LANES]; 12];
         let mut prev = f64::NAN;
         for b in 0..draws / LANES as u64 {
-            dispatch(isa, || fill_block(key, task, b * LANES as u64, &mut block));
+            dispatch(
+                isa,
+                #[inline(always)]
+                || fill_block(key, task, b * LANES as u64, &mut block),
+            );
             for row in &block {
                 for &z in row {
                     let z2 = z * z;
@@ -513,7 +522,11 @@ mod block_tests {
             // below that are too skewed for a normal-approximation bound).
             if p * n >= 20.0 {
                 let got = t.tails[i] / n;
-                assert!((got - p).abs() < k * se, "P(|z|>{}) = {got:e}, want {p:e}", i + 1);
+                assert!(
+                    (got - p).abs() < k * se,
+                    "P(|z|>{}) = {got:e}, want {p:e}",
+                    i + 1
+                );
             }
         }
         // Correlations of unit-variance variables: SE 1/√(pairs).

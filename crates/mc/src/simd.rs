@@ -87,6 +87,22 @@ impl Isa {
     }
 }
 
+/// Which Monte Carlo engine runs the draws.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Engine {
+    /// The vectorised engine (Philox normals, blocks of 64 draws) at an instruction-set level.
+    Simd(Isa),
+    /// The former engine (ChaCha8 + ziggurat normals, baseline instructions): the benchmark
+    /// baseline. Statistically equivalent, different random numbers.
+    Legacy,
+}
+
+impl Default for Engine {
+    fn default() -> Self {
+        Engine::Simd(Isa::Auto)
+    }
+}
+
 static AUTO: OnceLock<Isa> = OnceLock::new();
 
 fn best() -> Isa {
