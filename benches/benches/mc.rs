@@ -4,7 +4,7 @@
 //! Throughput is reported per draw (`Throughput::Elements`), so criterion prints draws/s.
 //! Single-threaded numbers come from a 1-thread rayon pool; the 2-thread grid uses a 2-thread
 //! pool. See docs/performance.md for the numbers and the roofline note.
-use crashrig_mc::{Chain, GridStudy, Scenario};
+use crashrig_mc::{Chain, Engine, GridStudy, Isa, Scenario};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use rand::RngExt;
 use rand_distr::StandardNormal;
@@ -52,6 +52,25 @@ angles_deg = [0.0, 0.0, 0.0]
 sigma_position_mm = [2.0, 2.0, 2.0]
 sigma_angles_deg = [0.02, 0.02, 0.02]
 "#;
+
+/// The legacy engine and every SIMD level this CPU has, slowest first.
+fn engines() -> Vec<Engine> {
+    std::iter::once(Engine::Legacy)
+        .chain(
+            Isa::LEVELS
+                .into_iter()
+                .filter(|l| l.is_available())
+                .map(Engine::Simd),
+        )
+        .collect()
+}
+
+fn engine_name(e: Engine) -> String {
+    match e {
+        Engine::Legacy => "legacy".to_string(),
+        Engine::Simd(isa) => isa.name().to_string(),
+    }
+}
 
 fn pool(threads: usize) -> rayon::ThreadPool {
     rayon::ThreadPoolBuilder::new()
@@ -131,9 +150,12 @@ fn kernel(c: &mut Criterion) {
     let mut g = c.benchmark_group("kernel");
     g.throughput(Throughput::Elements(n as u64));
     g.sample_size(10);
-    g.bench_function("two_observers_1thread", |b| {
-        b.iter(|| one.install(|| black_box(study.run(n, 7).expect("run"))))
-    });
+    for engine in engines() {
+        g.bench_function(
+            format!("two_observers_1thread/{}", engine_name(engine)),
+            |b| b.iter(|| one.install(|| black_box(study.run_with(n, 7, engine).expect("run")))),
+        );
+    }
     g.finish();
 }
 
@@ -147,9 +169,12 @@ fn grid(c: &mut Criterion) {
     g.sample_size(10);
     for threads in [1usize, 2] {
         let p = pool(threads);
-        g.bench_with_input(BenchmarkId::new("threads", threads), &threads, |b, _| {
-            b.iter(|| p.install(|| black_box(study.run(samples, 3).expect("run"))))
-        });
+        for engine in [Engine::Legacy, Engine::Simd(Isa::Auto)] {
+            let id = format!("{}/threads", engine_name(engine));
+            g.bench_with_input(BenchmarkId::new(id, threads), &threads, |b, _| {
+                b.iter(|| p.install(|| black_box(study.run_with(samples, 3, engine).expect("run"))))
+            });
+        }
     }
     g.finish();
 }
