@@ -212,7 +212,7 @@ impl GridStudy {
     /// the Philox stream of `(seed, p·2²⁴ + k)` and chunks are merged in index order, so the
     /// result is bit-identical for any number of threads (and any instruction-set level).
     pub fn run(&self, samples: usize, seed: u64) -> Result<GridResult, Error> {
-        self.run_with(samples, seed, Engine::default())
+        self.run_with(samples, seed, Engine::from_env())
     }
 
     /// [`GridStudy::run`] with an explicit engine (benchmarks and tests; the legacy engine
@@ -298,7 +298,7 @@ impl GridStudy {
                         task_index(p, b),
                         m,
                         &mut acc,
-                        Engine::default(),
+                        Engine::from_env(),
                     );
                     total.merge(&acc);
                     let s = acc.std_dev();

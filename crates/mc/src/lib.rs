@@ -80,6 +80,7 @@
 mod accumulate;
 mod block;
 mod chain;
+mod chain_block;
 mod error;
 mod grid;
 mod kernel;

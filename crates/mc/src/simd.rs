@@ -103,6 +103,17 @@ impl Default for Engine {
     }
 }
 
+impl Engine {
+    /// The default engine, or the legacy one when `CRASHRIG_ISA=legacy` (so whole commands
+    /// can be timed against the former engine with the same binary).
+    pub fn from_env() -> Self {
+        match std::env::var("CRASHRIG_ISA").as_deref() {
+            Ok("legacy") => Engine::Legacy,
+            _ => Engine::default(),
+        }
+    }
+}
+
 static AUTO: OnceLock<Isa> = OnceLock::new();
 
 fn best() -> Isa {
