@@ -188,9 +188,12 @@ fn chain(c: &mut Criterion) {
     g.sample_size(10);
     for threads in [1usize, 2] {
         let p = pool(threads);
-        g.bench_with_input(BenchmarkId::new("threads", threads), &threads, |b, _| {
-            b.iter(|| p.install(|| black_box(ch.monte_carlo(n, 3))))
-        });
+        for engine in [Engine::Legacy, Engine::Simd(Isa::Auto)] {
+            let id = format!("{}/threads", engine_name(engine));
+            g.bench_with_input(BenchmarkId::new(id, threads), &threads, |b, _| {
+                b.iter(|| p.install(|| black_box(ch.monte_carlo_with(n, 3, engine))))
+            });
+        }
     }
     g.finish();
 }

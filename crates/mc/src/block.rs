@@ -129,16 +129,16 @@ impl Normals3 {
         for l in 0..LANES {
             let (dx, dy, dz) = (d[0][l], d[1][l], d[2][l]);
             let (cx, cy, cz) = (c[0][l], c[1][l], c[2][l]);
-            let dc = dx * cx + dy * cy + dz * cz;
-            self.n[0][l] += 1.0 - dx * dx;
-            self.n[1][l] -= dx * dy;
-            self.n[2][l] -= dx * dz;
-            self.n[3][l] += 1.0 - dy * dy;
-            self.n[4][l] -= dy * dz;
-            self.n[5][l] += 1.0 - dz * dz;
-            self.r[0][l] += cx - dx * dc;
-            self.r[1][l] += cy - dy * dc;
-            self.r[2][l] += cz - dz * dc;
+            let dc = dx.mul_add(cx, dy.mul_add(cy, dz * cz));
+            self.n[0][l] += (-dx).mul_add(dx, 1.0);
+            self.n[1][l] = (-dx).mul_add(dy, self.n[1][l]);
+            self.n[2][l] = (-dx).mul_add(dz, self.n[2][l]);
+            self.n[3][l] += (-dy).mul_add(dy, 1.0);
+            self.n[4][l] = (-dy).mul_add(dz, self.n[4][l]);
+            self.n[5][l] += (-dz).mul_add(dz, 1.0);
+            self.r[0][l] += (-dx).mul_add(dc, cx);
+            self.r[1][l] += (-dy).mul_add(dc, cy);
+            self.r[2][l] += (-dz).mul_add(dc, cz);
         }
     }
 
@@ -179,17 +179,17 @@ impl Normals3 {
                 self.n[4][l],
                 self.n[5][l],
             ];
-            let c00 = d * f - e * e;
-            let c01 = c * e - b * f;
-            let c02 = b * e - c * d;
-            let c11 = a * f - c * c;
-            let c12 = b * c - a * e;
-            let c22 = a * d - b * b;
-            let inv = 1.0 / (a * c00 + b * c01 + c * c02);
+            let c00 = d.mul_add(f, -(e * e));
+            let c01 = c.mul_add(e, -(b * f));
+            let c02 = b.mul_add(e, -(c * d));
+            let c11 = a.mul_add(f, -(c * c));
+            let c12 = b.mul_add(c, -(a * e));
+            let c22 = a.mul_add(d, -(b * b));
+            let inv = 1.0 / a.mul_add(c00, b.mul_add(c01, c * c02));
             let (r0, r1, r2) = (self.r[0][l], self.r[1][l], self.r[2][l]);
-            out[0][l] = (c00 * r0 + c01 * r1 + c02 * r2) * inv;
-            out[1][l] = (c01 * r0 + c11 * r1 + c12 * r2) * inv;
-            out[2][l] = (c02 * r0 + c12 * r1 + c22 * r2) * inv;
+            out[0][l] = c00.mul_add(r0, c01.mul_add(r1, c02 * r2)) * inv;
+            out[1][l] = c01.mul_add(r0, c11.mul_add(r1, c12 * r2)) * inv;
+            out[2][l] = c02.mul_add(r0, c12.mul_add(r1, c22 * r2)) * inv;
         }
     }
 }
@@ -199,8 +199,8 @@ impl Normals3 {
 fn sinc_cosc_series(t: f64) -> (f64, f64) {
     const S: [f64; 3] = [-1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0];
     const C: [f64; 4] = [0.5, -1.0 / 24.0, 1.0 / 720.0, -1.0 / 40320.0];
-    let s = 1.0 + t * (S[0] + t * (S[1] + t * S[2]));
-    let c = C[0] + t * (C[1] + t * (C[2] + t * C[3]));
+    let s = t.mul_add(t.mul_add(t.mul_add(S[2], S[1]), S[0]), 1.0);
+    let c = t.mul_add(t.mul_add(t.mul_add(C[3], C[2]), C[1]), C[0]);
     (s, c)
 }
 
@@ -229,7 +229,7 @@ fn tangent_ray(r: &[f64; 9], delta: &[Lane; 6], dir: &mut [Lane; 3], tmax: &mut 
         let v1 = c * wy * wz - s * wx;
         let v2 = 1.0 - c * (wx * wx + wy * wy);
         for i in 0..3 {
-            dir[i][l] = r[3 * i] * v0 + r[3 * i + 1] * v1 + r[3 * i + 2] * v2;
+            dir[i][l] = r[3 * i].mul_add(v0, r[3 * i + 1].mul_add(v1, r[3 * i + 2] * v2));
         }
         keep_max(&mut tmax[l], t);
     }

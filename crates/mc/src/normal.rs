@@ -3,9 +3,9 @@
 //! - [`fill_block`]: the engine's generator. Philox4x32-10 ([`crate::philox`]) bits, 64 per pair
 //!   of normals, into a branch-free Box–Muller transform, over blocks of [`LANES`] draws; written
 //!   as plain loops over lane arrays so that, inlined into a dispatched kernel
-//!   ([`crate::simd`]), it vectorises with the CPU's widest units. Only IEEE-exact operations
-//!   (`+ − × ÷ √`, integer and bit operations; no fused multiply-add, no libm) are used, so
-//!   every instruction-set path gives the same bits.
+//!   ([`crate::simd`]), it vectorises with the CPU's widest units. Only correctly rounded
+//!   operations (`+ − × ÷ √`, explicit `mul_add`, integer and bit operations; no other libm
+//!   function) are used, so every instruction-set path gives the same bits.
 //! - [`FastNormal`]: the former generator, a 256-layer ziggurat (Marsaglia & Tsang 2000) over
 //!   a `rand::Rng`, one draw at a time. Kept as the baseline of the benchmarks and for the
 //!   former kernels in `legacy`.
@@ -205,12 +205,12 @@ const ANGLE_STEP: f64 = std::f64::consts::FRAC_PI_2 / 1_048_576.0;
 fn horner(x: f64, c: &[f64]) -> f64 {
     let mut p = c[0];
     for &k in &c[1..] {
-        p = p * x + k;
+        p = p.mul_add(x, k);
     }
     p
 }
 
-/// `ln u` for `u ∈ [2⁻¹⁰²², 1]` with only exact operations, branch-free.
+/// `ln u` for `u ∈ [2⁻¹⁰²², 1]` with correctly rounded operations only, branch-free.
 #[inline(always)]
 pub(crate) fn ln_unit(u: f64) -> f64 {
     let b = u.to_bits();
@@ -237,15 +237,15 @@ pub(crate) fn ln_unit(u: f64) -> f64 {
         1.0,
     ];
     let lnm = (s + s) * horner(z, &ATANH);
-    e * LN2_HI + (lnm + e * LN2_LO)
+    e.mul_add(LN2_HI, e.mul_add(LN2_LO, lnm))
 }
 
 /// `(cos x, sin x)` for |x| ≤ π/4 (Cephes polynomials).
 #[inline(always)]
 pub(crate) fn cos_sin_small(x: f64) -> (f64, f64) {
     let z = x * x;
-    let s = x + x * z * horner(z, &SIN);
-    let c = 1.0 - 0.5 * z + z * z * horner(z, &COS);
+    let s = (x * z).mul_add(horner(z, &SIN), x);
+    let c = (z * z).mul_add(horner(z, &COS), (-0.5f64).mul_add(z, 1.0));
     (c, s)
 }
 

@@ -10,12 +10,18 @@
 //!
 //! # Bit-identical on every level
 //! The kernels use only operations that IEEE 754 rounds exactly the same way at any vector
-//! width — `+ − × ÷ √`, comparisons, integer and bit operations — and never a fused
-//! multiply-add (Rust never contracts `a*b + c`, and the kernels do not call `mul_add`), nor a
-//! libm function inside the vectorised loops. Sums are kept per lane of the 64-draw block and
-//! reduced in lane order, whatever the register width. So every level gives the same bits;
-//! `tests::every_isa_gives_identical_grids` forces each available level and compares the
-//! results exactly.
+//! width — `+ − × ÷ √`, comparisons, integer and bit operations — and, where they help
+//! (polynomials, dot products, the cofactor solve), fused multiply-adds written explicitly as
+//! `f64::mul_add` (one rounding, by definition). Rust never contracts `a*b + c` on its own,
+//! so an expression is either always fused or never. `mul_add` is an FMA instruction on
+//! x86-64-v3/v4 and NEON and the correctly rounded libm `fma` on the SSE2 baseline (glibc's
+//! uses the FMA instruction when the CPU has one, exact software otherwise): the same bits,
+//! only slower. No other libm function is called in the vectorised loops. Sums are kept per
+//! lane of the 64-draw block and reduced in lane order, whatever the register width. So
+//! every level gives the same bits; `grid::tests::every_isa_gives_identical_grids`,
+//! `chain::tests::chain_every_isa_gives_identical_results` and
+//! `normal::block_tests::fill_block_is_identical_on_every_isa_and_row_count` force each
+//! available level and compare the results exactly.
 //!
 //! # Choosing the level
 //! [`Isa::Auto`] (the default) takes the best level the CPU has, unless the environment
