@@ -273,9 +273,9 @@ impl Chain {
 
     /// Monte Carlo propagation with `samples` joint draws of every camera and link.
     ///
-    /// Draws are split in chunks of [`CHUNK`]; chunk `k` uses `crashrig_stats::stream(seed, k)`
-    /// and the chunks are merged in index order, so the result is bit-identical for any
-    /// number of threads.
+    /// Draws are split in chunks of [`CHUNK`]; chunk `k` is Philox task `k` of `seed` and the
+    /// chunks are merged in index order, so the result is bit-identical for any number of
+    /// threads (and any instruction-set level). `CRASHRIG_ISA=legacy` runs the former engine.
     pub fn monte_carlo(&self, samples: usize, seed: u64) -> Vec<PoseMc> {
         self.monte_carlo_with(samples, seed, Engine::from_env())
     }

@@ -18,10 +18,13 @@
 //! - σ is the sample standard deviation (n − 1). Statistics are streamed: memory does not
 //!   grow with the number of draws ([`crashrig_stats::Moments`] for the chain; for the grid,
 //!   sums of deviations from the grid point, which vectorise and need no per-draw division).
-//! - Normals come from [`FastNormal`], a 256-layer ziggurat over the ChaCha8 streams.
-//! - Determinism: work is cut into fixed chunks of [`CHUNK`] draws, chunk k drawing from
-//!   `crashrig_stats::stream(seed, k)`, merged in index order: the same seed gives
-//!   bit-identical results on any number of threads.
+//! - Normals: Philox4x32-10 counter-based bits (key = seed, counter = (task, draw, slot)) into
+//!   a vectorised Box–Muller transform, 64 draws per block, compiled for the CPU's best
+//!   instruction set at run time ([`Isa`], `CRASHRIG_ISA`). The former ChaCha8 + ziggurat
+//!   engine ([`FastNormal`]) remains as [`Engine::Legacy`], the benchmarks' baseline.
+//! - Determinism: work is cut into fixed chunks of [`CHUNK`] draws (tasks), each with its own
+//!   counter range, merged in index order: the same seed gives bit-identical results on any
+//!   number of threads and on every instruction-set level.
 //!
 //! # Entry points
 //! - [`Scenario::from_path`] / [`Scenario::from_toml_str`]: read and validate a scenario.
