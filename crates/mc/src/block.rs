@@ -26,6 +26,8 @@
 //! `R = R̄·Exp(w)`. A rotation error `ω` given in the world frame (`R = Exp(ω)·R̄`) is the same
 //! as `w = R̄ᵀω`, one 3×3 product per lane before the ray.
 
+#![allow(clippy::needless_range_loop)] // lane-indexed loops over parallel arrays are the point (they vectorise)
+
 use crate::accumulate::{Acc3, LaneSums};
 use crate::grid::{Aimed, Ctx};
 use crate::kernel::{Normal3, SMALL_ANGLE_SQ, exp_e3, exp_matrix, opk_e3, rot_opk};

@@ -14,6 +14,8 @@
 //! with the scalar formulas (`Chain::compose_into`, `atan2`, `log_near_identity`), lane by
 //! lane: a draw's values never depend on its block or on the instruction set.
 
+#![allow(clippy::needless_range_loop)] // lane-indexed loops over parallel arrays are the point (they vectorise)
+
 use crate::chain::Chain;
 use crate::kernel::SMALL_ANGLE_SQ;
 use crate::normal::{LANES, Lane, fill_block};

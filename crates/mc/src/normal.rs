@@ -178,9 +178,12 @@ const MAGIC_BITS: u64 = 0x4330_0000_0000_0000;
 const MAGIC: f64 = 4_503_599_627_370_496.0;
 const SQRT2: f64 = std::f64::consts::SQRT_2;
 /// ln 2 split so that e·LN2_HI is exact for |e| < 2¹¹ (fdlibm).
+#[allow(clippy::excessive_precision)] // the published digits (fdlibm, Cephes)
 const LN2_HI: f64 = 6.931_471_803_691_238_164_90e-01;
+#[allow(clippy::excessive_precision)] // the published digits (fdlibm, Cephes)
 const LN2_LO: f64 = 1.908_214_929_270_587_700_02e-10;
 /// Cephes `sin` (|x| ≤ π/4): sin x = x + x·z·P(z), z = x².
+#[allow(clippy::excessive_precision)] // the published digits (fdlibm, Cephes)
 const SIN: [f64; 6] = [
     1.589_623_015_765_465_680_60e-10,
     -2.505_074_776_285_780_728_66e-8,
@@ -190,6 +193,7 @@ const SIN: [f64; 6] = [
     -1.666_666_666_666_663_072_95e-1,
 ];
 /// Cephes `cos` (|x| ≤ π/4): cos x = 1 − z/2 + z²·Q(z).
+#[allow(clippy::excessive_precision)] // the published digits (fdlibm, Cephes)
 const COS: [f64; 6] = [
     -1.135_853_652_138_768_173_00e-11,
     2.087_570_084_197_473_167_78e-9,
@@ -279,8 +283,9 @@ pub(crate) fn box_muller(v: u64) -> (f64, f64) {
 /// not depend on the block it is in, on `rows.len()` beyond the slots it needs, or on the
 /// instruction set. Inline into a dispatched kernel (see [`crate::simd`]).
 #[inline(always)]
+#[allow(clippy::needless_range_loop)] // lane-indexed loops over parallel arrays vectorise
 pub(crate) fn fill_block(key: [u32; 2], task: u64, draw0: u64, rows: &mut [Lane]) {
-    debug_assert!(rows.len() % 2 == 0, "normals come in pairs");
+    debug_assert!(rows.len().is_multiple_of(2), "normals come in pairs");
     let mut bits = [[0u64; LANES]; 2];
     for (slot, group) in rows.chunks_mut(4).enumerate() {
         for d in 0..LANES {
@@ -349,6 +354,7 @@ mod tests {
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)] // lane-indexed, like the code under test
 mod block_tests {
     use super::*;
     use crate::philox::key_of_seed;
