@@ -4,7 +4,7 @@
 //! Throughput is reported per draw (`Throughput::Elements`), so criterion prints draws/s.
 //! Single-threaded numbers come from a 1-thread rayon pool; the 2-thread grid uses a 2-thread
 //! pool. See docs/performance.md for the numbers and the roofline note.
-use crashrig_mc::{Chain, GridStudy, Scenario};
+use crashrig_mc::{Chain, Engine, GridStudy, Isa, Scenario};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use rand::RngExt;
 use rand_distr::StandardNormal;
@@ -53,6 +53,25 @@ sigma_position_mm = [2.0, 2.0, 2.0]
 sigma_angles_deg = [0.02, 0.02, 0.02]
 "#;
 
+/// The legacy engine and every SIMD level this CPU has, slowest first.
+fn engines() -> Vec<Engine> {
+    std::iter::once(Engine::Legacy)
+        .chain(
+            Isa::LEVELS
+                .into_iter()
+                .filter(|l| l.is_available())
+                .map(Engine::Simd),
+        )
+        .collect()
+}
+
+fn engine_name(e: Engine) -> String {
+    match e {
+        Engine::Legacy => "legacy".to_string(),
+        Engine::Simd(isa) => isa.name().to_string(),
+    }
+}
+
 fn pool(threads: usize) -> rayon::ThreadPool {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -62,7 +81,7 @@ fn pool(threads: usize) -> rayon::ThreadPool {
 
 fn normals(c: &mut Criterion) {
     let mut g = c.benchmark_group("rng");
-    let n = 12_000u64;
+    let n = 12_288u64;
     g.throughput(Throughput::Elements(n));
     g.bench_function("chacha8_standard_normal", |b| {
         let mut rng = crashrig_stats::stream(1, 0);
@@ -87,6 +106,25 @@ fn normals(c: &mut Criterion) {
             black_box(s)
         })
     });
+    for isa in crashrig_mc::Isa::LEVELS {
+        if !isa.is_available() {
+            continue;
+        }
+        g.bench_function(format!("philox_box_muller_{}", isa.name()), |b| {
+            let mut rows = vec![[0.0f64; crashrig_mc::bench::BLOCK]; 12];
+            let blocks = n / (12 * crashrig_mc::bench::BLOCK as u64);
+            let mut draw0 = 0u64;
+            b.iter(|| {
+                let mut s = 0.0f64;
+                for _ in 0..blocks {
+                    crashrig_mc::bench::philox_normals(isa, 1, 0, draw0, &mut rows);
+                    draw0 += crashrig_mc::bench::BLOCK as u64;
+                    s += rows[0][0] + rows[11][63];
+                }
+                black_box(s)
+            })
+        });
+    }
     g.bench_function("chacha8_u64", |b| {
         let mut rng = crashrig_stats::stream(1, 0);
         b.iter(|| {
@@ -112,9 +150,12 @@ fn kernel(c: &mut Criterion) {
     let mut g = c.benchmark_group("kernel");
     g.throughput(Throughput::Elements(n as u64));
     g.sample_size(10);
-    g.bench_function("two_observers_1thread", |b| {
-        b.iter(|| one.install(|| black_box(study.run(n, 7).expect("run"))))
-    });
+    for engine in engines() {
+        g.bench_function(
+            format!("two_observers_1thread/{}", engine_name(engine)),
+            |b| b.iter(|| one.install(|| black_box(study.run_with(n, 7, engine).expect("run")))),
+        );
+    }
     g.finish();
 }
 
@@ -128,9 +169,12 @@ fn grid(c: &mut Criterion) {
     g.sample_size(10);
     for threads in [1usize, 2] {
         let p = pool(threads);
-        g.bench_with_input(BenchmarkId::new("threads", threads), &threads, |b, _| {
-            b.iter(|| p.install(|| black_box(study.run(samples, 3).expect("run"))))
-        });
+        for engine in [Engine::Legacy, Engine::Simd(Isa::Auto)] {
+            let id = format!("{}/threads", engine_name(engine));
+            g.bench_with_input(BenchmarkId::new(id, threads), &threads, |b, _| {
+                b.iter(|| p.install(|| black_box(study.run_with(samples, 3, engine).expect("run"))))
+            });
+        }
     }
     g.finish();
 }
@@ -144,9 +188,12 @@ fn chain(c: &mut Criterion) {
     g.sample_size(10);
     for threads in [1usize, 2] {
         let p = pool(threads);
-        g.bench_with_input(BenchmarkId::new("threads", threads), &threads, |b, _| {
-            b.iter(|| p.install(|| black_box(ch.monte_carlo(n, 3))))
-        });
+        for engine in [Engine::Legacy, Engine::Simd(Isa::Auto)] {
+            let id = format!("{}/threads", engine_name(engine));
+            g.bench_with_input(BenchmarkId::new(id, threads), &threads, |b, _| {
+                b.iter(|| p.install(|| black_box(ch.monte_carlo_with(n, 3, engine))))
+            });
+        }
     }
     g.finish();
 }

@@ -1,7 +1,9 @@
 //! Propagation through the camera chain: Monte Carlo draws and first-order (linear) covariance.
 
+use crate::chain_block::{CamPlan, CamSums};
 use crate::kernel::{exp_matrix, log_near_identity, rot_opk};
 use crate::scenario::{PoseSigma, RotationNoise, Scenario};
+use crate::simd::Engine;
 use crate::{CHUNK, Error, FastNormal};
 use crashrig_geometry::{Rigid3, Rot3, UncertainPose, quat};
 use crashrig_stats::{Moments, stream};
@@ -436,7 +438,7 @@ impl Chain {
     }
 
     #[inline]
-    fn compose_into(&self, eps: &[f64], out: &mut [WorldPose]) {
+    pub(crate) fn compose_into(&self, eps: &[f64], out: &mut [WorldPose]) {
         for &i in &self.order {
             let l = &self.links[i];
             let (dp, de) = l.delta(&eps[6 * i..6 * i + 6]);
@@ -477,6 +479,42 @@ impl Chain {
         self.compose_into(eps, out);
     }
 
+    /// The cameras in topological order (parents first).
+    pub(crate) fn order(&self) -> &[usize] {
+        &self.order
+    }
+
+    /// What the block loop needs, per camera in file order.
+    pub(crate) fn plan(&self) -> Vec<CamPlan> {
+        self.links
+            .iter()
+            .zip(&self.nominal)
+            .map(|(l, nom)| {
+                let a = nom.angles_rad();
+                CamPlan {
+                    parent: l.parent,
+                    noise: l.noise,
+                    position: [l.position_mm.x, l.position_mm.y, l.position_mm.z],
+                    rotation: std::array::from_fn(|k| l.rotation[(k / 3, k % 3)]),
+                    angles_sin: std::array::from_fn(|k| l.angles_rad[k].sin()),
+                    angles_cos: std::array::from_fn(|k| l.angles_rad[k].cos()),
+                    sigma: std::array::from_fn(|k| l.factor[(k, k)]),
+                    factor: std::array::from_fn(|r| std::array::from_fn(|c| l.factor[(r, c)])),
+                    diagonal: l.diagonal.is_some(),
+                    nominal_c: [nom.position_mm.x, nom.position_mm.y, nom.position_mm.z],
+                    nominal_r: std::array::from_fn(|k| nom.rotation[(k / 3, k % 3)]),
+                    nominal_sin: std::array::from_fn(|k| a[k].sin()),
+                    nominal_cos: std::array::from_fn(|k| a[k].cos()),
+                }
+            })
+            .collect()
+    }
+
+    /// ω φ κ of a drawn pose of camera `i` minus the nominal ones, wrapped to (−π, π].
+    pub(crate) fn angle_offsets(&self, i: usize, drawn: &WorldPose) -> Vector3<f64> {
+        (drawn.angles_rad() - self.nominal[i].angles_rad()).map(wrap_pi)
+    }
+
     /// Error of a drawn pose against the nominal of camera `i`: (δC world mm, body rotation
     /// error rad) with `R = R_nom·Exp(θ)`.
     #[inline]
@@ -490,10 +528,66 @@ impl Chain {
 
     /// Monte Carlo propagation with `samples` joint draws of every camera and link.
     ///
-    /// Draws are split in chunks of [`CHUNK`]; chunk `k` uses `crashrig_stats::stream(seed, k)`
-    /// and the chunks are merged in index order, so the result is bit-identical for any
-    /// number of threads.
+    /// Draws are split in chunks of [`CHUNK`]; chunk `k` is Philox task `k` of `seed` and the
+    /// chunks are merged in index order, so the result is bit-identical for any number of
+    /// threads (and any instruction-set level). `CRASHRIG_ISA=legacy` runs the former engine.
     pub fn monte_carlo(&self, samples: usize, seed: u64) -> Vec<PoseMc> {
+        self.monte_carlo_with(samples, seed, Engine::from_env())
+    }
+
+    /// [`Chain::monte_carlo`] with an explicit engine (benchmarks and tests).
+    pub fn monte_carlo_with(&self, samples: usize, seed: u64, engine: Engine) -> Vec<PoseMc> {
+        let isa = match engine {
+            Engine::Legacy => return self.monte_carlo_legacy(samples, seed),
+            Engine::Simd(isa) => isa,
+        };
+        let n = self.len();
+        let key = crate::philox::key_of_seed(seed);
+        let chunks = samples.div_ceil(CHUNK);
+        let parts: Vec<Vec<CamSums>> = (0..chunks)
+            .into_par_iter()
+            .map(|k| {
+                let m = CHUNK.min(samples - k * CHUNK);
+                crate::simd::dispatch(
+                    isa,
+                    #[inline(always)]
+                    || crate::chain_block::run_task(self, key, k as u64, m),
+                )
+            })
+            .collect();
+        let mut total = vec![CamSums::new(); n];
+        for part in &parts {
+            for (t, p) in total.iter_mut().zip(part) {
+                t.merge(p);
+            }
+        }
+        total
+            .iter()
+            .enumerate()
+            .map(|(i, t)| {
+                let nom = &self.nominal[i];
+                let nom_a = nom.angles_rad();
+                let (mean, cov) = t.mean_cov();
+                let sd = Vector6::from_fn(|r, _| cov[(r, r)].sqrt());
+                PoseMc {
+                    name: self.names[i].clone(),
+                    nominal: *nom,
+                    count: t.n,
+                    position_mean_mm: nom.position_mm + mean.fixed_rows::<3>(0),
+                    position_sigma_mm: sd.fixed_rows::<3>(0).into_owned(),
+                    angles_mean_rad: (nom_a + mean.fixed_rows::<3>(3)).map(wrap_pi),
+                    angles_sigma_rad: sd.fixed_rows::<3>(3).into_owned(),
+                    tangent_sigma_rad: t.tangent_sigma(),
+                    covariance: cov,
+                    covariance_tangent: t.tangent_covariance(),
+                    angles_singular: self.angles_singular(i),
+                }
+            })
+            .collect()
+    }
+
+    /// The former loop (ChaCha8 streams, ziggurat normals, Welford moments per draw).
+    fn monte_carlo_legacy(&self, samples: usize, seed: u64) -> Vec<PoseMc> {
         let n = self.len();
         let chunks = samples.div_ceil(CHUNK);
         let parts: Vec<Vec<(Moments<6>, Moments<6>)>> = (0..chunks)

@@ -2,11 +2,14 @@
 //! and intersected; streaming statistics, linear propagation and adaptive stopping.
 
 use crate::accumulate::Acc3;
-use crate::chain::{Chain, WorldPose};
-use crate::kernel::SMALL_ANGLE_SQ;
-use crate::kernel::{Normal3, exp_e3, exp_matrix, opk_e3, rot_opk};
+use crate::block::NoiseFactor;
+use crate::chain::Chain;
+use crate::kernel::Normal3;
+#[cfg(test)]
+use crate::kernel::{exp_matrix, rot_opk};
 use crate::scenario::{Grid, ObserverSigma, PoseSigma, RotationNoise, Scenario};
-use crate::{CHUNK, Error, FastNormal};
+use crate::simd::Engine;
+use crate::{CHUNK, Error};
 use crashrig_geometry::uncertain::psd_factor;
 use crashrig_stats::{Moments, stream};
 use nalgebra::{DMatrix, Matrix3, Matrix6, SymmetricEigen, Vector3, Vector6};
@@ -102,32 +105,33 @@ impl ObserverNoise {
 /// One observer aimed at one grid point.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Aimed {
-    c: Vector3<f64>,
-    r: Matrix3<f64>,
-    opk: Vector3<f64>,
-    sp: Vector3<f64>,
-    sr: Vector3<f64>,
-    noise: RotationNoise,
-    /// Lower-triangular factor of a non-diagonal covariance (`None`: `σ∘ε` with `sp`, `sr`).
-    factor: Option<Matrix6<f64>>,
+    pub(crate) c: Vector3<f64>,
+    pub(crate) r: Matrix3<f64>,
+    pub(crate) opk: Vector3<f64>,
+    pub(crate) sp: Vector3<f64>,
+    pub(crate) sr: Vector3<f64>,
+    /// Rotation noise kind (a chain draw is always tangent).
+    pub(crate) kind: RotationNoise,
+    /// The pose noise as a factor `δ = L·ε` (diagonal fast path when independent).
+    pub(crate) noise: NoiseFactor,
     /// The covariance in the observer's own frame (for the first-order map).
-    covariance: Matrix6<f64>,
+    pub(crate) covariance: Matrix6<f64>,
     /// Chain camera whose joint draw this observer takes (correlated mode).
-    source: Option<usize>,
+    pub(crate) source: Option<usize>,
     /// Correlated mode: `Lᵀ·R̄`, mapping the chain camera's body-axis rotation error θ to this
     /// observer's own axes, so that its world rotation is `Exp(R̄·θ)·L`.
-    chain_to_own: Matrix3<f64>,
+    pub(crate) chain_to_own: Matrix3<f64>,
 }
 
 /// Everything the per-draw kernel needs that is shared by all points.
 #[derive(Debug, Clone)]
 pub(crate) struct Ctx {
     /// σ of the normalized image coordinates, if pixel noise is on.
-    pixel: Option<f64>,
+    pub(crate) pixel: Option<f64>,
     /// The chain, when at least one observer is drawn jointly from it.
-    chain: Option<Chain>,
+    pub(crate) chain: Option<Chain>,
     /// [`Chain::jacobians`] of that chain (for the first-order map of correlated observers).
-    chain_jacobians: Vec<DMatrix<f64>>,
+    pub(crate) chain_jacobians: Vec<DMatrix<f64>>,
 }
 
 /// Prepared grid study: observers resolved, ready to run.
@@ -138,7 +142,7 @@ pub struct GridStudy {
     observer_noise: Vec<ObserverNoise>,
     correlated: bool,
     /// Nominal world poses of the chain (for correlated observers).
-    chain_nominal: Vec<WorldPose>,
+    chain_nominal: Vec<crate::WorldPose>,
     samples: usize,
     seed: u64,
 }
@@ -147,7 +151,7 @@ fn aim(
     grid: &Grid,
     noises: &[ObserverNoise],
     correlated: bool,
-    chain_nominal: &[WorldPose],
+    chain_nominal: &[crate::WorldPose],
     point: &Vector3<f64>,
 ) -> Result<Vec<Aimed>, Error> {
     grid.observers
@@ -181,12 +185,16 @@ fn aim(
                 sp: sigma.position_mm,
                 sr: sigma.angles_rad,
                 // A chain draw is always a tangent (body-axis) rotation error.
-                noise: if source.is_some() {
+                kind: if source.is_some() {
                     RotationNoise::Tangent
                 } else {
                     s.noise
                 },
-                factor: (!diagonal).then(|| psd_factor(&s.covariance)),
+                noise: if diagonal {
+                    NoiseFactor::from_sigma(&sigma.position_mm, &sigma.angles_rad)
+                } else {
+                    NoiseFactor::from_lower(&psd_factor(&s.covariance))
+                },
                 covariance,
                 source,
                 chain_to_own,
@@ -267,6 +275,14 @@ impl GridStudy {
             .collect();
         let correlated = grid.correlated && needs_chain;
         let chain_nominal = chain.nominal().to_vec();
+        // Normals per draw must fit the Philox slots of a draw (4 normals per slot).
+        let normals = 8 * grid.observers.len() + if correlated { 6 * chain.len() } else { 0 };
+        if normals > 4 * crate::philox::MAX_SLOTS {
+            return Err(Error::Invalid {
+                key: "grid.observer".to_string(),
+                problem: "too many observers and cameras for the Monte Carlo engine (at most 2¹⁸ normals per draw)",
+            });
+        }
         let study = GridStudy {
             ctx: Ctx {
                 pixel: grid.pixel.map(|p| p.sigma_normalized()),
@@ -350,10 +366,16 @@ impl GridStudy {
 
     /// Runs `samples` draws per point.
     ///
-    /// Work is split into (point, chunk of [`CHUNK`] draws) tasks; task (p, k) uses
-    /// `crashrig_stats::stream(seed, p·2²⁴ + k)` and chunks are merged in index order, so the
-    /// result is bit-identical for any number of threads.
+    /// Work is split into (point, chunk of [`CHUNK`] draws) tasks; task (p, k) draws from
+    /// the Philox stream of `(seed, p·2²⁴ + k)` and chunks are merged in index order, so the
+    /// result is bit-identical for any number of threads (and any instruction-set level).
     pub fn run(&self, samples: usize, seed: u64) -> Result<GridResult, Error> {
+        self.run_with(samples, seed, Engine::from_env())
+    }
+
+    /// [`GridStudy::run`] with an explicit engine (benchmarks and tests; the legacy engine
+    /// draws from the former ChaCha8 streams, so its numbers differ statistically only).
+    pub fn run_with(&self, samples: usize, seed: u64, engine: Engine) -> Result<GridResult, Error> {
         let points = self.grid.points();
         let aimed = self.aim_all(&points)?;
         let chunks = samples.div_ceil(CHUNK);
@@ -363,10 +385,17 @@ impl GridStudy {
         let parts: Vec<Acc3> = tasks
             .par_iter()
             .map(|&(p, k)| {
-                let mut rng = stream(seed, task_index(p, k));
                 let m = CHUNK.min(samples - k * CHUNK);
                 let mut acc = Acc3::new(points[p]);
-                run_chunk(&aimed[p], &self.ctx, &mut rng, m, &mut acc);
+                run_chunk(
+                    &aimed[p],
+                    &self.ctx,
+                    seed,
+                    task_index(p, k),
+                    m,
+                    &mut acc,
+                    engine,
+                );
                 acc
             })
             .collect();
@@ -385,7 +414,7 @@ impl GridStudy {
     }
 
     /// Runs with the adaptive stopping rule of GUM-S1 §7.9 per point: batches of
-    /// `adaptive.batch` draws (batch b of point p uses `stream(seed, p·2²⁴ + b)`) until
+    /// `adaptive.batch` draws (batch b of point p is task `p·2²⁴ + b`) until
     /// `2·s/√h ≤ tolerance` for σx, σy and σz (s = standard deviation of the h per-batch σ,
     /// at least 4 batches) or `max_samples` is reached. The reported σ is that of all draws.
     pub fn run_adaptive(
@@ -403,7 +432,6 @@ impl GridStudy {
                 let mut batch_sigmas = Moments::<3>::new();
                 let mut b = 0usize;
                 loop {
-                    let mut rng = stream(seed, task_index(p, b));
                     let m = adaptive
                         .batch
                         .min(adaptive.max_samples.saturating_sub(b * adaptive.batch));
@@ -411,7 +439,15 @@ impl GridStudy {
                         break;
                     }
                     let mut acc = Acc3::new(*point);
-                    run_chunk(&aimed[p], &self.ctx, &mut rng, m, &mut acc);
+                    run_chunk(
+                        &aimed[p],
+                        &self.ctx,
+                        seed,
+                        task_index(p, b),
+                        m,
+                        &mut acc,
+                        Engine::from_env(),
+                    );
                     total.merge(&acc);
                     let s = acc.std_dev();
                     batch_sigmas.push(&[s.x, s.y, s.z]);
@@ -458,106 +494,37 @@ fn task_index(point: usize, chunk: usize) -> u64 {
     ((point as u64) << 24) | chunk as u64
 }
 
-/// `m` draws of one grid point into `acc`.
-#[inline(never)]
-pub(crate) fn run_chunk<R: rand::Rng>(
+/// `m` draws of one grid point (task `task` of the run seeded `seed`) into `acc`.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn run_chunk(
     obs: &[Aimed],
     ctx: &Ctx,
-    rng: &mut R,
+    seed: u64,
+    task: u64,
     m: usize,
     acc: &mut Acc3,
+    engine: Engine,
 ) {
-    let nd = FastNormal::new();
-    let simple = ctx.pixel.is_none()
-        && ctx.chain.is_none()
-        && obs
-            .iter()
-            .all(|o| o.noise == RotationNoise::Tangent && o.factor.is_none())
-        && obs.len() == 2;
-    if simple {
-        run_two_observers(&obs[0], &obs[1], &nd, rng, m, acc);
-        return;
-    }
-    let mut eps = vec![0.0; ctx.chain.as_ref().map_or(0, |c| 6 * c.len())];
-    let mut drawn: Vec<WorldPose> = ctx
-        .chain
-        .as_ref()
-        .map_or_else(Vec::new, |c| c.nominal().to_vec());
-    for _ in 0..m {
-        if let Some(chain) = &ctx.chain {
-            chain.draw_into(rng, &mut eps, &mut drawn);
+    match engine {
+        Engine::Simd(isa) => {
+            let key = crate::philox::key_of_seed(seed);
+            crate::simd::dispatch(
+                isa,
+                #[inline(always)]
+                || crate::block::run_task(obs, ctx, key, task, m, acc),
+            );
         }
-        let mut n = Normal3::default();
-        for o in obs {
-            let (dc, rot) = match (o.source, &ctx.chain) {
-                (Some(i), Some(chain)) => {
-                    // World-frame rotation Exp(R̄θ) on the look-at L: L·Exp(Lᵀ R̄ θ).
-                    let (dc, th) = chain.error_of(i, &drawn[i]);
-                    (dc, Rot::Tangent(o.chain_to_own * th))
-                }
-                _ => {
-                    let ep = normal3(&nd, rng);
-                    let er = normal3(&nd, rng);
-                    let (dp, dr) = match &o.factor {
-                        None => (o.sp.component_mul(&ep), o.sr.component_mul(&er)),
-                        Some(l) => {
-                            let d = l * Vector6::new(ep.x, ep.y, ep.z, er.x, er.y, er.z);
-                            (
-                                d.fixed_rows::<3>(0).into_owned(),
-                                d.fixed_rows::<3>(3).into_owned(),
-                            )
-                        }
-                    };
-                    (
-                        dp,
-                        match o.noise {
-                            RotationNoise::Tangent => Rot::Tangent(dr),
-                            RotationNoise::Euler => Rot::Euler(dr),
-                        },
-                    )
-                }
-            };
-            let c = o.c + dc;
-            match ctx.pixel {
-                None => {
-                    let d = match rot {
-                        Rot::Tangent(w) => o.r * exp_e3(&w),
-                        Rot::Euler(da) => opk_e3(&(o.opk + da)),
-                    };
-                    n.add_ray(&d, &c);
-                }
-                Some(s) => {
-                    let (x, y) = nd.pair(rng);
-                    let (x, y) = (s * x, s * y);
-                    let r = match rot {
-                        Rot::Tangent(w) => o.r * exp_matrix(&w),
-                        Rot::Euler(da) => rot_opk(&(o.opk + da)),
-                    };
-                    add_view(&mut n, &r, &c, x, y);
-                }
-            }
+        Engine::Legacy => {
+            let mut rng = stream(seed, task);
+            crate::legacy::run_chunk(obs, ctx, &mut rng, m, acc);
         }
-        acc.push(&n.solve());
     }
-}
-
-#[derive(Debug, Clone, Copy)]
-enum Rot {
-    Tangent(Vector3<f64>),
-    Euler(Vector3<f64>),
-}
-
-#[inline(always)]
-fn normal3<R: rand::Rng>(nd: &FastNormal, rng: &mut R) -> Vector3<f64> {
-    let mut e = [0.0; 3];
-    nd.fill(rng, &mut e);
-    Vector3::from(e)
 }
 
 /// The two DLT rows of a view with rotation `r` (world_from_cam), centre `c`, observation
 /// `(x, y)` in normalized coordinates.
 #[inline(always)]
-fn add_view(n: &mut Normal3, r: &Matrix3<f64>, c: &Vector3<f64>, x: f64, y: f64) {
+pub(crate) fn add_view(n: &mut Normal3, r: &Matrix3<f64>, c: &Vector3<f64>, x: f64, y: f64) {
     let c1 = r.column(0).into_owned();
     let c2 = r.column(1).into_owned();
     let c3 = r.column(2).into_owned();
@@ -578,7 +545,7 @@ pub(crate) fn intersect_perturbed(obs: &[Aimed], delta: &[f64]) -> Vector3<f64> 
         let d = &delta[INPUTS_PER_OBSERVER * j..INPUTS_PER_OBSERVER * (j + 1)];
         let c = o.c + Vector3::new(d[0], d[1], d[2]);
         let w = Vector3::new(d[3], d[4], d[5]);
-        let r = match o.noise {
+        let r = match o.kind {
             RotationNoise::Tangent => o.r * exp_matrix(&w),
             RotationNoise::Euler => rot_opk(&(o.opk + w)),
         };
@@ -604,7 +571,7 @@ pub(crate) fn intersection_jacobian(obs: &[Aimed], point: &Vector3<f64>) -> DMat
         let d = o.r.column(2).into_owned();
         let rho = (point - o.c).norm();
         let p = Matrix3::identity() - d * d.transpose();
-        let g = match o.noise {
+        let g = match o.kind {
             // δ × e₃ = (δy, −δx, 0) = −[e₃]× δ
             RotationNoise::Tangent => o.r * (-Vector3::z().cross_matrix()),
             RotationNoise::Euler => {
@@ -674,98 +641,3 @@ pub(crate) fn linear_covariance(obs: &[Aimed], ctx: &Ctx, point: &Vector3<f64>) 
 
 #[cfg(test)]
 mod tests;
-
-/// Draws per block of the two-observer kernel.
-const LANES: usize = 64;
-
-/// The hot path (two independent observers, tangent noise, principal point), written over
-/// blocks of [`LANES`] draws in structure-of-arrays form so the compiler vectorises it.
-///
-/// Per block, 12 rows of [`LANES`] normals are drawn, component-major (all first components
-/// of the block, then all second ones, …): observer j's position noise is rows 6j..6j+3, its
-/// rotation noise rows 6j+3..6j+6. A final partial block still draws full rows and uses the
-/// first lanes. A block holding an angle with θ² ≥ [`SMALL_ANGLE_SQ`] (never for realistic
-/// σ) is recomputed with the exact `sin`/`cos` form.
-#[inline(never)]
-fn run_two_observers<R: rand::Rng>(
-    o0: &Aimed,
-    o1: &Aimed,
-    nd: &FastNormal,
-    rng: &mut R,
-    m: usize,
-    acc: &mut Acc3,
-) {
-    let mut e = [[0.0f64; LANES]; 12];
-    let mut xs = [[0.0f64; LANES]; 3];
-    let mut tmax = [0.0f64; LANES];
-    let shift = acc.shift();
-    let mut lanes = crate::accumulate::LaneSums::<LANES>::default();
-    let mut done = 0;
-    while done < m {
-        let b = LANES.min(m - done);
-        for row in e.iter_mut() {
-            nd.fill(rng, row);
-        }
-        for d in 0..LANES {
-            let (d0, c0, t0) = ray_taylor(o0, &e, 0, d);
-            let (d1, c1, t1) = ray_taylor(o1, &e, 6, d);
-            let mut n = Normal3::default();
-            n.add_ray(&d0, &c0);
-            n.add_ray(&d1, &c1);
-            let x = n.solve();
-            xs[0][d] = x.x;
-            xs[1][d] = x.y;
-            xs[2][d] = x.z;
-            tmax[d] = t0.max(t1);
-        }
-        if tmax[..b].iter().any(|t| *t >= SMALL_ANGLE_SQ) {
-            for d in 0..b {
-                let mut n = Normal3::default();
-                for (o, k) in [(o0, 0), (o1, 6)] {
-                    let ep = Vector3::new(e[k][d], e[k + 1][d], e[k + 2][d]);
-                    let er = Vector3::new(e[k + 3][d], e[k + 4][d], e[k + 5][d]);
-                    let c = o.c + o.sp.component_mul(&ep);
-                    let dir = o.r * exp_e3(&o.sr.component_mul(&er));
-                    n.add_ray(&dir, &c);
-                }
-                let x = n.solve();
-                xs[0][d] = x.x;
-                xs[1][d] = x.y;
-                xs[2][d] = x.z;
-            }
-        }
-        lanes.add(&xs, b, &shift);
-        done += b;
-    }
-    acc.merge(&lanes.reduce(shift));
-}
-
-/// Perturbed centre and ray of an observer for lane `d` (rows `k..k+6` of `e`), with the
-/// Taylor form of `Exp(w)·e₃`; also returns θ² so the caller can check the series' range.
-#[inline(always)]
-fn ray_taylor(
-    o: &Aimed,
-    e: &[[f64; LANES]; 12],
-    k: usize,
-    d: usize,
-) -> (Vector3<f64>, Vector3<f64>, f64) {
-    let c = Vector3::new(
-        o.c.x + o.sp.x * e[k][d],
-        o.c.y + o.sp.y * e[k + 1][d],
-        o.c.z + o.sp.z * e[k + 2][d],
-    );
-    let w = Vector3::new(
-        o.sr.x * e[k + 3][d],
-        o.sr.y * e[k + 4][d],
-        o.sr.z * e[k + 5][d],
-    );
-    let t = w.norm_squared();
-    let s = 1.0 - t / 6.0 * (1.0 - t / 20.0 * (1.0 - t / 42.0));
-    let cc = 0.5 * (1.0 - t / 12.0 * (1.0 - t / 30.0 * (1.0 - t / 56.0)));
-    let v = Vector3::new(
-        s * w.y + cc * w.x * w.z,
-        -s * w.x + cc * w.y * w.z,
-        1.0 + cc * (w.z * w.z - t),
-    );
-    (o.r * v, c, t)
-}

@@ -18,10 +18,13 @@
 //! - σ is the sample standard deviation (n − 1). Statistics are streamed: memory does not
 //!   grow with the number of draws ([`crashrig_stats::Moments`] for the chain; for the grid,
 //!   sums of deviations from the grid point, which vectorise and need no per-draw division).
-//! - Normals come from [`FastNormal`], a 256-layer ziggurat over the ChaCha8 streams.
-//! - Determinism: work is cut into fixed chunks of [`CHUNK`] draws, chunk k drawing from
-//!   `crashrig_stats::stream(seed, k)`, merged in index order: the same seed gives
-//!   bit-identical results on any number of threads.
+//! - Normals: Philox4x32-10 counter-based bits (key = seed, counter = (task, draw, slot)) into
+//!   a vectorised Box–Muller transform, 64 draws per block, compiled for the CPU's best
+//!   instruction set at run time ([`Isa`], `CRASHRIG_ISA`). The former ChaCha8 + ziggurat
+//!   engine ([`FastNormal`]) remains as [`Engine::Legacy`], the benchmarks' baseline.
+//! - Determinism: work is cut into fixed chunks of [`CHUNK`] draws (tasks), each with its own
+//!   counter range, merged in index order: the same seed gives bit-identical results on any
+//!   number of threads and on every instruction-set level.
 //!
 //! # Entry points
 //! - [`ChainBuilder`] → [`Chain`]: world poses and links as
@@ -143,16 +146,21 @@
 #![deny(missing_docs)]
 
 mod accumulate;
+mod block;
 mod chain;
+mod chain_block;
 pub mod degenerate;
 mod error;
 mod grid;
 mod grid_builder;
 mod kernel;
+mod legacy;
 pub mod limits;
 mod normal;
+mod philox;
 pub mod reference;
 mod scenario;
+mod simd;
 
 pub use chain::{CameraId, Chain, ChainBuilder, PoseLinear, PoseMc, WorldPose};
 pub use error::Error;
@@ -164,6 +172,7 @@ pub use scenario::{
     Adaptive, Axis, CORRELATED_POSITION_TOLERANCE_MM, Camera, Grid, Observer, ObserverSigma,
     PixelNoise, PoseSigma, RotationNoise, Scenario,
 };
+pub use simd::{Engine, Isa};
 
 /// Draws per work chunk (and per RNG stream). Fixed, so results do not depend on the thread
 /// count.
@@ -171,3 +180,26 @@ pub const CHUNK: usize = 4096;
 
 /// Smallest distance (mm) between an observer and a grid point.
 pub const MIN_OBSERVER_DISTANCE_MM: f64 = 1e-6;
+
+/// Hooks for the benchmarks (`benches/`) and external tests: the engine's building blocks
+/// with an explicit instruction-set level. Not a stable interface.
+#[doc(hidden)]
+pub mod bench {
+    use crate::normal::{LANES, fill_block};
+    use crate::philox::key_of_seed;
+    use crate::simd::{Isa, dispatch};
+
+    /// Draws per block of the vectorised kernels.
+    pub const BLOCK: usize = LANES;
+
+    /// Standard normals of draws `draw0 .. draw0 + BLOCK` of `task` under `seed`:
+    /// `rows[i][d]` is normal `i` of draw `draw0 + d` (`rows.len()` even).
+    pub fn philox_normals(isa: Isa, seed: u64, task: u64, draw0: u64, rows: &mut [[f64; BLOCK]]) {
+        let key = key_of_seed(seed);
+        dispatch(
+            isa,
+            #[inline(always)]
+            || fill_block(key, task, draw0, rows),
+        );
+    }
+}

@@ -304,3 +304,199 @@ fn slow_grid_closed_form_large_n() {
         assert_abs_diff_eq!(p.sigma_mm[k], expect[k], epsilon = 3.0 * se * expect[k]);
     }
 }
+
+/// Studies covering every path of the block kernel: tangent, euler, pixel noise (both),
+/// three observers, observers drawn jointly from the chain.
+fn kernel_paths() -> Vec<(&'static str, GridStudy)> {
+    let obs3 = format!(
+        "{}\n[[grid.observer]]\nposition_mm = [100.0, -300.0, 400.0]\nsigma_position_mm = [1.0, 0.5, 2.0]\nsigma_angles_deg = [0.02, 0.01, 0.03]\n",
+        TWO_OBS.replace("[0.0, 0.0, 0.0]", "[0.8, 0.5, 1.2]")
+    );
+    let pixel = "pixel_sigma_px = 0.5\nfocal_px = 1500.0";
+    let mut out = Vec::new();
+    for (name, extra, obs, cams, noise) in [
+        ("tangent", "", obs3.as_str(), "", "tangent"),
+        ("euler", "", obs3.as_str(), "", "euler"),
+        ("tangent+pixel", pixel, obs3.as_str(), "", "tangent"),
+        ("euler+pixel", pixel, obs3.as_str(), "", "euler"),
+        (
+            "correlated",
+            "correlated = true",
+            FROM_OBS,
+            SHARED_CHAIN,
+            "tangent",
+        ),
+    ] {
+        let mut sc = scenario(extra, obs, cams, noise);
+        let g = sc.grid.as_mut().unwrap();
+        g.x = crate::Axis {
+            start: -200.0,
+            stop: 200.0,
+            count: 2,
+        };
+        out.push((name, GridStudy::new(&sc, 2000, 1).unwrap()));
+    }
+    out
+}
+
+#[test]
+fn every_isa_gives_identical_grids() {
+    // The statement of `simd.rs`: every instruction-set level gives the same bits. Each
+    // available level is forced and compared with the baseline (SSE2 on x86-64), on every
+    // kernel path, with a partial final block.
+    let n = crate::CHUNK + 70;
+    for (name, study) in kernel_paths() {
+        let base = study
+            .run_with(n, 9, Engine::Simd(crate::Isa::Baseline))
+            .unwrap();
+        for isa in crate::Isa::LEVELS {
+            if !isa.is_available() {
+                eprintln!("{}: not available on this CPU, not compared", isa.name());
+                continue;
+            }
+            let got = study.run_with(n, 9, Engine::Simd(isa)).unwrap();
+            assert_eq!(got, base, "{name}: {} differs from baseline", isa.name());
+        }
+    }
+}
+
+#[test]
+fn legacy_and_simd_engines_agree_statistically() {
+    // Two engines, independent random numbers: the σ of each path agree within 4 standard
+    // errors of a difference of two σ estimates (√2 · σ/√(2(n−1))).
+    let n = 40_000;
+    let se = (2.0f64).sqrt() / (2.0 * (n as f64 - 1.0)).sqrt();
+    for (name, study) in kernel_paths() {
+        let a = study.run_with(n, 5, Engine::Legacy).unwrap();
+        let b = study.run_with(n, 5, Engine::default()).unwrap();
+        for (pa, pb) in a.points.iter().zip(&b.points) {
+            for k in 0..3 {
+                let s = pa.sigma_mm[k];
+                assert_abs_diff_eq!(pb.sigma_mm[k], s, epsilon = 4.0 * se * s);
+            }
+        }
+        assert_ne!(a, b, "{name}: the engines must draw different numbers");
+    }
+}
+
+/// The draws of one chunk with the given observers (test access to the kernel).
+fn chunk(obs: &[Aimed], ctx: &Ctx, m: usize) -> Acc3 {
+    let mut acc = Acc3::new(Vector3::new(0.0, 1000.0, 0.0));
+    run_chunk(obs, ctx, 77, 3, m, &mut acc, Engine::default());
+    acc
+}
+
+fn plain_ctx(pixel: Option<f64>) -> Ctx {
+    Ctx {
+        pixel,
+        chain: None,
+        chain_jacobians: Vec::new(),
+    }
+}
+
+/// The observers with their rotation noise kind set to `kind`.
+fn with_kind(obs: &[Aimed], kind: RotationNoise) -> Vec<Aimed> {
+    obs.iter().map(|a| Aimed { kind, ..*a }).collect()
+}
+
+#[test]
+fn full_factor_with_diagonal_entries_matches_diagonal_path_bitwise() {
+    // δ = L·ε summed over the whole lower triangle equals σ∘ε exactly when the
+    // off-diagonal entries are zero (adding zeros is exact): the general path is the same
+    // model as the fast diagonal one, bit for bit.
+    let obs = TWO_OBS.replace("[0.0, 0.0, 0.0]", "[0.8, 0.5, 1.2]");
+    for noise in [RotationNoise::Tangent, RotationNoise::Euler] {
+        for pixel in [None, Some(3e-4)] {
+            let sc = scenario("", &obs, "", "tangent");
+            let (aimed, _) = aimed_for(&sc);
+            let aimed = with_kind(&aimed, noise);
+            let full: Vec<Aimed> = aimed
+                .iter()
+                .map(|a| Aimed {
+                    noise: a.noise.without_shortcut(),
+                    ..*a
+                })
+                .collect();
+            let ctx = plain_ctx(pixel);
+            assert_eq!(chunk(&aimed, &ctx, 1000), chunk(&full, &ctx, 1000));
+        }
+    }
+}
+
+#[test]
+fn full_factor_nominal_matches_linear_propagation() {
+    // A covariance with position–rotation and rotation–rotation correlations (the
+    // uncertain-poses model): Monte Carlo σ against J Σ Jᵀ, Σ = L Lᵀ per observer. The
+    // correlations change σ by far more than the tolerance, so the test sees them.
+    let sc = scenario("", TWO_OBS, "", "tangent");
+    let (aimed, p) = aimed_for(&sc);
+    let mut l = nalgebra::Matrix6::<f64>::zeros();
+    // ρ·σ_rot ≈ 0.4 mm, comparable to the 0.5 mm position σ, so that correlating a rotation
+    // with a shift moves the ray markedly more (or less) than either alone.
+    let s_rot = 0.02f64.to_radians();
+    for i in 0..3 {
+        l[(i, i)] = 0.5;
+        l[(i + 3, i + 3)] = s_rot;
+    }
+    // Rotation about the camera's y axis (the ray swings sideways) with the world x shift,
+    // about its x axis (the ray swings up/down) with the z shift, and one rotation–rotation
+    // term.
+    l[(4, 0)] = 1.5 * s_rot;
+    l[(3, 2)] = -1.5 * s_rot;
+    l[(4, 3)] = -0.9 * s_rot;
+    l[(5, 1)] = 0.5 * s_rot;
+    let obs: Vec<Aimed> = aimed
+        .iter()
+        .map(|a| Aimed {
+            noise: crate::block::NoiseFactor::from_lower(&l),
+            ..*a
+        })
+        .collect();
+    let ctx = plain_ctx(None);
+    let n = 4 * crate::CHUNK;
+    let mut acc = Acc3::new(p);
+    for k in 0..4 {
+        let mut part = Acc3::new(p);
+        run_chunk(
+            &obs,
+            &ctx,
+            21,
+            k,
+            crate::CHUNK,
+            &mut part,
+            Engine::default(),
+        );
+        acc.merge(&part);
+    }
+    let j = intersection_jacobian(&obs, &p);
+    let cov6 = l * l.transpose();
+    let mut sin = DMatrix::zeros(j.ncols(), j.ncols());
+    for k in 0..obs.len() {
+        let b = INPUTS_PER_OBSERVER * k;
+        sin.view_mut((b, b), (6, 6)).copy_from(&cov6);
+    }
+    let lin = &j * &sin * j.transpose();
+    let diag_only = {
+        let mut d = sin.clone();
+        for r in 0..d.nrows() {
+            for c in 0..d.ncols() {
+                if r != c {
+                    d[(r, c)] = 0.0;
+                }
+            }
+        }
+        &j * d * j.transpose()
+    };
+    let sd = acc.std_dev();
+    let se = 1.0 / (2.0 * (n as f64 - 1.0)).sqrt();
+    let mut sensitive = false;
+    for k in 0..3 {
+        let want = lin[(k, k)].sqrt();
+        assert_abs_diff_eq!(sd[k], want, epsilon = 4.0 * se * want);
+        sensitive |= (diag_only[(k, k)].sqrt() - want).abs() > 10.0 * se * want;
+    }
+    assert!(
+        sensitive,
+        "the correlations must matter for this test to mean anything"
+    );
+}

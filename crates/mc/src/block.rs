@@ -1,0 +1,550 @@
+//! The vectorised draw loop of the grid study: blocks of [`LANES`] draws in
+//! structure-of-arrays form, compiled per instruction-set level by [`crate::simd`].
+//!
+//! Per block: the normals of every draw ([`fill_block`], Philox + Box–Muller), then per
+//! observer its pose perturbation `δ = L·ε` ([`NoiseFactor`]: a lower-triangular 6×6 factor,
+//! with a diagonal fast case), its perturbed centre and ray (or DLT rows with pixel noise),
+//! summed into per-lane 3×3 normal equations ([`Normals3`]), solved by cofactors, and the
+//! points added to per-lane shifted sums. Every path of the study runs here: n observers,
+//! tangent and euler noise, full or diagonal factors, pixel noise, and observers drawn jointly
+//! from the chain (their δ comes from the chain composition, per lane, instead of `L·ε`).
+//!
+//! Small-angle forms: `Exp(w)` and the sine/cosine of the euler offsets use their Taylor
+//! series, exact to < 3·10⁻¹⁸ for θ² < [`SMALL_ANGLE_SQ`]; a lane with a larger angle (never for
+//! realistic σ) is recomputed with `sin`/`cos` by the scalar formulas of [`crate::kernel`],
+//! lane by lane, so a draw's result never depends on its block.
+//!
+//! # Entry points for other observation models
+//! [`Normals3::add_ray`] (a ray through a centre, both per lane) and [`Normals3::add_view`] (a
+//! perturbed rotation, a centre and normalized image coordinates per lane: the two DLT rows of
+//! a view) are the building blocks for observers whose rays come from elsewhere, e.g. fixed
+//! cameras with real lenses (pixel noise undistorted through a camera model gives per-lane
+//! normalized coordinates for `add_view`).
+//!
+//! # Frames of the perturbation
+//! `δ = (δC, w)`: δC shifts the centre in world axes; `w` rotates about the camera's own axes,
+//! `R = R̄·Exp(w)`. A rotation error `ω` given in the world frame (`R = Exp(ω)·R̄`) is the same
+//! as `w = R̄ᵀω`, one 3×3 product per lane before the ray.
+
+#![allow(clippy::needless_range_loop)] // lane-indexed loops over parallel arrays are the point (they vectorise)
+
+use crate::accumulate::{Acc3, LaneSums};
+use crate::grid::{Aimed, Ctx};
+use crate::kernel::{Normal3, SMALL_ANGLE_SQ, exp_e3, exp_matrix, opk_e3, rot_opk};
+use crate::normal::{LANES, Lane, fill_block};
+use crate::scenario::RotationNoise;
+use nalgebra::{Matrix3, Matrix6, Vector3};
+
+/// Lower-triangular factor `L` of a pose's 6×6 noise covariance (order x y z mm, then the
+/// three rotation components rad): `δ = L·ε`, ε standard normal.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct NoiseFactor {
+    l: [[f64; 6]; 6],
+    diagonal: bool,
+}
+
+impl NoiseFactor {
+    /// Independent per-axis σ (today's model): `L = diag(σ_position, σ_rotation)`.
+    pub(crate) fn from_sigma(position: &Vector3<f64>, rotation: &Vector3<f64>) -> Self {
+        let mut l = [[0.0; 6]; 6];
+        for i in 0..3 {
+            l[i][i] = position[i];
+            l[i + 3][i + 3] = rotation[i];
+        }
+        NoiseFactor { l, diagonal: true }
+    }
+
+    /// A general factor: the lower triangle of `l` (the strict upper triangle is ignored).
+    /// Uses the diagonal fast path when the strict lower triangle is zero.
+    pub(crate) fn from_lower(l: &Matrix6<f64>) -> Self {
+        let mut f = [[0.0; 6]; 6];
+        let mut diagonal = true;
+        for i in 0..6 {
+            for k in 0..=i {
+                f[i][k] = l[(i, k)];
+                diagonal &= k == i || f[i][k] == 0.0;
+            }
+        }
+        NoiseFactor { l: f, diagonal }
+    }
+
+    /// True when the factor is diagonal (independent components).
+    pub(crate) fn is_diagonal(&self) -> bool {
+        self.diagonal
+    }
+
+    /// The factor as a matrix.
+    pub(crate) fn matrix(&self) -> Matrix6<f64> {
+        Matrix6::from_fn(|i, k| self.l[i][k])
+    }
+
+    /// The same factor without the diagonal shortcut (tests: both paths agree bit for bit).
+    #[cfg(test)]
+    pub(crate) fn without_shortcut(mut self) -> Self {
+        self.diagonal = false;
+        self
+    }
+
+    /// `δ = L·ε` per lane; `e` holds the six normal rows. Row `i` is `Σ_{k ≤ i} L_ik ε_k`
+    /// summed in k order (with a diagonal factor the other terms are zeros, so both forms give
+    /// the same bits for non-zero σ).
+    #[inline(always)]
+    fn apply(&self, e: &[Lane], out: &mut [Lane; 6]) {
+        if self.diagonal {
+            for i in 0..6 {
+                let li = self.l[i][i];
+                for d in 0..LANES {
+                    out[i][d] = li * e[i][d];
+                }
+            }
+        } else {
+            for i in 0..6 {
+                let li = &self.l[i];
+                for d in 0..LANES {
+                    let mut s = li[0] * e[0][d];
+                    for k in 1..=i {
+                        s += li[k] * e[k][d];
+                    }
+                    out[i][d] = s;
+                }
+            }
+        }
+    }
+}
+
+/// Per-lane 3×3 DLT normal equations (upper triangle) and right-hand side.
+#[derive(Debug, Clone)]
+pub(crate) struct Normals3 {
+    n: [Lane; 6],
+    r: [Lane; 3],
+}
+
+impl Normals3 {
+    fn new() -> Self {
+        Normals3 {
+            n: [[0.0; LANES]; 6],
+            r: [[0.0; LANES]; 3],
+        }
+    }
+
+    #[inline(always)]
+    fn clear(&mut self) {
+        for row in self.n.iter_mut().chain(self.r.iter_mut()) {
+            *row = [0.0; LANES];
+        }
+    }
+
+    /// Adds, per lane, the ray through `c` with unit direction `d`: `I − ddᵀ`, `(I − ddᵀ)c`.
+    #[inline(always)]
+    pub(crate) fn add_ray(&mut self, d: &[Lane; 3], c: &[Lane; 3]) {
+        for l in 0..LANES {
+            let (dx, dy, dz) = (d[0][l], d[1][l], d[2][l]);
+            let (cx, cy, cz) = (c[0][l], c[1][l], c[2][l]);
+            let dc = dx.mul_add(cx, dy.mul_add(cy, dz * cz));
+            self.n[0][l] += (-dx).mul_add(dx, 1.0);
+            self.n[1][l] = (-dx).mul_add(dy, self.n[1][l]);
+            self.n[2][l] = (-dx).mul_add(dz, self.n[2][l]);
+            self.n[3][l] += (-dy).mul_add(dy, 1.0);
+            self.n[4][l] = (-dy).mul_add(dz, self.n[4][l]);
+            self.n[5][l] += (-dz).mul_add(dz, 1.0);
+            self.r[0][l] += (-dx).mul_add(dc, cx);
+            self.r[1][l] += (-dy).mul_add(dc, cy);
+            self.r[2][l] += (-dz).mul_add(dc, cz);
+        }
+    }
+
+    /// Adds, per lane, the two DLT rows of a view with rotation `rot` (`R_world_from_cam`,
+    /// row-major: `rot[3i + j]` = R_ij), centre `c` and normalized coordinates `(x, y)`:
+    /// `a = x·c₃ − c₁`, `b = y·c₃ − c₂` (cⱼ the columns of R).
+    #[inline(always)]
+    pub(crate) fn add_view(&mut self, rot: &[Lane; 9], c: &[Lane; 3], x: &Lane, y: &Lane) {
+        for l in 0..LANES {
+            let (cx, cy, cz) = (c[0][l], c[1][l], c[2][l]);
+            for (obs, col) in [(x[l], 0), (y[l], 1)] {
+                let a0 = obs * rot[2][l] - rot[col][l];
+                let a1 = obs * rot[5][l] - rot[3 + col][l];
+                let a2 = obs * rot[8][l] - rot[6 + col][l];
+                let ac = a0 * cx + a1 * cy + a2 * cz;
+                self.n[0][l] += a0 * a0;
+                self.n[1][l] += a0 * a1;
+                self.n[2][l] += a0 * a2;
+                self.n[3][l] += a1 * a1;
+                self.n[4][l] += a1 * a2;
+                self.n[5][l] += a2 * a2;
+                self.r[0][l] += a0 * ac;
+                self.r[1][l] += a1 * ac;
+                self.r[2][l] += a2 * ac;
+            }
+        }
+    }
+
+    /// Solves every lane by cofactors (NaN for a singular lane).
+    #[inline(always)]
+    fn solve(&self, out: &mut [Lane; 3]) {
+        for l in 0..LANES {
+            let [a, b, c, d, e, f] = [
+                self.n[0][l],
+                self.n[1][l],
+                self.n[2][l],
+                self.n[3][l],
+                self.n[4][l],
+                self.n[5][l],
+            ];
+            let c00 = d.mul_add(f, -(e * e));
+            let c01 = c.mul_add(e, -(b * f));
+            let c02 = b.mul_add(e, -(c * d));
+            let c11 = a.mul_add(f, -(c * c));
+            let c12 = b.mul_add(c, -(a * e));
+            let c22 = a.mul_add(d, -(b * b));
+            let inv = 1.0 / a.mul_add(c00, b.mul_add(c01, c * c02));
+            let (r0, r1, r2) = (self.r[0][l], self.r[1][l], self.r[2][l]);
+            out[0][l] = c00.mul_add(r0, c01.mul_add(r1, c02 * r2)) * inv;
+            out[1][l] = c01.mul_add(r0, c11.mul_add(r1, c12 * r2)) * inv;
+            out[2][l] = c02.mul_add(r0, c12.mul_add(r1, c22 * r2)) * inv;
+        }
+    }
+}
+
+/// `(sin θ/θ, (1 − cos θ)/θ²)` for θ² = t, Taylor series (t < [`SMALL_ANGLE_SQ`]).
+#[inline(always)]
+fn sinc_cosc_series(t: f64) -> (f64, f64) {
+    const S: [f64; 3] = [-1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0];
+    const C: [f64; 4] = [0.5, -1.0 / 24.0, 1.0 / 720.0, -1.0 / 40320.0];
+    let s = t.mul_add(t.mul_add(t.mul_add(S[2], S[1]), S[0]), 1.0);
+    let c = t.mul_add(t.mul_add(t.mul_add(C[3], C[2]), C[1]), C[0]);
+    (s, c)
+}
+
+/// `(sin δ, cos δ)` for a small δ (δ² < [`SMALL_ANGLE_SQ`]), Taylor series.
+#[inline(always)]
+fn sin_cos_series(x: f64) -> (f64, f64) {
+    let t = x * x;
+    let (s, c) = sinc_cosc_series(t);
+    (x * s, 1.0 - t * c)
+}
+
+#[inline(always)]
+fn keep_max(m: &mut f64, t: f64) {
+    *m = if t > *m { t } else { *m };
+}
+
+/// Ray `R̄·Exp(w)·e₃` per lane (w = rows 3..6 of `delta`); θ² into `tmax`.
+#[inline(always)]
+fn tangent_ray(r: &[f64; 9], delta: &[Lane; 6], dir: &mut [Lane; 3], tmax: &mut Lane) {
+    for l in 0..LANES {
+        let (wx, wy, wz) = (delta[3][l], delta[4][l], delta[5][l]);
+        let t = wx * wx + wy * wy + wz * wz;
+        let (s, c) = sinc_cosc_series(t);
+        // Exp(w)e₃ = e₃ + s (w × e₃) + c w × (w × e₃).
+        let v0 = s * wy + c * wx * wz;
+        let v1 = c * wy * wz - s * wx;
+        let v2 = 1.0 - c * (wx * wx + wy * wy);
+        for i in 0..3 {
+            dir[i][l] = r[3 * i].mul_add(v0, r[3 * i + 1].mul_add(v1, r[3 * i + 2] * v2));
+        }
+        keep_max(&mut tmax[l], t);
+    }
+}
+
+/// Rotation `R̄·Exp(w)` per lane (row-major); θ² into `tmax`.
+#[inline(always)]
+fn tangent_rotation(r: &[f64; 9], delta: &[Lane; 6], rot: &mut [Lane; 9], tmax: &mut Lane) {
+    for l in 0..LANES {
+        let (wx, wy, wz) = (delta[3][l], delta[4][l], delta[5][l]);
+        let t = wx * wx + wy * wy + wz * wz;
+        let (s, c) = sinc_cosc_series(t);
+        // Exp(w) = I + s[w]× + c(wwᵀ − tI).
+        let e = [
+            1.0 + c * (wx * wx - t),
+            c * wx * wy - s * wz,
+            s * wy + c * wx * wz,
+            s * wz + c * wx * wy,
+            1.0 + c * (wy * wy - t),
+            c * wy * wz - s * wx,
+            c * wx * wz - s * wy,
+            s * wx + c * wy * wz,
+            1.0 + c * (wz * wz - t),
+        ];
+        for i in 0..3 {
+            for j in 0..3 {
+                rot[3 * i + j][l] =
+                    r[3 * i] * e[j] + r[3 * i + 1] * e[3 + j] + r[3 * i + 2] * e[6 + j];
+            }
+        }
+        keep_max(&mut tmax[l], t);
+    }
+}
+
+/// Sines and cosines of the nominal ω, φ, κ of an observer.
+#[derive(Debug, Clone, Copy)]
+struct Trig {
+    s: [f64; 3],
+    c: [f64; 3],
+}
+
+/// `sin`, `cos` of `nominal + δ` per angle by the addition theorem (δ small).
+#[inline(always)]
+fn perturbed_trig(nom: &Trig, d: [f64; 3]) -> ([f64; 3], [f64; 3], f64) {
+    let mut s = [0.0; 3];
+    let mut c = [0.0; 3];
+    let mut t = 0.0;
+    for k in 0..3 {
+        let (sd, cd) = sin_cos_series(d[k]);
+        s[k] = nom.s[k] * cd + nom.c[k] * sd;
+        c[k] = nom.c[k] * cd - nom.s[k] * sd;
+        keep_max(&mut t, d[k] * d[k]);
+    }
+    (s, c, t)
+}
+
+/// Ray of `Rx(ω)Ry(φ)Rz(κ)` (third column) at the perturbed angles, per lane.
+#[inline(always)]
+fn euler_ray(nom: &Trig, delta: &[Lane; 6], dir: &mut [Lane; 3], tmax: &mut Lane) {
+    for l in 0..LANES {
+        let (s, c, t) = perturbed_trig(nom, [delta[3][l], delta[4][l], delta[5][l]]);
+        dir[0][l] = s[1];
+        dir[1][l] = -(s[0] * c[1]);
+        dir[2][l] = c[0] * c[1];
+        keep_max(&mut tmax[l], t);
+    }
+}
+
+/// `Rx(ω)Ry(φ)Rz(κ)` at the perturbed angles, per lane (row-major).
+#[inline(always)]
+fn euler_rotation(nom: &Trig, delta: &[Lane; 6], rot: &mut [Lane; 9], tmax: &mut Lane) {
+    for l in 0..LANES {
+        let (s, c, t) = perturbed_trig(nom, [delta[3][l], delta[4][l], delta[5][l]]);
+        let (so, co, sp, cp, sk, ck) = (s[0], c[0], s[1], c[1], s[2], c[2]);
+        let m = [
+            cp * ck,
+            -(cp * sk),
+            sp,
+            co * sk + so * sp * ck,
+            co * ck - so * sp * sk,
+            -(so * cp),
+            so * sk - co * sp * ck,
+            so * ck + co * sp * sk,
+            co * cp,
+        ];
+        for (k, v) in m.into_iter().enumerate() {
+            rot[k][l] = v;
+        }
+        keep_max(&mut tmax[l], t);
+    }
+}
+
+/// An observer ready for the block kernel.
+#[derive(Debug, Clone)]
+struct Prepared {
+    c: [f64; 3],
+    r: [f64; 9],
+    trig: Trig,
+    noise: NoiseFactor,
+    /// First normal row of the pose noise (`None`: drawn jointly from the chain).
+    row: Option<usize>,
+    /// First normal row of the pixel noise.
+    pixel_row: usize,
+    source: Option<usize>,
+    /// Tangent (body-axis) rotation noise, else ω φ κ noise.
+    tangent: bool,
+    /// Correlated mode: maps the chain camera's body-axis θ to this observer's axes.
+    chain_to_own: [f64; 9],
+}
+
+/// How the rows of a block are used: the chain's (6 per camera, when observers are drawn
+/// jointly), then 6 per independent observer in observer order, then 2 pixel rows per
+/// observer.
+fn prepare(obs: &[Aimed], ctx: &Ctx) -> (Vec<Prepared>, usize) {
+    let mut row = ctx.chain.as_ref().map_or(0, |c| 6 * c.len());
+    let mut out: Vec<Prepared> = obs
+        .iter()
+        .map(|o| {
+            let sourced = o.source.is_some() && ctx.chain.is_some();
+            let p = Prepared {
+                c: [o.c.x, o.c.y, o.c.z],
+                r: std::array::from_fn(|k| o.r[(k / 3, k % 3)]),
+                trig: Trig {
+                    s: std::array::from_fn(|k| o.opk[k].sin()),
+                    c: std::array::from_fn(|k| o.opk[k].cos()),
+                },
+                noise: o.noise,
+                row: (!sourced).then_some(row),
+                pixel_row: 0,
+                source: if sourced { o.source } else { None },
+                tangent: sourced || o.kind == RotationNoise::Tangent,
+                chain_to_own: std::array::from_fn(|k| o.chain_to_own[(k / 3, k % 3)]),
+            };
+            if !sourced {
+                row += 6;
+            }
+            p
+        })
+        .collect();
+    if ctx.pixel.is_some() {
+        for p in &mut out {
+            p.pixel_row = row;
+            row += 2;
+        }
+    }
+    (out, row)
+}
+
+/// Per-task scratch of the block kernel (allocated once per task; size independent of the
+/// number of draws).
+struct Scratch {
+    e: Vec<Lane>,
+    delta: Vec<[Lane; 6]>,
+    eps: Vec<f64>,
+    drawn: Vec<crate::chain::WorldPose>,
+}
+
+/// `m` draws of one grid point (task `task` of the run keyed `key`) into `acc`. Must be
+/// called inside [`crate::simd::dispatch`].
+#[inline(always)]
+pub(crate) fn run_task(
+    obs: &[Aimed],
+    ctx: &Ctx,
+    key: [u32; 2],
+    task: u64,
+    m: usize,
+    acc: &mut Acc3,
+) {
+    let (prep, rows) = prepare(obs, ctx);
+    let mut s = Scratch {
+        e: vec![[0.0; LANES]; rows.next_multiple_of(2)],
+        delta: vec![[[0.0; LANES]; 6]; prep.len()],
+        eps: vec![0.0; ctx.chain.as_ref().map_or(0, |c| 6 * c.len())],
+        drawn: ctx
+            .chain
+            .as_ref()
+            .map_or_else(Vec::new, |c| c.nominal().to_vec()),
+    };
+    let mut ne = Normals3::new();
+    let mut cpos = [[0.0; LANES]; 3];
+    let mut dir = [[0.0; LANES]; 3];
+    let mut rot = [[0.0; LANES]; 9];
+    let mut xs = [[0.0; LANES]; 3];
+    let mut tmax;
+    let mut px = [0.0; LANES];
+    let mut py = [0.0; LANES];
+    let shift = acc.shift();
+    let mut lanes = LaneSums::<LANES>::default();
+    let mut done = 0;
+    while done < m {
+        let b = LANES.min(m - done);
+        fill_block(key, task, done as u64, &mut s.e);
+        if let Some(chain) = &ctx.chain {
+            chain_deltas(chain, &prep, &mut s, b);
+        }
+        ne.clear();
+        tmax = [0.0; LANES];
+        for (j, o) in prep.iter().enumerate() {
+            let delta = &mut s.delta[j];
+            if let Some(r) = o.row {
+                o.noise.apply(&s.e[r..r + 6], delta);
+            }
+            for i in 0..3 {
+                for l in 0..LANES {
+                    cpos[i][l] = o.c[i] + delta[i][l];
+                }
+            }
+            let tangent = o.tangent;
+            match ctx.pixel {
+                None => {
+                    if tangent {
+                        tangent_ray(&o.r, delta, &mut dir, &mut tmax);
+                    } else {
+                        euler_ray(&o.trig, delta, &mut dir, &mut tmax);
+                    }
+                    ne.add_ray(&dir, &cpos);
+                }
+                Some(sn) => {
+                    if tangent {
+                        tangent_rotation(&o.r, delta, &mut rot, &mut tmax);
+                    } else {
+                        euler_rotation(&o.trig, delta, &mut rot, &mut tmax);
+                    }
+                    for l in 0..LANES {
+                        px[l] = sn * s.e[o.pixel_row][l];
+                        py[l] = sn * s.e[o.pixel_row + 1][l];
+                    }
+                    ne.add_view(&rot, &cpos, &px, &py);
+                }
+            }
+        }
+        ne.solve(&mut xs);
+        for l in 0..b {
+            if tmax[l] >= SMALL_ANGLE_SQ {
+                let x = exact_lane(obs, &prep, ctx, &s, l);
+                for i in 0..3 {
+                    xs[i][l] = x[i];
+                }
+            }
+        }
+        lanes.add(&xs, b, &shift);
+        done += b;
+    }
+    acc.merge(&lanes.reduce(shift));
+}
+
+/// δ of the observers drawn jointly from the chain, per lane (scalar chain composition).
+#[inline(never)]
+fn chain_deltas(chain: &crate::chain::Chain, prep: &[Prepared], s: &mut Scratch, b: usize) {
+    let n = s.eps.len();
+    for l in 0..b {
+        for (k, e) in s.eps.iter_mut().enumerate().take(n) {
+            *e = s.e[k][l];
+        }
+        chain.compose_into(&s.eps, &mut s.drawn);
+        for (j, o) in prep.iter().enumerate() {
+            if let Some(i) = o.source {
+                let (dc, th) = chain.error_of(i, &s.drawn[i]);
+                // World-frame rotation Exp(R̄θ) on the look-at L: L·Exp(Lᵀ R̄ θ).
+                let m = &o.chain_to_own;
+                for k in 0..3 {
+                    s.delta[j][k][l] = dc[k];
+                    s.delta[j][3 + k][l] =
+                        m[3 * k] * th[0] + m[3 * k + 1] * th[1] + m[3 * k + 2] * th[2];
+                }
+            }
+        }
+    }
+}
+
+/// Lane `l` recomputed with the exact `sin`/`cos` formulas (an angle beyond the series).
+#[inline(never)]
+fn exact_lane(obs: &[Aimed], prep: &[Prepared], ctx: &Ctx, s: &Scratch, l: usize) -> Vector3<f64> {
+    let mut n = Normal3::default();
+    for (j, (o, p)) in obs.iter().zip(prep).enumerate() {
+        let d = &s.delta[j];
+        let c = Vector3::new(p.c[0] + d[0][l], p.c[1] + d[1][l], p.c[2] + d[2][l]);
+        let w = Vector3::new(d[3][l], d[4][l], d[5][l]);
+        let tangent = p.tangent;
+        match ctx.pixel {
+            None => {
+                let dir = if tangent {
+                    o.r * exp_e3(&w)
+                } else {
+                    opk_e3(&(o.opk + w))
+                };
+                n.add_ray(&dir, &c);
+            }
+            Some(sn) => {
+                let r: Matrix3<f64> = if tangent {
+                    o.r * exp_matrix(&w)
+                } else {
+                    rot_opk(&(o.opk + w))
+                };
+                let (x, y) = (sn * s.e[p.pixel_row][l], sn * s.e[p.pixel_row + 1][l]);
+                let (c1, c2, c3) = (
+                    r.column(0).into_owned(),
+                    r.column(1).into_owned(),
+                    r.column(2).into_owned(),
+                );
+                n.add_row(&(c3 * x - c1), &c);
+                n.add_row(&(c3 * y - c2), &c);
+            }
+        }
+    }
+    n.solve()
+}

@@ -1,0 +1,454 @@
+//! The vectorised draw loop of the chain propagation: blocks of [`LANES`] joint draws in
+//! structure-of-arrays form, compiled per instruction-set level by [`crate::simd`].
+//!
+//! Per block: the normals ([`fill_block`], 6 per camera, rows `6i..6i+6` for camera i), then
+//! per camera in topological order the link's perturbation `δ = L·ε` (diagonal today), the
+//! perturbed link rotation (`R_l·Exp(δθ)` for tangent noise, `Rx Ry Rz` at `angles + δθ` for
+//! euler noise, both by their small-angle series) and the composition with the parent; then
+//! per camera the ω φ κ offsets from the nominal and the body-axis error `log(R̄ᵀR)`, both as
+//! `atan` of a small ratio by its series; and per-lane shifted sums of (centre, offsets) and
+//! of the body-axis error.
+//!
+//! A lane whose angles leave the series' range (a link rotation with θ² ≥ [`SMALL_ANGLE_SQ`],
+//! an offset ratio |z| ≥ [`ATAN_Z_MAX`], or a camera turned by more than 90°) is recomputed
+//! with the scalar formulas (`Chain::compose_into`, `atan2`, `log_near_identity`), lane by
+//! lane: a draw's values never depend on its block or on the instruction set.
+
+#![allow(clippy::needless_range_loop)] // lane-indexed loops over parallel arrays are the point (they vectorise)
+
+use crate::chain::Chain;
+use crate::kernel::SMALL_ANGLE_SQ;
+use crate::normal::{LANES, Lane, fill_block};
+use crate::scenario::RotationNoise;
+use nalgebra::{Matrix6, Vector3, Vector6};
+
+/// cos φ below which a lane goes to the scalar angle extraction (far above the geometry
+/// crate's gimbal-lock threshold, `crashrig_geometry::tolerance::GIMBAL_LOCK_COS_PHI`).
+const GIMBAL_COS_PHI: f64 = 1e-5;
+
+/// Largest |z| for which `atan z` uses its series (terms to z¹⁵; truncation < 10⁻¹⁸ relative).
+pub(crate) const ATAN_Z_MAX: f64 = 0.1;
+
+/// `atan(z)/z` for z² = t < ATAN_Z_MAX² (series Σ (−t)^k/(2k+1), k ≤ 7).
+#[inline(always)]
+fn atan_over_z(t: f64) -> f64 {
+    const C: [f64; 8] = [
+        -1.0 / 15.0,
+        1.0 / 13.0,
+        -1.0 / 11.0,
+        1.0 / 9.0,
+        -1.0 / 7.0,
+        1.0 / 5.0,
+        -1.0 / 3.0,
+        1.0,
+    ];
+    let mut p = C[0];
+    for &k in &C[1..] {
+        p = p * t + k;
+    }
+    p
+}
+
+/// `atan2(y, x)` for x > 0 and |y/x| < ATAN_Z_MAX; `ok` false otherwise.
+#[inline(always)]
+fn atan2_small(y: f64, x: f64, ok: &mut bool) -> f64 {
+    let z = y / x;
+    let t = z * z;
+    *ok &= x > 0.0 && t < ATAN_Z_MAX * ATAN_Z_MAX;
+    z * atan_over_z(t)
+}
+
+/// `(sin θ/θ, (1 − cos θ)/θ²)` for θ² = t (Taylor; t < SMALL_ANGLE_SQ).
+#[inline(always)]
+fn sinc_cosc_series(t: f64) -> (f64, f64) {
+    let s = 1.0 + t * (-1.0 / 6.0 + t * (1.0 / 120.0 + t * (-1.0 / 5040.0)));
+    let c = 0.5 + t * (-1.0 / 24.0 + t * (1.0 / 720.0 + t * (-1.0 / 40320.0)));
+    (s, c)
+}
+
+/// Shifted sums of one camera's (centre mm, ω φ κ offsets rad) and body-axis error.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct CamSums {
+    pub(crate) n: u64,
+    /// Σ of (centre − nominal centre, angle offsets).
+    pub(crate) s1: [f64; 6],
+    /// Σ of their products, upper triangle row by row (21).
+    pub(crate) s2: [f64; 21],
+    /// Σ θ of the body-axis error.
+    pub(crate) t1: [f64; 3],
+    /// Σ of the products of (centre − nominal centre, θ), upper triangle row by row (21).
+    pub(crate) u2: [f64; 21],
+}
+
+impl CamSums {
+    pub(crate) fn new() -> Self {
+        CamSums {
+            n: 0,
+            s1: [0.0; 6],
+            s2: [0.0; 21],
+            t1: [0.0; 3],
+            u2: [0.0; 21],
+        }
+    }
+
+    pub(crate) fn merge(&mut self, o: &CamSums) {
+        self.n += o.n;
+        for k in 0..6 {
+            self.s1[k] += o.s1[k];
+        }
+        for k in 0..21 {
+            self.s2[k] += o.s2[k];
+        }
+        for k in 0..3 {
+            self.t1[k] += o.t1[k];
+        }
+        for k in 0..21 {
+            self.u2[k] += o.u2[k];
+        }
+    }
+
+    /// Mean deviation (6) and sample covariance (n − 1).
+    pub(crate) fn mean_cov(&self) -> (Vector6<f64>, Matrix6<f64>) {
+        let n = self.n as f64;
+        let mean = Vector6::from_fn(|i, _| self.s1[i] / n);
+        let mut cov = Matrix6::from_element(f64::NAN);
+        if self.n >= 2 {
+            let mut k = 0;
+            for i in 0..6 {
+                for j in i..6 {
+                    let c = (self.s2[k] - self.s1[i] * self.s1[j] / n) / (n - 1.0);
+                    cov[(i, j)] = c;
+                    cov[(j, i)] = c;
+                    k += 1;
+                }
+            }
+        }
+        (mean, cov)
+    }
+
+    /// Sample covariance (n − 1) of (centre − nominal centre, body-axis error θ): the
+    /// contract's `covariance_tangent` of the world pose.
+    pub(crate) fn tangent_covariance(&self) -> Matrix6<f64> {
+        let n = self.n as f64;
+        let m = |i: usize| if i < 3 { self.s1[i] } else { self.t1[i - 3] };
+        let mut cov = Matrix6::from_element(f64::NAN);
+        if self.n >= 2 {
+            let mut k = 0;
+            for i in 0..6 {
+                for j in i..6 {
+                    let c = (self.u2[k] - m(i) * m(j) / n) / (n - 1.0);
+                    cov[(i, j)] = c;
+                    cov[(j, i)] = c;
+                    k += 1;
+                }
+            }
+        }
+        cov
+    }
+
+    /// σ of the body-axis error.
+    pub(crate) fn tangent_sigma(&self) -> Vector3<f64> {
+        let c = self.tangent_covariance();
+        Vector3::from_fn(|i, _| c[(3 + i, 3 + i)].sqrt())
+    }
+}
+
+/// Per-lane version of [`CamSums`] (reduced in lane order).
+#[derive(Debug, Clone)]
+struct CamLanes {
+    s1: [Lane; 6],
+    s2: [Lane; 21],
+    t1: [Lane; 3],
+    u2: [Lane; 21],
+}
+
+impl CamLanes {
+    fn new() -> Self {
+        CamLanes {
+            s1: [[0.0; LANES]; 6],
+            s2: [[0.0; LANES]; 21],
+            t1: [[0.0; LANES]; 3],
+            u2: [[0.0; LANES]; 21],
+        }
+    }
+
+    /// Adds lanes `0..b` of `v` (6 rows) and `th` (3 rows).
+    #[inline(always)]
+    fn add(&mut self, v: &[Lane; 6], th: &[Lane; 3], b: usize) {
+        for i in 0..6 {
+            for l in 0..b.min(LANES) {
+                self.s1[i][l] += v[i][l];
+            }
+        }
+        let mut k = 0;
+        for i in 0..6 {
+            for j in i..6 {
+                for l in 0..b.min(LANES) {
+                    self.s2[k][l] += v[i][l] * v[j][l];
+                }
+                k += 1;
+            }
+        }
+        for i in 0..3 {
+            for l in 0..b.min(LANES) {
+                self.t1[i][l] += th[i][l];
+            }
+        }
+        let u = |i: usize, l: usize| if i < 3 { v[i][l] } else { th[i - 3][l] };
+        let mut k = 0;
+        for i in 0..6 {
+            for j in i..6 {
+                for l in 0..b.min(LANES) {
+                    self.u2[k][l] += u(i, l) * u(j, l);
+                }
+                k += 1;
+            }
+        }
+    }
+
+    fn reduce(&self, n: u64) -> CamSums {
+        let sum = |r: &Lane| r.iter().sum::<f64>();
+        CamSums {
+            n,
+            s1: std::array::from_fn(|k| sum(&self.s1[k])),
+            s2: std::array::from_fn(|k| sum(&self.s2[k])),
+            t1: std::array::from_fn(|k| sum(&self.t1[k])),
+            u2: std::array::from_fn(|k| sum(&self.u2[k])),
+        }
+    }
+}
+
+/// A drawn world pose per lane: centre (3) and rotation (9, row-major).
+#[derive(Debug, Clone)]
+struct PoseLanes {
+    c: [Lane; 3],
+    r: [Lane; 9],
+}
+
+/// `m` joint draws (task `task` of the run keyed `key`), returning per-camera sums. Must be
+/// called inside [`crate::simd::dispatch`].
+#[inline(always)]
+pub(crate) fn run_task(chain: &Chain, key: [u32; 2], task: u64, m: usize) -> Vec<CamSums> {
+    let n = chain.len();
+    let plan = chain.plan();
+    let mut e = vec![[0.0; LANES]; 6 * n];
+    let mut poses = vec![
+        PoseLanes {
+            c: [[0.0; LANES]; 3],
+            r: [[0.0; LANES]; 9],
+        };
+        n
+    ];
+    let mut lanes = vec![CamLanes::new(); n];
+    let mut v = vec![[[0.0; LANES]; 6]; n];
+    let mut th = vec![[[0.0; LANES]; 3]; n];
+    let mut ok;
+    let mut done = 0;
+    while done < m {
+        let b = LANES.min(m - done);
+        fill_block(key, task, done as u64, &mut e);
+        ok = [true; LANES];
+        for &i in chain.order() {
+            let p = &plan[i];
+            let eps = &e[6 * i..6 * i + 6];
+            let mut link = PoseLanes {
+                c: [[0.0; LANES]; 3],
+                r: [[0.0; LANES]; 9],
+            };
+            for l in 0..LANES {
+                let d: [f64; 6] = if p.diagonal {
+                    std::array::from_fn(|k| p.sigma[k] * eps[k][l])
+                } else {
+                    // δ = L·ε, L lower triangular.
+                    std::array::from_fn(|k| (0..=k).map(|q| p.factor[k][q] * eps[q][l]).sum())
+                };
+                let lok = &mut ok[l];
+                for k in 0..3 {
+                    link.c[k][l] = p.position[k] + d[k];
+                }
+                let rl = match p.noise {
+                    RotationNoise::Tangent => {
+                        let (wx, wy, wz) = (d[3], d[4], d[5]);
+                        let t = wx * wx + wy * wy + wz * wz;
+                        *lok &= t < SMALL_ANGLE_SQ;
+                        let (s, c) = sinc_cosc_series(t);
+                        let ex = [
+                            1.0 + c * (wx * wx - t),
+                            c * wx * wy - s * wz,
+                            s * wy + c * wx * wz,
+                            s * wz + c * wx * wy,
+                            1.0 + c * (wy * wy - t),
+                            c * wy * wz - s * wx,
+                            c * wx * wz - s * wy,
+                            s * wx + c * wy * wz,
+                            1.0 + c * (wz * wz - t),
+                        ];
+                        mat_mul(&p.rotation, &ex)
+                    }
+                    RotationNoise::Euler => {
+                        let mut s = [0.0; 3];
+                        let mut c = [0.0; 3];
+                        for k in 0..3 {
+                            let x = d[3 + k];
+                            let t = x * x;
+                            *lok &= t < SMALL_ANGLE_SQ;
+                            let (sc, cc) = sinc_cosc_series(t);
+                            let (sd, cd) = (x * sc, 1.0 - t * cc);
+                            s[k] = p.angles_sin[k] * cd + p.angles_cos[k] * sd;
+                            c[k] = p.angles_cos[k] * cd - p.angles_sin[k] * sd;
+                        }
+                        let (so, co, sp, cp, sk, ck) = (s[0], c[0], s[1], c[1], s[2], c[2]);
+                        [
+                            cp * ck,
+                            -(cp * sk),
+                            sp,
+                            co * sk + so * sp * ck,
+                            co * ck - so * sp * sk,
+                            -(so * cp),
+                            so * sk - co * sp * ck,
+                            so * ck + co * sp * sk,
+                            co * cp,
+                        ]
+                    }
+                };
+                for k in 0..9 {
+                    link.r[k][l] = rl[k];
+                }
+            }
+            match p.parent {
+                None => poses[i] = link,
+                Some(pi) => {
+                    let (parent, own) = if pi < i {
+                        let (a, b2) = poses.split_at_mut(i);
+                        (&a[pi], &mut b2[0])
+                    } else {
+                        let (a, b2) = poses.split_at_mut(pi);
+                        (&b2[0], &mut a[i])
+                    };
+                    for l in 0..LANES {
+                        let rp: [f64; 9] = std::array::from_fn(|k| parent.r[k][l]);
+                        let rl: [f64; 9] = std::array::from_fn(|k| link.r[k][l]);
+                        let r = mat_mul(&rp, &rl);
+                        for k in 0..3 {
+                            own.c[k][l] = parent.c[k][l]
+                                + (rp[3 * k] * link.c[0][l]
+                                    + rp[3 * k + 1] * link.c[1][l]
+                                    + rp[3 * k + 2] * link.c[2][l]);
+                        }
+                        for k in 0..9 {
+                            own.r[k][l] = r[k];
+                        }
+                    }
+                }
+            }
+        }
+        for i in 0..n {
+            errors(&plan[i], &poses[i], &mut v[i], &mut th[i], &mut ok);
+        }
+        for l in 0..b {
+            if !ok[l] {
+                exact_lane(chain, &e, l, &mut v, &mut th);
+            }
+        }
+        for i in 0..n {
+            lanes[i].add(&v[i], &th[i], b);
+        }
+        done += b;
+    }
+    lanes.iter().map(|c| c.reduce(m as u64)).collect()
+}
+
+/// `a·b` of row-major 3×3 matrices.
+#[inline(always)]
+fn mat_mul(a: &[f64; 9], b: &[f64; 9]) -> [f64; 9] {
+    std::array::from_fn(|k| {
+        let (i, j) = (k / 3, k % 3);
+        a[3 * i] * b[j] + a[3 * i + 1] * b[3 + j] + a[3 * i + 2] * b[6 + j]
+    })
+}
+
+/// Per lane: (centre − nominal, ω φ κ offsets) and the body-axis error of one camera.
+#[inline(always)]
+fn errors(
+    p: &CamPlan,
+    pose: &PoseLanes,
+    v: &mut [Lane; 6],
+    th: &mut [Lane; 3],
+    ok: &mut [bool; LANES],
+) {
+    let [so, sp, sk] = p.nominal_sin;
+    let [co, cp, ck] = p.nominal_cos;
+    let rn = &p.nominal_r;
+    for l in 0..LANES {
+        let r: [f64; 9] = std::array::from_fn(|k| pose.r[k][l]);
+        let mut lok = ok[l];
+        for k in 0..3 {
+            v[k][l] = pose.c[k][l] - p.nominal_c[k];
+        }
+        // ω = atan2(−r₁₂, r₂₂), κ = atan2(−r₀₁, r₀₀) (both scaled by cos φ > 0);
+        // φ = atan2(r₀₂, √(r₀₀² + r₀₁²)). Offsets by the angle-difference identities.
+        let (yo, xo) = (-r[5], r[8]);
+        v[3][l] = atan2_small(yo * co - xo * so, xo * co + yo * so, &mut lok);
+        let cphi = (r[0] * r[0] + r[1] * r[1]).sqrt();
+        // Near gimbal lock the scalar extraction switches convention: leave it to it.
+        lok &= cphi >= GIMBAL_COS_PHI;
+        v[4][l] = atan2_small(r[2] * cp - cphi * sp, cphi * cp + r[2] * sp, &mut lok);
+        let (yk, xk) = (-r[1], r[0]);
+        v[5][l] = atan2_small(yk * ck - xk * sk, xk * ck + yk * sk, &mut lok);
+        // Body-axis error: M = R̄ᵀR, v = ½(M − Mᵀ)∨, θ = atan2(|v|, (tr M − 1)/2)·v/|v|.
+        let mt = |i: usize, j: usize| {
+            rn[i] * r[j] + rn[3 + i] * r[3 + j] + rn[6 + i] * r[6 + j] // (R̄ᵀR)_ij
+        };
+        let w = [
+            0.5 * (mt(2, 1) - mt(1, 2)),
+            0.5 * (mt(0, 2) - mt(2, 0)),
+            0.5 * (mt(1, 0) - mt(0, 1)),
+        ];
+        let cos = 0.5 * (mt(0, 0) + mt(1, 1) + mt(2, 2) - 1.0);
+        let s2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+        let t = s2 / (cos * cos);
+        lok &= cos > 0.0 && t < ATAN_Z_MAX * ATAN_Z_MAX;
+        let f = atan_over_z(t) / cos;
+        for k in 0..3 {
+            th[k][l] = w[k] * f;
+        }
+        ok[l] = lok;
+    }
+}
+
+/// Lane `l` recomputed by the scalar formulas.
+#[inline(never)]
+fn exact_lane(chain: &Chain, e: &[Lane], l: usize, v: &mut [[Lane; 6]], th: &mut [[Lane; 3]]) {
+    let eps: Vec<f64> = e.iter().map(|row| row[l]).collect();
+    let poses = chain.compose(&eps);
+    for (i, pose) in poses.iter().enumerate() {
+        let (dc, theta) = chain.error_of(i, pose);
+        let a = chain.angle_offsets(i, pose);
+        for k in 0..3 {
+            v[i][k][l] = dc[k];
+            v[i][3 + k][l] = a[k];
+            th[i][k][l] = theta[k];
+        }
+    }
+}
+
+/// What the block loop needs of one camera.
+#[derive(Debug, Clone)]
+pub(crate) struct CamPlan {
+    pub(crate) parent: Option<usize>,
+    pub(crate) noise: RotationNoise,
+    pub(crate) position: [f64; 3],
+    pub(crate) rotation: [f64; 9],
+    pub(crate) angles_sin: [f64; 3],
+    pub(crate) angles_cos: [f64; 3],
+    /// σ of (x y z, rotation) of the link (δ = σ∘ε when `diagonal`).
+    pub(crate) sigma: [f64; 6],
+    /// Lower-triangular factor of the link's covariance (δ = L·ε when not `diagonal`).
+    pub(crate) factor: [[f64; 6]; 6],
+    /// The covariance is diagonal: the fast path σ∘ε.
+    pub(crate) diagonal: bool,
+    pub(crate) nominal_c: [f64; 3],
+    pub(crate) nominal_r: [f64; 9],
+    pub(crate) nominal_sin: [f64; 3],
+    pub(crate) nominal_cos: [f64; 3],
+}

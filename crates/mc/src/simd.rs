@@ -1,0 +1,165 @@
+//! Runtime instruction-set dispatch of the Monte Carlo kernels, with `pulp` (safe API, no
+//! `unsafe` here).
+//!
+//! The kernels are plain loops over lane arrays ([`crate::normal::LANES`] draws per block),
+//! marked `#[inline(always)]` down to the arithmetic. [`dispatch`] runs such a kernel inside
+//! a function compiled for the chosen level (pulp's `Simd::vectorize`, a
+//! `#[target_feature]` function), so the compiler vectorises the inlined loops with that
+//! level's registers: 512-bit on x86-64-v4 (AVX-512), 256-bit on x86-64-v3 (AVX2+FMA),
+//! 128-bit SSE2 on the x86-64 baseline, NEON on aarch64.
+//!
+//! # Bit-identical on every level
+//! The kernels use only operations that IEEE 754 rounds exactly the same way at any vector
+//! width — `+ − × ÷ √`, comparisons, integer and bit operations — and, where they help
+//! (polynomials, dot products, the cofactor solve), fused multiply-adds written explicitly as
+//! `f64::mul_add` (one rounding, by definition). Rust never contracts `a*b + c` on its own,
+//! so an expression is either always fused or never. `mul_add` is an FMA instruction on
+//! x86-64-v3/v4 and NEON and the correctly rounded libm `fma` on the SSE2 baseline (glibc's
+//! uses the FMA instruction when the CPU has one, exact software otherwise): the same bits,
+//! only slower. No other libm function is called in the vectorised loops. Sums are kept per
+//! lane of the 64-draw block and reduced in lane order, whatever the register width. So
+//! every level gives the same bits; `grid::tests::every_isa_gives_identical_grids`,
+//! `chain::tests::chain_every_isa_gives_identical_results` and
+//! `normal::block_tests::fill_block_is_identical_on_every_isa_and_row_count` force each
+//! available level and compare the results exactly.
+//!
+//! # Choosing the level
+//! [`Isa::Auto`] (the default) takes the best level the CPU has, unless the environment
+//! variable `CRASHRIG_ISA` is `baseline`, `v3` or `v4` (read once per process; a level the
+//! CPU lacks falls back to the best available one). Tests and benchmarks pass an explicit
+//! [`Isa`].
+
+use std::sync::OnceLock;
+
+/// Instruction-set level of the Monte Carlo kernels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Isa {
+    /// The best level of this CPU (or `CRASHRIG_ISA`).
+    Auto,
+    /// The target's baseline (SSE2 on x86-64; NEON on aarch64, where it is the baseline).
+    Baseline,
+    /// x86-64-v3: AVX2 + FMA, 256-bit.
+    X86V3,
+    /// x86-64-v4: AVX-512 (F, BW, CD, DQ, VL), 512-bit.
+    X86V4,
+}
+
+impl Isa {
+    /// The explicit levels, slowest first.
+    pub const LEVELS: [Isa; 3] = [Isa::Baseline, Isa::X86V3, Isa::X86V4];
+
+    /// Whether this CPU can run the level.
+    pub fn is_available(self) -> bool {
+        match self {
+            Isa::Auto | Isa::Baseline => true,
+            #[cfg(target_arch = "x86_64")]
+            Isa::X86V3 => pulp::x86::V3::try_new().is_some(),
+            #[cfg(target_arch = "x86_64")]
+            Isa::X86V4 => pulp::x86::V4::try_new().is_some(),
+            #[cfg(not(target_arch = "x86_64"))]
+            Isa::X86V3 | Isa::X86V4 => false,
+        }
+    }
+
+    /// The level [`dispatch`] will run for this request (resolving `Auto` and unavailable
+    /// levels).
+    pub fn resolve(self) -> Isa {
+        match self {
+            Isa::Auto => *AUTO.get_or_init(|| {
+                let wanted = match std::env::var("CRASHRIG_ISA").as_deref() {
+                    Ok("baseline") => Some(Isa::Baseline),
+                    Ok("v3") => Some(Isa::X86V3),
+                    Ok("v4") => Some(Isa::X86V4),
+                    _ => None,
+                };
+                match wanted {
+                    Some(l) if l.is_available() => l,
+                    _ => best(),
+                }
+            }),
+            l if l.is_available() => l,
+            _ => best(),
+        }
+    }
+
+    /// A short name (`baseline`, `v3`, `v4`, or `auto`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Isa::Auto => "auto",
+            Isa::Baseline => "baseline",
+            Isa::X86V3 => "v3",
+            Isa::X86V4 => "v4",
+        }
+    }
+}
+
+/// Which Monte Carlo engine runs the draws.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Engine {
+    /// The vectorised engine (Philox normals, blocks of 64 draws) at an instruction-set level.
+    Simd(Isa),
+    /// The former engine (ChaCha8 + ziggurat normals, baseline instructions): the benchmark
+    /// baseline. Statistically equivalent, different random numbers.
+    Legacy,
+}
+
+impl Default for Engine {
+    fn default() -> Self {
+        Engine::Simd(Isa::Auto)
+    }
+}
+
+impl Engine {
+    /// The default engine, or the legacy one when `CRASHRIG_ISA=legacy` (so whole commands
+    /// can be timed against the former engine with the same binary).
+    pub fn from_env() -> Self {
+        match std::env::var("CRASHRIG_ISA").as_deref() {
+            Ok("legacy") => Engine::Legacy,
+            _ => Engine::default(),
+        }
+    }
+}
+
+static AUTO: OnceLock<Isa> = OnceLock::new();
+
+fn best() -> Isa {
+    Isa::LEVELS
+        .into_iter()
+        .rev()
+        .find(|l| l.is_available())
+        .unwrap_or(Isa::Baseline)
+}
+
+/// A closure run under a SIMD level.
+struct Job<F>(F);
+
+impl<R, F: FnOnce() -> R> pulp::WithSimd for Job<F> {
+    type Output = R;
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) -> R {
+        (self.0)()
+    }
+}
+
+/// Runs `f` compiled for `isa` (see the module docs). `f` and everything it calls in the hot
+/// loop must be `#[inline(always)]` so that it is compiled inside the level's function.
+#[inline(always)]
+pub(crate) fn dispatch<R>(isa: Isa, f: impl FnOnce() -> R) -> R {
+    let job = Job(f);
+    match isa.resolve() {
+        #[cfg(target_arch = "x86_64")]
+        Isa::X86V4 => match pulp::x86::V4::try_new() {
+            Some(s) => pulp::Simd::vectorize(s, job),
+            None => pulp::Arch::new().dispatch(job),
+        },
+        #[cfg(target_arch = "x86_64")]
+        Isa::X86V3 => match pulp::x86::V3::try_new() {
+            Some(s) => pulp::Simd::vectorize(s, job),
+            None => pulp::Arch::new().dispatch(job),
+        },
+        #[cfg(target_arch = "x86_64")]
+        _ => pulp::Simd::vectorize(pulp::Scalar::new(), job),
+        #[cfg(not(target_arch = "x86_64"))]
+        _ => pulp::Arch::new().dispatch(job),
+    }
+}
