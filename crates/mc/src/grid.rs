@@ -28,6 +28,9 @@ pub struct PointStats {
     pub sigma_max_mm: f64,
     /// First-order covariance (mm²) of the same inputs, treating observers as independent.
     pub linear_covariance: Matrix3<f64>,
+    /// Observers that see the point (all of them when every observer is aimed); fewer than
+    /// two: not measurable, σ and covariances NaN, `count` 0 (fixed observers, `fixed.rs`).
+    pub observers_seen: usize,
 }
 
 impl PointStats {
@@ -198,6 +201,9 @@ impl GridStudy {
     /// `crashrig_stats::stream(seed, p·2²⁴ + k)` and chunks are merged in index order, so the
     /// result is bit-identical for any number of threads.
     pub fn run(&self, samples: usize, seed: u64) -> Result<GridResult, Error> {
+        if self.has_fixed() {
+            return self.run_fixed(crate::fixed::Draws::Samples(samples), seed);
+        }
         let points = self.grid.points();
         let aimed: Vec<Vec<Aimed>> = points
             .iter()
@@ -244,6 +250,9 @@ impl GridStudy {
         adaptive: &crate::scenario::Adaptive,
         seed: u64,
     ) -> Result<GridResult, Error> {
+        if self.has_fixed() {
+            return self.run_fixed(crate::fixed::Draws::Adaptive(adaptive), seed);
+        }
         let points = self.grid.points();
         let aimed: Vec<Vec<Aimed>> = points
             .iter()
@@ -291,6 +300,29 @@ impl GridStudy {
         })
     }
 
+    /// Whether any observer is fixed (`aim = "fixed"`): then `fixed.rs` runs the study.
+    fn has_fixed(&self) -> bool {
+        self.grid
+            .observers
+            .iter()
+            .any(|o| o.aim != crate::scenario::Aim::Point)
+    }
+
+    fn run_fixed(&self, draws: crate::fixed::Draws<'_>, seed: u64) -> Result<GridResult, Error> {
+        let setup = crate::fixed::Setup {
+            grid: &self.grid,
+            sigma: &self.observer_sigma,
+            noise: self.ctx.noise,
+            pixel: self.grid.pixel,
+            chain: self.ctx.chain.as_ref(),
+        };
+        Ok(GridResult {
+            points: crate::fixed::run(&setup, draws, seed)?,
+            observer_sigma: self.observer_sigma.clone(),
+            correlated: self.correlated,
+        })
+    }
+
     fn finish(&self, point: &Vector3<f64>, aimed: &[Aimed], m: &Acc3) -> PointStats {
         let sigma = m.std_dev();
         PointStats {
@@ -301,6 +333,7 @@ impl GridStudy {
             sigma_mm: sigma,
             sigma_max_mm: sigma.max(),
             linear_covariance: linear_covariance(aimed, &self.ctx, point),
+            observers_seen: aimed.len(),
         }
     }
 }

@@ -80,6 +80,7 @@
 mod accumulate;
 mod chain;
 mod error;
+mod fixed;
 mod grid;
 mod kernel;
 mod normal;
@@ -87,11 +88,12 @@ mod scenario;
 
 pub use chain::{Chain, PoseLinear, PoseMc, WorldPose};
 pub use error::Error;
+pub use fixed::{UNDISTORT_RESIDUAL_PX, footprint_margin_px};
 pub use grid::{CHAIN_SAMPLES_MIN, GridResult, GridStudy, INPUTS_PER_OBSERVER, PointStats};
 pub use normal::FastNormal;
 pub use scenario::{
-    Adaptive, Axis, Camera, Grid, Observer, ObserverSigma, PixelNoise, PoseSigma, RotationNoise,
-    Scenario,
+    Adaptive, Aim, Axis, Camera, FixedCamera, Grid, Observer, ObserverSigma, PixelNoise, PoseSigma,
+    RotationNoise, Scenario,
 };
 
 /// Draws per work chunk (and per RNG stream). Fixed, so results do not depend on the thread

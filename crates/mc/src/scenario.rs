@@ -9,6 +9,9 @@ use nalgebra::Vector3;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
+mod observer;
+pub use observer::{Aim, FixedCamera};
+
 /// How rotation noise is applied to a pose (fixed semantics, see the crate docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RotationNoise {
@@ -53,7 +56,7 @@ pub enum ObserverSigma {
     From(usize),
 }
 
-/// A camera in the interior that aims its optical axis at every grid point.
+/// A camera in the interior: aimed at every grid point (the paper) or fixed with a lens.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Observer {
     /// Label for plots (`name`, default `obs<i>`).
@@ -62,6 +65,8 @@ pub struct Observer {
     pub position_mm: Vector3<f64>,
     /// Its noise.
     pub sigma: ObserverSigma,
+    /// How it points its camera (`aim`, default `"point"`).
+    pub aim: Aim,
 }
 
 /// A regularly spaced axis: `count` values from `start` to `stop`, both ends included.
@@ -249,6 +254,13 @@ struct RawObserver {
     sigma_position_mm: Option<[f64; 3]>,
     sigma_angles_deg: Option<[f64; 3]>,
     sigma_from: Option<String>,
+    // Fixed observers (scenario/observer.rs).
+    aim: Option<String>,
+    angles_deg: Option<[f64; 3]>,
+    look_at_mm: Option<[f64; 3]>,
+    camera: Option<observer::RawLens>,
+    camera_from: Option<String>,
+    pixel_sigma_px: Option<f64>,
 }
 
 // -------------------------------------------------------------- validation ---
@@ -431,7 +443,8 @@ impl Scenario {
                 message: e.message().trim().to_string(),
             }
         })?;
-        Self::validate(raw).map_err(|e| match e.key().and_then(|k| key_line(text, k)) {
+        let base = path.parent().unwrap_or(Path::new(""));
+        Self::validate(raw, base).map_err(|e| match e.key().and_then(|k| key_line(text, k)) {
             Some(line) => Error::Located {
                 path: PathBuf::from(path),
                 line,
@@ -441,7 +454,7 @@ impl Scenario {
         })
     }
 
-    fn validate(raw: RawScenario) -> Result<Self, Error> {
+    fn validate(raw: RawScenario, base: &Path) -> Result<Self, Error> {
         let samples = count("samples", raw.samples.unwrap_or(2000), 2)?;
         let rotation_noise = match raw.rotation_noise.as_deref().unwrap_or("tangent") {
             "tangent" => RotationNoise::Tangent,
@@ -504,7 +517,10 @@ impl Scenario {
             c.parent = *p;
         }
         let order = topological_order(&cameras)?;
-        let grid = raw.grid.map(|g| validate_grid(g, &cameras)).transpose()?;
+        let grid = raw
+            .grid
+            .map(|g| validate_grid(g, &cameras, base))
+            .transpose()?;
         Ok(Scenario {
             seed: raw.seed.unwrap_or(0),
             samples,
@@ -557,7 +573,7 @@ fn topological_order(cameras: &[Camera]) -> Result<Vec<usize>, Error> {
     Ok(order)
 }
 
-fn validate_grid(g: RawGrid, cameras: &[Camera]) -> Result<Grid, Error> {
+fn validate_grid(g: RawGrid, cameras: &[Camera], base: &Path) -> Result<Grid, Error> {
     let x = axis("grid.x_mm", &g.x_mm)?;
     let y = axis("grid.y_mm", &g.y_mm)?;
     let z = axis("grid.z_mm", &g.z_mm)?;
@@ -647,9 +663,11 @@ fn validate_grid(g: RawGrid, cameras: &[Camera]) -> Result<Grid, Error> {
                 });
             }
         };
+        let position_mm = finite3(k("position_mm"), o.position_mm)?;
         observers.push(Observer {
             name: o.name.clone().unwrap_or_else(|| format!("obs{i}")),
-            position_mm: finite3(k("position_mm"), o.position_mm)?,
+            aim: observer::aim_from_raw(i, o, &position_mm, base)?,
+            position_mm,
             sigma,
         });
     }
@@ -666,6 +684,9 @@ fn validate_grid(g: RawGrid, cameras: &[Camera]) -> Result<Grid, Error> {
     // Geometric checks against every grid point.
     for p in grid.points() {
         for (i, o) in grid.observers.iter().enumerate() {
+            if o.aim != Aim::Point {
+                continue; // a fixed observer does not turn: visibility decides (grid/fixed.rs)
+            }
             let d = p - o.position_mm;
             let key = format!("grid.observer[{i}]");
             if d.norm() < crate::MIN_OBSERVER_DISTANCE_MM {
