@@ -8,6 +8,8 @@ use crashrig_plot::{Format, HeatMap, Marker};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
+mod fixed;
+
 /// Arguments of `crashrig grid`.
 #[derive(Debug, clap::Args)]
 pub struct GridArgs {
@@ -67,7 +69,12 @@ struct Summary {
     median_sigma_max_mm: f64,
     elapsed_s: f64,
     samples_per_second: f64,
-    // Extensions (documented in docs/table3.md).
+    // Extensions (documented in docs/table3.md, fixed cameras in docs/FIXED_CAMERAS.md).
+    /// Fraction of points seen by at least two observers (1 when every observer is aimed).
+    fraction_measurable: f64,
+    /// Per observer: aim and fraction of the grid it sees (only with fixed observers).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    observer_coverage: Option<Vec<fixed::Coverage>>,
     seed: u64,
     threads: usize,
     rotation_noise: &'static str,
@@ -83,7 +90,18 @@ struct Summary {
 }
 
 fn median(v: &[f64]) -> f64 {
-    crashrig_stats::summary::quantile(v, 0.5).unwrap_or(f64::NAN)
+    // Not-measurable points (NaN σ) are left out.
+    let finite: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    crashrig_stats::summary::quantile(&finite, 0.5).unwrap_or(f64::NAN)
+}
+
+/// A CSV cell: empty for a not-measurable point (fewer than two observers see it).
+fn cell(p: &PointStats, v: f64) -> String {
+    if p.is_measurable() {
+        v.to_string()
+    } else {
+        String::new()
+    }
 }
 
 fn spread(v: &[f64]) -> Spread {
@@ -116,9 +134,11 @@ fn csv_bytes(
     Ok(buf)
 }
 
-fn main_csv(r: &GridResult) -> anyhow::Result<Vec<u8>> {
+/// `grid.csv`; with fixed observers the column `observers_seen` is appended and the σ cells of
+/// not-measurable points are empty.
+fn main_csv(r: &GridResult, with_seen: bool) -> anyhow::Result<Vec<u8>> {
     csv_bytes(|w| {
-        w.write_record([
+        let mut header = vec![
             "x_mm",
             "y_mm",
             "z_mm",
@@ -126,20 +146,22 @@ fn main_csv(r: &GridResult) -> anyhow::Result<Vec<u8>> {
             "sigma_y_mm",
             "sigma_z_mm",
             "sigma_max_mm",
-        ])?;
+        ];
+        if with_seen {
+            header.push("observers_seen");
+        }
+        w.write_record(&header)?;
         for p in &r.points {
-            w.write_record(
-                [
-                    p.point.x,
-                    p.point.y,
-                    p.point.z,
-                    p.sigma_mm.x,
-                    p.sigma_mm.y,
-                    p.sigma_mm.z,
-                    p.sigma_max_mm,
-                ]
-                .map(|v| v.to_string()),
-            )?;
+            let mut rec: Vec<String> = [p.point.x, p.point.y, p.point.z]
+                .map(|v| v.to_string())
+                .to_vec();
+            rec.extend(
+                [p.sigma_mm.x, p.sigma_mm.y, p.sigma_mm.z, p.sigma_max_mm].map(|v| cell(p, v)),
+            );
+            if with_seen {
+                rec.push(p.observers_seen.to_string());
+            }
+            w.write_record(&rec)?;
         }
         Ok(())
     })
@@ -199,7 +221,7 @@ fn detail_csv(r: &GridResult) -> anyhow::Result<Vec<u8>> {
                     p.linear_sigma_max_mm(),
                     p.sigma_max_mm / p.linear_sigma_max_mm(),
                 ]
-                .map(|v| v.to_string()),
+                .map(|v| cell(p, v)),
             );
             w.write_record(&rec)?;
         }
@@ -299,8 +321,20 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
         None
     };
 
+    let with_fixed = fixed::has_fixed(&grid);
+    if result.points.iter().all(|p| !p.is_measurable()) {
+        eprintln!(
+            "warning: {}: no grid point is seen by two or more observers; every point is not measurable",
+            a.scenario.display()
+        );
+    }
     let mut files = Pending::new();
-    write(&a.out, "grid.csv", &main_csv(&result)?, &mut files)?;
+    write(
+        &a.out,
+        "grid.csv",
+        &main_csv(&result, with_fixed)?,
+        &mut files,
+    )?;
     write(&a.out, "grid_detail.csv", &detail_csv(&result)?, &mut files)?;
 
     if !a.no_plots {
@@ -363,9 +397,36 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
                     label: l,
                 })
                 .collect();
-            for spec in &specs {
+            // Fixed observers: field-of-view footprints on this plane, hatched not-measurable
+            // cells, and a map of the number of cameras that see each point.
+            let fp = if with_fixed {
+                fixed::footprints(&grid, *z, fixed::footprint_bounds(&grid, &xs, &ys))
+            } else {
+                Vec::new()
+            };
+            let outlines = fixed::outlines(&fp);
+            let overlay = if with_fixed {
+                fixed::overlay(&outlines, &[])
+            } else {
+                crashrig_plot::Overlay::default()
+            };
+            let seen_labels: Vec<String> =
+                pts.iter().map(|p| p.observers_seen.to_string()).collect();
+            let seen_overlay = fixed::overlay(&outlines, &seen_labels);
+            let n_obs = grid.observers.len() as f64;
+            let seen_spec = MapSpec {
+                range: Some((0.0, n_obs.max(1.0))),
+                stem: "observers_seen",
+                title: "Cameras seeing the point",
+                bar: "observers seeing the point [-]",
+                threshold: None,
+                value: |p| p.observers_seen as f64,
+            };
+            let extra = with_fixed.then_some(&seen_spec);
+            for spec in specs.iter().chain(extra) {
                 let values: Vec<f64> = pts.iter().map(spec.value).collect();
                 let title = format!("{} at z = {} mm", spec.title, z);
+                let all_missing = values.iter().all(|v| !v.is_finite());
                 let map = HeatMap {
                     xs: &xs,
                     ys: &ys,
@@ -376,10 +437,16 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
                     colorbar_label: spec.bar,
                     threshold: spec.threshold,
                     markers: &markers,
-                    value_range: spec.range,
+                    // A map with no measurable point still renders (all hatched).
+                    value_range: spec.range.or(all_missing.then_some((0.0, 1.0))),
+                };
+                let ov = if spec.stem == "observers_seen" {
+                    &seen_overlay
+                } else {
+                    &overlay
                 };
                 for (fmt, ext) in [(Format::Png, "png"), (Format::Svg, "svg")] {
-                    let bytes = crashrig_plot::heatmap(&map, fmt)
+                    let bytes = crashrig_plot::heatmap_with(&map, ov, fmt)
                         .with_context(|| format!("heat map {} z = {z}", spec.stem))?;
                     let name = format!("{}_z{:02}_{}mm.{ext}", spec.stem, iz, z);
                     write(&a.out, &name, &bytes, &mut files)?;
@@ -405,6 +472,8 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
         median_sigma_max_mm: median(&sm),
         elapsed_s,
         samples_per_second: total_draws as f64 / elapsed_s,
+        fraction_measurable: result.fraction_measurable(),
+        observer_coverage: with_fixed.then(|| fixed::coverage(&grid, &result)),
         seed,
         threads: rayon::current_num_threads(),
         rotation_noise: match scenario.rotation_noise {
