@@ -64,6 +64,8 @@ pub(crate) struct View<'a> {
     opk: Vector3<f64>,
     /// Lower factor of the pose-noise covariance (mm, rad): `δ = L·ε`.
     l: Matrix6<f64>,
+    /// The diagonal of `l` when `l` is diagonal (independent σ): `δ = σ∘ε`.
+    diag: Option<Vector6<f64>>,
     /// `euler` rotation noise (else tangent).
     euler: bool,
     /// Exact normalized coordinates of the true point.
@@ -76,6 +78,8 @@ pub(crate) struct View<'a> {
     sigma_px: f64,
     /// The lens when it distorts (the predictor needs refining), else `None`.
     lens: Option<&'a Lens>,
+    /// Its written-out projection, for the models that have one.
+    fast: Option<FastLens>,
     /// The full lens (for the fallback unprojection), `None` for aimed views.
     full_lens: Option<&'a Lens>,
     /// Chain camera whose joint draw this view takes (correlated mode).
@@ -105,6 +109,69 @@ pub(crate) enum Draws<'a> {
     Adaptive(&'a Adaptive),
 }
 
+/// The projection of the radial-tangential lenses (SIMPLE_RADIAL, RADIAL, OPENCV, FULL_OPENCV)
+/// written out for the draw loop: normalized (x, y) ↦ pixel, COLMAP's formulas
+/// (`sensor/models.h`), no validation and no `Result` (the lens was validated when read).
+/// Tested against `crashrig_camera::Camera::img_from_cam` (`fixed_fast_lens_matches_camera_crate`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct FastLens {
+    f: [f64; 2],
+    c: [f64; 2],
+    /// k1 k2 k3 (numerator), k4 k5 k6 (denominator), p1 p2.
+    k: [f64; 6],
+    p: [f64; 2],
+}
+
+impl FastLens {
+    /// The fast form of `lens`, if its model has one.
+    pub(crate) fn of(lens: &Lens) -> Option<FastLens> {
+        use ModelId as M;
+        let q = &lens.params;
+        let (f, c, k, p) = match lens.model {
+            M::SimpleRadial => (
+                [q[0], q[0]],
+                [q[1], q[2]],
+                [q[3], 0.0, 0.0, 0.0, 0.0, 0.0],
+                [0.0; 2],
+            ),
+            M::Radial => (
+                [q[0], q[0]],
+                [q[1], q[2]],
+                [q[3], q[4], 0.0, 0.0, 0.0, 0.0],
+                [0.0; 2],
+            ),
+            M::OpenCv => (
+                [q[0], q[1]],
+                [q[2], q[3]],
+                [q[4], q[5], 0.0, 0.0, 0.0, 0.0],
+                [q[6], q[7]],
+            ),
+            M::FullOpenCv => (
+                [q[0], q[1]],
+                [q[2], q[3]],
+                [q[4], q[5], q[8], q[9], q[10], q[11]],
+                [q[6], q[7]],
+            ),
+            _ => return None,
+        };
+        Some(FastLens { f, c, k, p })
+    }
+
+    /// Pixel (COLMAP convention) of normalized coordinates `n`.
+    #[inline(always)]
+    pub(crate) fn img_from_normalized(&self, n: Vector2<f64>) -> Vector2<f64> {
+        let (x, y) = (n.x, n.y);
+        let r2 = x * x + y * y;
+        let [k1, k2, k3, k4, k5, k6] = self.k;
+        let [p1, p2] = self.p;
+        let radial =
+            (1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (1.0 + r2 * (k4 + r2 * (k5 + r2 * k6)));
+        let xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
+        let yd = y * radial + 2.0 * p2 * x * y + p1 * (r2 + 2.0 * y * y);
+        Vector2::new(self.f[0] * xd + self.c[0], self.f[1] * yd + self.c[1])
+    }
+}
+
 /// True when the lens maps normalized coordinates to pixels linearly (no distortion term).
 fn is_linear(lens: &Lens) -> bool {
     use ModelId as M;
@@ -117,16 +184,23 @@ fn is_linear(lens: &Lens) -> bool {
     extra.iter().all(|k| *k == 0.0)
 }
 
-/// Lower factor of a diagonal pose σ (mm, rad).
+/// Lower factor `L` (`L·Lᵀ = Σ`) of an observer's pose-noise covariance (mm, rad; order δC,
+/// δθ): `crashrig_geometry::uncertain::psd_factor`, so a full 6×6 tangent covariance (an
+/// `UncertainPose`) plugs in here unchanged; for independent σ it is `diag(σ)` exactly.
 fn factor_of(s: &PoseSigma) -> Matrix6<f64> {
-    Matrix6::from_diagonal(&Vector6::new(
+    let d = Vector6::new(
         s.position_mm.x,
         s.position_mm.y,
         s.position_mm.z,
         s.angles_rad.x,
         s.angles_rad.y,
         s.angles_rad.z,
-    ))
+    );
+    crashrig_geometry::uncertain::psd_factor(&Matrix6::from_diagonal(&d.component_mul(&d)))
+}
+
+fn is_diagonal(l: &Matrix6<f64>) -> bool {
+    (0..6).all(|i| (0..6).all(|j| i == j || l[(i, j)] == 0.0))
 }
 
 /// Where a fixed camera at `center` sees world point `x`: the true pixel, the exact
@@ -205,12 +279,14 @@ pub(crate) fn views<'a>(setup: &Setup<'a>, point: &Vector3<f64>) -> Result<Vec<V
                     r: r.into_inner(),
                     opk: Vector3::new(a.omega, a.phi, a.kappa),
                     l,
+                    diag: is_diagonal(&l).then(|| l.diagonal()),
                     euler,
                     n0: Vector2::zeros(),
                     u0: Vector2::zeros(),
                     jinv: Matrix2::identity() / focal,
                     sigma_px,
                     lens: None,
+                    fast: None,
                     full_lens: None,
                     source,
                 });
@@ -224,12 +300,14 @@ pub(crate) fn views<'a>(setup: &Setup<'a>, point: &Vector3<f64>) -> Result<Vec<V
                     r: f.rotation,
                     opk: f.angles_rad,
                     l,
+                    diag: is_diagonal(&l).then(|| l.diagonal()),
                     euler,
                     n0,
                     u0,
                     jinv,
                     sigma_px: f.pixel_sigma_px,
                     lens: (!is_linear(&f.lens)).then_some(&f.lens),
+                    fast: FastLens::of(&f.lens),
                     full_lens: Some(&f.lens),
                     source,
                 });
@@ -248,8 +326,12 @@ fn undistort(v: &View<'_>, du: Vector2<f64>) -> Vector2<f64> {
     };
     let target = v.u0 + du;
     for _ in 0..MAX_REFINE {
-        let Ok(p) = lens.img_from_cam(&Vector3::new(n.x, n.y, 1.0)) else {
-            break;
+        let p = match v.fast {
+            Some(fast) => fast.img_from_normalized(n),
+            None => match lens.img_from_cam(&Vector3::new(n.x, n.y, 1.0)) {
+                Ok(p) => p,
+                Err(_) => break,
+            },
         };
         let res = p - target;
         if res.norm_squared() < UNDISTORT_RESIDUAL_PX * UNDISTORT_RESIDUAL_PX {
@@ -288,6 +370,22 @@ fn perturbed_pose(v: &View<'_>, d: &Vector6<f64>) -> (Matrix3<f64>, Vector3<f64>
     (r, c)
 }
 
+/// The two DLT rows of view `v` with tangent pose error `d` and observation `x`, without
+/// forming the perturbed rotation: `a = R̄·Exp(w)·(−1, 0, x)`, `b = R̄·Exp(w)·(0, −1, y)`, with
+/// `Exp(w)·q = q + s (w × q) + c w × (w × q)` (Rodrigues; exact, as `exp_matrix`).
+#[inline(always)]
+fn add_rows_tangent(n: &mut Normal3, v: &View<'_>, d: &Vector6<f64>, x: Vector2<f64>) {
+    let c = v.c + Vector3::new(d[0], d[1], d[2]);
+    let w = Vector3::new(d[3], d[4], d[5]);
+    let (s, cc) = crate::kernel::sinc_cosc(w.norm_squared());
+    let rot = |q: Vector3<f64>| {
+        let wq = w.cross(&q);
+        v.r * (q + wq * s + w.cross(&wq) * cc)
+    };
+    n.add_row(&rot(Vector3::new(-1.0, 0.0, x.x)), &c);
+    n.add_row(&rot(Vector3::new(0.0, -1.0, x.y)), &c);
+}
+
 /// The intersected point for explicit perturbations: per view 6 pose values (mm, rad) and 2
 /// pixel offsets (px). The same model as the draw loop.
 #[cfg(test)]
@@ -295,8 +393,14 @@ pub(crate) fn intersect_perturbed(views: &[View<'_>], delta: &[f64]) -> Vector3<
     let mut n = Normal3::default();
     for (j, v) in views.iter().enumerate() {
         let d = &delta[NORMALS_PER_VIEW * j..NORMALS_PER_VIEW * (j + 1)];
-        let (r, c) = perturbed_pose(v, &Vector6::from_column_slice(&d[..6]));
-        add_rows(&mut n, &r, &c, undistort(v, Vector2::new(d[6], d[7])));
+        let delta = Vector6::from_column_slice(&d[..6]);
+        let x = undistort(v, Vector2::new(d[6], d[7]));
+        if v.euler {
+            let (r, c) = perturbed_pose(v, &delta);
+            add_rows(&mut n, &r, &c, x);
+        } else {
+            add_rows_tangent(&mut n, v, &delta, x);
+        }
     }
     n.solve()
 }
@@ -340,7 +444,19 @@ pub(crate) fn run_chunk_fixed<R: rand::Rng>(
                     }
                     _ => {
                         let eps6 = Vector6::from_fn(|q, _| e[k + q][d]);
-                        perturbed_pose(v, &(v.l * eps6))
+                        let delta = match v.diag {
+                            Some(sd) => sd.component_mul(&eps6),
+                            None => v.l * eps6,
+                        };
+                        let du = Vector2::new(e[k + 6][d], e[k + 7][d]) * v.sigma_px;
+                        let x = undistort(v, du);
+                        if v.euler {
+                            let (r, c) = perturbed_pose(v, &delta);
+                            add_rows(&mut n, &r, &c, x);
+                        } else {
+                            add_rows_tangent(&mut n, v, &delta, x);
+                        }
+                        continue;
                     }
                 };
                 let du = Vector2::new(e[k + 6][d], e[k + 7][d]) * v.sigma_px;

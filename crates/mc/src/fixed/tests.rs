@@ -468,3 +468,66 @@ fn fixed_camera_from_colmap_model() {
         .to_string();
     assert!(shown.contains("has no camera 999999"), "{shown}");
 }
+
+/// The written-out projection of the radial-tangential lenses equals the camera crate's, and
+/// the tangent DLT rows without a rotation matrix equal those of the perturbed matrix.
+#[test]
+fn fixed_fast_lens_and_rows_match_reference_forms() {
+    let lenses = [
+        (ModelId::SimpleRadial, vec![900.0, 500.0, 400.0, -0.12]),
+        (ModelId::Radial, vec![900.0, 500.0, 400.0, -0.12, 0.03]),
+        (
+            ModelId::OpenCv,
+            vec![900.0, 910.0, 500.0, 400.0, -0.12, 0.03, 0.001, -0.002],
+        ),
+        (
+            ModelId::FullOpenCv,
+            vec![
+                900.0, 910.0, 500.0, 400.0, -0.12, 0.03, 0.001, -0.002, 0.01, 0.05, -0.01, 0.002,
+            ],
+        ),
+    ];
+    for (model, params) in lenses {
+        let lens = Lens::new(model, 1000, 800, params).unwrap();
+        let fast = FastLens::of(&lens).unwrap();
+        for n in [
+            Vector2::new(0.0, 0.0),
+            Vector2::new(0.3, -0.2),
+            Vector2::new(-0.45, 0.35),
+            Vector2::new(0.05, 0.41),
+        ] {
+            let theirs = lens.img_from_cam(&Vector3::new(n.x, n.y, 1.0)).unwrap();
+            let ours = fast.img_from_normalized(n);
+            assert!((ours - theirs).norm() < 1e-9, "{model}: {ours} vs {theirs}");
+        }
+    }
+    assert!(
+        FastLens::of(&Lens::new(ModelId::Fov, 10, 10, vec![5.0, 5.0, 5.0, 5.0, 0.5]).unwrap())
+            .is_none()
+    );
+    // Rows: Rodrigues on two vectors = rows of R̄·exp_matrix(w).
+    let s = parse(MIXED).unwrap();
+    let (sig, grid) = setup_of(&s);
+    let setup = Setup {
+        grid: &grid,
+        sigma: &sig,
+        noise: s.rotation_noise,
+        pixel: None,
+        chain: None,
+    };
+    let v = views(&setup, &Vector3::new(1200.0, -200.0, 0.0)).unwrap()[0];
+    for w in [[1e-4, -2e-4, 3e-4], [0.02, 0.01, -0.015], [0.3, -0.2, 0.5]] {
+        let d = Vector6::new(0.5, -0.3, 0.2, w[0], w[1], w[2]);
+        let x = Vector2::new(0.12, -0.07);
+        let (mut a, mut b) = (Normal3::default(), Normal3::default());
+        add_rows_tangent(&mut a, &v, &d, x);
+        let (r, c) = perturbed_pose(&v, &d);
+        add_rows(&mut b, &r, &c, x);
+        // Both exact; add a third row set so the 3×3 system is regular and compare solutions.
+        for n in [&mut a, &mut b] {
+            n.add_row(&Vector3::new(0.0, 0.0, 1.0), &Vector3::new(0.0, 0.0, 7.0));
+        }
+        let (xa, xb) = (a.solve(), b.solve());
+        assert!((xa - xb).norm() < 1e-9 * xa.norm().max(1.0), "{xa} vs {xb}");
+    }
+}
