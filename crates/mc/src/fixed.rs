@@ -211,7 +211,7 @@ pub(crate) fn sight(
     x: &Vector3<f64>,
 ) -> Option<(Vector2<f64>, Vector2<f64>, Matrix2<f64>)> {
     let p = fixed.cam_from_world(center, x);
-    if !(p.z > 0.0) {
+    if p.z.is_nan() || p.z <= 0.0 {
         return None;
     }
     let lens = &fixed.lens;
@@ -241,7 +241,7 @@ pub fn footprint_margin_px(observer: &Observer, x: &Vector3<f64>) -> Option<f64>
     let (w, h) = (f.lens.width as f64, f.lens.height as f64);
     let p = f.cam_from_world(&observer.position_mm, x);
     let outside = -(w + h);
-    if !(p.z > 0.0) {
+    if p.z.is_nan() || p.z <= 0.0 {
         return Some(outside);
     }
     let Ok(u) = f.lens.img_from_cam(&p) else {
@@ -427,6 +427,7 @@ pub(crate) fn run_chunk_fixed<R: rand::Rng>(
         for row in e.iter_mut() {
             nd.fill(rng, row);
         }
+        #[allow(clippy::needless_range_loop)] // lane d indexes the 8 normal rows of each view
         for d in 0..b {
             if let Some(chain) = chain {
                 chain.draw_into(rng, &mut eps, &mut drawn);

@@ -72,15 +72,15 @@ fn fixed_cameras_match_opencv_reference() {
                     + 1.0 / (2.0 * (p.count as f64 - 1.0)))
                     .sqrt();
                 assert!(3.0 * 0.01 / se > 5.0, "the 3 % test would be too loose");
-                for k in 0..3 {
-                    let ratio = p.sigma_mm[k] / s[k];
+                for (k, sk) in s.iter().enumerate() {
+                    let ratio = p.sigma_mm[k] / sk;
                     worst = worst.max((ratio - 1.0).abs());
                     assert!(
                         (ratio - 1.0).abs() < 0.03,
                         "σ[{k}] at {:?}: {} (ours) vs {} (OpenCV reference)",
                         r.point,
                         p.sigma_mm[k],
-                        s[k]
+                        sk
                     );
                 }
                 sigma_checked += 1;

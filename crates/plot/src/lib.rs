@@ -52,7 +52,7 @@ mod overlay;
 
 pub use contour::contour_segments;
 pub use error::Error;
-pub use overlay::{Outline, Overlay};
+pub use overlay::{Outline, Overlay, Segment};
 
 use plotters::coord::Shift;
 use plotters::prelude::*;

@@ -20,13 +20,16 @@ const PALETTE: [RGBColor; 6] = [
     RGBColor(60, 180, 75),
 ];
 
+/// A line segment `((x0, y0), (x1, y1))` in axis units.
+pub type Segment = ((f64, f64), (f64, f64));
+
 /// A polyline set drawn on the map in one colour, with a label at its first segment.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Outline<'a> {
     /// Text next to the outline (e.g. the camera's name).
     pub label: &'a str,
     /// Segments `((x0, y0), (x1, y1))` in axis units (e.g. from [`crate::contour_segments`]).
-    pub segments: &'a [((f64, f64), (f64, f64))],
+    pub segments: &'a [Segment],
 }
 
 /// Optional extras of [`crate::heatmap_with`].
