@@ -260,6 +260,13 @@ pub fn run(a: GridArgs, g: &Global) -> anyhow::Result<()> {
             100.0 * summary.fraction_below_threshold,
             summary.threshold_mm
         )?;
+        if summary.fraction_measurable < 1.0 {
+            writeln!(
+                w,
+                "{:.1} % of the points measurable (seen by two or more observers)",
+                100.0 * summary.fraction_measurable
+            )?;
+        }
         writeln!(w, "wrote {} files to {}", files, a.out.display())
     };
     super::propagate::quiet_pipe(print())
@@ -465,10 +472,14 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
     let counts: Vec<u64> = result.points.iter().map(|p| p.count).collect();
     let summary = Summary {
         points: result.points.len(),
-        samples_per_point: counts.iter().copied().max().unwrap_or(0),
+        // Not-measurable points draw nothing; the draws per point are those asked for.
+        samples_per_point: match grid.adaptive {
+            None => samples as u64,
+            Some(_) => counts.iter().copied().max().unwrap_or(0),
+        },
         threshold_mm: grid.threshold_mm,
         fraction_below_threshold: result.fraction_below(grid.threshold_mm),
-        max_sigma_mm: sm.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        max_sigma_mm: sm.iter().copied().fold(f64::NAN, f64::max),
         median_sigma_max_mm: median(&sm),
         elapsed_s,
         samples_per_second: total_draws as f64 / elapsed_s,
@@ -488,7 +499,7 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
         linear: LinearSummary {
             fraction_below_threshold: lsm.iter().filter(|s| **s < grid.threshold_mm).count() as f64
                 / lsm.len().max(1) as f64,
-            max_sigma_mm: lsm.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            max_sigma_mm: lsm.iter().copied().fold(f64::NAN, f64::max),
             median_sigma_max_mm: median(&lsm),
             ratio_mc_over_linear_sigma_max: spread(&ratio),
         },
