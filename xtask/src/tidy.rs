@@ -22,7 +22,15 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
         &["crashrig-geometry", "crashrig-camera", "crashrig-stats"],
     ),
     ("crashrig-bootstrap", &["crashrig-stats"]),
-    ("crashrig-mc", &["crashrig-geometry", "crashrig-stats"]),
+    (
+        "crashrig-mc",
+        &[
+            "crashrig-geometry",
+            "crashrig-camera",
+            "crashrig-colmap",
+            "crashrig-stats",
+        ],
+    ),
     ("crashrig-testkit", &["crashrig-geometry"]),
     (
         "crashrig-measure",

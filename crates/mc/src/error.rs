@@ -151,6 +151,35 @@ pub enum Error {
         /// Distance between the observer and that position (mm).
         distance_mm: f64,
     },
+    /// A fixed observer's camera model is invalid (unknown model name, wrong parameter
+    /// count, invalid parameter).
+    #[error("`{key}`: {source}")]
+    Camera {
+        /// Key of the camera, e.g. `grid.observer[0].camera`.
+        key: String,
+        /// The camera crate's description.
+        #[source]
+        source: crashrig_camera::Error,
+    },
+    /// `camera_from` names a COLMAP model that cannot be read.
+    #[error("`{key}`: {source}")]
+    ColmapModel {
+        /// Key, e.g. `grid.observer[0].camera_from`.
+        key: String,
+        /// The COLMAP reader's error.
+        #[source]
+        source: Box<crashrig_colmap::Error>,
+    },
+    /// `camera_from` names a camera id the model does not hold.
+    #[error("`{key}`: the COLMAP model {} has no camera {camera_id}", dir.display())]
+    NoSuchCamera {
+        /// Key, e.g. `grid.observer[0].camera_from`.
+        key: String,
+        /// The model directory.
+        dir: PathBuf,
+        /// The missing id.
+        camera_id: u32,
+    },
     /// An error of the geometry layer.
     #[error(transparent)]
     Geometry(#[from] crashrig_geometry::Error),
@@ -179,6 +208,9 @@ impl Error {
             | Error::VerticalAim { key, .. }
             | Error::Covariance { key, .. }
             | Error::ObserverOffChain { key, .. } => Some(key),
+            Error::Camera { key, .. }
+            | Error::ColmapModel { key, .. }
+            | Error::NoSuchCamera { key, .. } => Some(key),
             Error::Reference { key, .. } => key.as_deref(),
             Error::Cycle { .. } => Some("camera"),
             Error::TooFewObservers { .. } | Error::AllDegenerate { .. } => Some("grid.observer"),

@@ -33,6 +33,9 @@ pub struct PointStats {
     /// First-order covariance (mm²) of the same inputs (observers drawn jointly from the chain
     /// through the chain's Jacobians, the others independent).
     pub linear_covariance: Matrix3<f64>,
+    /// Observers that see the point (all of them when every observer is aimed); fewer than
+    /// two: not measurable, σ and covariances NaN, `count` 0 (fixed observers, `fixed.rs`).
+    pub observers_seen: usize,
 }
 
 impl PointStats {
@@ -376,6 +379,9 @@ impl GridStudy {
     /// [`GridStudy::run`] with an explicit engine (benchmarks and tests; the legacy engine
     /// draws from the former ChaCha8 streams, so its numbers differ statistically only).
     pub fn run_with(&self, samples: usize, seed: u64, engine: Engine) -> Result<GridResult, Error> {
+        if self.has_fixed() {
+            return self.run_fixed(crate::fixed::Draws::Samples(samples), seed);
+        }
         let points = self.grid.points();
         let aimed = self.aim_all(&points)?;
         let chunks = samples.div_ceil(CHUNK);
@@ -422,6 +428,9 @@ impl GridStudy {
         adaptive: &crate::scenario::Adaptive,
         seed: u64,
     ) -> Result<GridResult, Error> {
+        if self.has_fixed() {
+            return self.run_fixed(crate::fixed::Draws::Adaptive(adaptive), seed);
+        }
         let points = self.grid.points();
         let aimed = self.aim_all(&points)?;
         let stats = points
@@ -469,6 +478,28 @@ impl GridStudy {
         Ok(self.result(stats))
     }
 
+    /// Whether any observer is fixed (`aim = "fixed"`): then `fixed.rs` runs the study.
+    fn has_fixed(&self) -> bool {
+        self.grid
+            .observers
+            .iter()
+            .any(|o| o.aim != crate::scenario::Aim::Point)
+    }
+
+    fn run_fixed(&self, draws: crate::fixed::Draws<'_>, seed: u64) -> Result<GridResult, Error> {
+        let covariance: Vec<Matrix6<f64>> =
+            self.observer_noise.iter().map(|n| n.covariance).collect();
+        let kinds: Vec<RotationNoise> = self.observer_noise.iter().map(|n| n.noise).collect();
+        let setup = crate::fixed::Setup {
+            grid: &self.grid,
+            covariance: &covariance,
+            kinds: &kinds,
+            pixel: self.grid.pixel,
+            chain: self.ctx.chain.as_ref(),
+        };
+        Ok(self.result(crate::fixed::run(&setup, draws, seed)?))
+    }
+
     fn finish(&self, point: &Vector3<f64>, aimed: &[Aimed], m: &Acc3) -> PointStats {
         let sigma = m.std_dev();
         PointStats {
@@ -479,6 +510,7 @@ impl GridStudy {
             sigma_mm: sigma,
             sigma_max_mm: sigma.max(),
             linear_covariance: linear_covariance(aimed, &self.ctx, point),
+            observers_seen: aimed.len(),
         }
     }
 }

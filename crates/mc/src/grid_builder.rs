@@ -1,7 +1,9 @@
 //! [`GridBuilder`]: a grid study from typed values, without a scenario file.
 
 use crate::chain::{CameraId, Chain};
-use crate::scenario::{Adaptive, Axis, Grid, Observer, ObserverSigma, PixelNoise, RotationNoise};
+use crate::scenario::{
+    Adaptive, Aim, Axis, FixedCamera, Grid, Observer, ObserverSigma, PixelNoise, RotationNoise,
+};
 use crate::{Error, GridStudy};
 use nalgebra::{Matrix6, Vector3};
 
@@ -80,6 +82,25 @@ impl GridBuilder {
             name: name.into(),
             position_mm,
             sigma: ObserverSigma::Covariance(covariance),
+            aim: Aim::Point,
+        });
+        self
+    }
+
+    /// A fixed observer (`aim = "fixed"`): centre `position_mm`, orientation, lens and pixel
+    /// noise in `camera`, pose noise `covariance` (mm, rad; tangent about its own axes).
+    pub fn fixed_observer(
+        mut self,
+        name: impl Into<String>,
+        position_mm: Vector3<f64>,
+        covariance: Matrix6<f64>,
+        camera: FixedCamera,
+    ) -> Self {
+        self.grid.observers.push(Observer {
+            name: name.into(),
+            position_mm,
+            sigma: ObserverSigma::Covariance(covariance),
+            aim: Aim::Fixed(Box::new(camera)),
         });
         self
     }
@@ -96,6 +117,7 @@ impl GridBuilder {
             name: name.into(),
             position_mm,
             sigma: ObserverSigma::From(camera.index()),
+            aim: Aim::Point,
         });
         self
     }

@@ -43,6 +43,15 @@
 //!   `docs/SCENARIO.md`).
 //! - [`reference::link_from_result_json`]: a `calibrate` / `bootstrap` JSON result as an
 //!   uncertain link (what `from = "…"` in a scenario reads).
+//! - [`Scenario::from_path`] / [`Scenario::from_toml_str`]: read and validate a scenario.
+//! - [`Chain`]: [`Chain::monte_carlo`] and [`Chain::linear`] (Table 3/4 of the paper).
+//! - [`GridStudy`]: [`GridStudy::run`], [`GridStudy::run_adaptive`] → [`GridResult`] of
+//!   [`PointStats`] (σ per axis, covariance, ellipsoid, linear covariance, observers seen).
+//! - Fixed observers ([`Aim::Fixed`], `aim = "fixed"` with a COLMAP lens, `docs/FIXED_CAMERAS.md`):
+//!   a point is seen only inside a camera's image; each draw undistorts the true pixel plus
+//!   pixel noise through the lens; points seen by fewer than two observers are not measurable
+//!   ([`PointStats::is_measurable`], [`GridResult::fraction_measurable`],
+//!   [`footprint_margin_px`] for field-of-view footprints).
 //!
 //! # Example: the builders
 //! ```
@@ -143,6 +152,44 @@
 //! assert!(result.points.iter().all(|p| p.sigma_max_mm > 0.0));
 //! # Ok::<(), crashrig_mc::Error>(())
 //! ```
+//!
+//! Fixed cameras with lenses: a point is measurable only where two of them see it.
+//! ```
+//! use crashrig_mc::{GridStudy, Scenario};
+//! use std::path::Path;
+//!
+//! let text = r#"
+//! [grid]
+//! x_mm = [1000.0, 1400.0, 5]
+//! y_mm = [0.0, 0.0, 1]
+//! z_mm = [0.0, 0.0, 1]
+//! [[grid.observer]]
+//! aim = "fixed"
+//! position_mm = [1200.0, -1500.0, 0.0]
+//! look_at_mm = [1200.0, 0.0, 0.0]
+//! camera = { model = "OPENCV", width = 1000, height = 800, params = [600.0, 600.0, 500.0, 400.0, -0.05, 0.01, 0.0, 0.0] }
+//! pixel_sigma_px = 0.5
+//! sigma_position_mm = [1.0, 1.0, 1.0]
+//! sigma_angles_deg = [0.01, 0.01, 0.01]
+//! [[grid.observer]]
+//! aim = "fixed"
+//! position_mm = [1400.0, 1500.0, 0.0]
+//! look_at_mm = [1600.0, 0.0, 0.0]
+//! camera = { model = "PINHOLE", width = 800, height = 600, params = [1500.0, 1500.0, 400.0, 300.0] }
+//! sigma_position_mm = [1.0, 1.0, 1.0]
+//! sigma_angles_deg = [0.01, 0.01, 0.01]
+//! "#;
+//! let scenario = Scenario::from_toml_str(text, Path::new("fixed.toml"))?;
+//! let result = GridStudy::new(&scenario, 500, 1)?.run(500, 1)?;
+//! // The narrow right camera sees only part of the line: the rest is not measurable.
+//! let seen: Vec<usize> = result.points.iter().map(|p| p.observers_seen).collect();
+//! assert!(seen.contains(&1) && seen.contains(&2));
+//! for p in &result.points {
+//!     assert_eq!(p.is_measurable(), p.sigma_max_mm.is_finite());
+//! }
+//! assert!(result.fraction_measurable() > 0.0 && result.fraction_measurable() < 1.0);
+//! # Ok::<(), crashrig_mc::Error>(())
+//! ```
 #![deny(missing_docs)]
 
 mod accumulate;
@@ -151,6 +198,7 @@ mod chain;
 mod chain_block;
 pub mod degenerate;
 mod error;
+mod fixed;
 mod grid;
 mod grid_builder;
 mod kernel;
@@ -164,13 +212,14 @@ mod simd;
 
 pub use chain::{CameraId, Chain, ChainBuilder, PoseLinear, PoseMc, WorldPose};
 pub use error::Error;
+pub use fixed::{UNDISTORT_RESIDUAL_PX, footprint_margin_px};
 pub use grid::{CHAIN_SAMPLES_MIN, GridResult, GridStudy, INPUTS_PER_OBSERVER, PointStats};
 pub use grid_builder::GridBuilder;
 pub use normal::FastNormal;
 pub use reference::{ResultKind, link_from_result_json};
 pub use scenario::{
-    Adaptive, Axis, CORRELATED_POSITION_TOLERANCE_MM, Camera, Grid, Observer, ObserverSigma,
-    PixelNoise, PoseSigma, RotationNoise, Scenario,
+    Adaptive, Aim, Axis, CORRELATED_POSITION_TOLERANCE_MM, Camera, FixedCamera, Grid, Observer,
+    ObserverSigma, PixelNoise, PoseSigma, RotationNoise, Scenario,
 };
 pub use simd::{Engine, Isa};
 

@@ -14,6 +14,9 @@ use nalgebra::{Matrix6, Vector3};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
+mod observer;
+pub use observer::{Aim, FixedCamera};
+
 /// How rotation noise is applied to a pose (fixed semantics, see the crate docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RotationNoise {
@@ -85,7 +88,7 @@ pub enum ObserverSigma {
     From(usize),
 }
 
-/// A camera in the interior that aims its optical axis at every grid point.
+/// A camera in the interior: aimed at every grid point (the paper) or fixed with a lens.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Observer {
     /// Label for plots (`name`, default `obs<i>`).
@@ -94,6 +97,8 @@ pub struct Observer {
     pub position_mm: Vector3<f64>,
     /// Its noise.
     pub sigma: ObserverSigma,
+    /// How it points its camera (`aim`, default `"point"`).
+    pub aim: Aim,
 }
 
 /// A regularly spaced axis: `count` values from `start` to `stop`, both ends included.
@@ -283,6 +288,13 @@ struct RawObserver {
     sigma_angles_deg: Option<[f64; 3]>,
     covariance_tangent: Option<toml::Value>,
     sigma_from: Option<String>,
+    // Fixed observers (scenario/observer.rs).
+    aim: Option<String>,
+    angles_deg: Option<[f64; 3]>,
+    look_at_mm: Option<[f64; 3]>,
+    camera: Option<observer::RawLens>,
+    camera_from: Option<String>,
+    pixel_sigma_px: Option<f64>,
 }
 
 // -------------------------------------------------------------- validation ---
@@ -574,7 +586,10 @@ impl Scenario {
             c.parent = *p;
         }
         topological_order(&cameras)?;
-        let grid = raw.grid.map(|g| validate_grid(g, &cameras)).transpose()?;
+        let grid = raw
+            .grid
+            .map(|g| validate_grid(g, &cameras, base))
+            .transpose()?;
         Ok(Scenario {
             seed: raw.seed.unwrap_or(0),
             samples,
@@ -748,7 +763,7 @@ pub(crate) fn topological_order(cameras: &[Camera]) -> Result<Vec<usize>, Error>
 /// Largest distance (mm) between a correlated observer and its chain camera's nominal centre.
 pub const CORRELATED_POSITION_TOLERANCE_MM: f64 = 1.0;
 
-fn validate_grid(g: RawGrid, cameras: &[Camera]) -> Result<Grid, Error> {
+fn validate_grid(g: RawGrid, cameras: &[Camera], base: &Path) -> Result<Grid, Error> {
     let x = axis("grid.x_mm", &g.x_mm)?;
     let y = axis("grid.y_mm", &g.y_mm)?;
     let z = axis("grid.z_mm", &g.z_mm)?;
@@ -852,9 +867,11 @@ fn validate_grid(g: RawGrid, cameras: &[Camera]) -> Result<Grid, Error> {
                 });
             }
         };
+        let position_mm = finite3(k("position_mm"), o.position_mm)?;
         observers.push(Observer {
             name: o.name.clone().unwrap_or_else(|| format!("obs{i}")),
-            position_mm: finite3(k("position_mm"), o.position_mm)?,
+            aim: observer::aim_from_raw(i, o, &position_mm, base)?,
+            position_mm,
             sigma,
         });
     }
@@ -910,6 +927,9 @@ pub(crate) fn check_grid(
     // Geometric checks against every grid point.
     for p in grid.points() {
         for (i, o) in grid.observers.iter().enumerate() {
+            if o.aim != Aim::Point {
+                continue; // a fixed observer does not turn: visibility decides (grid/fixed.rs)
+            }
             let d = p - o.position_mm;
             let key = format!("grid.observer[{i}]");
             if d.norm() < crate::MIN_OBSERVER_DISTANCE_MM {

@@ -49,9 +49,11 @@
 
 mod contour;
 mod error;
+mod overlay;
 
 pub use contour::contour_segments;
 pub use error::Error;
+pub use overlay::{Outline, Overlay, Segment};
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -279,6 +281,19 @@ fn half_steps(v: &[f64]) -> Vec<(f64, f64)> {
 /// axes. Errors: empty or non-increasing axes, `values.len() != xs.len() * ys.len()`, no
 /// finite value, or a backend failure.
 pub fn heatmap(map: &HeatMap<'_>, format: Format) -> Result<Vec<u8>, Error> {
+    heatmap_with(map, &Overlay::default(), format)
+}
+
+/// [`heatmap`] with an [`Overlay`]: non-finite cells hatched with a legend entry (e.g. "not
+/// measurable"), outlines (e.g. each camera's field-of-view footprint) and a text per cell
+/// (e.g. the number of cameras that see the point).
+///
+/// Errors: those of [`heatmap`], and `cell_labels` neither empty nor one per value.
+pub fn heatmap_with(
+    map: &HeatMap<'_>,
+    overlay: &Overlay<'_>,
+    format: Format,
+) -> Result<Vec<u8>, Error> {
     const FIG: &str = "heatmap";
     check_axis(FIG, "xs", map.xs)?;
     check_axis(FIG, "ys", map.ys)?;
@@ -326,8 +341,10 @@ pub fn heatmap(map: &HeatMap<'_>, format: Format) -> Result<Vec<u8>, Error> {
     let plot_w = 760.0;
     let plot_h = (plot_w * (y1 - y0) / (x1 - x0)).clamp(220.0, 900.0);
     let size = (plot_w as u32 + 260, plot_h as u32 + 130);
+    overlay::check(FIG, map, overlay)?;
     let geom = HeatGeom {
         map,
+        overlay,
         range,
         cells: (cx, cy),
         bounds: (x0, x1, y0, y1),
@@ -346,6 +363,7 @@ type Span = (f64, f64);
 
 struct HeatGeom<'a> {
     map: &'a HeatMap<'a>,
+    overlay: &'a Overlay<'a>,
     range: (f64, f64),
     /// Cell extents `(low, high)` along x and along y.
     cells: (Vec<Span>, Vec<Span>),
@@ -386,12 +404,15 @@ fn draw_heatmap<DB: DrawingBackend>(
             let (ix, iy) = (k % nx, k / nx);
             let fill = if v.is_finite() {
                 colour((v - lo) / (hi - lo)).filled()
+            } else if g.overlay.missing_label.is_some() {
+                overlay::MISSING.filled()
             } else {
                 RGBColor(180, 180, 180).filled()
             };
             Rectangle::new([(cx[ix].0, cy[iy].0), (cx[ix].1, cy[iy].1)], fill)
         }))
         .map_err(&e)?;
+    overlay::draw_cells(g, &mut chart, &e)?;
     if let Some(t) = map.threshold {
         let segs = contour_segments(map.xs, map.ys, map.values, t);
         chart
@@ -406,6 +427,7 @@ fn draw_heatmap<DB: DrawingBackend>(
             )
             .map_err(&e)?;
     }
+    overlay::draw_outlines(g, &mut chart, &e)?;
     for m in map
         .markers
         .iter()
@@ -454,6 +476,7 @@ fn draw_heatmap<DB: DrawingBackend>(
         )))
         .map_err(&e)?;
     }
+    overlay::draw_legend(g, &bar, &e)?;
     Ok(())
 }
 

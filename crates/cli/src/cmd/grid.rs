@@ -8,6 +8,8 @@ use crashrig_plot::{Format, HeatMap, Marker};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
+mod fixed;
+
 /// Arguments of `crashrig grid`.
 #[derive(Debug, clap::Args)]
 pub struct GridArgs {
@@ -67,7 +69,12 @@ struct Summary {
     median_sigma_max_mm: f64,
     elapsed_s: f64,
     samples_per_second: f64,
-    // Extensions (documented in docs/table3.md).
+    // Extensions (documented in docs/table3.md, fixed cameras in docs/FIXED_CAMERAS.md).
+    /// Fraction of points seen by at least two observers (1 when every observer is aimed).
+    fraction_measurable: f64,
+    /// Per observer: aim and fraction of the grid it sees (only with fixed observers).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    observer_coverage: Option<Vec<fixed::Coverage>>,
     seed: u64,
     threads: usize,
     rotation_noise: &'static str,
@@ -88,6 +95,7 @@ struct Summary {
 
 /// Median of the finite values (degenerate points are NaN and left out).
 fn median(v: &[f64]) -> f64 {
+    // Degenerate and not-measurable points (NaN σ) are left out.
     let finite: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
     crashrig_stats::summary::quantile(&finite, 0.5).unwrap_or(f64::NAN)
 }
@@ -166,9 +174,10 @@ fn mask_degenerate(r: &mut GridResult, angles: &[f64], scenario: &Path) -> anyho
     Ok(())
 }
 
-/// A CSV cell: empty for a blanked (NaN) value.
-fn cell(v: f64) -> String {
-    if v.is_nan() {
+/// A CSV cell: empty for a blanked (NaN: degenerate) value or a not-measurable point (fewer
+/// than two observers see it).
+fn cell(p: &PointStats, v: f64) -> String {
+    if v.is_nan() || !p.is_measurable() {
         String::new()
     } else {
         v.to_string()
@@ -177,8 +186,9 @@ fn cell(v: f64) -> String {
 
 /// `grid.csv`: the contract's seven columns; when any point is degenerate, the columns
 /// `intersection_angle_deg` and `degenerate` follow (the plain header stays exactly the
-/// contract's for layouts without degenerate points).
-fn main_csv(r: &GridResult, angles: &[f64]) -> anyhow::Result<Vec<u8>> {
+/// contract's for layouts without degenerate points); with fixed observers the column
+/// `observers_seen` is appended and the σ cells of not-measurable points are empty.
+fn main_csv(r: &GridResult, angles: &[f64], with_seen: bool) -> anyhow::Result<Vec<u8>> {
     let flagged = angles
         .iter()
         .any(|a| crashrig_mc::degenerate::is_degenerate(*a));
@@ -195,22 +205,23 @@ fn main_csv(r: &GridResult, angles: &[f64]) -> anyhow::Result<Vec<u8>> {
         if flagged {
             header.extend(["intersection_angle_deg", "degenerate"]);
         }
+        if with_seen {
+            header.push("observers_seen");
+        }
         w.write_record(&header)?;
         for (p, &angle) in r.points.iter().zip(angles) {
-            let mut rec: Vec<String> = [
-                p.point.x,
-                p.point.y,
-                p.point.z,
-                p.sigma_mm.x,
-                p.sigma_mm.y,
-                p.sigma_mm.z,
-                p.sigma_max_mm,
-            ]
-            .map(cell)
-            .into();
+            let mut rec: Vec<String> = [p.point.x, p.point.y, p.point.z]
+                .map(|v| v.to_string())
+                .to_vec();
+            rec.extend(
+                [p.sigma_mm.x, p.sigma_mm.y, p.sigma_mm.z, p.sigma_max_mm].map(|v| cell(p, v)),
+            );
             if flagged {
                 rec.push(angle.to_string());
                 rec.push(crashrig_mc::degenerate::is_degenerate(angle).to_string());
+            }
+            if with_seen {
+                rec.push(p.observers_seen.to_string());
             }
             w.write_record(&rec)?;
         }
@@ -273,7 +284,7 @@ fn detail_csv(r: &GridResult, angles: &[f64]) -> anyhow::Result<Vec<u8>> {
                     p.linear_sigma_max_mm(),
                     p.sigma_max_mm / p.linear_sigma_max_mm(),
                 ]
-                .map(cell),
+                .map(|v| cell(p, v)),
             );
             rec.push(angle.to_string());
             w.write_record(&rec)?;
@@ -313,6 +324,13 @@ pub fn run(a: GridArgs, g: &Global) -> anyhow::Result<()> {
             100.0 * summary.fraction_below_threshold,
             summary.threshold_mm
         )?;
+        if summary.fraction_measurable < 1.0 {
+            writeln!(
+                w,
+                "{:.1} % of the points measurable (seen by two or more observers)",
+                100.0 * summary.fraction_measurable
+            )?;
+        }
         writeln!(w, "wrote {} files to {}", files, a.out.display())
     };
     super::propagate::quiet_pipe(print())
@@ -389,7 +407,19 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
         None
     };
 
-    write(&a.out, "grid.csv", &main_csv(&result, &angles)?, &mut files)?;
+    let with_fixed = fixed::has_fixed(&grid);
+    if result.points.iter().all(|p| !p.is_measurable()) {
+        eprintln!(
+            "warning: {}: no grid point is seen by two or more observers; every point is not measurable",
+            a.scenario.display()
+        );
+    }
+    write(
+        &a.out,
+        "grid.csv",
+        &main_csv(&result, &angles, with_fixed)?,
+        &mut files,
+    )?;
     write(
         &a.out,
         "grid_detail.csv",
@@ -457,7 +487,33 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
                     label: l,
                 })
                 .collect();
-            for spec in &specs {
+            // Fixed observers: field-of-view footprints on this plane, hatched not-measurable
+            // cells, and a map of the number of cameras that see each point.
+            let fp = if with_fixed {
+                fixed::footprints(&grid, *z, fixed::footprint_bounds(&grid, &xs, &ys))
+            } else {
+                Vec::new()
+            };
+            let outlines = fixed::outlines(&fp);
+            let overlay = if with_fixed {
+                fixed::overlay(&outlines, &[])
+            } else {
+                crashrig_plot::Overlay::default()
+            };
+            let seen_labels: Vec<String> =
+                pts.iter().map(|p| p.observers_seen.to_string()).collect();
+            let seen_overlay = fixed::overlay(&outlines, &seen_labels);
+            let n_obs = grid.observers.len() as f64;
+            let seen_spec = MapSpec {
+                range: Some((0.0, n_obs.max(1.0))),
+                stem: "observers_seen",
+                title: "Cameras seeing the point",
+                bar: "observers seeing the point [-]",
+                threshold: None,
+                value: |p| p.observers_seen as f64,
+            };
+            let extra = with_fixed.then_some(&seen_spec);
+            for spec in specs.iter().chain(extra) {
                 let values: Vec<f64> = pts.iter().map(spec.value).collect();
                 // A level where every point is degenerate has no data range: any range will do.
                 let range = match spec.range {
@@ -465,6 +521,7 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
                     r => r,
                 };
                 let title = format!("{} at z = {} mm", spec.title, z);
+                let all_missing = values.iter().all(|v| !v.is_finite());
                 let map = HeatMap {
                     xs: &xs,
                     ys: &ys,
@@ -475,10 +532,17 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
                     colorbar_label: spec.bar,
                     threshold: spec.threshold,
                     markers: &markers,
-                    value_range: range,
+                    // A level with no finite value (all degenerate or all not measurable)
+                    // still renders, all hatched.
+                    value_range: range.or(all_missing.then_some((0.0, 1.0))),
+                };
+                let ov = if spec.stem == "observers_seen" {
+                    &seen_overlay
+                } else {
+                    &overlay
                 };
                 for (fmt, ext) in [(Format::Png, "png"), (Format::Svg, "svg")] {
-                    let bytes = crashrig_plot::heatmap(&map, fmt)
+                    let bytes = crashrig_plot::heatmap_with(&map, ov, fmt)
                         .with_context(|| format!("heat map {} z = {z}", spec.stem))?;
                     let name = format!("{}_z{:02}_{}mm.{ext}", spec.stem, iz, z);
                     write(&a.out, &name, &bytes, &mut files)?;
@@ -497,13 +561,19 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
     let counts: Vec<u64> = result.points.iter().map(|p| p.count).collect();
     let summary = Summary {
         points: result.points.len(),
-        samples_per_point: counts.iter().copied().max().unwrap_or(0),
+        // Not-measurable points draw nothing; the draws per point are those asked for.
+        samples_per_point: match grid.adaptive {
+            None => samples as u64,
+            Some(_) => counts.iter().copied().max().unwrap_or(0),
+        },
         threshold_mm: grid.threshold_mm,
         fraction_below_threshold: result.fraction_below(grid.threshold_mm),
-        max_sigma_mm: sm.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        max_sigma_mm: sm.iter().copied().fold(f64::NAN, f64::max),
         median_sigma_max_mm: median(&sm),
         elapsed_s,
         samples_per_second: total_draws as f64 / elapsed_s,
+        fraction_measurable: result.fraction_measurable(),
+        observer_coverage: with_fixed.then(|| fixed::coverage(&grid, &result)),
         seed,
         threads: rayon::current_num_threads(),
         rotation_noise: match scenario.rotation_noise {
@@ -518,7 +588,7 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
         linear: LinearSummary {
             fraction_below_threshold: lsm.iter().filter(|s| **s < grid.threshold_mm).count() as f64
                 / lsm.len().max(1) as f64,
-            max_sigma_mm: lsm.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            max_sigma_mm: lsm.iter().copied().fold(f64::NAN, f64::max),
             median_sigma_max_mm: median(&lsm),
             ratio_mc_over_linear_sigma_max: spread(&ratio),
         },

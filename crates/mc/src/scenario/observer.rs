@@ -1,0 +1,212 @@
+//! Fixed observers (`aim = "fixed"`): a camera bolted in place with a real lens.
+//!
+//! Parsed from the keys `aim`, `angles_deg` / `look_at_mm`, `camera = { model, width, height,
+//! params }` / `camera_from = "<model dir>:<camera id>"` and `pixel_sigma_px` of a
+//! `[[grid.observer]]` (contract: "Fixed cameras with real lenses", `shared/interface.md`;
+//! users' reference: `docs/FIXED_CAMERAS.md`).
+
+use super::{RawObserver, finite3};
+use crate::Error;
+use crashrig_camera::{Camera as Lens, ModelId};
+use nalgebra::{Matrix3, Vector3};
+use serde::Deserialize;
+use std::path::Path;
+
+/// How an observer points its camera.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Aim {
+    /// The paper's re-aiming (`aim = "point"`, the default): the optical axis passes through
+    /// every grid point, which is observed at the principal point.
+    Point,
+    /// A camera fixed in place (`aim = "fixed"`) with a real lens.
+    Fixed(Box<FixedCamera>),
+}
+
+/// A fixed observer's orientation, lens and pixel noise.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FixedCamera {
+    /// `R_world_from_cam` (columns: the camera's x right, y down, z forward in world axes).
+    pub rotation: Matrix3<f64>,
+    /// ω, φ, κ (rad) of `rotation` (`Rx(ω)·Ry(φ)·Rz(κ)`), the base of `euler` noise.
+    pub angles_rad: Vector3<f64>,
+    /// The lens: a COLMAP camera model with COLMAP's parameter order and pixel convention
+    /// (the centre of the upper-left pixel is (0.5, 0.5)).
+    pub lens: Lens,
+    /// σ of each measured image coordinate (px).
+    pub pixel_sigma_px: f64,
+}
+
+impl FixedCamera {
+    /// The camera-frame coordinates of a world point (`R_world_from_camᵀ (X − C)`).
+    pub fn cam_from_world(&self, center: &Vector3<f64>, x: &Vector3<f64>) -> Vector3<f64> {
+        self.rotation.transpose() * (x - center)
+    }
+}
+
+/// The inline table `camera = { model, width, height, params }`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawLens {
+    model: String,
+    width: i64,
+    height: i64,
+    params: Vec<f64>,
+}
+
+fn invalid(key: String, problem: &'static str) -> Error {
+    Error::Invalid { key, problem }
+}
+
+/// The [`Aim`] of observer `i` (at `position`), with file-relative paths resolved against
+/// `base` (the scenario file's directory).
+pub(super) fn aim_from_raw(
+    i: usize,
+    o: &RawObserver,
+    position: &Vector3<f64>,
+    base: &Path,
+) -> Result<Aim, Error> {
+    let k = |f: &str| format!("grid.observer[{i}].{f}");
+    match o.aim.as_deref().unwrap_or("point") {
+        "point" => {
+            let extra = [
+                ("angles_deg", o.angles_deg.is_some()),
+                ("look_at_mm", o.look_at_mm.is_some()),
+                ("camera", o.camera.is_some()),
+                ("camera_from", o.camera_from.is_some()),
+                ("pixel_sigma_px", o.pixel_sigma_px.is_some()),
+            ];
+            if let Some((name, _)) = extra.iter().find(|(_, set)| *set) {
+                return Err(invalid(
+                    k(name),
+                    "is only allowed with aim = \"fixed\" (an aimed observer takes the grid's pixel_sigma_px and focal_px)",
+                ));
+            }
+            Ok(Aim::Point)
+        }
+        "fixed" => fixed_from_raw(i, o, position, base).map(|f| Aim::Fixed(Box::new(f))),
+        _ => Err(invalid(k("aim"), "must be \"point\" or \"fixed\"")),
+    }
+}
+
+fn fixed_from_raw(
+    i: usize,
+    o: &RawObserver,
+    position: &Vector3<f64>,
+    base: &Path,
+) -> Result<FixedCamera, Error> {
+    let k = |f: &str| format!("grid.observer[{i}].{f}");
+    let rotation = match (o.angles_deg, o.look_at_mm) {
+        (Some(a), None) => {
+            let a = finite3(k("angles_deg"), a)?.map(f64::to_radians);
+            *crashrig_geometry::opk::rotation_from_opk(a.x, a.y, a.z).matrix()
+        }
+        (None, Some(t)) => {
+            let t = finite3(k("look_at_mm"), t)?;
+            crashrig_geometry::look_at::world_from_cam_look_at(position, &t)
+                .map_err(|_| {
+                    invalid(
+                        k("look_at_mm"),
+                        "must differ from position_mm and not lie straight above or below it (the no-roll aim is undefined)",
+                    )
+                })?
+                .into_inner()
+        }
+        (Some(_), Some(_)) => {
+            return Err(invalid(
+                k("look_at_mm"),
+                "give either angles_deg or look_at_mm for a fixed observer, not both",
+            ));
+        }
+        (None, None) => {
+            return Err(invalid(
+                k("angles_deg"),
+                "is missing: a fixed observer needs angles_deg (ω φ κ of R_world_from_cam) or look_at_mm",
+            ));
+        }
+    };
+    let opk = crashrig_geometry::opk::opk_from_rotation(
+        &nalgebra::Rotation3::from_matrix_unchecked(rotation),
+    );
+    let lens = match (&o.camera, &o.camera_from) {
+        (Some(raw), None) => lens_from_raw(k("camera"), raw)?,
+        (None, Some(spec)) => lens_from_model(k("camera_from"), spec, base)?,
+        (Some(_), Some(_)) => {
+            return Err(invalid(
+                k("camera_from"),
+                "give either camera or camera_from for a fixed observer, not both",
+            ));
+        }
+        (None, None) => {
+            return Err(invalid(
+                k("camera"),
+                "is missing: a fixed observer needs camera = { model, width, height, params } or camera_from",
+            ));
+        }
+    };
+    if lens.model == ModelId::Equirectangular {
+        return Err(invalid(
+            k("camera"),
+            "EQUIRECTANGULAR has no optical axis; use a perspective or fisheye model",
+        ));
+    }
+    let pixel_sigma_px = o.pixel_sigma_px.unwrap_or(0.0);
+    if !pixel_sigma_px.is_finite() || pixel_sigma_px < 0.0 {
+        return Err(invalid(
+            k("pixel_sigma_px"),
+            "σ must be finite and not negative",
+        ));
+    }
+    Ok(FixedCamera {
+        rotation,
+        angles_rad: Vector3::new(opk.omega, opk.phi, opk.kappa),
+        lens,
+        pixel_sigma_px,
+    })
+}
+
+fn lens_from_raw(key: String, raw: &RawLens) -> Result<Lens, Error> {
+    let model = ModelId::from_name(&raw.model).map_err(|source| Error::Camera {
+        key: key.clone(),
+        source,
+    })?;
+    let size = |v: i64| u64::try_from(v).ok().filter(|v| *v > 0);
+    let (Some(width), Some(height)) = (size(raw.width), size(raw.height)) else {
+        return Err(invalid(key, "width and height must be positive integers"));
+    };
+    Lens::new(model, width, height, raw.params.clone())
+        .map_err(|source| Error::Camera { key, source })
+}
+
+fn lens_from_model(key: String, spec: &str, base: &Path) -> Result<Lens, Error> {
+    let Some((dir, id)) = spec.rsplit_once(':') else {
+        return Err(invalid(key, "must be \"<model dir>:<camera id>\""));
+    };
+    let Ok(id) = id.trim().parse::<u32>() else {
+        return Err(invalid(
+            key,
+            "the camera id after ':' must be a non-negative integer",
+        ));
+    };
+    let dir = base.join(dir);
+    let model =
+        crashrig_colmap::Reconstruction::read(&dir).map_err(|source| Error::ColmapModel {
+            key: key.clone(),
+            source: Box::new(source),
+        })?;
+    let Some(record) = model.camera(id) else {
+        return Err(Error::NoSuchCamera {
+            key,
+            dir,
+            camera_id: id,
+        });
+    };
+    let lens = record.camera.clone();
+    lens.validate().map_err(|source| Error::Camera {
+        key: key.clone(),
+        source,
+    })?;
+    if lens.width == 0 || lens.height == 0 {
+        return Err(invalid(key, "the model's camera has width or height 0"));
+    }
+    Ok(lens)
+}
