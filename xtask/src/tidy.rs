@@ -28,6 +28,20 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
     ("crashrig-mc", &["crashrig-geometry", "crashrig-stats"]),
     ("crashrig-testkit", &["crashrig-geometry"]),
     (
+        "crashrig-study",
+        &[
+            "crashrig-geometry",
+            "crashrig-camera",
+            "crashrig-colmap",
+            "crashrig-rig",
+            "crashrig-pose",
+            "crashrig-bootstrap",
+            "crashrig-mc",
+            "crashrig-stats",
+            "crashrig-plot",
+        ],
+    ),
+    (
         "crashrig-cli",
         &[
             "crashrig-geometry",
@@ -40,6 +54,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-mc",
             "crashrig-plot",
             "crashrig-outdir",
+            "crashrig-study",
         ],
     ),
     (

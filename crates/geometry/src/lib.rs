@@ -28,6 +28,8 @@
 //! - [`triangulate::dlt`], [`triangulate::dlt_covariance`]: forward intersection (n ≥ 2 views)
 //!   and its first-order covariance.
 //! - [`umeyama::align`]: similarity alignment of point sets.
+//! - [`UncertainPose`]: a nominal `b_from_a` with its 6×6 tangent covariance (sampling,
+//!   estimation from samples, first-order composition and inversion, ω φ κ for display).
 //!
 //! # Example
 //! The rig link "B relative to A" from two COLMAP image poses, as base (mm) and ω-φ-κ.
@@ -66,8 +68,10 @@ pub mod so3;
 pub mod tolerance;
 pub mod triangulate;
 pub mod umeyama;
+pub mod uncertain;
 
 pub use error::Error;
+pub use uncertain::UncertainPose;
 
 /// 3-vector (mm or rad).
 pub type Vec3 = nalgebra::Vector3<f64>;

@@ -11,3 +11,4 @@ mod se3;
 mod so3;
 mod triangulate;
 mod umeyama;
+mod uncertain;
