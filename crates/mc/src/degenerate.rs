@@ -123,4 +123,35 @@ mod tests {
         assert_eq!(intersection_angle_deg(&[c[0], c[0]], &p), 0.0);
         assert_eq!(intersection_angle_deg(&c[..1], &p), 0.0);
     }
+
+    /// A scenario with two observers at `a` and `b` over a 3 × 3 grid at x = 1000…2000.
+    fn layout(a: &str, b: &str, y: &str) -> String {
+        format!(
+            "samples = 10\n[grid]\nx_mm = [1000.0, 2000.0, 3]\ny_mm = {y}\nz_mm = [0.0, 0.0, 1]\n\
+             [[grid.observer]]\nposition_mm = [{a}]\nsigma_position_mm = [1.0, 1.0, 1.0]\nsigma_angles_deg = [0.01, 0.01, 0.01]\n\
+             [[grid.observer]]\nposition_mm = [{b}]\nsigma_position_mm = [1.0, 1.0, 1.0]\nsigma_angles_deg = [0.01, 0.01, 0.01]\n"
+        )
+    }
+
+    #[test]
+    fn degenerate_layouts_are_errors_and_good_ones_are_not() {
+        let study = |text: String| {
+            let s = crate::Scenario::from_toml_str(&text, std::path::Path::new("d.toml")).unwrap();
+            crate::GridStudy::new(&s, 10, 1).map(|_| ())
+        };
+        let wide = "[-500.0, 500.0, 3]";
+        for (a, b, y) in [
+            // Coincident observers.
+            ("0.0, 0.0, 0.0", "0.0, 0.0, 0.0", wide),
+            // 1e-6 mm apart.
+            ("0.0, 0.0, 0.0", "0.0, 0.000001, 0.0", wide),
+            // Every line of sight along the x axis (grid on it, observers on it).
+            ("0.0, 0.0, 0.0", "500.0, 0.0, 0.0", "[0.0, 0.0, 1]"),
+        ] {
+            let e = study(layout(a, b, y)).unwrap_err();
+            assert!(matches!(e, Error::AllDegenerate { .. }), "{a} / {b}: {e}");
+        }
+        // Observers 1 m apart across the grid: fine.
+        study(layout("0.0, -500.0, 0.0", "0.0, 500.0, 0.0", wide)).unwrap();
+    }
 }
