@@ -265,3 +265,49 @@ fn an_unrelated_existing_directory_is_refused() {
     );
     assert_eq!(std::fs::read_dir(&out).unwrap().count(), 1);
 }
+
+#[test]
+fn sigma_options_and_the_missing_uncertainty_warning() {
+    let tmp = tempfile::tempdir().unwrap();
+    let obs = fixture().join("observations.csv");
+    let strip = |args: Vec<String>| -> Vec<String> {
+        let k = args.iter().position(|a| a == "--a-covariance").unwrap();
+        args.iter()
+            .enumerate()
+            .filter(|(i, _)| *i != k && *i != k + 1)
+            .map(|(_, a)| a.clone())
+            .collect()
+    };
+    let sigma = |out: &Path, extra: &[&str]| {
+        let o = run(&strip(base_args(out, &obs)), extra);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let s: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        (
+            s["median_displacement_sigma_max_mm"].as_f64().unwrap(),
+            stderr(&o),
+        )
+    };
+    let (with, err) = sigma(
+        &tmp.path().join("a"),
+        &[
+            "--json",
+            "--no-plots",
+            "--sigma-a-position-mm",
+            "0.3",
+            "0.3",
+            "0.3",
+            "--sigma-a-angles-deg",
+            "0.004",
+            "0.004",
+            "0.004",
+        ],
+    );
+    assert!(!err.contains("warning"), "{err}");
+    let (without, err) = sigma(&tmp.path().join("b"), &["--json", "--no-plots"]);
+    assert!(
+        err.contains("warning: no uncertainty given for camera A"),
+        "{err}"
+    );
+    // A's per-epoch error does not cancel in displacements: without it they are smaller.
+    assert!(without < 0.8 * with, "{without} vs {with}");
+}

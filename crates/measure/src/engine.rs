@@ -723,14 +723,14 @@ fn run_monte_carlo(
 ) -> Vec<Vec<Acc>> {
     let n_epochs = preps.len();
     let with_velocity = settings.frame_rate_hz.is_some();
-    let mut runs: Vec<(usize, Vec<Vec<Acc>>, Vec<Vec<Vec3>>)> = (0..n_epochs)
+    let mut runs: Vec<(usize, Vec<Vec<Acc>>)> = (0..n_epochs)
         .step_by(RUN)
         .map(|s| {
             let end = (s + RUN).min(n_epochs);
             let accs = (s..end)
                 .map(|e| vec![Acc::default(); preps[e].slots.len()])
                 .collect();
-            (s, accs, Vec::new())
+            (s, accs)
         })
         .collect();
     let n_blocks = settings.samples.div_ceil(BLOCK);
@@ -742,8 +742,10 @@ fn run_monte_carlo(
         epoch_positions(&preps[reference], reference, b, seed, &links, &mut ref_pos);
         let ref_pos = &ref_pos;
         let links = &links;
-        runs.par_iter_mut().for_each(|(start, accs, bufs)| {
+        runs.par_iter_mut().for_each(|(start, accs)| {
             let start = *start;
+            // Scratch of this task only: memory is O(threads · RUN · markers · BLOCK).
+            let mut bufs: Vec<Vec<Vec3>> = Vec::new();
             let end = start + accs.len();
             let lo = if with_velocity {
                 start.saturating_sub(1)
@@ -799,7 +801,7 @@ fn run_monte_carlo(
             }
         });
     }
-    runs.into_iter().flat_map(|(_, accs, _)| accs).collect()
+    runs.into_iter().flat_map(|(_, accs)| accs).collect()
 }
 
 fn sigma_of(m: &Moments<3>) -> Option<Vec3> {

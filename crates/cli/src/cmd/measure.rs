@@ -13,6 +13,9 @@ use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+/// Output files: path relative to `DIR`, bytes.
+type Files = Vec<(String, Vec<u8>)>;
+
 /// Default seed of `measure` when `--seed` is not given.
 pub const DEFAULT_SEED: u64 = 1;
 
@@ -241,7 +244,7 @@ pub fn compute(a: &MeasureArgs, seed: Option<u64>) -> anyhow::Result<Summary> {
     }
 
     // Files.
-    let mut files: Vec<(String, Vec<u8>)> = vec![
+    let mut files: Files = vec![
         ("trajectories.csv".into(), trajectories_csv(&m).into_bytes()),
         (
             "displacements.csv".into(),
@@ -344,7 +347,7 @@ fn file_stem(marker: &str) -> String {
 }
 
 /// One figure per marker: x, y, z against time (or sequence index) with ±3σ bands.
-fn plots(m: &Measurement) -> anyhow::Result<Vec<(String, Vec<u8>)>> {
+fn plots(m: &Measurement) -> anyhow::Result<Files> {
     let xs: Vec<f64> = m
         .epochs
         .iter()
@@ -364,7 +367,7 @@ fn plots(m: &Measurement) -> anyhow::Result<Vec<(String, Vec<u8>)>> {
         }
         stems.push(stem);
     }
-    let per_marker: Vec<anyhow::Result<Vec<(String, Vec<u8>)>>> = (0..m.markers.len())
+    let per_marker: Vec<anyhow::Result<Files>> = (0..m.markers.len())
         .into_par_iter()
         .map(|k| {
             let mut ys = vec![vec![f64::NAN; xs.len()]; 3];
