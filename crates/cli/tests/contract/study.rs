@@ -180,3 +180,73 @@ fn study_model_without_the_named_cameras() {
         &["[calibration]", "cam_front/"],
     );
 }
+
+/// Every field `study` writes to `results.json` is documented: the study's own fields by their
+/// full path in `docs/REFERENCE.md`, `calibration.*` (= `calibrate --json`) by name in
+/// `docs/CALIBRATE.md`, `tie.*` (= `bootstrap --json`) by name in REFERENCE.md's tie table.
+#[test]
+fn study_results_fields_are_documented() {
+    fn paths(v: &serde_json::Value, p: &str, out: &mut Vec<String>) {
+        match v {
+            serde_json::Value::Object(m) => {
+                for (k, x) in m {
+                    let q = if p.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{p}.{k}")
+                    };
+                    out.push(q.clone());
+                    paths(x, &q, out);
+                }
+            }
+            serde_json::Value::Array(a) => {
+                for x in a.iter().filter(|x| x.is_object()) {
+                    paths(x, &format!("{p}[]"), out);
+                }
+            }
+            _ => {}
+        }
+    }
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let own = own_project(tmp.path());
+    let out = tmp.path().join("out");
+    let (s, o) = (
+        own.join("study.toml").display().to_string(),
+        out.display().to_string(),
+    );
+    let r = run(["study", s.as_str(), "--out", o.as_str(), "--samples", "10"]);
+    assert!(r.success, "{}", r.stderr);
+    let results = read_json(&out.join("results.json"));
+    let mut all = Vec::new();
+    paths(&results, "", &mut all);
+    let doc = |name: &str| {
+        std::fs::read_to_string(crate::common::root().join("docs").join(name)).expect("doc")
+    };
+    let (reference, calibrate) = (doc("REFERENCE.md"), doc("CALIBRATE.md"));
+    let tie_table = reference
+        .split("### `tie`")
+        .nth(1)
+        .expect("tie table")
+        .split("\n## ")
+        .next()
+        .expect("tie");
+    let mut missing = Vec::new();
+    for p in &all {
+        let leaf = p.rsplit(['.', ']']).next().expect("leaf");
+        let ok = if let Some(rest) = p.strip_prefix("calibration.") {
+            let _ = rest;
+            calibrate.contains(&format!("`{leaf}`")) || calibrate.contains(&format!(".{leaf}`"))
+        } else if p.starts_with("tie.") {
+            tie_table.contains(&format!("`{leaf}`"))
+        } else {
+            reference.contains(&format!("`{p}`")) || reference.contains(&format!("`{p}.")) // a parent row documents its object
+        };
+        if !ok {
+            missing.push(p.clone());
+        }
+    }
+    assert!(
+        missing.is_empty(),
+        "results.json fields not documented: {missing:?}"
+    );
+}
