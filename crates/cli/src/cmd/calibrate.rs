@@ -79,10 +79,6 @@ pub struct CalibrationRun {
     pub calibration: CalibrationResult,
     /// The `calibrate --json` document.
     pub json: Value,
-    /// The text report.
-    pub text: String,
-    /// Warnings for stderr, one line each.
-    pub warnings: Vec<String>,
 }
 
 /// Calibrates as `crashrig calibrate` does, without output (a thin wrapper of the library).
@@ -90,8 +86,6 @@ pub fn compute(a: &CalibrateArgs) -> anyhow::Result<CalibrationRun> {
     let r = calibrate(&a.config())?;
     Ok(CalibrationRun {
         json: r.to_json(),
-        text: r.text_report(),
-        warnings: r.warnings.clone(),
         calibration: r,
     })
 }
