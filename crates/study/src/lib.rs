@@ -7,4 +7,5 @@
 #![deny(missing_docs)]
 
 pub mod calibration;
+pub mod correspondences;
 pub mod tie;
