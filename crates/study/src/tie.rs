@@ -20,8 +20,9 @@
 //!   replicate's indices, so results do not depend on the thread count.
 //!
 //! Reported: the full-sample estimate (base = B's centre in A's axes, mm; ω φ κ of `R_A_from_B`,
-//! degrees), per-parameter bootstrap σ (n − 1, wrap-safe), percentile and BCa (jackknife
-//! acceleration) intervals, the first-order σ, and the contract's `covariance_tangent`: the
+//! degrees), per-parameter bootstrap σ (n − 1, wrap-safe), percentile and BCa intervals (the
+//! acceleration from the leave-one-out over the inliers with the warm-started LM, in both
+//! modes), the first-order σ, and the contract's `covariance_tangent`: the
 //! covariance of the replicates in the tangent of [`crashrig_geometry::UncertainPose`] (centre
 //! in A's axes, rotation `log(R̄ᵀ·R)` about B's axes, about the replicates' mean).
 //!
@@ -337,9 +338,23 @@ pub fn bootstrap_absolute<C: Projector + Sync>(
             .map_err(|e| e.to_string())
     };
     let n_candidates = input.pixels_b.len();
+    // The BCa acceleration comes from the leave-one-out over the inliers with the warm-started
+    // LM in both modes (a RANSAC per left-out candidate would cost n full estimations).
     let (replicates, jackknife) = match resample {
-        Resample::Inliers => run_both(inliers.len(), iterations, seed, with_jackknife, warm)?,
-        Resample::AllMatches => run_both(n_candidates, iterations, seed, with_jackknife, rerun)?,
+        Resample::Inliers => run_both(
+            (inliers.len(), &warm),
+            (inliers.len(), &warm),
+            iterations,
+            seed,
+            with_jackknife,
+        )?,
+        Resample::AllMatches => run_both(
+            (n_candidates, &rerun),
+            (inliers.len(), &warm),
+            iterations,
+            seed,
+            with_jackknife,
+        )?,
     };
     Ok(LinkBootstrap {
         n_candidates,
@@ -356,13 +371,15 @@ pub fn bootstrap_absolute<C: Projector + Sync>(
     })
 }
 
+/// The replicates (`stat` over `n` items) and, if asked, the jackknife of `jack` over
+/// `n_jack` items.
 #[allow(clippy::type_complexity)]
-fn run_both<F>(
-    n: usize,
+fn run_both<F, G>(
+    (n, stat): (usize, F),
+    (n_jack, jack): (usize, G),
     iterations: usize,
     seed: u64,
     with_jackknife: bool,
-    stat: F,
 ) -> Result<
     (
         boot::Replicates<Rigid3, String>,
@@ -372,10 +389,11 @@ fn run_both<F>(
 >
 where
     F: Fn(&[usize]) -> Result<Rigid3, String> + Sync,
+    G: Fn(&[usize]) -> Result<Rigid3, String> + Sync,
 {
     let replicates = boot::run(n, iterations, seed, &stat).map_err(|e| e.to_string())?;
     let jackknife = if with_jackknife {
-        boot::jackknife(n, &stat).map_err(|e| e.to_string())?
+        boot::jackknife(n_jack, &jack).map_err(|e| e.to_string())?
     } else {
         Vec::new()
     };
@@ -416,9 +434,23 @@ pub fn bootstrap_relative<C: Projector + Sync>(
             .map_err(|e| e.to_string())
     };
     let n_candidates = input.pixels_a.len();
+    // The BCa acceleration comes from the leave-one-out over the inliers with the warm-started
+    // LM in both modes (a RANSAC per left-out candidate would cost n full estimations).
     let (replicates, jackknife) = match resample {
-        Resample::Inliers => run_both(inliers.len(), iterations, seed, with_jackknife, warm)?,
-        Resample::AllMatches => run_both(n_candidates, iterations, seed, with_jackknife, rerun)?,
+        Resample::Inliers => run_both(
+            (inliers.len(), &warm),
+            (inliers.len(), &warm),
+            iterations,
+            seed,
+            with_jackknife,
+        )?,
+        Resample::AllMatches => run_both(
+            (n_candidates, &rerun),
+            (inliers.len(), &warm),
+            iterations,
+            seed,
+            with_jackknife,
+        )?,
     };
     Ok(LinkBootstrap {
         n_candidates,
