@@ -724,7 +724,7 @@ pub fn report_html(
                 "The bootstrap resampled all matches, as paper §2.3.1 describes."
             }
             _ => {
-                "The bootstrap resampled the verified inliers only (crashrig's default, `resample = \"inliers\"`); paper §2.3.1 says all matches are resampled (`resample = \"all\"`)."
+                "The bootstrap resampled the verified inliers only (crashrig's default, `resample = \"inliers\"`); paper §2.3.1 says all matches are resampled (`resample = \"matches\"`)."
             }
         };
         rep.push(Block::List(vec![

@@ -253,6 +253,9 @@ fn convert(input: &Path, output: &Path, to: &str, g: &Global) -> anyhow::Result<
         ModelFormat::Text => "bin",
     };
     if format == ModelFormat::Text {
+        if let Some(w) = model.text_format_warning() {
+            eprintln!("warning: {w}");
+        }
         for stem in ["cameras", "images", "points3D"] {
             let stale = output.join(format!("{stem}.{other}"));
             if stale.exists() {
