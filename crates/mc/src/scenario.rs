@@ -1,6 +1,6 @@
 //! The scenario file (TOML): cameras, links, noise model and the grid study.
 //!
-//! The format is the external contract of `shared/interface.md`; extensions (all optional)
+//! The format is documented key by key in `docs/SCENARIO.md` (origin: the external contract); extensions (all optional)
 //! are documented on [`Grid`] and in `docs/table3.md`. Degrees in the file become radians
 //! here.
 
