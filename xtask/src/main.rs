@@ -13,7 +13,7 @@ const HELP: &str = "\
 cargo xtask <verb>
 
 verbs:
-  ci                 fmt --check, clippy -D warnings, the test suite, tidy
+  ci                 fmt --check, clippy -D warnings, cargo doc -D warnings, the test suite, tidy
   tidy               dependency DAG, module docs, ARCHITECTURE code map (also run by `cargo test`)
   test [--slow]      the README test command; --slow: every test in release, the #[ignore] slow statistical ones included
   paper [--out DIR]  the main job: `crashrig paper` in release mode (default DIR: out/paper)
@@ -96,6 +96,11 @@ fn ci() -> Result<()> {
         "warnings",
     ]);
     run(clippy)?;
+    // The API docs must build without a warning (broken intra-doc links, missing docs).
+    let mut doc = cargo();
+    doc.args(["doc", "--workspace", "--no-deps"])
+        .env("RUSTDOCFLAGS", "-D warnings");
+    run(doc)?;
     test(false)
 }
 
