@@ -45,7 +45,7 @@ pub fn points_near(
             let id = p.point3d_id?;
             let pt = model.point3d(id)?;
             let d = (p.xy[0] - pixel[0]).hypot(p.xy[1] - pixel[1]);
-            (d <= radius_px).then(|| PointNear {
+            (d <= radius_px).then_some(PointNear {
                 point3d_id: id,
                 xyz: pt.xyz,
                 pixel: p.xy,

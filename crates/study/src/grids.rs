@@ -21,6 +21,11 @@ pub fn median(values: &[f64]) -> f64 {
     }
 }
 
+/// Whether σ_max is at or above the threshold (a NaN σ counts as not below).
+pub fn not_below(sigma_mm: f64, threshold_mm: f64) -> bool {
+    sigma_mm.partial_cmp(&threshold_mm) != Some(std::cmp::Ordering::Less)
+}
+
 /// Where the worst part of a layout's grid lies.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct WorstRegion {
@@ -92,14 +97,14 @@ impl GridSummary {
         let above: Vec<_> = result
             .points
             .iter()
-            .filter(|p| !(p.sigma_max_mm < t))
+            .filter(|p| not_below(p.sigma_max_mm, t))
             .collect();
         let bbox = (!above.is_empty()).then(|| {
             let mut b = [[f64::INFINITY, f64::NEG_INFINITY]; 3];
             for p in &above {
-                for k in 0..3 {
-                    b[k][0] = b[k][0].min(p.point[k]);
-                    b[k][1] = b[k][1].max(p.point[k]);
+                for (bk, v) in b.iter_mut().zip(p.point.iter()) {
+                    bk[0] = bk[0].min(*v);
+                    bk[1] = bk[1].max(*v);
                 }
             }
             b

@@ -234,7 +234,6 @@ pub fn tie_config(t: &crate::study_file::TieSection, seed: u64) -> TieConfig {
             TieResample::Inliers => tie::Resample::Inliers,
             TieResample::AllMatches => tie::Resample::AllMatches,
         },
-        ..TieConfig::default()
     }
 }
 

@@ -150,7 +150,7 @@ fn plan_sketch(l: &LayoutResult) -> String {
         px(0.0) + 3.0
     );
     for p in &l.result.points {
-        let bad = !(p.sigma_max_mm < g.threshold_mm);
+        let bad = grids::not_below(p.sigma_max_mm, g.threshold_mm);
         let _ = write!(
             s,
             "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"2\" fill=\"{}\"/>",
@@ -265,7 +265,7 @@ fn ellipses(l: &LayoutResult) -> String {
             let (l1, l2) = ((tr + det).max(0.0).sqrt(), (tr - det).max(0.0).sqrt());
             let ang = 0.5 * (2.0 * sab).atan2(saa - sbb);
             let (u, v) = (p.point[a], if b == 2 { p.point[1] } else { p.point[b] });
-            let bad = !(p.sigma_max_mm < g.threshold_mm);
+            let bad = grids::not_below(p.sigma_max_mm, g.threshold_mm);
             let _ = write!(
                 out,
                 "<ellipse cx=\"{:.1}\" cy=\"{:.1}\" rx=\"{:.2}\" ry=\"{:.2}\" transform=\"rotate({:.1} {:.1} {:.1})\" fill=\"none\" stroke=\"{}\"/>",
