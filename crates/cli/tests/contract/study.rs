@@ -249,3 +249,61 @@ fn study_results_fields_are_documented() {
         "results.json fields not documented: {missing:?}"
     );
 }
+
+/// `colmap points`: the point a pixel of an image observes comes first, at distance 0, and every
+/// hit lies within the radius, nearest first; `--point` gives that point's track.
+#[test]
+fn colmap_points_finds_the_point_at_a_pixel() {
+    let dir = crate::common::fixture("study/own/tie/model");
+    let model = crashrig_colmap::Reconstruction::read(&dir).expect("model");
+    let image = model.image_by_name("side/0001.png").expect("image");
+    let (xy, id) = image
+        .points2d
+        .iter()
+        .find_map(|p| p.point3d_id.map(|id| (p.xy, id)))
+        .expect("an observation");
+    let d = dir.display().to_string();
+    let (x, y) = (xy[0].to_string(), xy[1].to_string());
+    let v = json_of(&run([
+        "colmap",
+        "points",
+        d.as_str(),
+        "--image",
+        "side/0001.png",
+        "--near",
+        x.as_str(),
+        y.as_str(),
+        "--radius",
+        "80",
+        "--json",
+    ]));
+    let hits = v.as_array().expect("array");
+    assert_eq!(hits[0]["point3D_id"], id);
+    assert_eq!(hits[0]["distance_px"], 0.0);
+    let dist: Vec<f64> = hits
+        .iter()
+        .map(|h| h["distance_px"].as_f64().expect("d"))
+        .collect();
+    assert!(dist.windows(2).all(|w| w[0] <= w[1]) && dist.iter().all(|d| *d <= 80.0));
+    let idarg = id.to_string();
+    let one = json_of(&run([
+        "colmap",
+        "points",
+        d.as_str(),
+        "--point",
+        idarg.as_str(),
+        "--json",
+    ]));
+    assert_eq!(one[0]["track_length"], 2);
+    let r = run([
+        "colmap",
+        "points",
+        d.as_str(),
+        "--image",
+        "nope.png",
+        "--near",
+        "1",
+        "2",
+    ]);
+    assert_clean_error(&r, &["nope.png"]);
+}
