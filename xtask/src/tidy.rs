@@ -14,6 +14,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
     ("crashrig-stats", &[]),
     ("crashrig-plot", &[]),
     ("crashrig-camera", &[]),
+    ("crashrig-outdir", &[]),
     ("crashrig-colmap", &["crashrig-geometry", "crashrig-camera"]),
     ("crashrig-rig", &["crashrig-geometry", "crashrig-stats"]),
     (
@@ -49,6 +50,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-bootstrap",
             "crashrig-mc",
             "crashrig-plot",
+            "crashrig-outdir",
             "crashrig-study",
         ],
     ),

@@ -5,6 +5,7 @@
 //! documented in `docs/REFERENCE.md` (origin: the external contract `shared/interface.md`); `docs/ARCHITECTURE.md` maps commands to crates.
 
 mod cmd;
+mod limits;
 mod output;
 mod progress;
 
@@ -29,8 +30,8 @@ pub struct Global {
     /// Seed of every random step (the same seed gives bit-identical output on any thread count).
     #[arg(long, global = true, value_name = "S")]
     pub seed: Option<u64>,
-    /// Worker threads (default: RAYON_NUM_THREADS or the number of cores).
-    #[arg(long, global = true, value_name = "N")]
+    /// Worker threads, 1 to 1024 (default: RAYON_NUM_THREADS or the number of cores).
+    #[arg(long, global = true, value_name = "N", value_parser = limits::parse_threads)]
     pub threads: Option<usize>,
 }
 
@@ -67,7 +68,7 @@ fn error_line(e: &anyhow::Error) -> String {
         }
         line.push_str(&text);
     }
-    line.replace('\n', " ")
+    output::escape_controls(&line.replace('\n', " "))
 }
 
 /// One `error: …` line for a usage error (clap's message is several lines long).
@@ -83,7 +84,7 @@ fn usage_error_line(e: &clap::Error) -> String {
             parts.push(l.trim_start_matches("error:").trim().to_string());
         }
     }
-    format!("{} (see --help)", parts.join(" "))
+    output::escape_controls(&format!("{} (see --help)", parts.join(" ")))
 }
 
 fn main() -> std::process::ExitCode {
@@ -105,6 +106,11 @@ fn main() -> std::process::ExitCode {
             return std::process::ExitCode::from(2);
         }
     };
+    // Bounded before any pool is built (rayon would spend minutes creating threads or panic).
+    if let Err(e) = limits::check_rayon_env() {
+        eprintln!("error: {e}");
+        return std::process::ExitCode::from(2);
+    }
     if let Some(n) = cli.global.threads
         && let Err(e) = rayon::ThreadPoolBuilder::new()
             .num_threads(n)

@@ -1,10 +1,13 @@
 //! Read-only access to COLMAP's `database.db` (SQLite), columns selected by name.
 //!
-//! Opening never modifies the file: when no `-wal` file sits next to the database it is opened
-//! with `mode=ro&immutable=1` (no locks, no side files); when a `-wal` exists (COLMAP has the
-//! database open, or crashed) it is opened read-only through SQLite so the WAL content is seen.
-//! Either way `PRAGMA query_only` is set and nothing is migrated. (`immutable` assumes nobody
-//! writes the file meanwhile; COLMAP always writes in WAL mode, which leaves a `-wal` file.)
+//! Opening never creates or changes a file beside the database: when no non-empty `-wal` file
+//! sits next to it, the database is opened with `mode=ro&immutable=1` (no locks, no `-shm`, no
+//! journal); when a non-empty `-wal` exists (COLMAP has the database open, or crashed), the
+//! database and its WAL are copied into a private temporary directory and that copy is opened,
+//! so what the WAL holds is read while the user's `-wal` and `-shm` (if any) are never touched.
+//! The copy is removed when the [`Database`] is dropped. Either way `PRAGMA query_only` is set
+//! and nothing is migrated. (`immutable` assumes nobody writes the file meanwhile; COLMAP
+//! always writes in WAL mode, which leaves a `-wal` file.)
 //!
 //! Pairs follow COLMAP: `pair_id = 2147483647·min(a, b) + max(a, b)`, data stored with the
 //! smaller image id first. [`Database::matches`] and [`Database::two_view_geometry`] return
@@ -170,6 +173,9 @@ pub struct DbCounts {
 #[derive(Debug)]
 pub struct Database {
     conn: Connection,
+    /// The private copy (database + WAL) opened instead of the file, when a WAL exists; kept
+    /// alive as long as the connection (declared after it, so it is dropped after it).
+    _copy: Option<tempfile::TempDir>,
     path: PathBuf,
     columns: HashMap<String, HashSet<String>>,
     user_version: i64,
@@ -188,7 +194,7 @@ fn file_uri(path: &Path, immutable: bool) -> String {
     uri.push_str(if immutable {
         "?mode=ro&immutable=1"
     } else {
-        "?mode=ro"
+        "?mode=rw"
     });
     uri
 }
@@ -222,15 +228,39 @@ impl Database {
         }
         let mut wal = path.as_os_str().to_owned();
         wal.push("-wal");
-        let immutable = !Path::new(&wal).exists();
+        let wal = PathBuf::from(wal);
+        let wal_len = std::fs::metadata(&wal).map(|m| m.len()).unwrap_or(0);
         let sql = |source| Error::Sqlite {
             path: path.to_path_buf(),
             source,
         };
-        let flags = OpenFlags::SQLITE_OPEN_READ_ONLY
-            | OpenFlags::SQLITE_OPEN_URI
-            | OpenFlags::SQLITE_OPEN_NO_MUTEX;
-        let conn = Connection::open_with_flags(file_uri(path, immutable), flags).map_err(sql)?;
+        let (conn, copy) = if wal_len == 0 {
+            let flags = OpenFlags::SQLITE_OPEN_READ_ONLY
+                | OpenFlags::SQLITE_OPEN_URI
+                | OpenFlags::SQLITE_OPEN_NO_MUTEX;
+            let conn = Connection::open_with_flags(file_uri(path, true), flags).map_err(sql)?;
+            (conn, None)
+        } else {
+            // Copy database + WAL into a private directory and open the copy: SQLite then
+            // applies the WAL there and creates its `-shm` there, never beside the user's file.
+            let io = |p: &Path| {
+                let p = p.to_path_buf();
+                move |source| Error::Io { path: p, source }
+            };
+            let dir = tempfile::Builder::new()
+                .prefix("crashrig-db-")
+                .tempdir()
+                .map_err(io(path))?;
+            let db_copy = dir.path().join("database.db");
+            std::fs::copy(path, &db_copy).map_err(io(path))?;
+            std::fs::copy(&wal, dir.path().join("database.db-wal")).map_err(io(&wal))?;
+            let flags = OpenFlags::SQLITE_OPEN_READ_WRITE
+                | OpenFlags::SQLITE_OPEN_URI
+                | OpenFlags::SQLITE_OPEN_NO_MUTEX;
+            let conn =
+                Connection::open_with_flags(file_uri(&db_copy, false), flags).map_err(sql)?;
+            (conn, Some(dir))
+        };
         conn.pragma_update(None, "query_only", true).map_err(sql)?;
         let user_version: i64 = conn
             .query_row("PRAGMA user_version", [], |r| r.get(0))
@@ -269,6 +299,7 @@ impl Database {
         }
         Ok(Database {
             conn,
+            _copy: copy,
             path: path.to_path_buf(),
             columns,
             user_version,

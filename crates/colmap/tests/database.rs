@@ -469,3 +469,80 @@ fn database_other_sqlite_file_is_not_a_colmap_database() {
     );
     assert!(err.to_string().contains("other.db"), "{err}");
 }
+
+/// Files of `dir` with their bytes and modification times.
+fn snapshot(dir: &Path) -> Vec<(String, Vec<u8>, std::time::SystemTime)> {
+    let mut v: Vec<_> = std::fs::read_dir(dir)
+        .expect("list")
+        .map(|e| {
+            let e = e.expect("entry");
+            let m = e.metadata().expect("meta");
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                std::fs::read(e.path()).expect("bytes"),
+                m.modified().expect("mtime"),
+            )
+        })
+        .collect();
+    v.sort_by(|a, b| a.0.cmp(&b.0));
+    v
+}
+
+#[test]
+fn database_wal_without_shm_creates_nothing_and_reads_the_wal() {
+    // A crashed COLMAP leaves `database.db` + `database.db-wal` (rows only in the WAL) and no
+    // `-shm`. Build that state: write through a WAL connection with checkpoints off, then copy
+    // the two files (not the -shm) to a fresh directory while the writer is still open.
+    let (tmp, p) = db_copy();
+    let writer = rusqlite::Connection::open(&p).expect("writable copy");
+    writer
+        .pragma_update(None, "wal_autocheckpoint", 0)
+        .expect("no checkpoints");
+    writer
+        .execute(
+            "INSERT INTO cameras (camera_id, model, width, height, params, prior_focal_length) VALUES (77, 0, 10, 10, ?1, 0)",
+            [[5.0f64, 5.0, 5.0].iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>()],
+        )
+        .expect("insert");
+    let crashed = tmp.path().join("crashed");
+    std::fs::create_dir(&crashed).expect("dir");
+    let db = crashed.join("database.db");
+    std::fs::copy(&p, &db).expect("copy db");
+    std::fs::copy(
+        tmp.path().join("database.db-wal"),
+        crashed.join("database.db-wal"),
+    )
+    .expect("copy wal");
+    drop(writer);
+    let before = snapshot(&crashed);
+    assert_eq!(before.len(), 2, "database.db and database.db-wal only");
+    {
+        let d = Database::open(&db).expect("opens");
+        assert_eq!(
+            d.cameras()
+                .expect("cameras")
+                .last()
+                .map(|c| c.record.camera_id),
+            Some(77),
+            "the row that exists only in the WAL is read"
+        );
+    }
+    assert_eq!(
+        snapshot(&crashed),
+        before,
+        "no -shm created, database and WAL unchanged (bytes and mtime)"
+    );
+
+    // An existing -shm is not rewritten either.
+    std::fs::write(crashed.join("database.db-shm"), vec![0u8; 32768]).expect("shm");
+    let before = snapshot(&crashed);
+    {
+        let d = Database::open(&db).expect("opens with a stale -shm");
+        assert_eq!(d.counts().expect("counts").cameras, 5);
+    }
+    assert_eq!(
+        snapshot(&crashed),
+        before,
+        "-shm, -wal and database untouched"
+    );
+}

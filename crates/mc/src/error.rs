@@ -38,6 +38,25 @@ pub enum Error {
         /// What is wrong.
         problem: &'static str,
     },
+    /// A value is beyond a documented bound (`crashrig_mc::limits`) or has the wrong number of
+    /// elements.
+    #[error("`{key}`: {problem}")]
+    Bound {
+        /// Dotted key of the value.
+        key: String,
+        /// What is wrong, with the bound.
+        problem: String,
+    },
+    /// The nominal geometry of every grid point is degenerate (rays nearly parallel).
+    #[error(
+        "`grid.observer`: every grid point is seen under an intersection angle below {min_deg}° (largest: {largest_deg:.3e}°); move the observers apart"
+    )]
+    AllDegenerate {
+        /// The threshold (degrees).
+        min_deg: f64,
+        /// The largest intersection angle over the grid (degrees).
+        largest_deg: f64,
+    },
     /// Two cameras share a name.
     #[error("`{key}`: duplicate camera name `{name}`")]
     DuplicateName {
@@ -153,6 +172,7 @@ impl Error {
     pub fn key(&self) -> Option<&str> {
         match self {
             Error::Invalid { key, .. }
+            | Error::Bound { key, .. }
             | Error::DuplicateName { key, .. }
             | Error::UnknownCamera { key, .. }
             | Error::ObserverAtGridPoint { key, .. }
@@ -161,7 +181,7 @@ impl Error {
             | Error::ObserverOffChain { key, .. } => Some(key),
             Error::Reference { key, .. } => key.as_deref(),
             Error::Cycle { .. } => Some("camera"),
-            Error::TooFewObservers { .. } => Some("grid.observer"),
+            Error::TooFewObservers { .. } | Error::AllDegenerate { .. } => Some("grid.observer"),
             Error::NoGrid => Some("grid"),
             _ => None,
         }

@@ -346,6 +346,7 @@ impl GridStudy {
     /// and ω φ κ σ for `euler` noise.
     pub fn new(scenario: &Scenario, samples: usize, seed: u64) -> Result<Self, Error> {
         let grid = scenario.grid.clone().ok_or(Error::NoGrid)?;
+        crate::degenerate::check_layout(&grid)?;
         let chain = Chain::new(scenario);
         Self::assemble(grid, chain, scenario.rotation_noise, samples, seed)
     }

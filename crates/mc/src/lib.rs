@@ -28,6 +28,10 @@
 //! - [`Chain`]: [`Chain::monte_carlo`] and [`Chain::linear`] (Table 3/4 of the paper).
 //! - [`GridStudy`]: [`GridStudy::run`], [`GridStudy::run_adaptive`] → [`GridResult`] of
 //!   [`PointStats`] (σ per axis, covariance, ellipsoid, linear covariance).
+//! - [`limits`]: the documented bounds every scenario value is checked against (counts that
+//!   size memory or work, magnitudes, array lengths), with errors naming key and line.
+//! - [`degenerate`]: the intersection angle of a grid point and the threshold below which it
+//!   is degenerate; [`GridStudy::new`] refuses a layout where every point is.
 //!
 //! # Example
 //! ```
@@ -79,9 +83,11 @@
 
 mod accumulate;
 mod chain;
+pub mod degenerate;
 mod error;
 mod grid;
 mod kernel;
+pub mod limits;
 mod normal;
 pub mod reference;
 mod scenario;

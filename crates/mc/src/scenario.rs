@@ -479,18 +479,19 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
 impl Scenario {
     /// Reads and validates a scenario file.
     pub fn from_path(path: &Path) -> Result<Self, Error> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = crate::limits::read_text(path)?;
         Self::from_toml_str(&text, path)
     }
 
     /// Parses and validates scenario text; `path` names the file in error messages, and the
     /// files of `from = "…"` references are relative to its directory.
     pub fn from_toml_str(text: &str, path: &Path) -> Result<Self, Error> {
+        crate::limits::check_document(text, path)?;
         let raw: RawScenario = toml::from_str(text).map_err(|e| {
-            let (line, column) = e.span().map_or((0, 0), |span| line_col(text, span.start));
+            let (line, column) = e.span().map_or_else(
+                || crate::limits::deep_nesting(text).unwrap_or((1, 1)),
+                |span| line_col(text, span.start),
+            );
             Error::Toml {
                 path: PathBuf::from(path),
                 line,

@@ -28,10 +28,10 @@ pub struct BootstrapArgs {
     #[arg(long, default_value = "absolute", value_parser = ["absolute", "relative"])]
     pub method: String,
     /// Number of bootstrap replicates.
-    #[arg(long, default_value_t = 500)]
+    #[arg(long, default_value_t = 500, value_parser = crate::limits::parse_iterations)]
     pub iterations: usize,
     /// Millimetres per model unit.
-    #[arg(long = "mm-per-unit", value_name = "F", default_value_t = 1.0)]
+    #[arg(long = "mm-per-unit", value_name = "F", default_value_t = 1.0, value_parser = crate::limits::parse_mm_per_unit)]
     pub mm_per_unit: f64,
     /// Directory for histograms (PNG and SVG).
     #[arg(long)]

@@ -32,7 +32,7 @@ pub struct CalibrateArgs {
     )]
     pub scale_length_mm: Option<f64>,
     /// Millimetres per model unit (default 1).
-    #[arg(long = "mm-per-unit", value_name = "F", allow_negative_numbers = true)]
+    #[arg(long = "mm-per-unit", value_name = "F", allow_negative_numbers = true, value_parser = crate::limits::parse_mm_per_unit)]
     pub mm_per_unit: Option<f64>,
     /// Directory for plots (per-epoch series, histograms), PNG and SVG.
     #[arg(long)]

@@ -240,34 +240,44 @@ fn database_info(path: &Path, g: &Global) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Whether `name` is a file an older `colmap convert` (or COLMAP) writes into a model
+/// directory, so an old model made of such files may be replaced as a whole.
+fn model_file_name(name: &str) -> bool {
+    let stem_ok = |stem: &str| ["cameras", "images", "points3D", "rigs", "frames"].contains(&stem);
+    name.starts_with(".tmp")
+        || name
+            .rsplit_once('.')
+            .is_some_and(|(stem, ext)| (ext == "bin" || ext == "txt") && stem_ok(stem))
+}
+
 fn convert(input: &Path, output: &Path, to: &str, g: &Global) -> anyhow::Result<()> {
     let format = match to {
         "bin" => ModelFormat::Binary,
         "txt" => ModelFormat::Text,
         other => anyhow::bail!("--to {other}: expected bin or txt"),
     };
-    let model = Reconstruction::read(input)?;
-    // A reader prefers binary files: text written next to old binary files would be hidden.
-    let other = match format {
-        ModelFormat::Binary => "txt",
-        ModelFormat::Text => "bin",
-    };
-    if format == ModelFormat::Text {
-        if let Some(w) = model.text_format_warning() {
-            eprintln!("warning: {w}");
-        }
-        for stem in ["cameras", "images", "points3D"] {
-            let stale = output.join(format!("{stem}.{other}"));
-            if stale.exists() {
-                anyhow::bail!(
-                    "{}: exists; COLMAP would read it instead of the text model, remove it or choose another output directory",
-                    stale.display()
-                );
-            }
-        }
+    let same = |a: &Path, b: &Path| matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y);
+    if same(input, output) {
+        anyhow::bail!(
+            "{}: is the input model directory; converting in place would replace the input, choose another output directory",
+            output.display()
+        );
     }
+    let model = Reconstruction::read(input)?;
+    if format == ModelFormat::Text
+        && let Some(w) = model.text_format_warning()
+    {
+        eprintln!("warning: {w}");
+    }
+    // The model is written into a staging directory beside OUT and swapped in as a whole:
+    // an interrupted convert leaves the old OUT untouched, and no file of an older model
+    // (of either format) survives beside the new one.
+    let staged = crashrig_outdir::Staged::new(output, model_file_name)?;
     model
-        .write(output, format)
+        .write(staged.dir(), format)
+        .with_context(|| format!("writing {}", output.display()))?;
+    staged
+        .commit()
         .with_context(|| format!("writing {}", output.display()))?;
     let info = serde_json::json!({
         "input": input.display().to_string(),

@@ -79,11 +79,17 @@ struct Summary {
     linear: LinearSummary,
     adaptive: Option<AdaptiveSummary>,
     correlation: Option<CorrelationSummary>,
+    /// Points whose intersection angle is below `min_intersection_angle_deg`: no σ, left out
+    /// of medians, maxima and colour scales, counted as not below the threshold.
+    degenerate_points: usize,
+    min_intersection_angle_deg: f64,
     files: Vec<String>,
 }
 
+/// Median of the finite values (degenerate points are NaN and left out).
 fn median(v: &[f64]) -> f64 {
-    crashrig_stats::summary::quantile(v, 0.5).unwrap_or(f64::NAN)
+    let finite: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    crashrig_stats::summary::quantile(&finite, 0.5).unwrap_or(f64::NAN)
 }
 
 fn spread(v: &[f64]) -> Spread {
@@ -95,12 +101,32 @@ fn spread(v: &[f64]) -> Spread {
     }
 }
 
-/// Output files are collected in memory and written together at the end (all or none), so a
-/// failure never leaves a `grid.csv` without its `summary.json`.
-type Pending = Vec<(String, Vec<u8>)>;
+/// Whether a top-level entry of an existing `--out` is something `grid` writes (so an old
+/// result may be replaced as a whole): its CSV, JSON and heat-map files, and the `.tmp*` files
+/// an interrupted older version could leave.
+pub(crate) fn replaceable(name: &str) -> bool {
+    [".csv", ".json", ".png", ".svg"]
+        .iter()
+        .any(|ext| name.ends_with(ext))
+        || name.starts_with(".tmp")
+}
+
+/// The files written so far (names, in order) and the staging directory they go to; the whole
+/// directory replaces `--out` at the end, so a failed or interrupted run leaves the old result.
+struct Pending {
+    staged: crashrig_outdir::Staged,
+    names: Vec<String>,
+}
+
+impl Pending {
+    fn len(&self) -> usize {
+        self.names.len()
+    }
+}
 
 fn write(_dir: &Path, name: &str, bytes: &[u8], files: &mut Pending) -> anyhow::Result<()> {
-    files.push((name.to_string(), bytes.to_vec()));
+    files.staged.write(name, bytes)?;
+    files.names.push(name.to_string());
     Ok(())
 }
 
@@ -116,9 +142,48 @@ fn csv_bytes(
     Ok(buf)
 }
 
-fn main_csv(r: &GridResult) -> anyhow::Result<Vec<u8>> {
+/// Blanks (NaN) the statistics of degenerate points; a non-finite σ anywhere else is an error
+/// naming the scenario and the point.
+fn mask_degenerate(r: &mut GridResult, angles: &[f64], scenario: &Path) -> anyhow::Result<()> {
+    for (p, &angle) in r.points.iter_mut().zip(angles) {
+        if crashrig_mc::degenerate::is_degenerate(angle) {
+            p.sigma_mm.fill(f64::NAN);
+            p.sigma_max_mm = f64::NAN;
+            p.mean_mm.fill(f64::NAN);
+            p.covariance.fill(f64::NAN);
+            p.linear_covariance.fill(f64::NAN);
+        } else if !(p.sigma_max_mm.is_finite() && p.linear_sigma_max_mm().is_finite()) {
+            anyhow::bail!(
+                "{}: grid point ({}, {}, {}) mm: the intersection σ is not finite (intersection angle {:.3}°); check the observers' σ and positions",
+                scenario.display(),
+                p.point.x,
+                p.point.y,
+                p.point.z,
+                angle
+            );
+        }
+    }
+    Ok(())
+}
+
+/// A CSV cell: empty for a blanked (NaN) value.
+fn cell(v: f64) -> String {
+    if v.is_nan() {
+        String::new()
+    } else {
+        v.to_string()
+    }
+}
+
+/// `grid.csv`: the contract's seven columns; when any point is degenerate, the columns
+/// `intersection_angle_deg` and `degenerate` follow (the plain header stays exactly the
+/// contract's for layouts without degenerate points).
+fn main_csv(r: &GridResult, angles: &[f64]) -> anyhow::Result<Vec<u8>> {
+    let flagged = angles
+        .iter()
+        .any(|a| crashrig_mc::degenerate::is_degenerate(*a));
     csv_bytes(|w| {
-        w.write_record([
+        let mut header = vec![
             "x_mm",
             "y_mm",
             "z_mm",
@@ -126,26 +191,34 @@ fn main_csv(r: &GridResult) -> anyhow::Result<Vec<u8>> {
             "sigma_y_mm",
             "sigma_z_mm",
             "sigma_max_mm",
-        ])?;
-        for p in &r.points {
-            w.write_record(
-                [
-                    p.point.x,
-                    p.point.y,
-                    p.point.z,
-                    p.sigma_mm.x,
-                    p.sigma_mm.y,
-                    p.sigma_mm.z,
-                    p.sigma_max_mm,
-                ]
-                .map(|v| v.to_string()),
-            )?;
+        ];
+        if flagged {
+            header.extend(["intersection_angle_deg", "degenerate"]);
+        }
+        w.write_record(&header)?;
+        for (p, &angle) in r.points.iter().zip(angles) {
+            let mut rec: Vec<String> = [
+                p.point.x,
+                p.point.y,
+                p.point.z,
+                p.sigma_mm.x,
+                p.sigma_mm.y,
+                p.sigma_mm.z,
+                p.sigma_max_mm,
+            ]
+            .map(cell)
+            .into();
+            if flagged {
+                rec.push(angle.to_string());
+                rec.push(crashrig_mc::degenerate::is_degenerate(angle).to_string());
+            }
+            w.write_record(&rec)?;
         }
         Ok(())
     })
 }
 
-fn detail_csv(r: &GridResult) -> anyhow::Result<Vec<u8>> {
+fn detail_csv(r: &GridResult, angles: &[f64]) -> anyhow::Result<Vec<u8>> {
     csv_bytes(|w| {
         w.write_record([
             "x_mm",
@@ -169,8 +242,9 @@ fn detail_csv(r: &GridResult) -> anyhow::Result<Vec<u8>> {
             "linear_sigma_z_mm",
             "linear_sigma_max_mm",
             "ratio_mc_over_linear",
+            "intersection_angle_deg",
         ])?;
-        for p in &r.points {
+        for (p, angle) in r.points.iter().zip(angles) {
             let c = p.covariance;
             let e = p.ellipsoid_semi_axes_mm();
             let l = p.linear_sigma_mm();
@@ -199,8 +273,9 @@ fn detail_csv(r: &GridResult) -> anyhow::Result<Vec<u8>> {
                     p.linear_sigma_max_mm(),
                     p.sigma_max_mm / p.linear_sigma_max_mm(),
                 ]
-                .map(|v| v.to_string()),
+                .map(cell),
             );
+            rec.push(angle.to_string());
             w.write_record(&rec)?;
         }
         Ok(())
@@ -256,11 +331,21 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
     let samples = resolve_samples(a.samples, &scenario)?;
     let seed = seed.unwrap_or(scenario.seed);
     let ctx =
-        |e: crashrig_mc::Error| anyhow::Error::new(e).context(a.scenario.display().to_string());
+        |e: crashrig_mc::Error| anyhow::Error::new(crashrig_mc::limits::locate(e, &a.scenario));
     let study = GridStudy::new(&scenario, samples, seed).map_err(ctx)?;
     let grid = study.grid().clone();
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("{}: cannot create the output directory", a.out.display()))?;
+    if grid.adaptive.is_none() {
+        // --samples may exceed what the scenario's own bound check saw.
+        crashrig_mc::limits::check_grid_draws(grid.points().len(), samples)
+            .map_err(|e| anyhow::anyhow!("--samples {samples}: {e}"))?;
+    }
+    // Degenerate points (lines of sight nearly parallel): no σ, not in medians or colours.
+    let angles = crashrig_mc::degenerate::grid_angles_deg(&grid);
+    // Fails before any work when --out holds files `grid` does not write.
+    let mut files = Pending {
+        staged: crashrig_outdir::Staged::new(&a.out, replaceable)?,
+        names: Vec::new(),
+    };
 
     let start = std::time::Instant::now();
     let result = match &grid.adaptive {
@@ -268,6 +353,8 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
         None => study.run(samples, seed),
     }
     .map_err(ctx)?;
+    let mut result = result;
+    mask_degenerate(&mut result, &angles, &a.scenario)?;
     let elapsed_s = start.elapsed().as_secs_f64();
     let total_draws: u64 = result.points.iter().map(|p| p.count).sum();
 
@@ -277,6 +364,8 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
             None => study.independent().run(samples, seed),
         }
         .map_err(ctx)?;
+        let mut ind = ind;
+        mask_degenerate(&mut ind, &angles, &a.scenario)?;
         let change: Vec<f64> = result
             .points
             .iter()
@@ -300,9 +389,13 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
         None
     };
 
-    let mut files = Pending::new();
-    write(&a.out, "grid.csv", &main_csv(&result)?, &mut files)?;
-    write(&a.out, "grid_detail.csv", &detail_csv(&result)?, &mut files)?;
+    write(&a.out, "grid.csv", &main_csv(&result, &angles)?, &mut files)?;
+    write(
+        &a.out,
+        "grid_detail.csv",
+        &detail_csv(&result, &angles)?,
+        &mut files,
+    )?;
 
     if !a.no_plots {
         let xs = grid.x.values();
@@ -366,6 +459,11 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
                 .collect();
             for spec in &specs {
                 let values: Vec<f64> = pts.iter().map(spec.value).collect();
+                // A level where every point is degenerate has no data range: any range will do.
+                let range = match spec.range {
+                    None if !values.iter().any(|v| v.is_finite()) => Some((0.0, 1.0)),
+                    r => r,
+                };
                 let title = format!("{} at z = {} mm", spec.title, z);
                 let map = HeatMap {
                     xs: &xs,
@@ -377,7 +475,7 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
                     colorbar_label: spec.bar,
                     threshold: spec.threshold,
                     markers: &markers,
-                    value_range: spec.range,
+                    value_range: range,
                 };
                 for (fmt, ext) in [(Format::Png, "png"), (Format::Svg, "svg")] {
                     let bytes = crashrig_plot::heatmap(&map, fmt)
@@ -433,16 +531,23 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
             draws_total: total_draws,
         }),
         correlation,
-        files: files
+        degenerate_points: angles
             .iter()
-            .map(|(name, _)| name.clone())
+            .filter(|a| crashrig_mc::degenerate::is_degenerate(**a))
+            .count(),
+        min_intersection_angle_deg: crashrig_mc::degenerate::MIN_INTERSECTION_ANGLE_DEG,
+        files: files
+            .names
+            .iter()
+            .cloned()
             .chain(std::iter::once("summary.json".to_string()))
             .collect(),
     };
     let json = serde_json::to_vec_pretty(&summary).context("formatting summary.json")?;
     write(&a.out, "summary.json", &json, &mut files)?;
-    crate::output::write_all_or_none(&a.out, &files)?;
-    Ok((summary, files.len()))
+    let n = files.len();
+    files.staged.commit()?;
+    Ok((summary, n))
 }
 
 #[cfg(test)]

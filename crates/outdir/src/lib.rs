@@ -1,0 +1,583 @@
+//! Crash-safe output directories: a command's files are written into a hidden **staging
+//! directory** beside `OUT` (same parent, so renames stay on one file system) and swapped in as
+//! a whole when the command has finished. A reader of `OUT` sees either the complete old result
+//! or the complete new one, never a mix.
+//!
+//! # Guarantees
+//! - **Whole swap.** [`Staged::commit`] replaces `OUT` by the staging directory. On Linux the two
+//!   directories are exchanged atomically (`renameat2(RENAME_EXCHANGE)`); elsewhere, or on a file
+//!   system without it, the old `OUT` is renamed aside, the staging directory renamed to `OUT`
+//!   and the old one removed (between the two renames `OUT` is briefly absent, never mixed).
+//! - **Nothing of a previous run survives** in a reused `OUT`: the new `OUT` holds exactly the
+//!   files of this run.
+//! - **User files are never replaced.** An existing `OUT` is only replaced when it is empty or
+//!   every entry in it passes the command's `replaceable` test (names the command itself writes);
+//!   otherwise [`Staged::new`] fails with [`Error::NotOurs`] before anything is written.
+//! - **Errors and signals clean up.** Dropping an uncommitted [`Staged`] (an error, a panic)
+//!   removes the staging directory; SIGINT, SIGTERM and SIGHUP remove every staging directory of
+//!   the process and exit with status 128 + signal. A process killed with SIGKILL leaves its
+//!   hidden staging directory behind; the next [`Staged::new`] for the same `OUT` removes it
+//!   (Linux: when its process is gone).
+//! - Files are flushed to disk (`fsync`) before the swap.
+//!
+//! # Fault injection (tests only)
+//! The environment variable `CRASHRIG_OUTDIR_FAULT` stops the process at a deterministic point,
+//! so interruption tests need no timing:
+//! - `abort-after-file:K` — abort (SIGABRT, no clean-up, like SIGKILL) right after the K-th
+//!   [`Staged::write`] (1-based);
+//! - `abort-before-swap` — abort right before the swap in [`Staged::commit`];
+//! - `sigint-after-file:K`, `sigint-before-swap` — raise SIGINT at that point instead (the
+//!   signal handler cleans up and exits with 130).
+//!
+//! # Example
+//! ```
+//! use crashrig_outdir::Staged;
+//!
+//! let parent = tempfile::tempdir()?;
+//! let out = parent.path().join("result");
+//! // The command only ever writes these names, so an old result made of them may be replaced.
+//! let ours = |name: &str| name == "table.csv" || name == "summary.json";
+//!
+//! let mut staged = Staged::new(&out, ours)?;
+//! staged.write("table.csv", b"x,y\n1,2\n")?;
+//! // Other writers can write straight into the staging directory:
+//! std::fs::write(staged.dir().join("summary.json"), b"{}")?;
+//! assert!(!out.exists(), "nothing is visible before the commit");
+//! staged.commit()?;
+//! assert_eq!(std::fs::read(out.join("table.csv"))?, b"x,y\n1,2\n");
+//!
+//! // A second run replaces the whole directory: files it does not write do not survive.
+//! let mut staged = Staged::new(&out, ours)?;
+//! staged.write("summary.json", b"{\"run\": 2}")?;
+//! staged.commit()?;
+//! assert!(!out.join("table.csv").exists());
+//! // Only OUT is left in the parent: no staging or temporary directories.
+//! assert_eq!(std::fs::read_dir(parent.path())?.count(), 1);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+#![deny(missing_docs)]
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::{Mutex, MutexGuard, Once};
+
+/// The environment variable of the fault-injection hook (see the crate docs).
+pub const FAULT_ENV: &str = "CRASHRIG_OUTDIR_FAULT";
+
+/// Marker in the names of staging and set-aside directories: `.<OUT name>.crashrig-staging.<pid>.<n>`.
+const STAGING_MARK: &str = ".crashrig-staging.";
+
+/// Everything that can go wrong while staging or swapping an output directory.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A file-system operation failed.
+    #[error("{}: {what}: {source}", path.display())]
+    Io {
+        /// The path concerned.
+        path: PathBuf,
+        /// What was being done.
+        what: &'static str,
+        /// The operating-system error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// `OUT` cannot be an output directory (`.`, `..`, a path ending in `..`, a symbolic link or
+    /// an existing non-directory).
+    #[error("{}: cannot be used as an output directory: {why}", path.display())]
+    BadOut {
+        /// The output path.
+        path: PathBuf,
+        /// Why not.
+        why: &'static str,
+    },
+    /// `OUT` exists and holds an entry the command does not write: it is not replaced.
+    #[error(
+        "{}: exists and holds `{entry}`, which this command does not write; remove it or choose a new or empty output directory",
+        out.display()
+    )]
+    NotOurs {
+        /// The output directory.
+        out: PathBuf,
+        /// The first foreign entry found.
+        entry: String,
+    },
+    /// A file name given to [`Staged::write`] is empty, absolute or climbs out with `..`.
+    #[error("`{name}`: not a relative file name inside the output directory")]
+    BadName {
+        /// The name.
+        name: String,
+    },
+}
+
+/// Result alias of this crate.
+pub type Result<T> = std::result::Result<T, Error>;
+
+fn io<'a>(path: &'a Path, what: &'static str) -> impl FnOnce(std::io::Error) -> Error + 'a {
+    move |source| Error::Io {
+        path: path.to_path_buf(),
+        what,
+        source,
+    }
+}
+
+// ------------------------------------------------------------ signal clean-up ---
+
+/// Directories to remove when a termination signal arrives (staging and set-aside ones).
+static PENDING: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+static HANDLER: Once = Once::new();
+
+fn pending() -> MutexGuard<'static, Vec<PathBuf>> {
+    PENDING.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+fn remove_tree(p: &Path) {
+    // A writer may still be creating files while we remove: retry a few times.
+    for _ in 0..5 {
+        match std::fs::remove_dir_all(p) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => continue,
+            _ => return,
+        }
+    }
+}
+
+/// Installs (once per process) a thread that, on SIGINT/SIGTERM/SIGHUP, removes every pending
+/// directory and exits with status 128 + signal. The registry lock is held during a swap, so a
+/// signal that arrives mid-swap is handled after it.
+fn install_handler() {
+    HANDLER.call_once(|| {
+        use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+        let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) else {
+            return;
+        };
+        let spawned = std::thread::Builder::new()
+            .name("crashrig-outdir-signals".into())
+            .spawn(move || {
+                if let Some(sig) = signals.forever().next() {
+                    let dirs = pending();
+                    for d in dirs.iter() {
+                        remove_tree(d);
+                    }
+                    eprintln!("interrupted: removed the unfinished output");
+                    std::process::exit(128 + sig);
+                }
+            });
+        drop(spawned);
+    });
+}
+
+fn register(p: &Path) {
+    pending().push(p.to_path_buf());
+}
+
+fn unregister(list: &mut Vec<PathBuf>, p: &Path) {
+    list.retain(|q| q != p);
+}
+
+// ------------------------------------------------------------- fault hook ---
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Point {
+    AfterFile(usize),
+    BeforeSwap,
+}
+
+/// Stops the process at `point` if `CRASHRIG_OUTDIR_FAULT` asks for it (tests only).
+fn fault(point: Point) {
+    let Ok(spec) = std::env::var(FAULT_ENV) else {
+        return;
+    };
+    let (action, at) = spec.split_once('-').unwrap_or(("", ""));
+    let wanted = match at {
+        "before-swap" => Some(Point::BeforeSwap),
+        _ => at
+            .strip_prefix("after-file:")
+            .and_then(|k| k.parse().ok())
+            .map(Point::AfterFile),
+    };
+    if wanted != Some(point) {
+        return;
+    }
+    match action {
+        "abort" => std::process::abort(),
+        "sigint" => {
+            let _ = signal_hook::low_level::raise(signal_hook::consts::SIGINT);
+            // The handler thread removes the staging directory and exits the process.
+            loop {
+                std::thread::park();
+            }
+        }
+        _ => {}
+    }
+}
+
+// ---------------------------------------------------------------- Staged ---
+
+/// An output directory being written: files go to a hidden staging directory until
+/// [`Staged::commit`] swaps it in as `OUT`. Dropping it uncommitted removes the staging
+/// directory (see the crate docs for the guarantees).
+#[derive(Debug)]
+pub struct Staged {
+    out: PathBuf,
+    staging: PathBuf,
+    files: usize,
+    committed: bool,
+}
+
+/// `(parent, file name)` of `out`, rejecting `.`/`..` and paths without a final name.
+fn split_out(out: &Path) -> Result<(PathBuf, String)> {
+    let bad = |why| Error::BadOut {
+        path: out.to_path_buf(),
+        why,
+    };
+    let name = out
+        .file_name()
+        .ok_or_else(|| bad("it has no final name (like `.` or `..`)"))?
+        .to_str()
+        .ok_or_else(|| bad("its name is not valid UTF-8"))?
+        .to_string();
+    let parent = match out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    Ok((parent, name))
+}
+
+/// Whether the process with id `pid` is still running (Linux: `/proc/<pid>`; elsewhere assume
+/// yes, so nothing of a live run is removed).
+fn alive(pid: u32) -> bool {
+    if cfg!(target_os = "linux") {
+        Path::new("/proc").join(pid.to_string()).exists()
+    } else {
+        true
+    }
+}
+
+/// Removes staging directories of `name` left by killed processes.
+fn remove_stale(parent: &Path, name: &str) {
+    let prefix = format!(".{name}{STAGING_MARK}");
+    let Ok(entries) = std::fs::read_dir(parent) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let file_name = e.file_name();
+        let Some(rest) = file_name.to_str().and_then(|n| n.strip_prefix(&prefix)) else {
+            continue;
+        };
+        let pid = rest.split('.').next().and_then(|p| p.parse::<u32>().ok());
+        if pid.is_some_and(|p| p != std::process::id() && !alive(p)) {
+            remove_tree(&e.path());
+        }
+    }
+}
+
+impl Staged {
+    /// Starts writing the output directory `out`.
+    ///
+    /// `replaceable(name)` says whether a top-level entry `name` of an existing `out` is
+    /// something this command writes (so the old result may be replaced as a whole); a
+    /// directory is passed with a trailing `/` (`"grid/"`), so a directory where the command
+    /// writes a file is foreign. An empty
+    /// or absent `out` is always fine; an entry that fails the test is an [`Error::NotOurs`],
+    /// reported before anything is written. The parent directory is created if needed.
+    pub fn new(out: &Path, replaceable: impl Fn(&str) -> bool) -> Result<Staged> {
+        let (parent, name) = split_out(out)?;
+        match std::fs::symlink_metadata(out) {
+            Ok(m) if m.file_type().is_symlink() => {
+                return Err(Error::BadOut {
+                    path: out.to_path_buf(),
+                    why: "it is a symbolic link (give the directory it points to)",
+                });
+            }
+            Ok(m) if !m.is_dir() => {
+                return Err(Error::BadOut {
+                    path: out.to_path_buf(),
+                    why: "it exists and is not a directory",
+                });
+            }
+            Ok(_) => {
+                let entries = std::fs::read_dir(out).map_err(io(out, "cannot list"))?;
+                let mut names: Vec<String> = entries
+                    .map(|e| {
+                        e.map(|e| {
+                            let name = e.file_name().to_string_lossy().into_owned();
+                            let dir = e.file_type().is_ok_and(|t| t.is_dir());
+                            if dir { format!("{name}/") } else { name }
+                        })
+                        .map_err(io(out, "cannot list"))
+                    })
+                    .collect::<Result<_>>()?;
+                names.sort();
+                if let Some(foreign) = names.into_iter().find(|n| !replaceable(n)) {
+                    return Err(Error::NotOurs {
+                        out: out.to_path_buf(),
+                        entry: foreign,
+                    });
+                }
+            }
+            Err(_) => {
+                std::fs::create_dir_all(&parent)
+                    .map_err(io(&parent, "cannot create the parent directory"))?;
+            }
+        }
+        remove_stale(&parent, &name);
+        install_handler();
+        static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let n = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let staging = parent.join(format!(".{name}{STAGING_MARK}{}.{n}", std::process::id()));
+        // Register before creating, so a signal in between still removes it.
+        register(&staging);
+        if let Err(e) = std::fs::create_dir(&staging) {
+            unregister(&mut pending(), &staging);
+            return Err(io(&staging, "cannot create the staging directory")(e));
+        }
+        Ok(Staged {
+            out: out.to_path_buf(),
+            staging,
+            files: 0,
+            committed: false,
+        })
+    }
+
+    /// The staging directory: write files here (directly, or with [`Staged::write`]).
+    pub fn dir(&self) -> &Path {
+        &self.staging
+    }
+
+    /// The final output directory.
+    pub fn out(&self) -> &Path {
+        &self.out
+    }
+
+    /// Writes `bytes` to `name` (relative, `/`-separated subdirectories are created) inside the
+    /// staging directory, and flushes it to disk.
+    pub fn write(&mut self, name: &str, bytes: &[u8]) -> Result<()> {
+        let rel = Path::new(name);
+        let ok = !name.is_empty()
+            && rel
+                .components()
+                .all(|c| matches!(c, std::path::Component::Normal(_)));
+        if !ok {
+            return Err(Error::BadName {
+                name: name.to_string(),
+            });
+        }
+        let path = self.staging.join(rel);
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir).map_err(io(dir, "cannot create directory"))?;
+        }
+        let mut f = std::fs::File::create(&path).map_err(io(&path, "cannot create"))?;
+        f.write_all(bytes).map_err(io(&path, "write failed"))?;
+        f.sync_all().map_err(io(&path, "write failed"))?;
+        self.files += 1;
+        fault(Point::AfterFile(self.files));
+        Ok(())
+    }
+
+    /// Swaps the staging directory in as `OUT` (see the crate docs) and removes the old `OUT`.
+    pub fn commit(mut self) -> Result<()> {
+        sync_tree(&self.staging);
+        fault(Point::BeforeSwap);
+        let mut list = pending();
+        match std::fs::symlink_metadata(&self.out) {
+            Err(_) => {
+                std::fs::rename(&self.staging, &self.out).map_err(io(
+                    &self.out,
+                    "cannot rename the staging directory into place",
+                ))?;
+                unregister(&mut list, &self.staging);
+            }
+            Ok(_) => {
+                if exchange(&self.staging, &self.out) {
+                    // The staging path now holds the old result; it stays registered until
+                    // removed below.
+                } else {
+                    let aside = self.staging.with_extension("old");
+                    register_locked(&mut list, &aside);
+                    std::fs::rename(&self.out, &aside)
+                        .map_err(io(&self.out, "cannot move the old output aside"))?;
+                    if let Err(e) = std::fs::rename(&self.staging, &self.out) {
+                        let _ = std::fs::rename(&aside, &self.out);
+                        return Err(io(
+                            &self.out,
+                            "cannot rename the staging directory into place",
+                        )(e));
+                    }
+                    unregister(&mut list, &self.staging);
+                    self.staging = aside;
+                }
+            }
+        }
+        sync_dir(self.out.parent().unwrap_or(Path::new(".")));
+        self.committed = true;
+        drop(list);
+        // Remove the old result (now at `self.staging`), then forget it.
+        remove_tree(&self.staging);
+        unregister(&mut pending(), &self.staging);
+        Ok(())
+    }
+}
+
+fn register_locked(list: &mut Vec<PathBuf>, p: &Path) {
+    list.push(p.to_path_buf());
+}
+
+impl Drop for Staged {
+    fn drop(&mut self) {
+        if !self.committed {
+            remove_tree(&self.staging);
+            unregister(&mut pending(), &self.staging);
+        }
+    }
+}
+
+/// Atomically exchanges two directories (Linux `renameat2(RENAME_EXCHANGE)`); `false` when
+/// unsupported, so the caller falls back to two renames.
+#[cfg(target_os = "linux")]
+fn exchange(a: &Path, b: &Path) -> bool {
+    use rustix::fs::{CWD, RenameFlags, renameat_with};
+    renameat_with(CWD, a, CWD, b, RenameFlags::EXCHANGE).is_ok()
+}
+
+#[cfg(not(target_os = "linux"))]
+fn exchange(_a: &Path, _b: &Path) -> bool {
+    false
+}
+
+/// `fsync` of every file and directory below `dir` (best effort).
+fn sync_tree(dir: &Path) {
+    if let Ok(entries) = std::fs::read_dir(dir) {
+        for e in entries.flatten() {
+            let p = e.path();
+            match e.file_type() {
+                Ok(t) if t.is_dir() => sync_tree(&p),
+                Ok(t) if t.is_file() => {
+                    if let Ok(f) = std::fs::File::open(&p) {
+                        let _ = f.sync_all();
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+    sync_dir(dir);
+}
+
+fn sync_dir(dir: &Path) {
+    if let Ok(f) = std::fs::File::open(dir) {
+        let _ = f.sync_all();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn listing(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn fresh_output_is_created_whole() {
+        let tmp = tempfile::tempdir().unwrap();
+        let out = tmp.path().join("a/b/out");
+        let mut s = Staged::new(&out, |_| true).unwrap();
+        s.write("x.csv", b"1").unwrap();
+        s.write("sub/y.json", b"2").unwrap();
+        assert!(!out.exists());
+        s.commit().unwrap();
+        assert_eq!(listing(&out), ["sub", "x.csv"]);
+        assert_eq!(std::fs::read(out.join("sub/y.json")).unwrap(), b"2");
+        assert_eq!(listing(&tmp.path().join("a/b")), ["out"]);
+    }
+
+    #[test]
+    fn reused_output_keeps_nothing_of_the_old_run() {
+        let tmp = tempfile::tempdir().unwrap();
+        let out = tmp.path().join("out");
+        std::fs::create_dir(&out).unwrap();
+        std::fs::write(out.join("old_z07.png"), b"stale").unwrap();
+        std::fs::write(out.join("summary.json"), b"old").unwrap();
+        std::fs::create_dir(out.join("maps")).unwrap();
+        let mut s = Staged::new(&out, |n| {
+            n.ends_with(".png") || n.ends_with(".json") || n == "maps/"
+        })
+        .unwrap();
+        s.write("summary.json", b"new").unwrap();
+        s.commit().unwrap();
+        assert_eq!(listing(&out), ["summary.json"]);
+        assert_eq!(std::fs::read(out.join("summary.json")).unwrap(), b"new");
+        assert_eq!(listing(tmp.path()), ["out"]);
+    }
+
+    #[test]
+    fn foreign_files_are_never_replaced() {
+        let tmp = tempfile::tempdir().unwrap();
+        let out = tmp.path().join("out");
+        std::fs::create_dir(&out).unwrap();
+        std::fs::write(out.join("scenario.toml"), b"mine").unwrap();
+        let err = Staged::new(&out, |n| n.ends_with(".csv")).unwrap_err();
+        assert!(
+            matches!(&err, Error::NotOurs { entry, .. } if entry == "scenario.toml"),
+            "{err}"
+        );
+        assert_eq!(listing(tmp.path()), ["out"], "no staging directory");
+        assert_eq!(std::fs::read(out.join("scenario.toml")).unwrap(), b"mine");
+    }
+
+    #[test]
+    fn dropped_uncommitted_leaves_old_output_and_no_staging() {
+        let tmp = tempfile::tempdir().unwrap();
+        let out = tmp.path().join("out");
+        std::fs::create_dir(&out).unwrap();
+        std::fs::write(out.join("a.csv"), b"old").unwrap();
+        {
+            let mut s = Staged::new(&out, |_| true).unwrap();
+            s.write("a.csv", b"new").unwrap();
+            assert_eq!(listing(tmp.path()).len(), 2, "staging exists while writing");
+        }
+        assert_eq!(listing(tmp.path()), ["out"]);
+        assert_eq!(std::fs::read(out.join("a.csv")).unwrap(), b"old");
+    }
+
+    #[test]
+    fn bad_outputs_and_names_are_errors() {
+        let tmp = tempfile::tempdir().unwrap();
+        assert!(matches!(
+            Staged::new(Path::new(".."), |_| true),
+            Err(Error::BadOut { .. })
+        ));
+        let file = tmp.path().join("f");
+        std::fs::write(&file, b"").unwrap();
+        assert!(matches!(
+            Staged::new(&file, |_| true),
+            Err(Error::BadOut { .. })
+        ));
+        let mut s = Staged::new(&tmp.path().join("o"), |_| true).unwrap();
+        for bad in ["", "/etc/x", "../x", "a/../../x"] {
+            assert!(
+                matches!(s.write(bad, b""), Err(Error::BadName { .. })),
+                "{bad}"
+            );
+        }
+    }
+
+    #[test]
+    fn stale_staging_of_a_dead_process_is_removed() {
+        let tmp = tempfile::tempdir().unwrap();
+        // No process has id 4 000 000 000 (Linux pids stay below 2²²).
+        let stale = tmp.path().join(format!(".out{STAGING_MARK}4000000000.0"));
+        std::fs::create_dir(&stale).unwrap();
+        std::fs::write(stale.join("grid.csv"), b"half").unwrap();
+        let s = Staged::new(&tmp.path().join("out"), |_| true).unwrap();
+        if cfg!(target_os = "linux") {
+            assert!(!stale.exists());
+        }
+        drop(s);
+    }
+}
