@@ -227,7 +227,11 @@ fn ellipses(l: &LayoutResult) -> String {
     let sub: Vec<_> = pts
         .iter()
         .enumerate()
-        .filter(|(i, _)| (i % xs.len()) % step_x == 0 && (i / xs.len()) % step_y == 0)
+        .filter(|(i, p)| {
+            (i % xs.len()) % step_x == 0
+                && (i / xs.len()) % step_y == 0
+                && p.sigma_max_mm.is_finite()
+        })
         .map(|(_, p)| p)
         .collect();
     let mut out = String::new();
