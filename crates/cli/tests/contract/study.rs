@@ -307,3 +307,35 @@ fn colmap_points_finds_the_point_at_a_pixel() {
     ]);
     assert_clean_error(&r, &["nope.png"]);
 }
+
+/// OUT is replaced as a whole: a second run into the same OUT succeeds and leaves only the new
+/// result; an OUT holding a file `study` does not write is refused before any work, untouched.
+#[test]
+fn study_out_is_staged_and_foreign_files_are_refused() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let own = own_project(tmp.path());
+    let out = tmp.path().join("out");
+    let (s, o) = (
+        own.join("study.toml").display().to_string(),
+        out.display().to_string(),
+    );
+    let args = [
+        "study",
+        s.as_str(),
+        "--out",
+        o.as_str(),
+        "--samples",
+        "4",
+        "--no-sensitivity",
+    ];
+    assert!(run(args).success);
+    std::fs::write(out.join("grid/old_layout.csv"), b"old").expect("write");
+    assert!(run(args).success);
+    assert!(
+        !out.join("grid/old_layout.csv").exists(),
+        "nothing old survives"
+    );
+    std::fs::write(out.join("notes.txt"), b"mine").expect("write");
+    assert_clean_error(&run(args), &["notes.txt"]);
+    assert_eq!(std::fs::read(out.join("notes.txt")).expect("kept"), b"mine");
+}
