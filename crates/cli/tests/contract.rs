@@ -1,4 +1,5 @@
-//! End-to-end contract tests of the `crashrig` binary against `shared/interface.md`.
+//! End-to-end contract tests of the `crashrig` binary against its reference (`docs/REFERENCE.md`,
+//! which follows the external contract `shared/interface.md`).
 //!
 //! Every test runs the built binary (`CARGO_BIN_EXE_crashrig`) on committed fixtures and checks
 //! what the contract promises: `--help`, the exact JSON fields and shapes under `--json`,

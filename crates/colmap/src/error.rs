@@ -141,6 +141,7 @@ pub enum Error {
         what: &'static str,
     },
     /// The SQLite library reported an error.
+    #[cfg(feature = "database")]
     #[error("{}: SQLite error", path.display())]
     Sqlite {
         /// The database file.
@@ -183,8 +184,9 @@ impl Error {
             | Error::WrongParamCount { path, .. }
             | Error::Invariant { path, .. }
             | Error::Unwritable { path, .. }
-            | Error::Sqlite { path, .. }
             | Error::BadRow { path, .. } => path,
+            #[cfg(feature = "database")]
+            Error::Sqlite { path, .. } => path,
         }
     }
 }

@@ -69,9 +69,11 @@
 
 mod binary;
 mod convert;
+#[cfg(feature = "database")]
 pub mod database;
 mod error;
 pub mod fmt;
+pub mod lookup;
 mod reconstruction;
 mod record;
 mod text;

@@ -636,6 +636,29 @@ impl Reconstruction {
     pub fn image_by_name(&self, name: &str) -> Option<&Image> {
         self.name_idx.get(name).map(|&i| &self.images[i])
     }
+    /// Names of images that COLMAP's text format cannot hold: a name containing ASCII
+    /// whitespace (COLMAP and pycolmap read an `images.txt` name up to the first blank, and
+    /// blanks at either end are lost in any reader), in file order. Empty when the model
+    /// round-trips through `--to txt`.
+    pub fn names_unsafe_for_text(&self) -> Vec<&str> {
+        self.images
+            .iter()
+            .map(|im| im.name.as_str())
+            .filter(|n| n.chars().any(|c| c.is_ascii_whitespace()))
+            .collect()
+    }
+    /// One line for stderr when [`Reconstruction::names_unsafe_for_text`] is not empty: how
+    /// many names, the first one, and that the binary format keeps them.
+    pub fn text_format_warning(&self) -> Option<String> {
+        let bad = self.names_unsafe_for_text();
+        let first = bad.first()?;
+        Some(format!(
+            "{} image name(s) contain whitespace, which COLMAP's text format cannot hold \
+             (COLMAP and pycolmap read a name only up to its first blank), first {first:?}; \
+             the binary format keeps them",
+            bad.len()
+        ))
+    }
     /// The frame that contains this image.
     pub fn image_frame(&self, image_id: u32) -> Option<&Frame> {
         let i = *self.image_idx.get(&image_id)?;

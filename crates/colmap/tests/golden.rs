@@ -214,6 +214,16 @@ fn golden_every_camera_model_id() {
         m.image_by_name("image with spaces.png").map(|i| i.image_id),
         Some(3)
     );
+    // ... but not COLMAP's text format: it is flagged, and only it.
+    assert_eq!(m.names_unsafe_for_text(), vec!["image with spaces.png"]);
+    let w = m.text_format_warning().expect("a warning");
+    assert!(
+        w.starts_with("1 image name(s)") && w.contains("\"image with spaces.png\""),
+        "{w}"
+    );
+    let clean = Reconstruction::read(&crate::common::fixture("rig_opencv/bin")).expect("reads");
+    assert!(clean.names_unsafe_for_text().is_empty());
+    assert_eq!(clean.text_format_warning(), None);
 }
 
 #[test]

@@ -1,5 +1,5 @@
 //! Uncertain poses and links: a nominal `b_from_a` with a 6×6 covariance in the contract's
-//! tangent parametrization (`shared/interface.md`, "Uncertain poses: the tangent covariance").
+//! tangent parametrization (`docs/CONVENTIONS.md`; origin: the contract's "Uncertain poses: the tangent covariance").
 //!
 //! A perturbation `δ = (δx, δy, δz, δθx, δθy, δθz) ~ N(0, Σ)` acts on the nominal pose as
 //! - `C = C̄ + (δx, δy, δz)`: the translation of `b_from_a`, i.e. the origin of frame `a`

@@ -301,9 +301,7 @@ fn dlt_covariance_monte_carlo_fast() {
 }
 
 #[test]
+#[ignore = "slow: 200 000 Monte Carlo draws; run by cargo xtask test --slow"]
 fn slow_dlt_covariance_monte_carlo() {
-    if std::env::var_os("CRASHRIG_SLOW").is_none() {
-        return;
-    }
     check_monte_carlo(200_000);
 }

@@ -7,7 +7,7 @@
 //! - Transforms are `b_from_a`. A camera's pose is `world_from_cam` (projection centre and
 //!   `R_world_from_cam`); a link is `parent_from_cam` (base = the camera's centre in the
 //!   parent frame). ω φ κ describe `R = Rx(ω)·Ry(φ)·Rz(κ)`.
-//! - Noise (fixed semantics, `shared/interface.md`): independent Gaussian position noise on
+//! - Noise (fixed semantics, `docs/SCENARIO.md`): independent Gaussian position noise on
 //!   the projection centre (world axes for a camera, parent axes for a link); rotation noise
 //!   `tangent` = `R·Exp(σ∘ε)` about the camera's own axes, or `euler` = `N(0, σ)` added to
 //!   ω, φ, κ.

@@ -3,7 +3,7 @@
 
 use crate::lm::{self, Problem};
 use crate::p3p::p3p;
-use crate::ransac::{RansacOptions, needed_iterations, sample_distinct};
+use crate::ransac::{Consensus, Estimator, RansacOptions, lo_ransac};
 use crate::{Degeneracy, Error, Projector};
 use crashrig_geometry::{Mat6, Rigid3, Vec3, Vec6, se3, so3};
 use nalgebra::{Matrix3, SMatrix, Vector2};
@@ -213,6 +213,48 @@ fn score<C: Projector>(
     (s, inliers)
 }
 
+/// Resection as an [`Estimator`] of the LO-RANSAC driver: P3P on three bearings, MSAC on the
+/// reprojection error, a 10-iteration LM on the inliers as the local optimisation.
+struct Resection<'a, C> {
+    camera: &'a C,
+    pixels: &'a [Vector2<f64>],
+    points: &'a [Vec3],
+    bearings: &'a [Vec3],
+    th2: f64,
+}
+
+impl<C: Projector> Estimator for Resection<'_, C> {
+    type Model = Rigid3;
+    const SAMPLE: usize = 3;
+
+    fn len(&self) -> usize {
+        self.pixels.len()
+    }
+
+    fn minimal(&self, s: &[usize]) -> Vec<Rigid3> {
+        let b = [
+            self.bearings[s[0]],
+            self.bearings[s[1]],
+            self.bearings[s[2]],
+        ];
+        let p = [self.points[s[0]], self.points[s[1]], self.points[s[2]]];
+        p3p(&b, &p)
+    }
+
+    fn score(&self, pose: &Rigid3) -> (f64, Vec<usize>) {
+        score(self.camera, self.pixels, self.points, pose, self.th2)
+    }
+
+    fn local_optimize(&self, pose: &Rigid3, inliers: &[usize]) -> Option<Rigid3> {
+        if inliers.len() < 6 {
+            return None;
+        }
+        refine_unchecked(self.camera, self.pixels, self.points, inliers, pose, 10)
+            .ok()
+            .map(|r| r.cam_from_world)
+    }
+}
+
 /// Estimates `cam_from_world` from 2D–3D correspondences: P3P hypotheses in a seeded
 /// LO-RANSAC (each new best hypothesis is refined on its inliers and re-scored), then a final
 /// Levenberg–Marquardt on the inliers with the first-order covariance.
@@ -241,48 +283,18 @@ pub fn estimate_absolute_pose<C: Projector>(
         })
         .collect::<Result<_, _>>()?;
     let th2 = options.max_error_px * options.max_error_px;
-    let mut rng = crashrig_stats::stream(options.seed, 0);
-    let mut best: Option<(f64, Rigid3, Vec<usize>)> = None;
-    let mut target = options.min_iterations.max(1);
-    let mut iterations = 0;
-    while iterations < target.min(options.max_iterations) {
-        iterations += 1;
-        let s = sample_distinct::<3>(&mut rng, n);
-        let b = [bearings[s[0]], bearings[s[1]], bearings[s[2]]];
-        let p = [points[s[0]], points[s[1]], points[s[2]]];
-        for pose in p3p(&b, &p) {
-            let (sc, inl) = score(camera, pixels, points, &pose, th2);
-            if best.as_ref().is_some_and(|(bs, _, _)| sc >= *bs) {
-                continue;
-            }
-            let mut cand = (sc, pose, inl);
-            // Local optimisation: a short LM on the inliers, kept if it scores better.
-            if cand.2.len() >= 6
-                && let Ok(r) = refine_unchecked(camera, pixels, points, &cand.2, &pose, 10)
-            {
-                let (sc2, inl2) = score(camera, pixels, points, &r.cam_from_world, th2);
-                if sc2 < cand.0 {
-                    cand = (sc2, r.cam_from_world, inl2);
-                }
-            }
-            let ratio = cand.2.len() as f64 / n as f64;
-            target = options.min_iterations.max(needed_iterations(
-                ratio,
-                3,
-                options.confidence,
-                options.max_iterations,
-            ));
-            best = Some(cand);
-        }
-    }
-    let best_count = best.as_ref().map_or(0, |b| b.2.len());
-    let Some((_, pose, inliers)) = best.filter(|(_, _, inl)| inl.len() >= needed) else {
-        return Err(Error::NoConsensus {
-            needed,
-            best: best_count,
-            iterations,
-        });
+    let problem = Resection {
+        camera,
+        pixels,
+        points,
+        bearings: &bearings,
+        th2,
     };
+    let Consensus {
+        model: pose,
+        inliers,
+        iterations,
+    } = lo_ransac(&problem, options, needed)?;
     // Final refinement, inlier update, refinement again.
     let r = refine_unchecked(camera, pixels, points, &inliers, &pose, lm::MAX_ITERATIONS)?;
     let (_, inliers) = score(camera, pixels, points, &r.cam_from_world, th2);

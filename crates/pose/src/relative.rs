@@ -9,7 +9,7 @@
 
 use crate::fivept::essential_5point;
 use crate::lm::{self, Problem};
-use crate::ransac::{RansacOptions, needed_iterations, sample_distinct};
+use crate::ransac::{Consensus, Estimator, RansacOptions, lo_ransac};
 use crate::{Degeneracy, Error, Projector};
 use crashrig_geometry::{Rigid3, Rot3, Vec3, so3};
 use nalgebra::{Matrix3, SMatrix, SVector, Translation3, Vector2};
@@ -421,6 +421,43 @@ fn score(e: &Matrix3<f64>, xa: &[Vector2<f64>], xb: &[Vector2<f64>], th: f64) ->
     (s, inl)
 }
 
+/// The essential matrix as an [`Estimator`] of the LO-RANSAC driver: the 5-point solver, MSAC
+/// on the Sampson error (normalized units), the linear 8-point algorithm on the inliers as the
+/// local optimisation.
+struct EssentialMatrix<'a> {
+    xa: &'a [Vector2<f64>],
+    xb: &'a [Vector2<f64>],
+    th: f64,
+}
+
+impl Estimator for EssentialMatrix<'_> {
+    type Model = Matrix3<f64>;
+    const SAMPLE: usize = 5;
+
+    fn len(&self) -> usize {
+        self.xa.len()
+    }
+
+    fn minimal(&self, s: &[usize]) -> Vec<Matrix3<f64>> {
+        let sa: [Vector2<f64>; 5] = std::array::from_fn(|k| self.xa[s[k]]);
+        let sb: [Vector2<f64>; 5] = std::array::from_fn(|k| self.xb[s[k]]);
+        essential_5point(&sa, &sb)
+    }
+
+    fn score(&self, e: &Matrix3<f64>) -> (f64, Vec<usize>) {
+        score(e, self.xa, self.xb, self.th)
+    }
+
+    fn local_optimize(&self, _e: &Matrix3<f64>, inliers: &[usize]) -> Option<Matrix3<f64>> {
+        if inliers.len() <= 8 {
+            return None;
+        }
+        let la: Vec<Vector2<f64>> = inliers.iter().map(|&i| self.xa[i]).collect();
+        let lb: Vec<Vector2<f64>> = inliers.iter().map(|&i| self.xb[i]).collect();
+        essential_8point(&la, &lb)
+    }
+}
+
 /// Estimates `b_from_a` (unit translation) from normalized image correspondences
 /// `xa[i] ↔ xb[i]`: 5-point hypotheses in a seeded LO-RANSAC scored by the Sampson error
 /// (threshold `options.max_error_px / focal_px`), cheirality to pick among the four
@@ -441,51 +478,11 @@ pub fn estimate_relative_pose(
         return Err(Error::TooFewCorrespondences { needed, found: n });
     }
     let th = options.max_error_px / focal_px;
-    let mut rng = crashrig_stats::stream(options.seed, 0);
-    let mut best: Option<(f64, Matrix3<f64>, Vec<usize>)> = None;
-    let mut target = options.min_iterations.max(1);
-    let mut iterations = 0;
-    while iterations < target.min(options.max_iterations) {
-        iterations += 1;
-        let s = sample_distinct::<5>(&mut rng, n);
-        let sa: [Vector2<f64>; 5] = s.map(|i| xa[i]);
-        let sb: [Vector2<f64>; 5] = s.map(|i| xb[i]);
-        for e in essential_5point(&sa, &sb) {
-            let (sc, inl) = score(&e, xa, xb, th);
-            if best.as_ref().is_some_and(|(bs, _, _)| sc >= *bs) {
-                continue;
-            }
-            let mut cand = (sc, e, inl);
-            // Local optimisation: re-estimate from all inliers (linear 8-point), keep if
-            // better.
-            if cand.2.len() > 8 {
-                let la: Vec<Vector2<f64>> = cand.2.iter().map(|&i| xa[i]).collect();
-                let lb: Vec<Vector2<f64>> = cand.2.iter().map(|&i| xb[i]).collect();
-                if let Some(e2) = essential_8point(&la, &lb) {
-                    let (sc2, inl2) = score(&e2, xa, xb, th);
-                    if sc2 < cand.0 {
-                        cand = (sc2, e2, inl2);
-                    }
-                }
-            }
-            let ratio = cand.2.len() as f64 / n as f64;
-            target = options.min_iterations.max(needed_iterations(
-                ratio,
-                5,
-                options.confidence,
-                options.max_iterations,
-            ));
-            best = Some(cand);
-        }
-    }
-    let best_count = best.as_ref().map_or(0, |b| b.2.len());
-    let Some((_, e, inliers)) = best.filter(|(_, _, inl)| inl.len() >= needed) else {
-        return Err(Error::NoConsensus {
-            needed,
-            best: best_count,
-            iterations,
-        });
-    };
+    let Consensus {
+        model: e,
+        inliers,
+        iterations,
+    } = lo_ransac(&EssentialMatrix { xa, xb, th }, options, needed)?;
     let (pose, _) = pose_with_cheirality(&e, xa, xb, &inliers).ok_or(Error::Degenerate {
         what: Degeneracy::SingularNormalEquations,
     })?;

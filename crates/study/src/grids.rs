@@ -21,6 +21,11 @@ pub fn median(values: &[f64]) -> f64 {
     }
 }
 
+/// Whether σ_max is at or above the threshold (a NaN σ counts as not below).
+pub fn not_below(sigma_mm: f64, threshold_mm: f64) -> bool {
+    sigma_mm.partial_cmp(&threshold_mm) != Some(std::cmp::Ordering::Less)
+}
+
 /// Where the worst part of a layout's grid lies.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct WorstRegion {
@@ -60,6 +65,10 @@ pub struct GridSummary {
     pub linear_median_sigma_max_mm: f64,
     /// Where the worst region is.
     pub worst: WorstRegion,
+    /// Points whose rays are nearly parallel (intersection angle below
+    /// `crashrig_mc::degenerate::MIN_INTERSECTION_ANGLE_DEG`): blank σ, left out of the medians,
+    /// the maximum and the worst region, counted as not below the threshold.
+    pub degenerate_points: usize,
 }
 
 impl GridSummary {
@@ -92,14 +101,14 @@ impl GridSummary {
         let above: Vec<_> = result
             .points
             .iter()
-            .filter(|p| !(p.sigma_max_mm < t))
+            .filter(|p| p.sigma_max_mm.is_finite() && not_below(p.sigma_max_mm, t))
             .collect();
         let bbox = (!above.is_empty()).then(|| {
             let mut b = [[f64::INFINITY, f64::NEG_INFINITY]; 3];
             for p in &above {
-                for k in 0..3 {
-                    b[k][0] = b[k][0].min(p.point[k]);
-                    b[k][1] = b[k][1].max(p.point[k]);
+                for (bk, v) in b.iter_mut().zip(p.point.iter()) {
+                    bk[0] = bk[0].min(*v);
+                    bk[1] = bk[1].max(*v);
                 }
             }
             b
@@ -114,6 +123,11 @@ impl GridSummary {
             median_sigma_mm: [axis(0), axis(1), axis(2)],
             linear_fraction_below_threshold: lsm.iter().filter(|s| **s < t).count() as f64 / n,
             linear_median_sigma_max_mm: median(&lsm),
+            degenerate_points: result
+                .points
+                .iter()
+                .filter(|p| p.sigma_max_mm.is_nan())
+                .count(),
             worst: WorstRegion {
                 max_point_mm: result
                     .points
@@ -131,15 +145,22 @@ impl GridSummary {
 pub fn grid_csv(result: &GridResult) -> String {
     let mut s = String::from("x_mm,y_mm,z_mm,sigma_x_mm,sigma_y_mm,sigma_z_mm,sigma_max_mm\n");
     for p in &result.points {
+        let c = |v: f64| {
+            if v.is_nan() {
+                String::new()
+            } else {
+                v.to_string()
+            }
+        };
         s.push_str(&format!(
             "{},{},{},{},{},{},{}\n",
             p.point.x,
             p.point.y,
             p.point.z,
-            p.sigma_mm.x,
-            p.sigma_mm.y,
-            p.sigma_mm.z,
-            p.sigma_max_mm
+            c(p.sigma_mm.x),
+            c(p.sigma_mm.y),
+            c(p.sigma_mm.z),
+            c(p.sigma_max_mm)
         ));
     }
     s

@@ -24,6 +24,7 @@
 #![deny(missing_docs)]
 
 pub mod calibration;
+pub mod correspondences;
 pub mod epochs;
 mod error;
 pub mod grids;

@@ -234,7 +234,6 @@ pub fn tie_config(t: &crate::study_file::TieSection, seed: u64) -> TieConfig {
             TieResample::Inliers => tie::Resample::Inliers,
             TieResample::AllMatches => tie::Resample::AllMatches,
         },
-        ..TieConfig::default()
     }
 }
 
@@ -338,8 +337,20 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
     let run_layout =
         |layout: &Layout, s: &Scales| -> Result<(crashrig_mc::Grid, GridResult), Error> {
             let g = layout_study(&inputs, layout, s, samples, seed).map_err(mc_err)?;
-            let r = g.evaluate().map_err(mc_err)?;
+            let mut r = g.evaluate().map_err(mc_err)?;
             let mut grid = g.grid().clone();
+            // Degenerate points (rays nearly parallel) are blanked (NaN): kept out of colour
+            // scaling, medians and the worst region, counted as not below the threshold.
+            let angles = crashrig_mc::degenerate::grid_angles_deg(&grid);
+            for (p, a) in r.points.iter_mut().zip(angles) {
+                if crashrig_mc::degenerate::is_degenerate(a) {
+                    p.sigma_mm.fill(f64::NAN);
+                    p.sigma_max_mm = f64::NAN;
+                    p.mean_mm.fill(f64::NAN);
+                    p.covariance.fill(f64::NAN);
+                    p.linear_covariance.fill(f64::NAN);
+                }
+            }
             for (o, c) in grid.observers.iter_mut().zip(&r.observer_covariance) {
                 o.sigma = crashrig_mc::ObserverSigma::Covariance(*c);
             }
@@ -498,4 +509,66 @@ pub fn phi_deg(p: &UncertainPose) -> f64 {
 pub fn tangent_sigma_deg(p: &UncertainPose) -> [f64; 3] {
     let s = sigmas(&p.covariance);
     deg3(s.angles_rad)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    /// A layout whose grid row y = 0 lies on the line through both observers: those 8 points
+    /// are degenerate, blank, counted as not below the threshold and left out of the medians.
+    #[test]
+    fn degenerate_points_are_blank_and_kept_out_of_the_summary() {
+        let path =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/study/own/study.toml");
+        let text = std::fs::read_to_string(&path).unwrap();
+        let cut = text.find("[[layout]]").unwrap();
+        let layout = r#"
+[[layout]]
+name = "on_a_line"
+x_mm = [400.0, 1800.0, 8]
+y_mm = [-500.0, 500.0, 3]
+z_mm = [0.0, 0.0, 1]
+[[layout.observer]]
+position_mm = [0.0, 0.0, 0.0]
+sigma_position_mm = [1.0, 1.0, 1.0]
+sigma_angles_deg = [0.01, 0.01, 0.01]
+[[layout.observer]]
+position_mm = [2200.0, 0.0, 0.0]
+sigma_position_mm = [1.0, 1.0, 1.0]
+sigma_angles_deg = [0.01, 0.01, 0.01]
+"#;
+        let study = Study::from_toml_str(&format!("{}{layout}", &text[..cut]), &path).unwrap();
+        let options = Options {
+            samples: Some(40),
+            no_sensitivity: true,
+            ..Options::default()
+        };
+        let r = run_study(&study, &options).unwrap();
+        let l = &r.layouts[0];
+        assert_eq!(l.summary.degenerate_points, 8);
+        let finite: Vec<f64> = l
+            .result
+            .points
+            .iter()
+            .filter(|p| p.point.y != 0.0)
+            .map(|p| p.sigma_max_mm)
+            .collect();
+        assert!(
+            l.result
+                .points
+                .iter()
+                .filter(|p| p.point.y == 0.0)
+                .all(|p| p.sigma_max_mm.is_nan())
+        );
+        assert!(finite.iter().all(|s| s.is_finite()));
+        assert_eq!(l.summary.median_sigma_max_mm, crate::grids::median(&finite));
+        let below = finite
+            .iter()
+            .filter(|s| **s < l.summary.threshold_mm)
+            .count();
+        assert_eq!(l.summary.fraction_below_threshold, below as f64 / 24.0);
+        assert!(crate::grids::grid_csv(&l.result).contains("\n400,0,0,,,,\n"));
+    }
 }

@@ -150,7 +150,7 @@ fn plan_sketch(l: &LayoutResult) -> String {
         px(0.0) + 3.0
     );
     for p in &l.result.points {
-        let bad = !(p.sigma_max_mm < g.threshold_mm);
+        let bad = grids::not_below(p.sigma_max_mm, g.threshold_mm);
         let _ = write!(
             s,
             "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"2\" fill=\"{}\"/>",
@@ -227,7 +227,11 @@ fn ellipses(l: &LayoutResult) -> String {
     let sub: Vec<_> = pts
         .iter()
         .enumerate()
-        .filter(|(i, _)| (i % xs.len()) % step_x == 0 && (i / xs.len()) % step_y == 0)
+        .filter(|(i, p)| {
+            (i % xs.len()) % step_x == 0
+                && (i / xs.len()) % step_y == 0
+                && p.sigma_max_mm.is_finite()
+        })
         .map(|(_, p)| p)
         .collect();
     let mut out = String::new();
@@ -265,7 +269,7 @@ fn ellipses(l: &LayoutResult) -> String {
             let (l1, l2) = ((tr + det).max(0.0).sqrt(), (tr - det).max(0.0).sqrt());
             let ang = 0.5 * (2.0 * sab).atan2(saa - sbb);
             let (u, v) = (p.point[a], if b == 2 { p.point[1] } else { p.point[b] });
-            let bad = !(p.sigma_max_mm < g.threshold_mm);
+            let bad = grids::not_below(p.sigma_max_mm, g.threshold_mm);
             let _ = write!(
                 out,
                 "<ellipse cx=\"{:.1}\" cy=\"{:.1}\" rx=\"{:.2}\" ry=\"{:.2}\" transform=\"rotate({:.1} {:.1} {:.1})\" fill=\"none\" stroke=\"{}\"/>",
@@ -724,7 +728,7 @@ pub fn report_html(
                 "The bootstrap resampled all matches, as paper §2.3.1 describes."
             }
             _ => {
-                "The bootstrap resampled the verified inliers only (crashrig's default, `resample = \"inliers\"`); paper §2.3.1 says all matches are resampled (`resample = \"all\"`)."
+                "The bootstrap resampled the verified inliers only (crashrig's default, `resample = \"inliers\"`); paper §2.3.1 says all matches are resampled (`resample = \"matches\"`)."
             }
         };
         rep.push(Block::List(vec![

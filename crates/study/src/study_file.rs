@@ -655,12 +655,12 @@ impl Study {
                     .map(|m| (m.get_ref().as_str(), m.span()))
                 {
                     None | Some(("inliers", _)) => TieResample::Inliers,
-                    Some(("all", _)) => TieResample::AllMatches,
+                    Some(("matches", _)) => TieResample::AllMatches,
                     Some((other, span)) => {
                         return cx.err(
                             Some(span),
                             "tie.resample",
-                            format!("must be \"inliers\" or \"all\", got {other:?}"),
+                            format!("must be \"inliers\" or \"matches\", got {other:?}"),
                         );
                     }
                 };

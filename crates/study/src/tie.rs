@@ -1,58 +1,213 @@
 //! The tie link of a third camera: correspondences from a COLMAP database and model, bootstrapped.
 //!
-//! INTERIM (H11): a minimal absolute-orientation bootstrap with the STUDY_API interface so the
-//! pipeline builds and runs before H12b's module lands; at the merge this file is replaced.
+//! The pose of image B relative to image A (`A_from_B`) and its uncertainty by resampling
+//! correspondences with replacement (the paper's §2.3.1, §3.2):
+//! - [`Method::Absolute`]: B is resected from its observations of the model's 3-D points (P3P
+//!   LO-RANSAC + Levenberg–Marquardt through B's camera model); A's pose is the model's.
+//! - [`Method::Relative`]: the essential matrix from the A–B matches (5-point LO-RANSAC + LM on
+//!   the Sampson error), undistorted through each image's camera; the base length is the
+//!   distance of the model's projection centres (or [`TieConfig::base_mm`]) and is held fixed,
+//!   so the base σ comes from the direction and rotation only.
+//!
+//! Two resampling modes ([`Resample`]):
+//! - [`Resample::Inliers`] (default): each replicate resamples the full-sample RANSAC inliers and
+//!   re-runs the LM refinement warm-started from the full-sample pose. Cheap; it does not
+//!   bootstrap the inlier selection.
+//! - [`Resample::AllMatches`]: each replicate resamples **all** candidate correspondences (B's
+//!   observations of 3-D points, or every raw match of the `matches` table) and re-runs the
+//!   whole LO-RANSAC + LM, so the variability of the inlier selection is in the spread (the
+//!   paper's procedure). The RANSAC seed of a replicate is a hash of the run's seed and the
+//!   replicate's indices, so results do not depend on the thread count.
+//!
+//! Reported: the full-sample estimate (base = B's centre in A's axes, mm; ω φ κ of `R_A_from_B`,
+//! degrees), per-parameter bootstrap σ (n − 1, wrap-safe), percentile and BCa intervals (the
+//! acceleration from the leave-one-out over the inliers with the warm-started LM, in both
+//! modes), the first-order σ, and the contract's `covariance_tangent`: the
+//! covariance of the replicates in the tangent of [`crashrig_geometry::UncertainPose`] (centre
+//! in A's axes, rotation `log(R̄ᵀ·R)` about B's axes, about the replicates' mean).
+//!
+//! # Example
+//! ```no_run
+//! use crashrig_study::tie::{self, Method, Resample, TieConfig};
+//!
+//! let config = TieConfig {
+//!     database: "tie/database.db".into(),
+//!     model: "tie/sparse/0".into(),
+//!     image_a: "in/0001.png".into(),
+//!     image_b: "third/0001.png".into(),
+//!     method: Method::Absolute,
+//!     resample: Resample::AllMatches,
+//!     mm_per_unit: 1000.0,
+//!     ..TieConfig::default()
+//! };
+//! let result = tie::bootstrap(&config)?;
+//! // The link A_from_B with its 6×6 covariance (mm, rad) for the Monte Carlo chain:
+//! let link = result.link;
+//! println!("{}", result.text_report());
+//! # Ok::<(), tie::TieError>(())
+//! ```
 
-use crashrig_geometry::{Rigid3, UncertainPose, Vec3};
-use serde_json::{Value, json};
+use crate::correspondences::{MatchSet, ModelImage, TieSource};
+use crashrig_bootstrap as boot;
+use crashrig_geometry::angles::{unwrap_about, wrapped_stats};
+use crashrig_geometry::{Mat6, Rigid3, UncertainPose, Vec3};
+use crashrig_pose::{
+    Projector, RansacOptions, estimate_absolute_pose, estimate_relative_pose,
+    link_covariance_absolute, link_covariance_relative, link_parameters, normalize_pixels,
+    refine_absolute_pose, refine_relative_pose, scaled_a_from_b,
+};
+use nalgebra::Vector2;
+use serde::Serialize;
 use std::path::PathBuf;
 
-/// Method.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Confidence level of the reported intervals.
+const LEVEL: f64 = 0.95;
+/// Parameter names, in the order of `link_parameters` (also the histogram file names).
+pub const PARAMS: [&str; 6] = ["x", "y", "z", "omega", "phi", "kappa"];
+/// Axis labels of the histograms and the text report.
+const LABELS: [&str; 6] = [
+    "base x [mm]",
+    "base y [mm]",
+    "base z [mm]",
+    "omega [deg]",
+    "phi [deg]",
+    "kappa [deg]",
+];
+/// Header of [`TieResult::replicates_csv`].
+pub const REPLICATES_CSV_HEADER: &str =
+    "replicate,x_mm,y_mm,z_mm,omega_deg,phi_deg,kappa_deg,tx_deg,ty_deg,tz_deg";
+
+/// Why a tie bootstrap failed. Every message names the file or option at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum TieError {
+    /// A configuration value is out of range.
+    #[error("{message}")]
+    Option {
+        /// The option (CLI spelling, e.g. `--mm-per-unit`).
+        option: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+    /// The COLMAP model cannot be read or lacks what the tie needs.
+    #[error("{}: {message}", path.display())]
+    Model {
+        /// The model directory.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// The COLMAP database cannot be read or lacks what the tie needs.
+    #[error("{}: {message}", path.display())]
+    Database {
+        /// The database file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// The pose estimation on the full sample failed (the file holding the correspondences).
+    #[error("{}: {message}", path.display())]
+    Estimation {
+        /// The model (absolute) or database (relative) the correspondences came from.
+        path: PathBuf,
+        /// What failed.
+        message: String,
+    },
+    /// Too few replicates succeeded, or the replicate summary is undefined.
+    #[error("{message}")]
+    Replicates {
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// How B is posed relative to A.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Method {
-    /// Resection.
+    /// Resection of B from its observations of the model's 3-D points.
+    #[default]
     Absolute,
-    /// Relative orientation.
+    /// Essential matrix from the A–B matches, scale from the model.
     Relative,
 }
 
-/// What is resampled.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+impl Method {
+    /// `"absolute"` or `"relative"` (the CLI and JSON spelling).
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Absolute => "absolute",
+            Method::Relative => "relative",
+        }
+    }
+
+    /// Parses [`Method::name`].
+    pub fn from_name(s: &str) -> Option<Self> {
+        match s {
+            "absolute" => Some(Method::Absolute),
+            "relative" => Some(Method::Relative),
+            _ => None,
+        }
+    }
+}
+
+/// What each bootstrap replicate resamples (issue 12 item 5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Resample {
-    /// Inliers.
+    /// The full-sample RANSAC inliers; LM warm-started from the full-sample pose.
+    #[default]
     Inliers,
-    /// All matches.
+    /// All candidate correspondences; LO-RANSAC + LM re-run in every replicate.
     AllMatches,
 }
 
-/// Configuration.
+impl Resample {
+    /// `"inliers"` or `"matches"` (the CLI `--resample` value and the JSON `resampled` field).
+    pub fn name(self) -> &'static str {
+        match self {
+            Resample::Inliers => "inliers",
+            Resample::AllMatches => "matches",
+        }
+    }
+
+    /// Parses [`Resample::name`].
+    pub fn from_name(s: &str) -> Option<Self> {
+        match s {
+            "inliers" => Some(Resample::Inliers),
+            "matches" => Some(Resample::AllMatches),
+            _ => None,
+        }
+    }
+}
+
+/// Everything `crashrig bootstrap` takes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TieConfig {
-    /// Database.
+    /// COLMAP database with the matches.
     pub database: PathBuf,
-    /// Model.
+    /// COLMAP model directory.
     pub model: PathBuf,
-    /// Image A.
+    /// Name of image A (the reference).
     pub image_a: String,
-    /// Image B.
+    /// Name of image B (reported relative to A).
     pub image_b: String,
-    /// Method.
+    /// Absolute or relative orientation.
     pub method: Method,
-    /// Replicates.
+    /// Bootstrap replicates (≥ 2).
     pub iterations: usize,
-    /// Seed.
+    /// Seed of the resampling and of every RANSAC run.
     pub seed: u64,
-    /// Scale.
+    /// Millimetres per model unit.
     pub mm_per_unit: f64,
-    /// RANSAC threshold.
+    /// RANSAC inlier threshold, px (reprojection error, or Sampson error × focal).
     pub max_error_px: f64,
-    /// Base.
+    /// Relative method: the base length (mm) instead of the model's projection centres.
     pub base_mm: Option<f64>,
-    /// Resample.
+    /// What each replicate resamples.
     pub resample: Resample,
 }
 
 impl Default for TieConfig {
+    /// Paths and image names empty; absolute, 500 replicates, seed 1, 1 mm per unit, 4 px,
+    /// inlier resampling.
     fn default() -> Self {
         TieConfig {
             database: PathBuf::new(),
@@ -70,107 +225,777 @@ impl Default for TieConfig {
     }
 }
 
-/// Why the tie failed.
-#[derive(Debug, thiserror::Error)]
-#[error("{0}")]
-pub struct TieError(String);
+/// Resection input: B's observations of 3-D points (mm) and A's fixed pose.
+#[derive(Debug, Clone)]
+pub struct AbsoluteInput<C> {
+    /// B's camera.
+    pub camera_b: C,
+    /// B's pixels.
+    pub pixels_b: Vec<Vector2<f64>>,
+    /// The observed points, mm.
+    pub points_mm: Vec<Vec3>,
+    /// A's pose (mm), held fixed.
+    pub a_from_world: Rigid3,
+}
 
-/// Result.
+/// Relative-orientation input: matched pixels and the base length (mm).
+#[derive(Debug, Clone)]
+pub struct RelativeInput<C> {
+    /// A's camera.
+    pub camera_a: C,
+    /// B's camera.
+    pub camera_b: C,
+    /// A's pixels.
+    pub pixels_a: Vec<Vector2<f64>>,
+    /// B's pixels (same order).
+    pub pixels_b: Vec<Vector2<f64>>,
+    /// Base length, mm (held fixed).
+    pub base_mm: f64,
+}
+
+/// Full-sample estimate, replicates and first-order covariance of the link `A_from_B` (mm).
+#[derive(Debug, Clone)]
+pub struct LinkBootstrap {
+    /// Correspondences given to the full-sample RANSAC.
+    pub n_candidates: usize,
+    /// Its inliers.
+    pub n_inliers: usize,
+    /// What each replicate resampled.
+    pub resample: Resample,
+    /// The full-sample `A_from_B` (mm).
+    pub estimate: Rigid3,
+    /// The replicates' `A_from_B` (mm) and failures.
+    pub replicates: boot::Replicates<Rigid3, String>,
+    /// Leave-one-out values (empty when not asked for).
+    pub jackknife: Vec<Result<Rigid3, String>>,
+    /// First-order covariance of `[x, y, z (mm), ω, φ, κ (rad)]` from the estimator.
+    pub first_order: Mat6,
+}
+
+impl LinkBootstrap {
+    /// Number of items each replicate resampled.
+    pub fn n_resampled(&self) -> usize {
+        match self.resample {
+            Resample::Inliers => self.n_inliers,
+            Resample::AllMatches => self.n_candidates,
+        }
+    }
+}
+
+/// A RANSAC seed for one replicate that depends only on the run's seed and the replicate's
+/// resampled indices (FNV-1a then SplitMix64), so it is the same on any thread.
+fn replicate_seed(seed: u64, idx: &[usize]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325 ^ seed;
+    for &i in idx {
+        h ^= i as u64;
+        h = h.wrapping_mul(0x0000_0100_0000_01B3);
+    }
+    let mut z = h.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+fn seeded(ransac: &RansacOptions, idx: &[usize]) -> RansacOptions {
+    RansacOptions {
+        seed: replicate_seed(ransac.seed, idx),
+        ..*ransac
+    }
+}
+
+/// Resection of B, then the bootstrap of the link (`iterations` replicates, seed `seed`).
+pub fn bootstrap_absolute<C: Projector + Sync>(
+    input: &AbsoluteInput<C>,
+    iterations: usize,
+    seed: u64,
+    ransac: &RansacOptions,
+    resample: Resample,
+    with_jackknife: bool,
+) -> Result<LinkBootstrap, String> {
+    let est = estimate_absolute_pose(&input.camera_b, &input.pixels_b, &input.points_mm, ransac)
+        .map_err(|e| format!("resection of image B failed: {e}"))?;
+    let inliers = est.inliers;
+    let full = est.refinement;
+    let a_from_world = input.a_from_world;
+    let link = |b_from_world: &Rigid3| a_from_world * b_from_world.inverse();
+    let warm = |idx: &[usize]| -> Result<Rigid3, String> {
+        let sel: Vec<usize> = idx.iter().map(|&i| inliers[i]).collect();
+        refine_absolute_pose(
+            &input.camera_b,
+            &input.pixels_b,
+            &input.points_mm,
+            &sel,
+            &full.cam_from_world,
+        )
+        .map(|r| link(&r.cam_from_world))
+        .map_err(|e| e.to_string())
+    };
+    let rerun = |idx: &[usize]| -> Result<Rigid3, String> {
+        let px: Vec<Vector2<f64>> = idx.iter().map(|&i| input.pixels_b[i]).collect();
+        let pt: Vec<Vec3> = idx.iter().map(|&i| input.points_mm[i]).collect();
+        estimate_absolute_pose(&input.camera_b, &px, &pt, &seeded(ransac, idx))
+            .map(|r| link(&r.refinement.cam_from_world))
+            .map_err(|e| e.to_string())
+    };
+    let n_candidates = input.pixels_b.len();
+    // The BCa acceleration comes from the leave-one-out over the inliers with the warm-started
+    // LM in both modes (a RANSAC per left-out candidate would cost n full estimations).
+    let (replicates, jackknife) = match resample {
+        Resample::Inliers => run_both(
+            (inliers.len(), &warm),
+            (inliers.len(), &warm),
+            iterations,
+            seed,
+            with_jackknife,
+        )?,
+        Resample::AllMatches => run_both(
+            (n_candidates, &rerun),
+            (inliers.len(), &warm),
+            iterations,
+            seed,
+            with_jackknife,
+        )?,
+    };
+    Ok(LinkBootstrap {
+        n_candidates,
+        n_inliers: inliers.len(),
+        resample,
+        estimate: link(&full.cam_from_world),
+        replicates,
+        jackknife,
+        first_order: link_covariance_absolute(
+            &a_from_world,
+            &full.cam_from_world,
+            &full.covariance,
+        ),
+    })
+}
+
+/// The replicates (`stat` over `n` items) and, if asked, the jackknife of `jack` over
+/// `n_jack` items.
+#[allow(clippy::type_complexity)]
+fn run_both<F, G>(
+    (n, stat): (usize, F),
+    (n_jack, jack): (usize, G),
+    iterations: usize,
+    seed: u64,
+    with_jackknife: bool,
+) -> Result<
+    (
+        boot::Replicates<Rigid3, String>,
+        Vec<Result<Rigid3, String>>,
+    ),
+    String,
+>
+where
+    F: Fn(&[usize]) -> Result<Rigid3, String> + Sync,
+    G: Fn(&[usize]) -> Result<Rigid3, String> + Sync,
+{
+    let replicates = boot::run(n, iterations, seed, &stat).map_err(|e| e.to_string())?;
+    let jackknife = if with_jackknife {
+        boot::jackknife(n_jack, &jack).map_err(|e| e.to_string())?
+    } else {
+        Vec::new()
+    };
+    Ok((replicates, jackknife))
+}
+
+/// Relative orientation A–B, then the bootstrap of the link.
+pub fn bootstrap_relative<C: Projector + Sync>(
+    input: &RelativeInput<C>,
+    iterations: usize,
+    seed: u64,
+    ransac: &RansacOptions,
+    resample: Resample,
+    with_jackknife: bool,
+) -> Result<LinkBootstrap, String> {
+    let xa = normalize_pixels(&input.camera_a, &input.pixels_a)
+        .map_err(|e| format!("undistorting the matched keypoints of image A: {e}"))?;
+    let xb = normalize_pixels(&input.camera_b, &input.pixels_b)
+        .map_err(|e| format!("undistorting the matched keypoints of image B: {e}"))?;
+    let focal = 0.5 * (input.camera_a.focal_px() + input.camera_b.focal_px());
+    let est = estimate_relative_pose(&xa, &xb, focal, ransac)
+        .map_err(|e| format!("relative orientation A-B failed: {e}"))?;
+    let inliers = est.inliers;
+    let full = est.refinement;
+    let base = input.base_mm;
+    let link = |b_from_a: &Rigid3| scaled_a_from_b(b_from_a, base);
+    let warm = |idx: &[usize]| -> Result<Rigid3, String> {
+        let sel: Vec<usize> = idx.iter().map(|&i| inliers[i]).collect();
+        refine_relative_pose(&xa, &xb, &sel, &full.b_from_a)
+            .map(|r| link(&r.b_from_a))
+            .map_err(|e| e.to_string())
+    };
+    let rerun = |idx: &[usize]| -> Result<Rigid3, String> {
+        let sa: Vec<Vector2<f64>> = idx.iter().map(|&i| xa[i]).collect();
+        let sb: Vec<Vector2<f64>> = idx.iter().map(|&i| xb[i]).collect();
+        estimate_relative_pose(&sa, &sb, focal, &seeded(ransac, idx))
+            .map(|r| link(&r.refinement.b_from_a))
+            .map_err(|e| e.to_string())
+    };
+    let n_candidates = input.pixels_a.len();
+    // The BCa acceleration comes from the leave-one-out over the inliers with the warm-started
+    // LM in both modes (a RANSAC per left-out candidate would cost n full estimations).
+    let (replicates, jackknife) = match resample {
+        Resample::Inliers => run_both(
+            (inliers.len(), &warm),
+            (inliers.len(), &warm),
+            iterations,
+            seed,
+            with_jackknife,
+        )?,
+        Resample::AllMatches => run_both(
+            (n_candidates, &rerun),
+            (inliers.len(), &warm),
+            iterations,
+            seed,
+            with_jackknife,
+        )?,
+    };
+    Ok(LinkBootstrap {
+        n_candidates,
+        n_inliers: inliers.len(),
+        resample,
+        estimate: link(&full.b_from_a),
+        replicates,
+        jackknife,
+        first_order: link_covariance_relative(&full.b_from_a, base, &full.covariance),
+    })
+}
+
+/// Per-parameter summary in output units (mm, degrees).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamSummary {
+    /// Full-sample estimate.
+    pub estimate: f64,
+    /// Bootstrap σ (n − 1; wrap-safe for angles).
+    pub sigma: f64,
+    /// Mean of the replicates (angles unwrapped about the estimate).
+    pub mean: f64,
+    /// `mean − estimate`.
+    pub bias: f64,
+    /// 95 % percentile interval.
+    pub ci95: [f64; 2],
+    /// 95 % BCa interval (`None` when undefined or without jackknife).
+    pub ci95_bca: Option<[f64; 2]>,
+    /// First-order σ from the estimator's covariance.
+    pub first_order_sigma: f64,
+    /// Replicate values, unwrapped about the estimate for angles (for the histograms).
+    pub values: Vec<f64>,
+}
+
+/// Summaries of the six link parameters `[x, y, z, ω, φ, κ]`.
+pub fn summarize(lb: &LinkBootstrap) -> Result<Vec<ParamSummary>, TieError> {
+    let n_ok = lb.replicates.values.len();
+    if n_ok < 2 {
+        return Err(TieError::Replicates {
+            message: format!(
+                "only {n_ok} of {} bootstrap replicates succeeded; first failure: {}",
+                lb.replicates.replicates,
+                lb.replicates
+                    .failures
+                    .first()
+                    .map_or("none", |f| f.error.as_str())
+            ),
+        });
+    }
+    let rep: Vec<[f64; 6]> = lb.replicates.values_only().map(link_parameters).collect();
+    let jk_ok: Option<Vec<[f64; 6]>> = if lb.jackknife.is_empty() {
+        None
+    } else {
+        lb.jackknife
+            .iter()
+            .map(|r| r.as_ref().ok().map(link_parameters))
+            .collect()
+    };
+    let estimate = link_parameters(&lb.estimate);
+    let rerr = |e: boot::Error| TieError::Replicates {
+        message: format!("summarising the replicates: {e}"),
+    };
+    let mut out = Vec::with_capacity(6);
+    for j in 0..6 {
+        let raw: Vec<f64> = rep.iter().map(|v| v[j]).collect();
+        let angle = j >= 3;
+        let est = estimate[j];
+        // Angles: unwrap about the full-sample estimate so ω ≈ 180° stays continuous.
+        let values = if angle {
+            unwrap_about(&raw, est)
+        } else {
+            raw.clone()
+        };
+        let sigma = if angle {
+            wrapped_stats(&raw)
+                .map_err(|e| TieError::Replicates {
+                    message: format!("summarising the replicates: {e}"),
+                })?
+                .sigma
+        } else {
+            boot::sigma(&values).map_err(rerr)?
+        };
+        let mean = values.iter().sum::<f64>() / values.len() as f64;
+        let ci = boot::percentile_interval(&values, LEVEL).map_err(rerr)?;
+        let bca = jk_ok.as_ref().and_then(|jk| {
+            let jv: Vec<f64> = jk.iter().map(|v| v[j]).collect();
+            let jv = if angle { unwrap_about(&jv, est) } else { jv };
+            boot::bca_interval(&values, est, &jv, LEVEL).ok()
+        });
+        let k = if angle { 1f64.to_degrees() } else { 1.0 };
+        out.push(ParamSummary {
+            estimate: est * k,
+            sigma: sigma * k,
+            mean: mean * k,
+            bias: (mean - est) * k,
+            ci95: [ci.lo * k, ci.hi * k],
+            ci95_bca: bca.map(|c| [c.lo * k, c.hi * k]),
+            first_order_sigma: lb.first_order[(j, j)].sqrt() * k,
+            values: values.iter().map(|v| v * k).collect(),
+        });
+    }
+    Ok(out)
+}
+
+/// The result of [`bootstrap`]: typed values; [`TieResult::to_json`] and
+/// [`TieResult::text_report`] are made from them.
 #[derive(Debug, Clone)]
 pub struct TieResult {
-    /// A_from_B with the replicates' covariance.
+    /// How B was posed.
+    pub method: Method,
+    /// What each replicate resampled.
+    pub resample: Resample,
+    /// Replicates asked for.
+    pub iterations: usize,
+    /// Seed of the run.
+    pub seed: u64,
+    /// Millimetres per model unit.
+    pub mm_per_unit: f64,
+    /// Correspondences given to the full-sample RANSAC.
+    pub n_candidates: usize,
+    /// Inliers of the full-sample RANSAC.
+    pub n_inliers: usize,
+    /// Items each replicate resampled (`n_inliers` or `n_candidates`).
+    pub n_resampled: usize,
+    /// B relative to A: the full-sample `A_from_B` (mm) with the covariance of the replicates
+    /// in the contract's tangent (mm, **rad**; about the replicates' mean).
     pub link: UncertainPose,
-    /// Replicates.
+    /// The replicates' mean (Karcher rotation mean, mean centre): the origin of the tangent
+    /// residuals of [`TieResult::replicates_csv`].
+    pub replicate_mean: Rigid3,
+    /// Every successful replicate's `A_from_B` (mm), in replicate order.
     pub replicates: Vec<Rigid3>,
+    /// The replicate index of each entry of `replicates`.
+    pub replicate_index: Vec<usize>,
+    /// Failed replicates: (replicate index, error).
+    pub failures: Vec<(usize, String)>,
+    /// Summaries of x, y, z (mm), ω, φ, κ (deg).
+    pub params: Vec<ParamSummary>,
+}
+
+#[derive(Debug, Serialize)]
+struct Ci {
+    base_mm: [[f64; 2]; 3],
+    angles_deg: [[f64; 2]; 3],
+}
+
+#[derive(Debug, Serialize)]
+struct FirstOrder {
+    base_sigma_mm: [f64; 3],
+    angles_sigma_deg: [f64; 3],
+}
+
+#[derive(Debug, Serialize)]
+struct Means {
+    base_mm: [f64; 3],
+    angles_deg: [f64; 3],
+}
+
+#[derive(Debug, Serialize)]
+struct FailureJson<'a> {
+    replicate: usize,
+    error: &'a str,
+}
+
+#[derive(Debug, Serialize)]
+struct Output<'a> {
+    method: &'static str,
     iterations: usize,
-    n: usize,
+    n_correspondences: usize,
+    failed_iterations: usize,
+    base_mm: [f64; 3],
+    base_sigma_mm: [f64; 3],
+    angles_deg: [f64; 3],
+    angles_sigma_deg: [f64; 3],
+    ci95: Ci,
+    // Extensions.
+    seed: u64,
+    mm_per_unit: f64,
+    n_candidates: usize,
+    ci95_bca: Option<Ci>,
+    first_order: FirstOrder,
+    bootstrap_mean: Means,
+    bootstrap_bias: Means,
+    failures: Vec<FailureJson<'a>>,
+    resampled: &'static str,
+    n_resampled: usize,
+    covariance_tangent: [[f64; 6]; 6],
 }
 
 impl TieResult {
-    /// JSON.
-    pub fn to_json(&self) -> Value {
-        json!({
-            "method": "absolute",
-            "iterations": self.iterations,
-            "n_correspondences": self.n,
-            "base_mm": <[f64; 3]>::from(self.link.b_from_a.translation.vector),
-            "covariance_tangent": crate::pipeline::covariance_deg_rows(&self.link.covariance),
+    /// Builds the result from a finished bootstrap.
+    pub fn from_bootstrap(
+        config: &TieConfig,
+        lb: &LinkBootstrap,
+        params: Vec<ParamSummary>,
+    ) -> Result<Self, TieError> {
+        let replicates: Vec<Rigid3> = lb.replicates.values_only().copied().collect();
+        let spread =
+            UncertainPose::from_samples(&replicates).map_err(|e| TieError::Replicates {
+                message: format!("covariance of the replicates: {e}"),
+            })?;
+        let link = UncertainPose::new(lb.estimate, spread.covariance).map_err(|e| {
+            TieError::Replicates {
+                message: format!("covariance of the replicates: {e}"),
+            }
+        })?;
+        Ok(TieResult {
+            method: config.method,
+            resample: lb.resample,
+            iterations: config.iterations,
+            seed: config.seed,
+            mm_per_unit: config.mm_per_unit,
+            n_candidates: lb.n_candidates,
+            n_inliers: lb.n_inliers,
+            n_resampled: lb.n_resampled(),
+            link,
+            replicate_mean: spread.b_from_a,
+            replicates,
+            replicate_index: lb.replicates.values.iter().map(|(i, _)| *i).collect(),
+            failures: lb
+                .replicates
+                .failures
+                .iter()
+                .map(|f| (f.replicate, f.error.clone()))
+                .collect(),
+            params,
         })
+    }
+
+    /// The `covariance_tangent` of the contract: mm², mm·deg, deg².
+    pub fn covariance_tangent_deg(&self) -> Mat6 {
+        self.link.covariance_deg()
+    }
+
+    /// Warnings for stderr (failed replicates).
+    pub fn warnings(&self) -> Vec<String> {
+        match self.failures.first() {
+            None => Vec::new(),
+            Some((r, e)) => vec![format!(
+                "{} of {} bootstrap replicates failed (first: replicate {r}: {e})",
+                self.failures.len(),
+                self.iterations
+            )],
+        }
+    }
+
+    fn output(&self) -> Output<'_> {
+        let s = &self.params;
+        let pick = |f: &dyn Fn(&ParamSummary) -> f64, off: usize| -> [f64; 3] {
+            [f(&s[off]), f(&s[off + 1]), f(&s[off + 2])]
+        };
+        let ci = |off: usize| [s[off].ci95, s[off + 1].ci95, s[off + 2].ci95];
+        let bca = |off: usize| -> Option<[[f64; 2]; 3]> {
+            Some([s[off].ci95_bca?, s[off + 1].ci95_bca?, s[off + 2].ci95_bca?])
+        };
+        let c = self.covariance_tangent_deg();
+        Output {
+            method: self.method.name(),
+            iterations: self.iterations,
+            n_correspondences: self.n_inliers,
+            failed_iterations: self.failures.len(),
+            base_mm: pick(&|p| p.estimate, 0),
+            base_sigma_mm: pick(&|p| p.sigma, 0),
+            angles_deg: pick(&|p| p.estimate, 3),
+            angles_sigma_deg: pick(&|p| p.sigma, 3),
+            ci95: Ci {
+                base_mm: ci(0),
+                angles_deg: ci(3),
+            },
+            seed: self.seed,
+            mm_per_unit: self.mm_per_unit,
+            n_candidates: self.n_candidates,
+            ci95_bca: bca(0).zip(bca(3)).map(|(b, g)| Ci {
+                base_mm: b,
+                angles_deg: g,
+            }),
+            first_order: FirstOrder {
+                base_sigma_mm: pick(&|p| p.first_order_sigma, 0),
+                angles_sigma_deg: pick(&|p| p.first_order_sigma, 3),
+            },
+            bootstrap_mean: Means {
+                base_mm: pick(&|p| p.mean, 0),
+                angles_deg: pick(&|p| p.mean, 3),
+            },
+            bootstrap_bias: Means {
+                base_mm: pick(&|p| p.bias, 0),
+                angles_deg: pick(&|p| p.bias, 3),
+            },
+            failures: self
+                .failures
+                .iter()
+                .map(|(r, e)| FailureJson {
+                    replicate: *r,
+                    error: e,
+                })
+                .collect(),
+            resampled: self.resample.name(),
+            n_resampled: self.n_resampled,
+            covariance_tangent: std::array::from_fn(|i| std::array::from_fn(|j| c[(i, j)])),
+        }
+    }
+
+    /// Exactly what `crashrig bootstrap --json` prints.
+    pub fn to_json(&self) -> serde_json::Value {
+        // Serialising plain numbers, strings and arrays cannot fail; non-finite numbers
+        // become null.
+        serde_json::to_value(self.output()).unwrap_or(serde_json::Value::Null)
+    }
+
+    /// What `crashrig bootstrap` prints without `--json`.
+    pub fn text_report(&self) -> String {
+        use std::fmt::Write;
+        let mut t = String::new();
+        let resampled = match self.resample {
+            Resample::Inliers => format!(
+                "resampled: the {} RANSAC inliers (LM warm-started per replicate; the inlier \
+                 selection is not bootstrapped)",
+                self.n_inliers
+            ),
+            Resample::AllMatches => format!(
+                "resampled: all {} candidate correspondences (LO-RANSAC + LM re-run per replicate)",
+                self.n_candidates
+            ),
+        };
+        let _ = writeln!(
+            t,
+            "B relative to A ({}), {} correspondences ({} candidates), {} replicates, {} failed, seed {}",
+            self.method.name(),
+            self.n_inliers,
+            self.n_candidates,
+            self.iterations,
+            self.failures.len(),
+            self.seed
+        );
+        let _ = writeln!(t, "{resampled}");
+        let _ = writeln!(
+            t,
+            "{:<14} {:>14} {:>12} {:>12} {:>26}",
+            "parameter", "estimate", "σ bootstrap", "σ 1st order", "95 % percentile interval"
+        );
+        for (j, p) in self.params.iter().enumerate() {
+            let _ = writeln!(
+                t,
+                "{:<14} {:>14.4} {:>12.5} {:>12.5}   [{:.4}, {:.4}]",
+                LABELS[j], p.estimate, p.sigma, p.first_order_sigma, p.ci95[0], p.ci95[1]
+            );
+        }
+        let sp = self.link.sigma_position();
+        let sr = self.link.sigma_rotation().map(f64::to_degrees);
+        let _ = writeln!(
+            t,
+            "tangent σ (covariance_tangent): centre {:.5} {:.5} {:.5} mm, rotation about B's axes {:.5} {:.5} {:.5}°",
+            sp.x, sp.y, sp.z, sr.x, sr.y, sr.z
+        );
+        t
+    }
+
+    /// Every successful replicate as CSV with the header [`REPLICATES_CSV_HEADER`]: the
+    /// replicate index, the base (mm) and ω φ κ (deg) of its `A_from_B`, and its rotation
+    /// tangent `log(R̄ᵀ·R)` about B's axes (deg) relative to the replicates' mean
+    /// ([`TieResult::replicate_mean`]). The sample covariance (n − 1) of the columns
+    /// `x_mm, y_mm, z_mm, tx_deg, ty_deg, tz_deg` is `covariance_tangent`.
+    pub fn replicates_csv(&self) -> String {
+        use std::fmt::Write;
+        let mut t = String::with_capacity(128 * (self.replicates.len() + 1));
+        t.push_str(REPLICATES_CSV_HEADER);
+        t.push('\n');
+        let mean = UncertainPose::certain(self.replicate_mean);
+        for (r, p) in self.replicate_index.iter().zip(&self.replicates) {
+            let q = link_parameters(p);
+            let tan = mean.tangent_of(p);
+            let d = f64::to_degrees;
+            let _ = writeln!(
+                t,
+                "{r},{},{},{},{},{},{},{},{},{}",
+                q[0],
+                q[1],
+                q[2],
+                d(q[3]),
+                d(q[4]),
+                d(q[5]),
+                d(tan[3]),
+                d(tan[4]),
+                d(tan[5])
+            );
+        }
+        t
+    }
+
+    /// The histograms of the six parameters (Figures 8–9): `(file name, bytes)` for
+    /// `bootstrap_{x,y,z,omega,phi,kappa}.{png,svg}`.
+    pub fn plots(&self) -> Result<Vec<(String, Vec<u8>)>, TieError> {
+        use crashrig_plot::{Format, histogram};
+        let mut out = Vec::with_capacity(12);
+        for (j, p) in self.params.iter().enumerate() {
+            for (fmt, ext) in [(Format::Png, "png"), (Format::Svg, "svg")] {
+                let bytes = histogram(
+                    &p.values,
+                    &[p.mean - p.sigma, p.mean + p.sigma],
+                    &format!(
+                        "{} over {} replicates (lines: mean ± σ)",
+                        LABELS[j],
+                        p.values.len()
+                    ),
+                    LABELS[j],
+                    fmt,
+                )
+                .map_err(|e| TieError::Replicates {
+                    message: format!("plotting the {} histogram: {e}", PARAMS[j]),
+                })?;
+                out.push((format!("bootstrap_{}.{ext}", PARAMS[j]), bytes));
+            }
+        }
+        Ok(out)
     }
 }
 
-/// Bootstraps.
-///
-/// # Errors
-/// Any failure, naming the file.
-pub fn bootstrap(c: &TieConfig) -> Result<TieResult, TieError> {
-    use rand::RngExt;
-    let m = |x: &dyn std::fmt::Display| TieError(format!("{}: {x}", c.model.display()));
-    let model =
-        crashrig_colmap::Reconstruction::read(&c.model).map_err(|x| TieError(x.to_string()))?;
-    let get = |name: &str| -> Result<_, TieError> {
-        let img = model
-            .image_by_name(name)
-            .ok_or_else(|| m(&format!("image {name:?} is not in the model")))?;
-        let pose = model
-            .image_cam_from_world(img.image_id)
-            .ok_or_else(|| m(&format!("image {name:?} has no pose")))?;
-        let cam = model
-            .camera(img.camera_id)
-            .ok_or_else(|| m(&"camera missing"))?
-            .camera
-            .clone();
-        Ok((
-            img,
-            cam,
-            Rigid3::from_parts(
-                (pose.translation.vector * c.mm_per_unit).into(),
-                pose.rotation,
+fn check_config(c: &TieConfig) -> Result<(), TieError> {
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    if !positive(c.mm_per_unit) {
+        return Err(TieError::Option {
+            option: "--mm-per-unit",
+            message: format!(
+                "--mm-per-unit must be a positive number, got {}",
+                c.mm_per_unit
             ),
-        ))
-    };
-    let (_, _, a_from_world) = get(&c.image_a)?;
-    let (img_b, cam_b, _) = get(&c.image_b)?;
-    let mut px = Vec::new();
-    let mut pts = Vec::new();
-    for p in &img_b.points2d {
-        if let Some(q) = p.point3d_id.and_then(|id| model.point3d(id)) {
-            px.push(nalgebra::Vector2::new(p.xy[0], p.xy[1]));
-            pts.push(Vec3::new(q.xyz[0], q.xyz[1], q.xyz[2]) * c.mm_per_unit);
-        }
+        });
     }
-    let mut opts = crashrig_pose::RansacOptions::new(c.seed);
-    opts.max_error_px = c.max_error_px;
-    let full =
-        crashrig_pose::estimate_absolute_pose(&cam_b, &px, &pts, &opts).map_err(|x| m(&x))?;
-    let link_of = |b_from_world: &Rigid3| a_from_world * b_from_world.inverse();
-    let nominal = link_of(&full.refinement.cam_from_world);
-    let inl = full.inliers.clone();
-    let mut reps = Vec::new();
-    for k in 0..c.iterations {
-        let mut rng = crashrig_stats::stream(c.seed, k as u64);
-        let idx: Vec<usize> = (0..inl.len())
-            .map(|_| inl[rng.random_range(0..inl.len())])
-            .collect();
-        if let Ok(r) = crashrig_pose::refine_absolute_pose(
-            &cam_b,
-            &px,
-            &pts,
-            &idx,
-            &full.refinement.cam_from_world,
-        ) {
-            reps.push(link_of(&r.cam_from_world));
-        }
+    if c.iterations < 2 {
+        return Err(TieError::Option {
+            option: "--iterations",
+            message: format!("--iterations must be at least 2, got {}", c.iterations),
+        });
     }
-    let spread = UncertainPose::from_samples(&reps).map_err(|x| m(&x))?;
-    let link = UncertainPose {
-        b_from_a: nominal,
-        covariance: spread.covariance,
+    if !positive(c.max_error_px) {
+        return Err(TieError::Option {
+            option: "--max-error-px",
+            message: format!(
+                "--max-error-px must be a positive number, got {}",
+                c.max_error_px
+            ),
+        });
+    }
+    if let Some(b) = c.base_mm
+        && !positive(b)
+    {
+        return Err(TieError::Option {
+            option: "--base-mm",
+            message: format!("--base-mm must be a positive number, got {b}"),
+        });
+    }
+    Ok(())
+}
+
+/// The tie bootstrap as `crashrig bootstrap` runs it: reads the model and database, extracts
+/// the correspondences, estimates B relative to A on the full sample, bootstraps
+/// `config.iterations` replicates (with the jackknife for BCa) and summarises.
+pub fn bootstrap(config: &TieConfig) -> Result<TieResult, TieError> {
+    check_config(config)?;
+    let src = TieSource::open(
+        &config.model,
+        &config.database,
+        &config.image_a,
+        &config.image_b,
+        config.mm_per_unit,
+    )?;
+    let mut ransac = RansacOptions::new(config.seed);
+    ransac.max_error_px = config.max_error_px;
+    let lb = match config.method {
+        Method::Absolute => {
+            let c = src.absolute(config.mm_per_unit)?;
+            let input = AbsoluteInput {
+                camera_b: c.b.camera.clone(),
+                pixels_b: c.pixels_b,
+                points_mm: c.points_mm,
+                a_from_world: c.a.cam_from_world,
+            };
+            bootstrap_absolute(
+                &input,
+                config.iterations,
+                config.seed,
+                &ransac,
+                config.resample,
+                true,
+            )
+            .map_err(|message| TieError::Estimation {
+                path: config.model.clone(),
+                message: format!(
+                    "image {:?} ({} observations of 3-D points): {message}",
+                    config.image_b,
+                    input.pixels_b.len()
+                ),
+            })?
+        }
+        Method::Relative => {
+            let set = match config.resample {
+                Resample::Inliers => MatchSet::Verified,
+                Resample::AllMatches => MatchSet::Raw,
+            };
+            let m = src.matches(set)?;
+            let base_mm = match config.base_mm {
+                Some(b) => b,
+                None => {
+                    let d = m.model_base_mm;
+                    if d.is_nan() || d <= 0.0 {
+                        return Err(TieError::Model {
+                            path: config.model.clone(),
+                            message: format!(
+                                "images {:?} and {:?} have the same projection centre; give --base-mm",
+                                config.image_a, config.image_b
+                            ),
+                        });
+                    }
+                    d
+                }
+            };
+            let what = match set {
+                MatchSet::Verified => "verified matches",
+                MatchSet::Raw => "candidate matches",
+            };
+            let n = m.pixels_a.len();
+            let ModelImage { camera: cam_a, .. } = m.a;
+            let input = RelativeInput {
+                camera_a: cam_a,
+                camera_b: m.b.camera,
+                pixels_a: m.pixels_a,
+                pixels_b: m.pixels_b,
+                base_mm,
+            };
+            bootstrap_relative(
+                &input,
+                config.iterations,
+                config.seed,
+                &ransac,
+                config.resample,
+                true,
+            )
+            .map_err(|message| TieError::Estimation {
+                path: config.database.clone(),
+                message: format!(
+                    "{n} {what} {:?}-{:?}: {message}",
+                    config.image_a, config.image_b
+                ),
+            })?
+        }
     };
-    Ok(TieResult {
-        link,
-        replicates: reps,
-        iterations: c.iterations,
-        n: inl.len(),
-    })
+    let params = summarize(&lb)?;
+    TieResult::from_bootstrap(config, &lb, params)
 }

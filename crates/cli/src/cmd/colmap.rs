@@ -1,4 +1,4 @@
-//! `crashrig colmap info|convert`.
+//! `crashrig colmap info|convert|points`.
 
 use crate::Global;
 use anyhow::Context;
@@ -34,6 +34,24 @@ pub enum ColmapCommand {
         #[arg(long, value_parser = ["bin", "txt"])]
         to: String,
     },
+    /// The 3-D points an image observes near a pixel (nearest first), or one point by id:
+    /// how to find the point3D ids of scale-bar targets for `calibrate --scale-points`.
+    Points {
+        /// A sparse model directory.
+        model: PathBuf,
+        /// The image (its name in the model, e.g. `cam_out/000001.png`).
+        #[arg(long, requires = "near", conflicts_with = "point")]
+        image: Option<String>,
+        /// The pixel (x y, COLMAP convention: upper-left corner of the image at 0 0).
+        #[arg(long, num_args = 2, value_names = ["X", "Y"], requires = "image")]
+        near: Option<Vec<f64>>,
+        /// Search radius around the pixel (px).
+        #[arg(long, default_value_t = 10.0)]
+        radius: f64,
+        /// Instead: one point3D id (its position and track).
+        #[arg(long)]
+        point: Option<u64>,
+    },
 }
 
 /// Runs a COLMAP subcommand.
@@ -47,7 +65,85 @@ pub fn run(cmd: ColmapCommand, g: &Global) -> anyhow::Result<()> {
             }
         }
         ColmapCommand::Convert { input, output, to } => convert(&input, &output, &to, g),
+        ColmapCommand::Points {
+            model,
+            image,
+            near,
+            radius,
+            point,
+        } => points(&model, image.as_deref(), near.as_deref(), radius, point, g),
     }
+}
+
+/// `colmap points`: one JSON object per point, or a table.
+fn points(
+    dir: &Path,
+    image: Option<&str>,
+    near: Option<&[f64]>,
+    radius: f64,
+    point: Option<u64>,
+    g: &Global,
+) -> anyhow::Result<()> {
+    let model = Reconstruction::read(dir)?;
+    let rows: Vec<serde_json::Value> = match (image, near, point) {
+        (_, _, Some(id)) => {
+            let p = model
+                .point3d(id)
+                .with_context(|| format!("{}: no point3D with id {id}", dir.display()))?;
+            let track: Vec<serde_json::Value> = p
+                .track
+                .iter()
+                .filter_map(|t| {
+                    let img = model.images().iter().find(|i| i.image_id == t.image_id)?;
+                    let xy = img.points2d.get(t.point2d_idx as usize)?.xy;
+                    Some(serde_json::json!({"image": img.name, "pixel": xy}))
+                })
+                .collect();
+            vec![
+                serde_json::json!({"point3D_id": id, "xyz": p.xyz, "track_length": p.track.len(),
+                "error_px": p.error, "track": track}),
+            ]
+        }
+        (Some(name), Some(xy), None) => {
+            anyhow::ensure!(
+                radius.is_finite() && radius > 0.0,
+                "--radius must be a positive number of pixels, got {radius}"
+            );
+            crashrig_colmap::lookup::points_near(&model, name, [xy[0], xy[1]], radius)
+                .with_context(|| format!("{}: image {name:?} is not in the model", dir.display()))?
+                .into_iter()
+                .map(|p| {
+                    serde_json::json!({"point3D_id": p.point3d_id, "xyz": p.xyz, "pixel": p.pixel,
+                        "distance_px": p.distance_px, "track_length": p.track_length, "error_px": p.error_px})
+                })
+                .collect()
+        }
+        _ => anyhow::bail!("give --image NAME --near X Y, or --point ID (see --help)"),
+    };
+    if g.json {
+        return crate::output::print_json(&rows);
+    }
+    println!(
+        "{:>10} {:>12} {:>12} {:>12} {:>9} {:>9} {:>6}",
+        "point3D_id", "x", "y", "z", "u", "v", "track"
+    );
+    for r in &rows {
+        let f = |v: &serde_json::Value, i: usize| v[i].as_f64().unwrap_or(f64::NAN);
+        println!(
+            "{:>10} {:>12.4} {:>12.4} {:>12.4} {:>9.1} {:>9.1} {:>6}",
+            r["point3D_id"],
+            f(&r["xyz"], 0),
+            f(&r["xyz"], 1),
+            f(&r["xyz"], 2),
+            f(&r["pixel"], 0),
+            f(&r["pixel"], 1),
+            r["track_length"]
+        );
+    }
+    if rows.is_empty() {
+        eprintln!("no 3-D point observed within {radius} px (try a larger --radius)");
+    }
+    Ok(())
 }
 
 fn model_info(dir: &Path, g: &Global) -> anyhow::Result<()> {
@@ -168,6 +264,11 @@ fn convert(input: &Path, output: &Path, to: &str, g: &Global) -> anyhow::Result<
         );
     }
     let model = Reconstruction::read(input)?;
+    if format == ModelFormat::Text
+        && let Some(w) = model.text_format_warning()
+    {
+        eprintln!("warning: {w}");
+    }
     // The model is written into a staging directory beside OUT and swapped in as a whole:
     // an interrupted convert leaves the old OUT untouched, and no file of an older model
     // (of either format) survives beside the new one.

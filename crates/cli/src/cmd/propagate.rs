@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 /// Arguments of `crashrig propagate`.
 #[derive(Debug, clap::Args)]
 pub struct PropagateArgs {
-    /// Scenario file (TOML, see docs/CONVENTIONS.md and shared/interface.md).
+    /// Scenario file (TOML, every key in docs/SCENARIO.md).
     pub scenario: PathBuf,
     /// Monte Carlo draws (overrides the scenario's `samples`).
     #[arg(long)]

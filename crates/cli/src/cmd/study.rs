@@ -75,6 +75,19 @@ pub fn summary_line(out: &Path, results: &serde_json::Value) -> String {
     )
 }
 
+/// Top-level entries of OUT that `study` writes (directories end with `/`).
+fn replaceable(name: &str) -> bool {
+    matches!(
+        name,
+        "results.json"
+            | "report.html"
+            | "calibration/"
+            | "tie/"
+            | "grid/"
+            | "report-screenshot.png"
+    ) || name.starts_with(".tmp")
+}
+
 /// Reads the study, runs it and writes every output below `out`; returns `results.json`.
 pub fn execute(
     study_path: &Path,
@@ -85,6 +98,18 @@ pub fn execute(
     command: &str,
 ) -> anyhow::Result<serde_json::Value> {
     let study = Study::from_path(study_path)?;
+    // A study file inside OUT (`paper`'s `DIR/inputs/study.toml`) keeps OUT in place: its
+    // inputs live there. Otherwise OUT is staged (checked before any work: files `study` does
+    // not write are refused).
+    let inside = match (study_path.canonicalize(), out.canonicalize()) {
+        (Ok(s), Ok(o)) => s.starts_with(o),
+        _ => false,
+    };
+    let staged = if inside {
+        None
+    } else {
+        Some(crashrig_outdir::Staged::new(out, replaceable)?)
+    };
     let bar = crate::progress::Bar::new("crashrig study");
     let report = |stage: &str, done: u64, total: u64| bar.set(stage, done, total);
     let options = Options {
@@ -100,6 +125,14 @@ pub fn execute(
         command: command.to_string(),
         out_dir: out.display().to_string(),
     };
-    crashrig_study::report::write_outputs(out, &study, &result, &prov)?;
+    match staged {
+        // Written into a staging directory that replaces OUT as a whole: a failed or
+        // interrupted run leaves the old result, never a mix.
+        Some(staged) => {
+            crashrig_study::report::write_outputs(staged.dir(), &study, &result, &prov)?;
+            staged.commit()?;
+        }
+        None => crashrig_study::report::write_outputs(out, &study, &result, &prov)?,
+    }
     Ok(result.to_json())
 }

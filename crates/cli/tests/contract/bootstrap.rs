@@ -54,6 +54,60 @@ fn check_shape(v: &Value, method: &str, iterations: u64) {
     let ci = field(v, "ci95");
     intervals3(ci, "base_mm");
     intervals3(ci, "angles_deg");
+    // Extensions: which items were resampled, and the 6×6 tangent covariance (symmetric,
+    // non-negative diagonal).
+    assert!(["inliers", "matches"].contains(&string(v, "resampled")));
+    assert!(uint(v, "n_resampled") > 0);
+    let c = field(v, "covariance_tangent");
+    let c: Vec<Vec<f64>> = (0..6)
+        .map(|i| {
+            (0..6)
+                .map(|j| c[i][j].as_f64().expect("a number"))
+                .collect()
+        })
+        .collect();
+    for i in 0..6 {
+        assert!(c[i][i] >= 0.0);
+        for j in 0..6 {
+            assert!((c[i][j] - c[j][i]).abs() <= 1e-12 * (c[i][i] * c[j][j]).sqrt());
+        }
+    }
+}
+
+#[test]
+fn bootstrap_resample_matches_and_replicates_csv() {
+    // The relative method on all 262 raw matches (12 gross mismatches): each replicate re-runs
+    // LO-RANSAC; every replicate is written to the CSV.
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let csv = tmp.path().join("replicates.csv");
+    let mut a = args("relative", 6, 3, None);
+    a.extend([
+        "--resample".into(),
+        "matches".into(),
+        "--replicates".into(),
+        csv.display().to_string(),
+    ]);
+    let v = json_of(&run(a));
+    check_shape(&v, "relative", 6);
+    assert_eq!(string(&v, "resampled"), "matches");
+    assert_eq!(uint(&v, "n_candidates"), 262);
+    assert_eq!(uint(&v, "n_resampled"), 262);
+    let text = std::fs::read_to_string(&csv).expect("replicates written");
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some("replicate,x_mm,y_mm,z_mm,omega_deg,phi_deg,kappa_deg,tx_deg,ty_deg,tz_deg")
+    );
+    let rows: Vec<&str> = lines.collect();
+    assert_eq!(rows.len() as u64, 6 - uint(&v, "failed_iterations"));
+    assert!(rows.iter().all(|r| r.split(',').count() == 10));
+    // The default is inlier resampling, and the text report says which was used.
+    let v = json_of(&run(args("absolute", 4, 3, None)));
+    assert_eq!(string(&v, "resampled"), "inliers");
+    let mut a = args("absolute", 4, 3, None);
+    a.retain(|s| s != "--json");
+    let r = run(a);
+    assert!(r.stdout.contains("resampled: the "), "{}", r.stdout);
 }
 
 #[test]

@@ -1,10 +1,11 @@
 //! `crashrig calibrate`: JSON shape and the numpy statistics of `fixtures/rig/*/expected.json`.
 
 use crate::common::{
-    angle_diff_deg, arr3, boolean, field, fixture, json_of, matrix, num, read_json, run, string,
-    uint,
+    angle_diff_deg, arr3, assert_clean_error, boolean, field, fixture, json_of, matrix, num,
+    read_json, run, string, uint,
 };
 use approx::{assert_abs_diff_eq, assert_relative_eq};
+use crashrig_geometry::{Rot3, Vec3, opk::rotation_from_opk, so3};
 use serde_json::Value;
 
 /// Runs `calibrate --json` on `fixtures/rig/<name>` with extra arguments; checks every field
@@ -35,6 +36,9 @@ fn calibrate(name: &str, extra: &[&str]) -> Value {
     }
     num(&v, "mm_per_unit");
     matrix(&v, "covariance", 6);
+    matrix(&v, "covariance_tangent", 6);
+    matrix(&v, "sem_covariance_tangent", 6);
+    string(&v, "sem_rule");
     let epochs = field(&v, "epochs").as_array().expect("epochs is an array");
     assert_eq!(epochs.len() as u64, n, "one entry per epoch");
     for e in epochs {
@@ -182,12 +186,10 @@ fn calibrate_mm_per_unit_equals_scale_bar() {
     assert_stats(&v, field(&e, "stats"));
 }
 
-#[test]
-fn calibrate_camera_ids_and_shared_frames() {
-    // Images `left_*`/`right_*` do not pair by name; epochs come from shared frames, and A/B
-    // are given as camera ids. Every epoch has exactly the nominal link (expected.json).
+/// `calibrate --json` on the rig-constrained `shared_frame` model with camera ids 1 and 2.
+fn shared_frame(extra: &[&str]) -> crate::common::Run {
     let dir = fixture("rig/shared_frame");
-    let args = [
+    let mut args = vec![
         "calibrate".to_string(),
         dir.display().to_string(),
         "--camera-a".into(),
@@ -196,16 +198,107 @@ fn calibrate_camera_ids_and_shared_frames() {
         "2".into(),
         "--json".into(),
     ];
-    let v = json_of(&run(&args));
+    args.extend(extra.iter().map(|s| s.to_string()));
+    run(&args)
+}
+
+#[test]
+fn calibrate_rig_constrained_model_is_refused() {
+    // Every epoch of `shared_frame` has exactly the nominal link (a bundle adjusted with a rig
+    // constraint): one error line that names the model, says why and what to do (issue 12).
+    let r = shared_frame(&[]);
+    assert_clean_error(
+        &r,
+        &[
+            "shared_frame",
+            "rig constraint",
+            "without rig constraints",
+            "--accept-rig-constrained",
+        ],
+    );
+}
+
+#[test]
+fn calibrate_camera_ids_and_shared_frames() {
+    // Images `left_*`/`right_*` do not pair by name; epochs come from shared frames, and A/B
+    // are given as camera ids. Every epoch has exactly the nominal link (expected.json);
+    // accepted for inspection only with the flag, and then marked so.
+    let dir = fixture("rig/shared_frame");
+    let r = shared_frame(&["--accept-rig-constrained"]);
+    assert!(r.stderr.contains("rig-constrained"), "{}", r.stderr);
+    let v = json_of(&r);
     let e = read_json(&dir.join("expected.json"));
     assert_eq!(uint(&v, "n_epochs"), uint(&e, "n_epochs"));
+    assert!(boolean(&v, "rig_constrained"));
+    assert_eq!(string(&v, "sem_rule"), "covariance_over_n");
+    assert!(field(&v, "autocorrelation").is_null());
     // 1e-6 mm / deg: the generator checked the links to < 1e-9 after the model round trip.
     let (b, be) = (arr3(&v, "base_mm"), arr3(&e, "base_mm"));
     let (a, ae) = (arr3(&v, "angles_deg"), arr3(&e, "angles_deg"));
     for i in 0..3 {
         assert_abs_diff_eq!(b[i], be[i], epsilon = 1e-6);
         assert_abs_diff_eq!(angle_diff_deg(a[i], ae[i]), 0.0, epsilon = 1e-6);
-        assert_abs_diff_eq!(arr3(&v, "base_sigma_mm")[i], 0.0, epsilon = 1e-6);
+    }
+}
+
+fn rotation_deg(a: [f64; 3]) -> Rot3 {
+    rotation_from_opk(a[0].to_radians(), a[1].to_radians(), a[2].to_radians())
+}
+
+#[test]
+fn calibrate_covariance_tangent_recomputed_from_epochs() {
+    // Issue 10: `covariance_tangent` equals the covariance (n − 1) recomputed from the printed
+    // per-epoch base and ω φ κ: residuals (base − link base, log(R̄ᵀ·R) in deg about B's axes)
+    // about the printed mean link `link`.
+    let v = calibrate(
+        "paper",
+        &["--scale-points", "1", "2", "--scale-length-mm", "2000"],
+    );
+    let link = field(&v, "link");
+    let c_bar = Vec3::from(arr3(link, "base_mm"));
+    let r_bar = rotation_deg(arr3(link, "angles_deg"));
+    let epochs = field(&v, "epochs").as_array().expect("array");
+    let n = epochs.len() as f64;
+    let res: Vec<[f64; 6]> = epochs
+        .iter()
+        .map(|e| {
+            let dc = Vec3::from(arr3(e, "base_mm")) - c_bar;
+            let r = rotation_deg(arr3(e, "angles_deg"));
+            let dr = so3::log(&(r_bar.inverse() * r)).map(f64::to_degrees);
+            [dc.x, dc.y, dc.z, dr.x, dr.y, dr.z]
+        })
+        .collect();
+    let mean: [f64; 6] = std::array::from_fn(|j| res.iter().map(|r| r[j]).sum::<f64>() / n);
+    let got = matrix(&v, "covariance_tangent", 6);
+    let sem = matrix(&v, "sem_covariance_tangent", 6);
+    for i in 0..6 {
+        for j in 0..6 {
+            let want = res
+                .iter()
+                .map(|r| (r[i] - mean[i]) * (r[j] - mean[j]))
+                .sum::<f64>()
+                / (n - 1.0);
+            // The per-epoch values pass through ω φ κ (1e-13 deg of rounding): 1e-9 relative
+            // to the scale of the entry.
+            let scale = (got[i][i] * got[j][j]).sqrt();
+            assert_abs_diff_eq!(got[i][j], want, epsilon = 1e-9 * scale);
+        }
+    }
+    // The mean of the residuals about the mean link is zero (it is their mean): 1e-9 σ.
+    for j in 0..6 {
+        assert_abs_diff_eq!(mean[j], 0.0, epsilon = 1e-9 * got[j][j].sqrt());
+    }
+    // The bundled sequence is white noise: no axis is autocorrelated, so the uncertainty of
+    // the mean is covariance_tangent / n (1e-12 relative: one division).
+    assert_eq!(string(&v, "sem_rule"), "covariance_over_n");
+    for i in 0..6 {
+        for j in 0..6 {
+            assert_abs_diff_eq!(
+                sem[i][j],
+                got[i][j] / n,
+                epsilon = 1e-12 * (got[i][i] * got[j][j]).sqrt() / n
+            );
+        }
     }
 }
 

@@ -169,6 +169,39 @@ fn convert(input: &Path, output: &Path, to: &str) {
 const FIVE: [&str; 5] = ["cameras", "images", "points3D", "rigs", "frames"];
 
 #[test]
+fn colmap_convert_txt_warns_about_names_with_whitespace() {
+    // Issue 12 item 6: COLMAP's text format cannot hold "image with spaces.png".
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let args = |src: &Path, out: &Path| {
+        [
+            "colmap".into(),
+            "convert".into(),
+            src.as_os_str().to_owned(),
+            out.as_os_str().to_owned(),
+            "--to".into(),
+            "txt".into(),
+        ]
+    };
+    let out = tmp.path().join("txt");
+    let r = run(args(&fixture("colmap/all_models/bin"), &out));
+    assert!(r.success, "{}", r.stderr);
+    assert!(
+        r.stderr
+            .contains("warning: 1 image name(s) contain whitespace")
+            && r.stderr.contains("\"image with spaces.png\""),
+        "{}",
+        r.stderr
+    );
+    let out = tmp.path().join("clean");
+    let r = run(args(&fixture("colmap/rig_opencv/bin"), &out));
+    assert!(
+        r.success && !r.stderr.contains("whitespace"),
+        "{}",
+        r.stderr
+    );
+}
+
+#[test]
 fn colmap_convert_nominal() {
     let tmp = tempfile::tempdir().expect("temp dir");
     let src = fixture("colmap/rig_opencv/bin");

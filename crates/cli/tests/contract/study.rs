@@ -180,3 +180,162 @@ fn study_model_without_the_named_cameras() {
         &["[calibration]", "cam_front/"],
     );
 }
+
+/// Every field `study` writes to `results.json` is documented: the study's own fields by their
+/// full path in `docs/REFERENCE.md`, `calibration.*` (= `calibrate --json`) by name in
+/// `docs/CALIBRATE.md`, `tie.*` (= `bootstrap --json`) by name in `docs/BOOTSTRAP.md`.
+#[test]
+fn study_results_fields_are_documented() {
+    fn paths(v: &serde_json::Value, p: &str, out: &mut Vec<String>) {
+        match v {
+            serde_json::Value::Object(m) => {
+                for (k, x) in m {
+                    let q = if p.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{p}.{k}")
+                    };
+                    out.push(q.clone());
+                    paths(x, &q, out);
+                }
+            }
+            serde_json::Value::Array(a) => {
+                for x in a.iter().filter(|x| x.is_object()) {
+                    paths(x, &format!("{p}[]"), out);
+                }
+            }
+            _ => {}
+        }
+    }
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let own = own_project(tmp.path());
+    let out = tmp.path().join("out");
+    let (s, o) = (
+        own.join("study.toml").display().to_string(),
+        out.display().to_string(),
+    );
+    let r = run(["study", s.as_str(), "--out", o.as_str(), "--samples", "10"]);
+    assert!(r.success, "{}", r.stderr);
+    let results = read_json(&out.join("results.json"));
+    let mut all = Vec::new();
+    paths(&results, "", &mut all);
+    let doc = |name: &str| {
+        std::fs::read_to_string(crate::common::root().join("docs").join(name)).expect("doc")
+    };
+    let (reference, calibrate, tie_doc) = (
+        doc("REFERENCE.md"),
+        doc("CALIBRATE.md"),
+        doc("BOOTSTRAP.md"),
+    );
+    let mut missing = Vec::new();
+    for p in &all {
+        let leaf = p.rsplit(['.', ']']).next().expect("leaf");
+        let ok = if p.starts_with("calibration.") {
+            calibrate.contains(&format!("`{leaf}")) || calibrate.contains(&format!(".{leaf}`"))
+        } else if p.starts_with("tie.") {
+            tie_doc.contains(&format!("`{leaf}")) || tie_doc.contains(&format!(".{leaf}`"))
+        } else {
+            // A row documents the field itself, or its object / array of objects.
+            reference.contains(&format!("`{p}`"))
+                || reference.contains(&format!("`{p}."))
+                || reference.contains(&format!("`{p}[]."))
+        };
+        if !ok {
+            missing.push(p.clone());
+        }
+    }
+    assert!(
+        missing.is_empty(),
+        "results.json fields not documented: {missing:?}"
+    );
+}
+
+/// `colmap points`: the point a pixel of an image observes comes first, at distance 0, and every
+/// hit lies within the radius, nearest first; `--point` gives that point's track.
+#[test]
+fn colmap_points_finds_the_point_at_a_pixel() {
+    let dir = crate::common::fixture("study/own/tie/model");
+    let model = crashrig_colmap::Reconstruction::read(&dir).expect("model");
+    let image = model.image_by_name("side/0001.png").expect("image");
+    let (xy, id) = image
+        .points2d
+        .iter()
+        .find_map(|p| p.point3d_id.map(|id| (p.xy, id)))
+        .expect("an observation");
+    let d = dir.display().to_string();
+    let (x, y) = (xy[0].to_string(), xy[1].to_string());
+    let v = json_of(&run([
+        "colmap",
+        "points",
+        d.as_str(),
+        "--image",
+        "side/0001.png",
+        "--near",
+        x.as_str(),
+        y.as_str(),
+        "--radius",
+        "80",
+        "--json",
+    ]));
+    let hits = v.as_array().expect("array");
+    assert_eq!(hits[0]["point3D_id"], id);
+    assert_eq!(hits[0]["distance_px"], 0.0);
+    let dist: Vec<f64> = hits
+        .iter()
+        .map(|h| h["distance_px"].as_f64().expect("d"))
+        .collect();
+    assert!(dist.windows(2).all(|w| w[0] <= w[1]) && dist.iter().all(|d| *d <= 80.0));
+    let idarg = id.to_string();
+    let one = json_of(&run([
+        "colmap",
+        "points",
+        d.as_str(),
+        "--point",
+        idarg.as_str(),
+        "--json",
+    ]));
+    assert_eq!(one[0]["track_length"], 2);
+    let r = run([
+        "colmap",
+        "points",
+        d.as_str(),
+        "--image",
+        "nope.png",
+        "--near",
+        "1",
+        "2",
+    ]);
+    assert_clean_error(&r, &["nope.png"]);
+}
+
+/// OUT is replaced as a whole: a second run into the same OUT succeeds and leaves only the new
+/// result; an OUT holding a file `study` does not write is refused before any work, untouched.
+#[test]
+fn study_out_is_staged_and_foreign_files_are_refused() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let own = own_project(tmp.path());
+    let out = tmp.path().join("out");
+    let (s, o) = (
+        own.join("study.toml").display().to_string(),
+        out.display().to_string(),
+    );
+    let args = [
+        "study",
+        s.as_str(),
+        "--out",
+        o.as_str(),
+        "--samples",
+        "4",
+        "--no-sensitivity",
+    ];
+    assert!(run(args).success);
+    std::fs::write(out.join("grid/old_layout.csv"), b"old").expect("write");
+    assert!(run(args).success);
+    assert!(
+        !out.join("grid/old_layout.csv").exists(),
+        "nothing old survives"
+    );
+    std::fs::write(out.join("notes.txt"), b"mine").expect("write");
+    assert_clean_error(&run(args), &["notes.txt"]);
+    assert_eq!(std::fs::read(out.join("notes.txt")).expect("kept"), b"mine");
+}
