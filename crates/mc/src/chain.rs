@@ -239,13 +239,12 @@ impl Chain {
                     rotation: std::array::from_fn(|k| l.rotation[(k / 3, k % 3)]),
                     angles_sin: std::array::from_fn(|k| l.angles_rad[k].sin()),
                     angles_cos: std::array::from_fn(|k| l.angles_rad[k].cos()),
-                    sigma: std::array::from_fn(|k| {
-                        if k < 3 {
-                            l.sigma.position_mm[k]
-                        } else {
-                            l.sigma.angles_rad[k - 3]
-                        }
-                    }),
+                    // The uncertain-poses model replaces this by
+                    // `NoiseFactor::from_lower(&pose.factor())` (same order and frames).
+                    noise_factor: crate::block::NoiseFactor::from_sigma(
+                        &l.sigma.position_mm,
+                        &l.sigma.angles_rad,
+                    ),
                     nominal_c: [nom.position_mm.x, nom.position_mm.y, nom.position_mm.z],
                     nominal_r: std::array::from_fn(|k| nom.rotation[(k / 3, k % 3)]),
                     nominal_sin: std::array::from_fn(|k| a[k].sin()),
