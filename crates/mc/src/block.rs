@@ -89,7 +89,7 @@ impl NoiseFactor {
     /// summed in k order (with a diagonal factor the other terms are zeros, so both forms give
     /// the same bits for non-zero σ).
     #[inline(always)]
-    fn apply(&self, e: &[Lane], out: &mut [Lane; 6]) {
+    pub(crate) fn apply(&self, e: &[Lane], out: &mut [Lane; 6]) {
         if self.diagonal {
             for i in 0..6 {
                 let li = self.l[i][i];

@@ -498,9 +498,8 @@ impl Chain {
                     rotation: std::array::from_fn(|k| l.rotation[(k / 3, k % 3)]),
                     angles_sin: std::array::from_fn(|k| l.angles_rad[k].sin()),
                     angles_cos: std::array::from_fn(|k| l.angles_rad[k].cos()),
-                    sigma: std::array::from_fn(|k| l.factor[(k, k)]),
-                    factor: std::array::from_fn(|r| std::array::from_fn(|c| l.factor[(r, c)])),
-                    diagonal: l.diagonal.is_some(),
+                    // δ = L·ε (diagonal fast path when the covariance is diagonal).
+                    noise_factor: crate::block::NoiseFactor::from_lower(&l.factor),
                     nominal_c: [nom.position_mm.x, nom.position_mm.y, nom.position_mm.z],
                     nominal_r: std::array::from_fn(|k| nom.rotation[(k / 3, k % 3)]),
                     nominal_sin: std::array::from_fn(|k| a[k].sin()),

@@ -2,7 +2,8 @@
 //! structure-of-arrays form, compiled per instruction-set level by [`crate::simd`].
 //!
 //! Per block: the normals ([`fill_block`], 6 per camera, rows `6i..6i+6` for camera i), then
-//! per camera in topological order the link's perturbation `δ = L·ε` (diagonal today), the
+//! per camera in topological order the link's perturbation `δ = L·ε` ([`NoiseFactor`],
+//! diagonal today, `Chain::plan` builds it), the
 //! perturbed link rotation (`R_l·Exp(δθ)` for tangent noise, `Rx Ry Rz` at `angles + δθ` for
 //! euler noise, both by their small-angle series) and the composition with the parent; then
 //! per camera the ω φ κ offsets from the nominal and the body-axis error `log(R̄ᵀR)`, both as
@@ -16,6 +17,7 @@
 
 #![allow(clippy::needless_range_loop)] // lane-indexed loops over parallel arrays are the point (they vectorise)
 
+use crate::block::NoiseFactor;
 use crate::chain::Chain;
 use crate::kernel::SMALL_ANGLE_SQ;
 use crate::normal::{LANES, Lane, fill_block};
@@ -242,6 +244,7 @@ pub(crate) fn run_task(chain: &Chain, key: [u32; 2], task: u64, m: usize) -> Vec
     let mut lanes = vec![CamLanes::new(); n];
     let mut v = vec![[[0.0; LANES]; 6]; n];
     let mut th = vec![[[0.0; LANES]; 3]; n];
+    let mut delta = [[0.0; LANES]; 6];
     let mut ok;
     let mut done = 0;
     while done < m {
@@ -250,18 +253,13 @@ pub(crate) fn run_task(chain: &Chain, key: [u32; 2], task: u64, m: usize) -> Vec
         ok = [true; LANES];
         for &i in chain.order() {
             let p = &plan[i];
-            let eps = &e[6 * i..6 * i + 6];
+            p.noise_factor.apply(&e[6 * i..6 * i + 6], &mut delta);
             let mut link = PoseLanes {
                 c: [[0.0; LANES]; 3],
                 r: [[0.0; LANES]; 9],
             };
             for l in 0..LANES {
-                let d: [f64; 6] = if p.diagonal {
-                    std::array::from_fn(|k| p.sigma[k] * eps[k][l])
-                } else {
-                    // δ = L·ε, L lower triangular.
-                    std::array::from_fn(|k| (0..=k).map(|q| p.factor[k][q] * eps[q][l]).sum())
-                };
+                let d: [f64; 6] = std::array::from_fn(|k| delta[k][l]);
                 let lok = &mut ok[l];
                 for k in 0..3 {
                     link.c[k][l] = p.position[k] + d[k];
@@ -441,12 +439,8 @@ pub(crate) struct CamPlan {
     pub(crate) rotation: [f64; 9],
     pub(crate) angles_sin: [f64; 3],
     pub(crate) angles_cos: [f64; 3],
-    /// σ of (x y z, rotation) of the link (δ = σ∘ε when `diagonal`).
-    pub(crate) sigma: [f64; 6],
-    /// Lower-triangular factor of the link's covariance (δ = L·ε when not `diagonal`).
-    pub(crate) factor: [[f64; 6]; 6],
-    /// The covariance is diagonal: the fast path σ∘ε.
-    pub(crate) diagonal: bool,
+    /// The link's noise factor: δ = L·ε (x y z in the parent's axes, rotation).
+    pub(crate) noise_factor: NoiseFactor,
     pub(crate) nominal_c: [f64; 3],
     pub(crate) nominal_r: [f64; 9],
     pub(crate) nominal_sin: [f64; 3],
