@@ -59,19 +59,47 @@ pub fn is_degenerate(angle_deg: f64) -> bool {
     angle_deg.is_nan() || angle_deg < MIN_INTERSECTION_ANGLE_DEG
 }
 
-/// The intersection angle of every grid point (in [`Grid::points`] order) from the observers'
-/// nominal centres.
-pub fn grid_angles_deg(grid: &Grid) -> Vec<f64> {
-    let centres: Vec<Vector3<f64>> = grid.observers.iter().map(|o| o.position_mm).collect();
-    grid.points()
+/// Centres of the observers that see `point`: every aimed observer, and a fixed observer
+/// when the point lies inside its image.
+fn seeing_centres(grid: &Grid, point: &Vector3<f64>) -> Vec<Vector3<f64>> {
+    grid.observers
         .iter()
-        .map(|p| intersection_angle_deg(&centres, p))
+        .filter(|o| match &o.aim {
+            crate::Aim::Point => true,
+            crate::Aim::Fixed(f) => crate::fixed::sight(f, &o.position_mm, point).is_some(),
+        })
+        .map(|o| o.position_mm)
         .collect()
 }
 
-/// [`Error::AllDegenerate`] when no grid point is measurable.
+/// The intersection angle of every grid point (in [`Grid::points`] order) from the nominal
+/// centres of the observers that see it; NaN where fewer than two see it (not measurable,
+/// which is not the same as degenerate).
+pub fn grid_angles_deg(grid: &Grid) -> Vec<f64> {
+    grid.points()
+        .iter()
+        .map(|p| {
+            let centres = seeing_centres(grid, p);
+            if centres.len() < 2 {
+                f64::NAN
+            } else {
+                intersection_angle_deg(&centres, p)
+            }
+        })
+        .collect()
+}
+
+/// [`Error::AllDegenerate`] when every point seen by two or more observers is degenerate (a
+/// layout where no point is seen twice is reported as not measurable instead).
 pub fn check_layout(grid: &Grid) -> Result<(), Error> {
-    let largest = grid_angles_deg(grid).into_iter().fold(0.0, f64::max);
+    let seen: Vec<f64> = grid_angles_deg(grid)
+        .into_iter()
+        .filter(|a| !a.is_nan())
+        .collect();
+    if seen.is_empty() {
+        return Ok(());
+    }
+    let largest = seen.into_iter().fold(0.0, f64::max);
     if is_degenerate(largest) {
         return Err(Error::AllDegenerate {
             min_deg: MIN_INTERSECTION_ANGLE_DEG,
@@ -79,6 +107,28 @@ pub fn check_layout(grid: &Grid) -> Result<(), Error> {
         });
     }
     Ok(())
+}
+
+/// Whether a point is degenerate: measurable (seen by two or more observers) with an
+/// intersection angle below [`MIN_INTERSECTION_ANGLE_DEG`].
+pub fn is_degenerate_point(p: &crate::PointStats, angle_deg: f64) -> bool {
+    p.is_measurable() && is_degenerate(angle_deg)
+}
+
+/// Blanks (NaN) the statistics of the degenerate points of `result` (so they stay out of
+/// colour scales, medians and maxima) and returns every point's intersection angle.
+pub fn mask_degenerate(result: &mut crate::GridResult, grid: &Grid) -> Vec<f64> {
+    let angles = grid_angles_deg(grid);
+    for (p, &a) in result.points.iter_mut().zip(&angles) {
+        if is_degenerate_point(p, a) {
+            p.sigma_mm.fill(f64::NAN);
+            p.sigma_max_mm = f64::NAN;
+            p.mean_mm.fill(f64::NAN);
+            p.covariance.fill(f64::NAN);
+            p.linear_covariance.fill(f64::NAN);
+        }
+    }
+    angles
 }
 
 #[cfg(test)]

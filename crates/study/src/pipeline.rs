@@ -341,16 +341,7 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
             let mut grid = g.grid().clone();
             // Degenerate points (rays nearly parallel) are blanked (NaN): kept out of colour
             // scaling, medians and the worst region, counted as not below the threshold.
-            let angles = crashrig_mc::degenerate::grid_angles_deg(&grid);
-            for (p, a) in r.points.iter_mut().zip(angles) {
-                if crashrig_mc::degenerate::is_degenerate(a) {
-                    p.sigma_mm.fill(f64::NAN);
-                    p.sigma_max_mm = f64::NAN;
-                    p.mean_mm.fill(f64::NAN);
-                    p.covariance.fill(f64::NAN);
-                    p.linear_covariance.fill(f64::NAN);
-                }
-            }
+            crashrig_mc::degenerate::mask_degenerate(&mut r, &grid);
             for (o, c) in grid.observers.iter_mut().zip(&r.observer_covariance) {
                 o.sigma = crashrig_mc::ObserverSigma::Covariance(*c);
             }

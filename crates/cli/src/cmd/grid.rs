@@ -150,17 +150,20 @@ fn csv_bytes(
     Ok(buf)
 }
 
-/// Blanks (NaN) the statistics of degenerate points; a non-finite σ anywhere else is an error
-/// naming the scenario and the point.
-fn mask_degenerate(r: &mut GridResult, angles: &[f64], scenario: &Path) -> anyhow::Result<()> {
-    for (p, &angle) in r.points.iter_mut().zip(angles) {
-        if crashrig_mc::degenerate::is_degenerate(angle) {
-            p.sigma_mm.fill(f64::NAN);
-            p.sigma_max_mm = f64::NAN;
-            p.mean_mm.fill(f64::NAN);
-            p.covariance.fill(f64::NAN);
-            p.linear_covariance.fill(f64::NAN);
-        } else if !(p.sigma_max_mm.is_finite() && p.linear_sigma_max_mm().is_finite()) {
+/// Blanks (NaN) the statistics of degenerate points and returns every point's intersection
+/// angle; a non-finite σ at any other measurable point is an error naming the scenario and
+/// the point.
+fn mask_degenerate(
+    r: &mut GridResult,
+    grid: &crashrig_mc::Grid,
+    scenario: &Path,
+) -> anyhow::Result<Vec<f64>> {
+    let angles = crashrig_mc::degenerate::mask_degenerate(r, grid);
+    for (p, &angle) in r.points.iter().zip(&angles) {
+        if p.is_measurable()
+            && !crashrig_mc::degenerate::is_degenerate(angle)
+            && !(p.sigma_max_mm.is_finite() && p.linear_sigma_max_mm().is_finite())
+        {
             anyhow::bail!(
                 "{}: grid point ({}, {}, {}) mm: the intersection σ is not finite (intersection angle {:.3}°); check the observers' σ and positions",
                 scenario.display(),
@@ -171,7 +174,7 @@ fn mask_degenerate(r: &mut GridResult, angles: &[f64], scenario: &Path) -> anyho
             );
         }
     }
-    Ok(())
+    Ok(angles)
 }
 
 /// A CSV cell: empty for a blanked (NaN: degenerate) value or a not-measurable point (fewer
@@ -189,9 +192,8 @@ fn cell(p: &PointStats, v: f64) -> String {
 /// contract's for layouts without degenerate points); with fixed observers the column
 /// `observers_seen` is appended and the σ cells of not-measurable points are empty.
 fn main_csv(r: &GridResult, angles: &[f64], with_seen: bool) -> anyhow::Result<Vec<u8>> {
-    let flagged = angles
-        .iter()
-        .any(|a| crashrig_mc::degenerate::is_degenerate(*a));
+    let degenerate = crashrig_mc::degenerate::is_degenerate_point;
+    let flagged = r.points.iter().zip(angles).any(|(p, a)| degenerate(p, *a));
     csv_bytes(|w| {
         let mut header = vec![
             "x_mm",
@@ -218,7 +220,7 @@ fn main_csv(r: &GridResult, angles: &[f64], with_seen: bool) -> anyhow::Result<V
             );
             if flagged {
                 rec.push(angle.to_string());
-                rec.push(crashrig_mc::degenerate::is_degenerate(angle).to_string());
+                rec.push(degenerate(p, angle).to_string());
             }
             if with_seen {
                 rec.push(p.observers_seen.to_string());
@@ -357,8 +359,6 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
         crashrig_mc::limits::check_grid_draws(grid.points().len(), samples)
             .map_err(|e| anyhow::anyhow!("--samples {samples}: {e}"))?;
     }
-    // Degenerate points (lines of sight nearly parallel): no σ, not in medians or colours.
-    let angles = crashrig_mc::degenerate::grid_angles_deg(&grid);
     // Fails before any work when --out holds files `grid` does not write.
     let mut files = Pending {
         staged: crashrig_outdir::Staged::new(&a.out, replaceable)?,
@@ -372,7 +372,8 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
     }
     .map_err(ctx)?;
     let mut result = result;
-    mask_degenerate(&mut result, &angles, &a.scenario)?;
+    // Degenerate points (lines of sight nearly parallel): no σ, not in medians or colours.
+    let angles = mask_degenerate(&mut result, &grid, &a.scenario)?;
     let elapsed_s = start.elapsed().as_secs_f64();
     let total_draws: u64 = result.points.iter().map(|p| p.count).sum();
 
@@ -383,7 +384,7 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
         }
         .map_err(ctx)?;
         let mut ind = ind;
-        mask_degenerate(&mut ind, &angles, &a.scenario)?;
+        mask_degenerate(&mut ind, &grid, &a.scenario)?;
         let change: Vec<f64> = result
             .points
             .iter()
@@ -601,9 +602,11 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
             draws_total: total_draws,
         }),
         correlation,
-        degenerate_points: angles
+        degenerate_points: result
+            .points
             .iter()
-            .filter(|a| crashrig_mc::degenerate::is_degenerate(**a))
+            .zip(&angles)
+            .filter(|(p, a)| crashrig_mc::degenerate::is_degenerate_point(p, **a))
             .count(),
         min_intersection_angle_deg: crashrig_mc::degenerate::MIN_INTERSECTION_ANGLE_DEG,
         files: files

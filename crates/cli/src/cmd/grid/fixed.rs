@@ -157,22 +157,31 @@ sigma_angles_deg = [0.01, 0.01, 0.01]
         let out = tmp.path().join("out");
         let csv = std::fs::read_to_string(out.join("grid.csv")).unwrap();
         let mut lines = csv.lines();
+        // The two cameras face each other across the grid: the points next to the line
+        // between them are degenerate (rays nearly anti-parallel), so the degenerate columns
+        // come before `observers_seen`.
         assert_eq!(
             lines.next().unwrap(),
-            "x_mm,y_mm,z_mm,sigma_x_mm,sigma_y_mm,sigma_z_mm,sigma_max_mm,observers_seen"
+            "x_mm,y_mm,z_mm,sigma_x_mm,sigma_y_mm,sigma_z_mm,sigma_max_mm,intersection_angle_deg,degenerate,observers_seen"
         );
         let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
         assert_eq!(rows.len(), 10);
         let (mut one, mut two) = (0, 0);
         for r in &rows {
-            match r[7] {
+            match r[9] {
                 "1" => {
                     one += 1;
                     assert!(r[3..7].iter().all(|c| c.is_empty()), "{r:?}");
+                    assert_eq!(r[8], "false", "a point seen once is not measurable, not degenerate");
                 }
                 "2" => {
                     two += 1;
-                    assert!(r[3..7].iter().all(|c| c.parse::<f64>().unwrap() > 0.0));
+                    if r[8] == "true" {
+                        assert!(r[3..7].iter().all(|c| c.is_empty()), "{r:?}");
+                        assert!(r[7].parse::<f64>().unwrap() < 1.5);
+                    } else {
+                        assert!(r[3..7].iter().all(|c| c.parse::<f64>().unwrap() > 0.0));
+                    }
                 }
                 other => panic!("observers_seen {other}"),
             }
