@@ -94,6 +94,8 @@ pub struct TieSection {
 }
 
 /// Where an observer's pose noise comes from.
+// A handful per study, never in a hot loop: boxing the matrix would only add indirection.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq)]
 pub enum ObserverNoise {
     /// The propagated world covariance of a chain camera (`from = "inward"` or `"tie"`).

@@ -172,7 +172,10 @@ sigma_angles_deg = [0.01, 0.01, 0.01]
                 "1" => {
                     one += 1;
                     assert!(r[3..7].iter().all(|c| c.is_empty()), "{r:?}");
-                    assert_eq!(r[8], "false", "a point seen once is not measurable, not degenerate");
+                    assert_eq!(
+                        r[8], "false",
+                        "a point seen once is not measurable, not degenerate"
+                    );
                 }
                 "2" => {
                     two += 1;
