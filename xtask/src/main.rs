@@ -15,7 +15,7 @@ cargo xtask <verb>
 verbs:
   ci                 fmt --check, clippy -D warnings, cargo doc -D warnings, the test suite, tidy
   tidy               dependency DAG, module docs, ARCHITECTURE code map (also run by `cargo test`)
-  test [--slow]      the README test command; --slow: every test in release, the #[ignore] slow statistical ones included
+  test [--slow]      the README test command; --slow: the #[ignore] slow statistical tests, in release
   paper [--out DIR]  the main job: `crashrig paper` in release mode (default DIR: out/paper)
   interop            COLMAP interop round trips against pycolmap (needs a Python with pycolmap; PYTHON=...)
   bench [--e2e]      criterion benchmarks; --e2e adds whole-command timings
@@ -104,17 +104,13 @@ fn ci() -> Result<()> {
     test(false)
 }
 
-/// `cargo test --workspace`; with `slow`, `cargo test --release --workspace --
-/// --include-ignored`: every test, the ones marked `#[ignore = "slow: ..."]` included.
-/// `CRASHRIG_SLOW=1` is set as well, and `--include-ignored` (not `--ignored`) is used, for the
-/// tests that still gate themselves on that variable instead of `#[ignore]` (they are not
-/// ignored, so `--ignored` alone would skip them); once none is left, `--ignored` suffices.
+/// `cargo test --workspace`; with `slow`, `cargo test --release --workspace -- --ignored`:
+/// the tests marked `#[ignore = "slow: ..."]` (large-N statistical checks), in release.
 fn test(slow: bool) -> Result<()> {
     let mut t = cargo();
     t.args(["test", "--workspace"]);
     if slow {
-        t.env("CRASHRIG_SLOW", "1")
-            .args(["--release", "--", "--include-ignored"]);
+        t.args(["--release", "--", "--ignored"]);
     }
     run(t)
 }

@@ -88,6 +88,32 @@ fn replaceable(name: &str) -> bool {
     ) || name.starts_with(".tmp")
 }
 
+/// The top-level entry of `out` that holds the study file, if the study file is inside `out`.
+fn inputs_entry(study_path: &Path, out: &Path) -> Option<String> {
+    let (s, o) = (study_path.canonicalize().ok()?, out.canonicalize().ok()?);
+    let first = s.strip_prefix(&o).ok()?.components().next()?;
+    Some(first.as_os_str().to_string_lossy().into_owned())
+}
+
+/// Copies the directory tree `from` to `to` (files and directories only).
+fn copy_tree(from: &Path, to: &Path) -> anyhow::Result<()> {
+    use anyhow::Context;
+    std::fs::create_dir_all(to).with_context(|| format!("{}: cannot create", to.display()))?;
+    for entry in
+        std::fs::read_dir(from).with_context(|| format!("{}: cannot read", from.display()))?
+    {
+        let entry = entry?;
+        let (src, dst) = (entry.path(), to.join(entry.file_name()));
+        if entry.file_type()?.is_dir() {
+            copy_tree(&src, &dst)?;
+        } else {
+            std::fs::copy(&src, &dst)
+                .with_context(|| format!("{}: cannot copy to {}", src.display(), dst.display()))?;
+        }
+    }
+    Ok(())
+}
+
 /// Reads the study, runs it and writes every output below `out`; returns `results.json`.
 pub fn execute(
     study_path: &Path,
@@ -98,18 +124,16 @@ pub fn execute(
     command: &str,
 ) -> anyhow::Result<serde_json::Value> {
     let study = Study::from_path(study_path)?;
-    // A study file inside OUT (`paper`'s `DIR/inputs/study.toml`) keeps OUT in place: its
-    // inputs live there. Otherwise OUT is staged (checked before any work: files `study` does
-    // not write are refused).
-    let inside = match (study_path.canonicalize(), out.canonicalize()) {
-        (Ok(s), Ok(o)) => s.starts_with(o),
-        _ => false,
-    };
-    let staged = if inside {
-        None
-    } else {
-        Some(crashrig_outdir::Staged::new(out, replaceable)?)
-    };
+    // OUT is staged (checked before any work: files `study` does not write are refused) and
+    // swapped in whole. A study file inside OUT (`paper`'s `DIR/inputs/study.toml`) keeps the
+    // top-level entry holding it (`inputs/`): it is copied into the staging directory first.
+    let kept = inputs_entry(study_path, out);
+    let staged = crashrig_outdir::Staged::new(out, |name| {
+        replaceable(name) || kept.as_deref().is_some_and(|k| name == format!("{k}/"))
+    })?;
+    if let Some(k) = &kept {
+        copy_tree(&out.join(k), &staged.dir().join(k))?;
+    }
     let bar = crate::progress::Bar::new("crashrig study");
     let report = |stage: &str, done: u64, total: u64| bar.set(stage, done, total);
     let options = Options {
@@ -125,14 +149,9 @@ pub fn execute(
         command: command.to_string(),
         out_dir: out.display().to_string(),
     };
-    match staged {
-        // Written into a staging directory that replaces OUT as a whole: a failed or
-        // interrupted run leaves the old result, never a mix.
-        Some(staged) => {
-            crashrig_study::report::write_outputs(staged.dir(), &study, &result, &prov)?;
-            staged.commit()?;
-        }
-        None => crashrig_study::report::write_outputs(out, &study, &result, &prov)?,
-    }
+    // Written into a staging directory that replaces OUT as a whole: a failed or interrupted
+    // run leaves the old result, never a mix.
+    crashrig_study::report::write_outputs(staged.dir(), &study, &result, &prov)?;
+    staged.commit()?;
     Ok(result.to_json())
 }

@@ -281,10 +281,8 @@ fn ellipsoid_semi_axes_nominal() {
 }
 
 #[test]
+#[ignore = "slow: 4·10⁶ draws; run by `cargo xtask test --slow`"]
 fn slow_grid_closed_form_large_n() {
-    if std::env::var_os("CRASHRIG_SLOW").is_none() {
-        return;
-    }
     // The closed form of `grid_nominal_symmetric_closed_form` at 4·10⁶ draws: 3 SE is
     // 0.1 % of σ, small enough to see a bias of the kernel or of the normals.
     let sc = scenario("", TWO_OBS, "", "tangent");
