@@ -30,6 +30,11 @@ pub fn load_scenario(path: &Path) -> anyhow::Result<Scenario> {
 pub fn resolve_samples(option: Option<usize>, scenario: &Scenario) -> anyhow::Result<usize> {
     let n = option.unwrap_or(scenario.samples);
     anyhow::ensure!(n >= 2, "--samples must be at least 2, got {n}");
+    let max = crashrig_mc::limits::MAX_SAMPLES;
+    anyhow::ensure!(
+        n <= max,
+        "--samples {n} exceeds the limit of {max} (docs/LIMITS.md)"
+    );
     Ok(n)
 }
 
