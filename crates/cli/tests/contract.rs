@@ -28,6 +28,9 @@ mod propagate;
 #[path = "contract/grid.rs"]
 mod grid;
 
+#[path = "contract/adaptive.rs"]
+mod adaptive;
+
 #[path = "contract/errors.rs"]
 mod errors;
 

@@ -33,7 +33,7 @@ use crate::kernel::{Normal3, exp_matrix, rot_opk};
 use crate::scenario::{Adaptive, Aim, Grid, Observer, PixelNoise, RotationNoise};
 use crate::{CHUNK, Error, FastNormal};
 use crashrig_camera::{Camera as Lens, ModelId};
-use crashrig_stats::{Moments, stream};
+use crashrig_stats::stream;
 use nalgebra::{Matrix2, Matrix3, Matrix6, Vector2, Vector3, Vector6};
 use rayon::prelude::*;
 
@@ -537,6 +537,7 @@ fn not_measurable(point: &Vector3<f64>, seen: usize) -> PointStats {
         sigma_max_mm: f64::NAN,
         linear_covariance: Matrix3::from_element(f64::NAN),
         observers_seen: seen,
+        converged: None,
     }
 }
 
@@ -551,6 +552,7 @@ fn finish(point: &Vector3<f64>, views: &[View<'_>], m: &Acc3) -> PointStats {
         sigma_max_mm: sigma.max(),
         linear_covariance: linear_covariance(views, point),
         observers_seen: views.len(),
+        converged: None,
     }
 }
 
@@ -607,32 +609,14 @@ pub(crate) fn run(
                 if views[p].len() < 2 {
                     return not_measurable(point, views[p].len());
                 }
-                let mut total = Acc3::new(*point);
-                let mut batch_sigmas = Moments::<3>::new();
-                let mut b = 0usize;
-                loop {
+                let (total, converged) = crate::grid::adaptive_draws(point, ad, |b, m, acc| {
                     let mut rng = stream(seed, task_index(p, b));
-                    let m = ad.batch.min(ad.max_samples.saturating_sub(b * ad.batch));
-                    if m < 2 {
-                        break;
-                    }
-                    let mut acc = Acc3::new(*point);
-                    run_chunk_fixed(&views[p], chain, &mut rng, m, &mut acc);
-                    total.merge(&acc);
-                    let s = acc.std_dev();
-                    batch_sigmas.push(&[s.x, s.y, s.z]);
-                    b += 1;
-                    if b >= 4 {
-                        let u = batch_sigmas.std_dev() * (2.0 / (b as f64).sqrt());
-                        if u.max() <= ad.tolerance_mm {
-                            break;
-                        }
-                    }
-                    if b * ad.batch >= ad.max_samples {
-                        break;
-                    }
+                    run_chunk_fixed(&views[p], chain, &mut rng, m, acc);
+                });
+                PointStats {
+                    converged: Some(converged),
+                    ..finish(point, &views[p], &total)
                 }
-                finish(point, &views[p], &total)
             })
             .collect()),
     }

@@ -36,6 +36,9 @@ pub struct PointStats {
     /// Observers that see the point (all of them when every observer is aimed); fewer than
     /// two: not measurable, σ and covariances NaN, `count` 0 (fixed observers, `fixed.rs`).
     pub observers_seen: usize,
+    /// Adaptive runs (`[grid.adaptive]`): whether the tolerance was met before
+    /// `max_samples`; `None` for a fixed number of draws.
+    pub converged: Option<bool>,
 }
 
 impl PointStats {
@@ -437,42 +440,21 @@ impl GridStudy {
             .par_iter()
             .enumerate()
             .map(|(p, point)| {
-                let mut total = Acc3::new(*point);
-                let mut batch_sigmas = Moments::<3>::new();
-                let mut b = 0usize;
-                loop {
-                    let m = adaptive
-                        .batch
-                        .min(adaptive.max_samples.saturating_sub(b * adaptive.batch));
-                    if m < 2 {
-                        break;
-                    }
-                    let mut acc = Acc3::new(*point);
+                let (total, converged) = adaptive_draws(point, adaptive, |b, m, acc| {
                     run_chunk(
                         &aimed[p],
                         &self.ctx,
                         seed,
                         task_index(p, b),
                         m,
-                        &mut acc,
+                        acc,
                         Engine::from_env(),
-                    );
-                    total.merge(&acc);
-                    let s = acc.std_dev();
-                    batch_sigmas.push(&[s.x, s.y, s.z]);
-                    b += 1;
-                    let h = b as f64;
-                    if b >= 4 {
-                        let u = batch_sigmas.std_dev() * (2.0 / h.sqrt());
-                        if u.max() <= adaptive.tolerance_mm {
-                            break;
-                        }
-                    }
-                    if b * adaptive.batch >= adaptive.max_samples {
-                        break;
-                    }
+                    )
+                });
+                PointStats {
+                    converged: Some(converged),
+                    ..self.finish(point, &aimed[p], &total)
                 }
-                self.finish(point, &aimed[p], &total)
             })
             .collect();
         Ok(self.result(stats))
@@ -511,6 +493,7 @@ impl GridStudy {
             sigma_max_mm: sigma.max(),
             linear_covariance: linear_covariance(aimed, &self.ctx, point),
             observers_seen: aimed.len(),
+            converged: None,
         }
     }
 }
@@ -522,6 +505,43 @@ pub const CHAIN_SAMPLES_MIN: usize = 100_000;
 const CHAIN_SEED_SALT: u64 = 0x5EED_C4A1_0000_0001;
 
 #[inline]
+/// Adaptive draws at one point: batches of `adaptive.batch` draws (batch `b` drawn by
+/// `draw(b, m, acc)`) until, after at least 4 batches, `2·s/√h ≤ tolerance_mm` for the σ of
+/// every axis (`s` = standard deviation of the per-batch σ over the `h` batches), or until
+/// `max_samples`. Returns all the draws and whether the tolerance was met.
+pub(crate) fn adaptive_draws(
+    point: &Vector3<f64>,
+    adaptive: &crate::scenario::Adaptive,
+    mut draw: impl FnMut(usize, usize, &mut Acc3),
+) -> (Acc3, bool) {
+    let mut total = Acc3::new(*point);
+    let mut batch_sigmas = Moments::<3>::new();
+    let mut b = 0usize;
+    loop {
+        let m = adaptive
+            .batch
+            .min(adaptive.max_samples.saturating_sub(b * adaptive.batch));
+        if m < 2 {
+            return (total, false);
+        }
+        let mut acc = Acc3::new(*point);
+        draw(b, m, &mut acc);
+        total.merge(&acc);
+        let s = acc.std_dev();
+        batch_sigmas.push(&[s.x, s.y, s.z]);
+        b += 1;
+        if b >= 4 {
+            let u = batch_sigmas.std_dev() * (2.0 / (b as f64).sqrt());
+            if u.max() <= adaptive.tolerance_mm {
+                return (total, true);
+            }
+        }
+        if b * adaptive.batch >= adaptive.max_samples {
+            return (total, false);
+        }
+    }
+}
+
 fn task_index(point: usize, chunk: usize) -> u64 {
     ((point as u64) << 24) | chunk as u64
 }

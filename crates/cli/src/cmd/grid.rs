@@ -49,6 +49,8 @@ struct AdaptiveSummary {
     draws_min: u64,
     draws_max: u64,
     draws_total: u64,
+    /// Points that stopped at `max_samples` without meeting the tolerance.
+    unconverged_points: usize,
 }
 
 #[derive(Serialize)]
@@ -210,6 +212,11 @@ fn main_csv(r: &GridResult, angles: &[f64], with_seen: bool) -> anyhow::Result<V
         if with_seen {
             header.push("observers_seen");
         }
+        // Adaptive runs: the draws each point took and whether it met the tolerance.
+        let adaptive = r.points.iter().any(|p| p.converged.is_some());
+        if adaptive {
+            header.extend(["draws", "converged"]);
+        }
         w.write_record(&header)?;
         for (p, &angle) in r.points.iter().zip(angles) {
             let mut rec: Vec<String> = [p.point.x, p.point.y, p.point.z]
@@ -224,6 +231,10 @@ fn main_csv(r: &GridResult, angles: &[f64], with_seen: bool) -> anyhow::Result<V
             }
             if with_seen {
                 rec.push(p.observers_seen.to_string());
+            }
+            if adaptive {
+                rec.push(p.count.to_string());
+                rec.push(p.converged.map_or_else(String::new, |c| c.to_string()));
             }
             w.write_record(&rec)?;
         }
@@ -560,6 +571,18 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
         .collect();
     let ratio: Vec<f64> = sm.iter().zip(&lsm).map(|(m, l)| m / l).collect();
     let counts: Vec<u64> = result.points.iter().map(|p| p.count).collect();
+    let unconverged = result
+        .points
+        .iter()
+        .filter(|p| p.converged == Some(false))
+        .count();
+    if unconverged > 0 {
+        eprintln!(
+            "warning: {}: {unconverged} of {} grid points stopped at max_samples without meeting the adaptive tolerance (grid.csv column `converged`)",
+            a.scenario.display(),
+            result.points.len()
+        );
+    }
     let summary = Summary {
         points: result.points.len(),
         // Not-measurable points draw nothing; the draws per point are those asked for.
@@ -600,6 +623,7 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
             draws_min: counts.iter().copied().min().unwrap_or(0),
             draws_max: counts.iter().copied().max().unwrap_or(0),
             draws_total: total_draws,
+            unconverged_points: unconverged,
         }),
         correlation,
         degenerate_points: result
