@@ -498,61 +498,24 @@ fn check_out_dir(dir: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Writes `files` (paths relative to `dir`) as one unit: everything goes into a temporary
-/// sibling directory, which is then renamed to `dir` (a previous output there is moved aside
-/// first and removed after the rename). On any failure nothing of this run remains and a
-/// previous output is restored. This is the only function that writes the output directory.
+/// Top-level entries of an existing `--out` that `measure` writes (directories end with `/`).
+fn replaceable(name: &str) -> bool {
+    matches!(
+        name,
+        "trajectories.csv" | "displacements.csv" | "summary.json" | "plots/"
+    )
+}
+
+/// Writes `files` (paths relative to `dir`) as one unit through `crashrig-outdir`: into a
+/// staging directory beside `dir`, swapped in whole (a previous output is replaced, never
+/// mixed; SIGINT/SIGTERM remove the staging directory). This is the only function that writes
+/// the output directory.
 fn write_dir(dir: &Path, files: &[(String, Vec<u8>)]) -> anyhow::Result<()> {
     check_out_dir(dir)?;
-    let parent = dir
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    std::fs::create_dir_all(parent)
-        .with_context(|| format!("{}: cannot create the directory", parent.display()))?;
-    let stage = tempfile::Builder::new()
-        .prefix(".measure-new-")
-        .tempdir_in(parent)
-        .with_context(|| format!("{}: cannot create a temporary directory", parent.display()))?;
+    let mut staged = crashrig_outdir::Staged::new(dir, replaceable)?;
     for (name, bytes) in files {
-        let path = stage.path().join(name);
-        if let Some(p) = path.parent() {
-            std::fs::create_dir_all(p)
-                .with_context(|| format!("{}: cannot create the directory", p.display()))?;
-        }
-        std::fs::write(&path, bytes)
-            .with_context(|| format!("{}: write failed", dir.join(name).display()))?;
+        staged.write(name, bytes)?;
     }
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(stage.path(), std::fs::Permissions::from_mode(0o755))
-            .with_context(|| format!("{}: cannot set permissions", dir.display()))?;
-    }
-    let old = if dir.exists() {
-        let aside = tempfile::Builder::new()
-            .prefix(".measure-old-")
-            .tempdir_in(parent)
-            .with_context(|| {
-                format!("{}: cannot create a temporary directory", parent.display())
-            })?;
-        let aside_path = aside.path().join("previous");
-        std::fs::rename(dir, &aside_path)
-            .with_context(|| format!("{}: cannot move the previous output aside", dir.display()))?;
-        Some((aside, aside_path))
-    } else {
-        None
-    };
-    if let Err(e) = std::fs::rename(stage.path(), dir) {
-        if let Some((_, aside_path)) = &old {
-            let _ = std::fs::rename(aside_path, dir);
-        }
-        return Err(anyhow::Error::new(e).context(format!(
-            "{}: cannot rename the output into place",
-            dir.display()
-        )));
-    }
-    // `stage` now names nothing; dropping `old` removes the previous output.
-    drop(old);
+    staged.commit()?;
     Ok(())
 }
