@@ -2,7 +2,7 @@
 //! a hostile or mistyped file is an error naming the key and line instead of an allocation
 //! abort, an endless run or `inf` results. The table is repeated in `docs/LIMITS.md`.
 //!
-//! [`check_document`] runs on the parsed TOML document (with spans) before the typed parse:
+//! `check_document` runs on the parsed TOML document (with spans) before the typed parse:
 //! it checks array lengths, finiteness, magnitudes and counts of every key it knows, wherever
 //! the key sits, so new tables that reuse the key names are covered too.
 

@@ -61,7 +61,7 @@ impl Isa {
         }
     }
 
-    /// The level [`dispatch`] will run for this request (resolving `Auto` and unavailable
+    /// The level `dispatch` will run for this request (resolving `Auto` and unavailable
     /// levels).
     pub fn resolve(self) -> Isa {
         match self {

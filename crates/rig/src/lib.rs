@@ -26,7 +26,7 @@
 //! - [`link_statistics`] → [`LinkStatistics`]: mean, σ, SEM, covariance, SO(3) mean.
 //! - [`flag_outliers`] → [`OutlierReport`]; [`drift_report`] → [`DriftReport`].
 //! - [`sem::sem_covariance`] → [`sem::SemEstimate`]: the uncertainty of the mean link.
-//! - [`refine`] → [`Refinement`]: one link fitted jointly with all poses of A, with covariance
+//! - [`refine()`] → [`Refinement`]: one link fitted jointly with all poses of A, with covariance
 //!   (a weighted mean of the same poses, floored at the uncertainty of the mean).
 //! - [`calibrate`] → [`Calibration`]: all of the above in one call.
 //!

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 pub struct StudyArgs {
     /// The study file (TOML; paths in it are relative to it).
     pub study: PathBuf,
-    /// Output directory: results.json, report.html, calibration/, tie/, grid/<layout>/.
+    /// Output directory: results.json, report.html, calibration/, tie/, `grid/<layout>/`.
     #[arg(long)]
     pub out: PathBuf,
     /// Monte Carlo draws per grid point (overrides the study file's `samples`).
