@@ -338,24 +338,14 @@ pub fn bootstrap_absolute<C: Projector + Sync>(
             .map_err(|e| e.to_string())
     };
     let n_candidates = input.pixels_b.len();
-    // The BCa acceleration comes from the leave-one-out over the inliers with the warm-started
-    // LM in both modes (a RANSAC per left-out candidate would cost n full estimations).
-    let (replicates, jackknife) = match resample {
-        Resample::Inliers => run_both(
-            (inliers.len(), &warm),
-            (inliers.len(), &warm),
-            iterations,
-            seed,
-            with_jackknife,
-        )?,
-        Resample::AllMatches => run_both(
-            (n_candidates, &rerun),
-            (inliers.len(), &warm),
-            iterations,
-            seed,
-            with_jackknife,
-        )?,
-    };
+    let (replicates, jackknife) = resample_both(
+        resample,
+        (n_candidates, &rerun),
+        (inliers.len(), &warm),
+        iterations,
+        seed,
+        with_jackknife,
+    )?;
     Ok(LinkBootstrap {
         n_candidates,
         n_inliers: inliers.len(),
@@ -371,12 +361,18 @@ pub fn bootstrap_absolute<C: Projector + Sync>(
     })
 }
 
-/// The replicates (`stat` over `n` items) and, if asked, the jackknife of `jack` over
-/// `n_jack` items.
+/// A per-replicate estimator over the indices of the items it resamples.
+type Estimate<'a> = &'a (dyn Fn(&[usize]) -> Result<Rigid3, String> + Sync);
+
+/// The replicates and, if asked, the jackknife of one bootstrap. `Inliers` resamples the
+/// inliers with the warm-started refit `warm`; `AllMatches` resamples all candidates and reruns
+/// the estimator (`rerun`). The BCa acceleration comes from the leave-one-out over the inliers
+/// with `warm` in both modes (a RANSAC per left-out candidate would cost n full estimations).
 #[allow(clippy::type_complexity)]
-fn run_both<F, G>(
-    (n, stat): (usize, F),
-    (n_jack, jack): (usize, G),
+fn resample_both(
+    resample: Resample,
+    (n_candidates, rerun): (usize, Estimate<'_>),
+    (n_inliers, warm): (usize, Estimate<'_>),
     iterations: usize,
     seed: u64,
     with_jackknife: bool,
@@ -386,14 +382,14 @@ fn run_both<F, G>(
         Vec<Result<Rigid3, String>>,
     ),
     String,
->
-where
-    F: Fn(&[usize]) -> Result<Rigid3, String> + Sync,
-    G: Fn(&[usize]) -> Result<Rigid3, String> + Sync,
-{
-    let replicates = boot::run(n, iterations, seed, &stat).map_err(|e| e.to_string())?;
+> {
+    let replicates = match resample {
+        Resample::Inliers => boot::run(n_inliers, iterations, seed, &warm),
+        Resample::AllMatches => boot::run(n_candidates, iterations, seed, &rerun),
+    }
+    .map_err(|e| e.to_string())?;
     let jackknife = if with_jackknife {
-        boot::jackknife(n_jack, &jack).map_err(|e| e.to_string())?
+        boot::jackknife(n_inliers, &warm).map_err(|e| e.to_string())?
     } else {
         Vec::new()
     };
@@ -434,24 +430,14 @@ pub fn bootstrap_relative<C: Projector + Sync>(
             .map_err(|e| e.to_string())
     };
     let n_candidates = input.pixels_a.len();
-    // The BCa acceleration comes from the leave-one-out over the inliers with the warm-started
-    // LM in both modes (a RANSAC per left-out candidate would cost n full estimations).
-    let (replicates, jackknife) = match resample {
-        Resample::Inliers => run_both(
-            (inliers.len(), &warm),
-            (inliers.len(), &warm),
-            iterations,
-            seed,
-            with_jackknife,
-        )?,
-        Resample::AllMatches => run_both(
-            (n_candidates, &rerun),
-            (inliers.len(), &warm),
-            iterations,
-            seed,
-            with_jackknife,
-        )?,
-    };
+    let (replicates, jackknife) = resample_both(
+        resample,
+        (n_candidates, &rerun),
+        (inliers.len(), &warm),
+        iterations,
+        seed,
+        with_jackknife,
+    )?;
     Ok(LinkBootstrap {
         n_candidates,
         n_inliers: inliers.len(),
