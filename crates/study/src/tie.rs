@@ -384,12 +384,12 @@ fn resample_both(
     String,
 > {
     let replicates = match resample {
-        Resample::Inliers => boot::run(n_inliers, iterations, seed, &warm),
-        Resample::AllMatches => boot::run(n_candidates, iterations, seed, &rerun),
+        Resample::Inliers => boot::run(n_inliers, iterations, seed, warm),
+        Resample::AllMatches => boot::run(n_candidates, iterations, seed, rerun),
     }
     .map_err(|e| e.to_string())?;
     let jackknife = if with_jackknife {
-        boot::jackknife(n_inliers, &warm).map_err(|e| e.to_string())?
+        boot::jackknife(n_inliers, warm).map_err(|e| e.to_string())?
     } else {
         Vec::new()
     };
