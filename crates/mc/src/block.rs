@@ -333,17 +333,32 @@ fn euler_rotation(nom: &Trig, delta: &[Lane; 6], rot: &mut [Lane; 9], tmax: &mut
     }
 }
 
+/// How an observer's image observation enters a draw.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Observation<'a> {
+    /// At the principal point, no pixel noise: the ray form ([`Normals3::add_ray`]).
+    Ray,
+    /// At the principal point with pixel noise of this σ in normalized coordinates (the aimed
+    /// observers' `pixel_sigma_px / focal_px`): the two DLT rows.
+    Normalized(f64),
+    /// Through a real lens (a fixed camera): the true pixel plus `N(0, σ_px)` per axis,
+    /// undistorted per lane ([`crate::fixed::undistort_lanes`]), then the two DLT rows.
+    Lens(crate::fixed::View<'a>),
+}
+
 /// An observer ready for the block kernel.
 #[derive(Debug, Clone)]
-struct Prepared {
+pub(crate) struct Prepared<'a> {
     c: [f64; 3],
     r: [f64; 9],
+    opk: Vector3<f64>,
     trig: Trig,
     noise: NoiseFactor,
     /// First normal row of the pose noise (`None`: drawn jointly from the chain).
     row: Option<usize>,
-    /// First normal row of the pixel noise.
+    /// First normal row of the pixel noise (unused for [`Observation::Ray`]).
     pixel_row: usize,
+    observation: Observation<'a>,
     source: Option<usize>,
     /// Tangent (body-axis) rotation noise, else ω φ κ noise.
     tangent: bool,
@@ -351,37 +366,63 @@ struct Prepared {
     chain_to_own: [f64; 9],
 }
 
+/// One observer's pose and noise, before the rows of the block are assigned.
+pub(crate) struct ObserverSpec<'a> {
+    /// Nominal centre (world, mm).
+    pub(crate) c: Vector3<f64>,
+    /// Nominal `R_world_from_cam`.
+    pub(crate) r: Matrix3<f64>,
+    /// ω φ κ of `r` (base of euler noise).
+    pub(crate) opk: Vector3<f64>,
+    /// `δ = L·ε`.
+    pub(crate) noise: NoiseFactor,
+    /// Tangent (else euler) rotation noise.
+    pub(crate) tangent: bool,
+    /// Chain camera whose joint draw it takes (correlated mode, with a chain).
+    pub(crate) source: Option<usize>,
+    /// `R̄ᵀ·R_chain` (correlated mode; identity otherwise).
+    pub(crate) chain_to_own: Matrix3<f64>,
+    /// How its observation enters a draw.
+    pub(crate) observation: Observation<'a>,
+}
+
 /// How the rows of a block are used: the chain's (6 per camera, when observers are drawn
 /// jointly), then 6 per independent observer in observer order, then 2 pixel rows per
-/// observer.
-fn prepare(obs: &[Aimed], ctx: &Ctx) -> (Vec<Prepared>, usize) {
-    let mut row = ctx.chain.as_ref().map_or(0, |c| 6 * c.len());
-    let mut out: Vec<Prepared> = obs
-        .iter()
+/// observer with pixel noise (normalized or through a lens). Returns the observers and the
+/// number of rows.
+pub(crate) fn layout<'a>(
+    specs: impl IntoIterator<Item = ObserverSpec<'a>>,
+    chain: Option<&crate::chain::Chain>,
+) -> (Vec<Prepared<'a>>, usize) {
+    let mut row = chain.map_or(0, |c| 6 * c.len());
+    let mut out: Vec<Prepared<'a>> = specs
+        .into_iter()
         .map(|o| {
-            let sourced = o.source.is_some() && ctx.chain.is_some();
+            let source = o.source.filter(|_| chain.is_some());
             let p = Prepared {
                 c: [o.c.x, o.c.y, o.c.z],
                 r: std::array::from_fn(|k| o.r[(k / 3, k % 3)]),
+                opk: o.opk,
                 trig: Trig {
                     s: std::array::from_fn(|k| o.opk[k].sin()),
                     c: std::array::from_fn(|k| o.opk[k].cos()),
                 },
                 noise: o.noise,
-                row: (!sourced).then_some(row),
+                row: source.is_none().then_some(row),
                 pixel_row: 0,
-                source: if sourced { o.source } else { None },
-                tangent: sourced || o.kind == RotationNoise::Tangent,
+                observation: o.observation,
+                source,
+                tangent: source.is_some() || o.tangent,
                 chain_to_own: std::array::from_fn(|k| o.chain_to_own[(k / 3, k % 3)]),
             };
-            if !sourced {
+            if source.is_none() {
                 row += 6;
             }
             p
         })
         .collect();
-    if ctx.pixel.is_some() {
-        for p in &mut out {
+    for p in &mut out {
+        if !matches!(p.observation, Observation::Ray) {
             p.pixel_row = row;
             row += 2;
         }
@@ -389,11 +430,31 @@ fn prepare(obs: &[Aimed], ctx: &Ctx) -> (Vec<Prepared>, usize) {
     (out, row)
 }
 
+/// The aimed observers of one grid point (the grid study without fixed observers).
+fn prepare<'a>(obs: &[Aimed], ctx: &'a Ctx) -> (Vec<Prepared<'a>>, usize) {
+    let chain = ctx.chain.as_ref();
+    layout(
+        obs.iter().map(|o| ObserverSpec {
+            c: o.c,
+            r: o.r,
+            opk: o.opk,
+            noise: o.noise,
+            tangent: o.kind == RotationNoise::Tangent,
+            source: o.source,
+            chain_to_own: o.chain_to_own,
+            observation: ctx.pixel.map_or(Observation::Ray, Observation::Normalized),
+        }),
+        chain,
+    )
+}
+
 /// Per-task scratch of the block kernel (allocated once per task; size independent of the
 /// number of draws).
 struct Scratch {
     e: Vec<Lane>,
     delta: Vec<[Lane; 6]>,
+    /// The normalized image coordinates of each observer with pixel noise.
+    xy: Vec<[Lane; 2]>,
     eps: Vec<f64>,
     drawn: Vec<crate::chain::WorldPose>,
 }
@@ -410,14 +471,27 @@ pub(crate) fn run_task(
     acc: &mut Acc3,
 ) {
     let (prep, rows) = prepare(obs, ctx);
+    run_prepared(&prep, rows, ctx.chain.as_ref(), key, task, m, acc);
+}
+
+/// `m` draws of prepared observers ([`layout`]) into `acc`: the kernel of every grid path.
+/// Must be called inside [`crate::simd::dispatch`].
+#[inline(always)]
+pub(crate) fn run_prepared(
+    prep: &[Prepared<'_>],
+    rows: usize,
+    chain: Option<&crate::chain::Chain>,
+    key: [u32; 2],
+    task: u64,
+    m: usize,
+    acc: &mut Acc3,
+) {
     let mut s = Scratch {
         e: vec![[0.0; LANES]; rows.next_multiple_of(2)],
         delta: vec![[[0.0; LANES]; 6]; prep.len()],
-        eps: vec![0.0; ctx.chain.as_ref().map_or(0, |c| 6 * c.len())],
-        drawn: ctx
-            .chain
-            .as_ref()
-            .map_or_else(Vec::new, |c| c.nominal().to_vec()),
+        xy: vec![[[0.0; LANES]; 2]; prep.len()],
+        eps: vec![0.0; chain.map_or(0, |c| 6 * c.len())],
+        drawn: chain.map_or_else(Vec::new, |c| c.nominal().to_vec()),
     };
     let mut ne = Normals3::new();
     let mut cpos = [[0.0; LANES]; 3];
@@ -425,16 +499,14 @@ pub(crate) fn run_task(
     let mut rot = [[0.0; LANES]; 9];
     let mut xs = [[0.0; LANES]; 3];
     let mut tmax;
-    let mut px = [0.0; LANES];
-    let mut py = [0.0; LANES];
     let shift = acc.shift();
     let mut lanes = LaneSums::<LANES>::default();
     let mut done = 0;
     while done < m {
         let b = LANES.min(m - done);
         fill_block(key, task, done as u64, &mut s.e);
-        if let Some(chain) = &ctx.chain {
-            chain_deltas(chain, &prep, &mut s, b);
+        if let Some(chain) = chain {
+            chain_deltas(chain, prep, &mut s, b);
         }
         ne.clear();
         tmax = [0.0; LANES];
@@ -449,33 +521,38 @@ pub(crate) fn run_task(
                 }
             }
             let tangent = o.tangent;
-            match ctx.pixel {
-                None => {
-                    if tangent {
-                        tangent_ray(&o.r, delta, &mut dir, &mut tmax);
-                    } else {
-                        euler_ray(&o.trig, delta, &mut dir, &mut tmax);
-                    }
-                    ne.add_ray(&dir, &cpos);
+            if let Observation::Ray = o.observation {
+                if tangent {
+                    tangent_ray(&o.r, delta, &mut dir, &mut tmax);
+                } else {
+                    euler_ray(&o.trig, delta, &mut dir, &mut tmax);
                 }
-                Some(sn) => {
-                    if tangent {
-                        tangent_rotation(&o.r, delta, &mut rot, &mut tmax);
-                    } else {
-                        euler_rotation(&o.trig, delta, &mut rot, &mut tmax);
-                    }
-                    for l in 0..LANES {
-                        px[l] = sn * s.e[o.pixel_row][l];
-                        py[l] = sn * s.e[o.pixel_row + 1][l];
-                    }
-                    ne.add_view(&rot, &cpos, &px, &py);
-                }
+                ne.add_ray(&dir, &cpos);
+                continue;
             }
+            if tangent {
+                tangent_rotation(&o.r, delta, &mut rot, &mut tmax);
+            } else {
+                euler_rotation(&o.trig, delta, &mut rot, &mut tmax);
+            }
+            let [ex, ey] = [&s.e[o.pixel_row], &s.e[o.pixel_row + 1]];
+            let [px, py] = &mut s.xy[j];
+            match &o.observation {
+                Observation::Normalized(sn) => {
+                    for l in 0..LANES {
+                        px[l] = sn * ex[l];
+                        py[l] = sn * ey[l];
+                    }
+                }
+                Observation::Lens(v) => crate::fixed::undistort_lanes(v, ex, ey, px, py, b),
+                Observation::Ray => unreachable!("handled above"),
+            }
+            ne.add_view(&rot, &cpos, px, py);
         }
         ne.solve(&mut xs);
         for l in 0..b {
             if tmax[l] >= SMALL_ANGLE_SQ {
-                let x = exact_lane(obs, &prep, ctx, &s, l);
+                let x = exact_lane(prep, &s, l);
                 for i in 0..3 {
                     xs[i][l] = x[i];
                 }
@@ -489,7 +566,7 @@ pub(crate) fn run_task(
 
 /// δ of the observers drawn jointly from the chain, per lane (scalar chain composition).
 #[inline(never)]
-fn chain_deltas(chain: &crate::chain::Chain, prep: &[Prepared], s: &mut Scratch, b: usize) {
+fn chain_deltas(chain: &crate::chain::Chain, prep: &[Prepared<'_>], s: &mut Scratch, b: usize) {
     let n = s.eps.len();
     for l in 0..b {
         for (k, e) in s.eps.iter_mut().enumerate().take(n) {
@@ -499,7 +576,7 @@ fn chain_deltas(chain: &crate::chain::Chain, prep: &[Prepared], s: &mut Scratch,
         for (j, o) in prep.iter().enumerate() {
             if let Some(i) = o.source {
                 let (dc, th) = chain.error_of(i, &s.drawn[i]);
-                // World-frame rotation Exp(R̄θ) on the look-at L: L·Exp(Lᵀ R̄ θ).
+                // World-frame rotation Exp(R̄θ) on the observer's R: R·Exp(Rᵀ R̄ θ).
                 let m = &o.chain_to_own;
                 for k in 0..3 {
                     s.delta[j][k][l] = dc[k];
@@ -513,38 +590,35 @@ fn chain_deltas(chain: &crate::chain::Chain, prep: &[Prepared], s: &mut Scratch,
 
 /// Lane `l` recomputed with the exact `sin`/`cos` formulas (an angle beyond the series).
 #[inline(never)]
-fn exact_lane(obs: &[Aimed], prep: &[Prepared], ctx: &Ctx, s: &Scratch, l: usize) -> Vector3<f64> {
+fn exact_lane(prep: &[Prepared<'_>], s: &Scratch, l: usize) -> Vector3<f64> {
     let mut n = Normal3::default();
-    for (j, (o, p)) in obs.iter().zip(prep).enumerate() {
+    for (j, p) in prep.iter().enumerate() {
         let d = &s.delta[j];
         let c = Vector3::new(p.c[0] + d[0][l], p.c[1] + d[1][l], p.c[2] + d[2][l]);
         let w = Vector3::new(d[3][l], d[4][l], d[5][l]);
-        let tangent = p.tangent;
-        match ctx.pixel {
-            None => {
-                let dir = if tangent {
-                    o.r * exp_e3(&w)
-                } else {
-                    opk_e3(&(o.opk + w))
-                };
-                n.add_ray(&dir, &c);
-            }
-            Some(sn) => {
-                let r: Matrix3<f64> = if tangent {
-                    o.r * exp_matrix(&w)
-                } else {
-                    rot_opk(&(o.opk + w))
-                };
-                let (x, y) = (sn * s.e[p.pixel_row][l], sn * s.e[p.pixel_row + 1][l]);
-                let (c1, c2, c3) = (
-                    r.column(0).into_owned(),
-                    r.column(1).into_owned(),
-                    r.column(2).into_owned(),
-                );
-                n.add_row(&(c3 * x - c1), &c);
-                n.add_row(&(c3 * y - c2), &c);
-            }
+        let r0 = Matrix3::from_row_slice(&p.r);
+        if let Observation::Ray = p.observation {
+            let dir = if p.tangent {
+                r0 * exp_e3(&w)
+            } else {
+                opk_e3(&(p.opk + w))
+            };
+            n.add_ray(&dir, &c);
+            continue;
         }
+        let r: Matrix3<f64> = if p.tangent {
+            r0 * exp_matrix(&w)
+        } else {
+            rot_opk(&(p.opk + w))
+        };
+        let (x, y) = (s.xy[j][0][l], s.xy[j][1][l]);
+        let (c1, c2, c3) = (
+            r.column(0).into_owned(),
+            r.column(1).into_owned(),
+            r.column(2).into_owned(),
+        );
+        n.add_row(&(c3 * x - c1), &c);
+        n.add_row(&(c3 * y - c2), &c);
     }
     n.solve()
 }

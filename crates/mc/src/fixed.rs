@@ -17,20 +17,34 @@
 //! DLT rows of the perturbed camera; the views' rows are solved together (inhomogeneous DLT).
 //! Points seen by fewer than two observers are *not measurable*: NaN σ, `observers_seen < 2`.
 //!
-//! Undistortion in the loop: the linear predictor `n₀ + J⁻¹·δu` (J = ∂pixel/∂normalized at the
-//! true pixel, computed once per point) refined by chord-Newton steps on the lens's exact
-//! projection until the reprojection residual is below [`UNDISTORT_RESIDUAL_PX`] (lenses
-//! without distortion need no refinement: the predictor is exact). A step that cannot be
-//! refined falls back to the camera crate's full unprojection (COLMAP's Newton iteration).
+//! The draws run on the vectorised block engine ([`crate::block`]: Philox + Box–Muller normals,
+//! blocks of 64 draws in lanes, compiled per instruction-set level) with every other grid
+//! path: a fixed view is an [`crate::block::Observation::Lens`], whose per-lane normalized
+//! coordinates come from [`undistort_lanes`].
 //!
-//! Determinism: as the aimed path, (point p, chunk k) draws from `stream(seed, p·2²⁴ + k)`
-//! and chunks merge in index order.
+//! Undistortion in lanes: the linear predictor `n₀ + J⁻¹·δu` (J = ∂pixel/∂normalized at the
+//! true pixel, computed once per point) is exact for lenses without distortion (PINHOLE,
+//! SIMPLE_PINHOLE, or distortion parameters all zero). Distorting lenses with a written-out
+//! projection ([`FastLens`]: SIMPLE_RADIAL, RADIAL, OPENCV, FULL_OPENCV) take exactly
+//! [`REFINE_STEPS`] chord-Newton steps per lane on that projection, branch-free; a lane whose
+//! last residual is still ≥ [`UNDISTORT_RESIDUAL_PX`] (or not finite) is recomputed by the
+//! scalar routine (refinement until the residual is below the bound, then the camera crate's
+//! full unprojection) — a fix-up that depends only on that draw's pixel offset, so results do
+//! not depend on the block, the thread count or the instruction set. The other distorting
+//! models (fisheyes, FOV) undistort every lane with the scalar routine.
+//!
+//! Determinism: as the aimed path, (point p, chunk k) is task `p·2²⁴ + k`
+//! ([`crate::grid::task_index`]) and chunks merge in index order. `CRASHRIG_ISA=legacy` runs
+//! the former scalar loop (ChaCha8 + ziggurat, [`run_chunk_fixed`]) as a benchmark baseline.
 
 use crate::accumulate::Acc3;
+use crate::block::{NoiseFactor, Observation, ObserverSpec, Prepared};
 use crate::chain::Chain;
 use crate::grid::{GridResult, PointStats};
 use crate::kernel::{Normal3, exp_matrix, rot_opk};
+use crate::normal::{LANES, Lane};
 use crate::scenario::{Adaptive, Aim, Grid, Observer, PixelNoise, RotationNoise};
+use crate::simd::Engine;
 use crate::{CHUNK, Error, FastNormal};
 use crashrig_camera::{Camera as Lens, ModelId};
 use crashrig_stats::stream;
@@ -41,14 +55,17 @@ use rayon::prelude::*;
 /// pixels of the observed pixel.
 pub const UNDISTORT_RESIDUAL_PX: f64 = 1e-7;
 
-/// Largest number of chord-Newton refinements per undistortion before the fallback.
+/// Largest number of chord-Newton refinements of the scalar undistortion before the fallback.
 const MAX_REFINE: usize = 8;
+
+/// Chord-Newton steps of the undistortion in lanes (every lane takes all of them). Two
+/// suffice for pixel σ of a few pixels: the predictor's error is second order in the pixel
+/// offset and each step multiplies it by the relative change of the lens Jacobian over the
+/// offset (≈ 10⁻⁴ for 0.5 px at 1000 px focal length).
+pub(crate) const REFINE_STEPS: usize = 2;
 
 /// Relative tolerance of the visibility round trip (pixel → ray → same ray).
 const ROUND_TRIP_TOL: f64 = 1e-9;
-
-/// Draws per block of the draw loop.
-const LANES: usize = 64;
 
 /// Normals per view and draw: 6 pose + 2 pixel.
 const NORMALS_PER_VIEW: usize = 8;
@@ -161,7 +178,13 @@ impl FastLens {
     /// Pixel (COLMAP convention) of normalized coordinates `n`.
     #[inline(always)]
     pub(crate) fn img_from_normalized(&self, n: Vector2<f64>) -> Vector2<f64> {
-        let (x, y) = (n.x, n.y);
+        let (u, v) = self.img_from_xy(n.x, n.y);
+        Vector2::new(u, v)
+    }
+
+    /// [`FastLens::img_from_normalized`] on plain numbers (the lane loop).
+    #[inline(always)]
+    pub(crate) fn img_from_xy(&self, x: f64, y: f64) -> (f64, f64) {
         let r2 = x * x + y * y;
         let [k1, k2, k3, k4, k5, k6] = self.k;
         let [p1, p2] = self.p;
@@ -169,7 +192,7 @@ impl FastLens {
             (1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (1.0 + r2 * (k4 + r2 * (k5 + r2 * k6)));
         let xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
         let yd = y * radial + 2.0 * p2 * x * y + p1 * (r2 + 2.0 * y * y);
-        Vector2::new(self.f[0] * xd + self.c[0], self.f[1] * yd + self.c[1])
+        (self.f[0] * xd + self.c[0], self.f[1] * yd + self.c[1])
     }
 }
 
@@ -346,6 +369,89 @@ fn undistort(v: &View<'_>, du: Vector2<f64>) -> Vector2<f64> {
     }
 }
 
+/// Normalized coordinates of the observed pixels `u0 + σ_px·(ex, ey)` of view `v` in lanes
+/// (see the module docs): the predictor, [`REFINE_STEPS`] chord-Newton steps on the
+/// [`FastLens`] projection, and the scalar [`undistort`] for the lanes `< b` that did not
+/// converge. Plain loops over lanes with `+ − × ÷` only (vectorised by the caller's
+/// instruction-set level, the same bits on every level).
+#[inline(always)]
+pub(crate) fn undistort_lanes(
+    v: &View<'_>,
+    ex: &Lane,
+    ey: &Lane,
+    x: &mut Lane,
+    y: &mut Lane,
+    b: usize,
+) {
+    let s = v.sigma_px;
+    let j = [
+        v.jinv[(0, 0)],
+        v.jinv[(0, 1)],
+        v.jinv[(1, 0)],
+        v.jinv[(1, 1)],
+    ];
+    let (n0, n1) = (v.n0.x, v.n0.y);
+    for l in 0..LANES {
+        let (du, dv) = (s * ex[l], s * ey[l]);
+        x[l] = n0 + (j[0] * du + j[1] * dv);
+        y[l] = n1 + (j[2] * du + j[3] * dv);
+    }
+    if v.lens.is_none() {
+        return;
+    }
+    let scalar = |l: usize, x: &mut Lane, y: &mut Lane| {
+        let n = undistort(v, Vector2::new(s * ex[l], s * ey[l]));
+        x[l] = n.x;
+        y[l] = n.y;
+    };
+    let Some(fast) = v.fast else {
+        for l in 0..b {
+            scalar(l, x, y);
+        }
+        return;
+    };
+    let (t0, t1) = (v.u0.x, v.u0.y);
+    let mut res2 = [0.0; LANES];
+    for _ in 0..REFINE_STEPS {
+        for l in 0..LANES {
+            let (du, dv) = (s * ex[l], s * ey[l]);
+            let (p0, p1) = fast.img_from_xy(x[l], y[l]);
+            let (r0, r1) = (p0 - (t0 + du), p1 - (t1 + dv));
+            x[l] -= j[0] * r0 + j[1] * r1;
+            y[l] -= j[2] * r0 + j[3] * r1;
+            res2[l] = r0 * r0 + r1 * r1;
+        }
+    }
+    for l in 0..b {
+        // The last step's residual (before its update) bounds the result's from above.
+        if !(res2[l] < UNDISTORT_RESIDUAL_PX * UNDISTORT_RESIDUAL_PX) {
+            scalar(l, x, y);
+        }
+    }
+}
+
+/// The block engine's description of view `v` (`chain`: correlated mode; `pixel`: σ of the
+/// aimed views' normalized coordinates).
+fn spec<'a>(v: &View<'a>, chain: Option<&Chain>, pixel: Option<f64>) -> ObserverSpec<'a> {
+    let source = v.source.filter(|_| chain.is_some());
+    ObserverSpec {
+        c: v.c,
+        r: v.r,
+        opk: v.opk,
+        noise: NoiseFactor::from_lower(&v.l),
+        tangent: !v.euler,
+        source,
+        chain_to_own: match (source, chain) {
+            (Some(i), Some(chain)) => v.r.transpose() * chain.nominal()[i].rotation,
+            _ => Matrix3::identity(),
+        },
+        observation: match v.full_lens {
+            Some(_) => Observation::Lens(*v),
+            None => pixel.map_or(Observation::Ray, Observation::Normalized),
+        },
+    }
+}
+
 /// Adds the two DLT rows of view `v` perturbed by `dpose` (δC mm, δθ rad) and `du` (px),
 /// with the rotation `rot` already perturbed.
 #[inline(always)]
@@ -405,8 +511,9 @@ pub(crate) fn intersect_perturbed(views: &[View<'_>], delta: &[f64]) -> Vector3<
     n.solve()
 }
 
-/// `m` draws of one grid point into `acc`: blocks of [`LANES`] draws, the normals of a block
-/// drawn row by row (row `8j + k`: view j's pose component k < 6, pixel axis k − 6), no
+/// The former scalar engine of the fixed path (`CRASHRIG_ISA=legacy`, the benchmark
+/// baseline): `m` draws of one grid point into `acc`: blocks of [`LANES`] draws, the normals of
+/// a block drawn row by row (row `8j + k`: view j's pose component k < 6, pixel axis k − 6), no
 /// allocation except the per-call block buffer, no `Result` in the loop.
 #[inline(never)]
 pub(crate) fn run_chunk_fixed<R: rand::Rng>(
@@ -521,11 +628,6 @@ pub(crate) fn linear_covariance(views: &[View<'_>], point: &Vector3<f64>) -> Mat
     cov
 }
 
-#[inline]
-fn task_index(point: usize, chunk: usize) -> u64 {
-    ((point as u64) << 24) | chunk as u64
-}
-
 fn not_measurable(point: &Vector3<f64>, seen: usize) -> PointStats {
     let nan3 = Vector3::from_element(f64::NAN);
     PointStats {
@@ -556,11 +658,46 @@ fn finish(point: &Vector3<f64>, views: &[View<'_>], m: &Acc3) -> PointStats {
     }
 }
 
+/// The block engine's observers of each point's views (prepared once per point).
+struct Block<'a> {
+    prep: Vec<Prepared<'a>>,
+    rows: usize,
+}
+
+/// `m` draws of one point (task `task`) into `acc` with `engine`.
+#[allow(clippy::too_many_arguments)]
+fn run_chunk(
+    views: &[View<'_>],
+    block: &Block<'_>,
+    chain: Option<&Chain>,
+    seed: u64,
+    task: u64,
+    m: usize,
+    acc: &mut Acc3,
+    engine: Engine,
+) {
+    match engine {
+        Engine::Simd(isa) => {
+            let key = crate::philox::key_of_seed(seed);
+            crate::simd::dispatch(
+                isa,
+                #[inline(always)]
+                || crate::block::run_prepared(&block.prep, block.rows, chain, key, task, m, acc),
+            );
+        }
+        Engine::Legacy => {
+            let mut rng = stream(seed, task);
+            run_chunk_fixed(views, chain, &mut rng, m, acc);
+        }
+    }
+}
+
 /// Runs the grid study with fixed (and aimed) observers.
 pub(crate) fn run(
     setup: &Setup<'_>,
     draws: Draws<'_>,
     seed: u64,
+    engine: Engine,
 ) -> Result<Vec<PointStats>, Error> {
     let points = setup.grid.points();
     let views: Vec<Vec<View<'_>>> = points
@@ -568,6 +705,16 @@ pub(crate) fn run(
         .map(|p| views(setup, p))
         .collect::<Result<_, _>>()?;
     let chain = setup.chain;
+    let pixel = setup.pixel.map(|p| p.sigma_normalized());
+    let blocks: Vec<Block<'_>> = views
+        .iter()
+        .map(|vs| {
+            let (prep, rows) =
+                crate::block::layout(vs.iter().map(|v| spec(v, chain, pixel)), chain);
+            Block { prep, rows }
+        })
+        .collect();
+    let task_index = crate::grid::task_index;
     match draws {
         Draws::Samples(samples) => {
             let chunks = samples.div_ceil(CHUNK);
@@ -578,10 +725,12 @@ pub(crate) fn run(
             let parts: Vec<Acc3> = tasks
                 .par_iter()
                 .map(|&(p, k)| {
-                    let mut rng = stream(seed, task_index(p, k));
                     let m = CHUNK.min(samples - k * CHUNK);
                     let mut acc = Acc3::new(points[p]);
-                    run_chunk_fixed(&views[p], chain, &mut rng, m, &mut acc);
+                    let task = task_index(p, k);
+                    run_chunk(
+                        &views[p], &blocks[p], chain, seed, task, m, &mut acc, engine,
+                    );
                     acc
                 })
                 .collect();
@@ -610,8 +759,8 @@ pub(crate) fn run(
                     return not_measurable(point, views[p].len());
                 }
                 let (total, converged) = crate::grid::adaptive_draws(point, ad, |b, m, acc| {
-                    let mut rng = stream(seed, task_index(p, b));
-                    run_chunk_fixed(&views[p], chain, &mut rng, m, acc);
+                    let task = task_index(p, b);
+                    run_chunk(&views[p], &blocks[p], chain, seed, task, m, acc, engine);
                 });
                 PointStats {
                     converged: Some(converged),

@@ -383,7 +383,7 @@ impl GridStudy {
     /// draws from the former ChaCha8 streams, so its numbers differ statistically only).
     pub fn run_with(&self, samples: usize, seed: u64, engine: Engine) -> Result<GridResult, Error> {
         if self.has_fixed() {
-            return self.run_fixed(crate::fixed::Draws::Samples(samples), seed);
+            return self.run_fixed(crate::fixed::Draws::Samples(samples), seed, engine);
         }
         let points = self.grid.points();
         let aimed = self.aim_all(&points)?;
@@ -432,7 +432,11 @@ impl GridStudy {
         seed: u64,
     ) -> Result<GridResult, Error> {
         if self.has_fixed() {
-            return self.run_fixed(crate::fixed::Draws::Adaptive(adaptive), seed);
+            return self.run_fixed(
+                crate::fixed::Draws::Adaptive(adaptive),
+                seed,
+                Engine::from_env(),
+            );
         }
         let points = self.grid.points();
         let aimed = self.aim_all(&points)?;
@@ -468,7 +472,12 @@ impl GridStudy {
             .any(|o| o.aim != crate::scenario::Aim::Point)
     }
 
-    fn run_fixed(&self, draws: crate::fixed::Draws<'_>, seed: u64) -> Result<GridResult, Error> {
+    fn run_fixed(
+        &self,
+        draws: crate::fixed::Draws<'_>,
+        seed: u64,
+        engine: Engine,
+    ) -> Result<GridResult, Error> {
         let covariance: Vec<Matrix6<f64>> =
             self.observer_noise.iter().map(|n| n.covariance).collect();
         let kinds: Vec<RotationNoise> = self.observer_noise.iter().map(|n| n.noise).collect();
@@ -479,7 +488,7 @@ impl GridStudy {
             pixel: self.grid.pixel,
             chain: self.ctx.chain.as_ref(),
         };
-        Ok(self.result(crate::fixed::run(&setup, draws, seed)?))
+        Ok(self.result(crate::fixed::run(&setup, draws, seed, engine)?))
     }
 
     fn finish(&self, point: &Vector3<f64>, aimed: &[Aimed], m: &Acc3) -> PointStats {
@@ -542,7 +551,10 @@ pub(crate) fn adaptive_draws(
     }
 }
 
-fn task_index(point: usize, chunk: usize) -> u64 {
+/// The task number of chunk (or adaptive batch) `chunk` of grid point `point`: `p·2²⁴ + k`,
+/// the stream of its draws (aimed and fixed paths).
+#[inline]
+pub(crate) fn task_index(point: usize, chunk: usize) -> u64 {
     ((point as u64) << 24) | chunk as u64
 }
 

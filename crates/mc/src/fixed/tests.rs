@@ -647,3 +647,191 @@ fn fixed_adaptive_stops_and_skips_unmeasurable() {
         }
     }
 }
+
+/// The fixed-path studies of the every-ISA identity test: a mixed layout (distorted OPENCV in
+/// lanes, OPENCV_FISHEYE by the scalar routine, an aimed observer by the ray form), the same
+/// with grid pixel noise and euler noise, 40 px pixel noise (most lanes need the scalar
+/// fix-up), a full-covariance observer, and observers drawn jointly from a chain.
+fn fixed_kernel_paths() -> Vec<(&'static str, GridStudy)> {
+    let pixel = MIXED.replace(
+        "z_mm = [0.0, 0.0, 1]",
+        "z_mm = [0.0, 0.0, 1]\npixel_sigma_px = 0.5\nfocal_px = 1500.0",
+    );
+    let euler = pixel.replace("\"tangent\"", "\"euler\"");
+    let wide = MIXED.replace("pixel_sigma_px = 0.5", "pixel_sigma_px = 40.0");
+    let cov = MIXED.replace(
+        "sigma_position_mm = [1.0, 1.2, 1.0]\nsigma_angles_deg = [0.01, 0.015, 0.01]",
+        "covariance_tangent = [[1.0, 0.3, 0.0, 0.0, 0.001, 0.0], [0.3, 1.4, 0.2, 0.0, 0.0, 0.0], \
+         [0.0, 0.2, 1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0001, 0.0, 0.0], \
+         [0.001, 0.0, 0.0, 0.0, 0.0002, 0.00005], [0.0, 0.0, 0.0, 0.0, 0.00005, 0.0001]]",
+    );
+    assert_ne!(
+        cov, MIXED,
+        "the covariance variant must replace the aimed σ"
+    );
+    let mut out = Vec::new();
+    for (name, text) in [
+        ("mixed", MIXED.to_string()),
+        ("mixed+pixel+euler", euler),
+        ("wide pixel noise", wide),
+        ("full covariance", cov),
+        ("correlated", CORRELATED.to_string()),
+    ] {
+        let s = parse(&text).unwrap();
+        out.push((name, GridStudy::new(&s, 2000, 1).unwrap()));
+    }
+    out
+}
+
+/// Two fixed PINHOLE cameras drawn jointly from a two-camera chain (correlated mode).
+const CORRELATED: &str = r#"
+[[camera]]
+name = "cam1"
+position_mm = [0.0, 0.0, 0.0]
+angles_deg = [0.0, 0.0, 0.0]
+sigma_position_mm = [1.0, 1.0, 1.0]
+sigma_angles_deg = [0.02, 0.01, 0.02]
+[[camera]]
+name = "cam2"
+parent = "cam1"
+position_mm = [1000.0, 0.0, 0.0]
+angles_deg = [0.0, 0.0, 0.0]
+sigma_position_mm = [0.5, 0.5, 0.5]
+sigma_angles_deg = [0.01, 0.01, 0.01]
+[grid]
+correlated = true
+x_mm = [400.0, 600.0, 2]
+y_mm = [900.0, 1100.0, 2]
+z_mm = [0.0, 0.0, 1]
+[[grid.observer]]
+aim = "fixed"
+position_mm = [0.0, 0.0, 0.0]
+look_at_mm = [500.0, 1000.0, 0.0]
+camera = { model = "OPENCV", width = 1000, height = 1000, params = [500.0, 500.0, 500.0, 500.0, -0.05, 0.01, 0.0, 0.0] }
+pixel_sigma_px = 0.5
+sigma_from = "cam1"
+[[grid.observer]]
+aim = "fixed"
+position_mm = [1000.0, 0.0, 0.0]
+look_at_mm = [500.0, 1000.0, 0.0]
+camera = { model = "PINHOLE", width = 1000, height = 1000, params = [500.0, 500.0, 500.0, 500.0] }
+pixel_sigma_px = 0.5
+sigma_from = "cam2"
+"#;
+
+/// The statement of `simd.rs` for the fixed path: every instruction-set level gives the same
+/// bits (each available level forced and compared with the baseline, a partial final block).
+#[test]
+fn fixed_every_isa_gives_identical_grids() {
+    use crate::{Engine, Isa};
+    let n = crate::CHUNK + 70;
+    for (name, study) in fixed_kernel_paths() {
+        let base = study.run_with(n, 9, Engine::Simd(Isa::Baseline)).unwrap();
+        assert!(base.points.iter().any(|p| p.is_measurable()), "{name}");
+        for isa in Isa::LEVELS {
+            if !isa.is_available() {
+                eprintln!("{}: not available on this CPU, not compared", isa.name());
+                continue;
+            }
+            let got = study.run_with(n, 9, Engine::Simd(isa)).unwrap();
+            assert_eq!(got, base, "{name}: {} differs from baseline", isa.name());
+        }
+    }
+}
+
+/// The block engine and the former scalar engine of the fixed path draw different numbers
+/// with the same distribution: σ within 4 standard errors of a difference of two σ estimates.
+#[test]
+fn fixed_block_and_legacy_engines_agree_statistically() {
+    use crate::Engine;
+    let n = 20_000;
+    let se = (2.0f64).sqrt() / (2.0 * (n as f64 - 1.0)).sqrt();
+    for (name, study) in fixed_kernel_paths() {
+        let a = study.run_with(n, 5, Engine::Legacy).unwrap();
+        let b = study.run_with(n, 5, Engine::default()).unwrap();
+        for (pa, pb) in a.points.iter().zip(&b.points) {
+            assert_eq!(pa.observers_seen, pb.observers_seen);
+            if !pa.is_measurable() {
+                continue;
+            }
+            for k in 0..3 {
+                let s = pa.sigma_mm[k];
+                assert!(
+                    (pb.sigma_mm[k] - s).abs() < 4.0 * se * s,
+                    "{name} σ[{k}] at {}: legacy {s}, block {}",
+                    pa.point,
+                    pb.sigma_mm[k]
+                );
+            }
+        }
+        assert_ne!(a, b, "{name}: the engines must draw different numbers");
+    }
+}
+
+/// The undistortion in lanes: every lane within 1e-9 of the camera crate's unprojection; the
+/// fixed number of chord-Newton steps alone does not reach that for 40 px offsets (so the
+/// scalar fix-up is exercised and needed), and is exact for a pinhole.
+#[test]
+fn fixed_undistort_lanes_matches_camera_crate_with_fix_up() {
+    let s = parse(&MIXED.replace("pixel_sigma_px = 0.5", "pixel_sigma_px = 40.0")).unwrap();
+    let (cov, kinds, grid) = setup_of(&s);
+    let setup = Setup {
+        grid: &grid,
+        covariance: &cov,
+        kinds: &kinds,
+        pixel: None,
+        chain: None,
+    };
+    let vs = views(&setup, &Vector3::new(1200.0, -200.0, 0.0)).unwrap();
+    let mut rows = vec![[0.0; LANES]; 2];
+    crate::normal::fill_block(crate::philox::key_of_seed(3), 0, 0, &mut rows);
+    let (ex, ey) = (rows[0], rows[1]);
+    let mut checked = 0;
+    for v in vs.iter().filter(|v| v.full_lens.is_some()) {
+        let lens = v.full_lens.unwrap();
+        let (mut x, mut y) = ([0.0; LANES], [0.0; LANES]);
+        let (mut rx, mut ry) = ([0.0; LANES], [0.0; LANES]);
+        undistort_lanes(v, &ex, &ey, &mut x, &mut y, LANES);
+        // b = 0: no lane is fixed up (the raw lane result).
+        undistort_lanes(v, &ex, &ey, &mut rx, &mut ry, 0);
+        let mut raw_off = 0;
+        for l in 0..LANES {
+            let du = Vector2::new(ex[l], ey[l]) * v.sigma_px;
+            let theirs = lens.cam_from_img(&(v.u0 + du)).unwrap().normalized;
+            let ours = Vector2::new(x[l], y[l]);
+            assert!(
+                (ours - theirs).norm() < 1e-9,
+                "lane {l}: {ours} vs {theirs}"
+            );
+            if v.fast.is_some() && (Vector2::new(rx[l], ry[l]) - theirs).norm() > 1e-9 {
+                raw_off += 1;
+            }
+            checked += 1;
+        }
+        if v.fast.is_some() {
+            assert!(raw_off > 0, "40 px offsets must need the fix-up");
+        }
+    }
+    assert_eq!(checked, 2 * LANES);
+    // A pinhole (no distortion): the predictor only, exact to rounding.
+    let pin = MIXED.replace("-0.08, 0.02, 0.0005, -0.0003", "0.0, 0.0, 0.0, 0.0");
+    let s = parse(&pin).unwrap();
+    let (cov, kinds, grid) = setup_of(&s);
+    let setup = Setup {
+        grid: &grid,
+        covariance: &cov,
+        kinds: &kinds,
+        pixel: None,
+        chain: None,
+    };
+    let v = views(&setup, &Vector3::new(1200.0, -200.0, 0.0)).unwrap()[0];
+    assert!(v.lens.is_none());
+    let (mut x, mut y) = ([0.0; LANES], [0.0; LANES]);
+    undistort_lanes(&v, &ex, &ey, &mut x, &mut y, LANES);
+    let lens = v.full_lens.unwrap();
+    for l in 0..LANES {
+        let du = Vector2::new(ex[l], ey[l]) * v.sigma_px;
+        let theirs = lens.cam_from_img(&(v.u0 + du)).unwrap().normalized;
+        assert!((Vector2::new(x[l], y[l]) - theirs).norm() < 1e-12);
+    }
+}
