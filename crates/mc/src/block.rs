@@ -343,7 +343,7 @@ pub(crate) enum Observation<'a> {
     Normalized(f64),
     /// Through a real lens (a fixed camera): the true pixel plus `N(0, σ_px)` per axis,
     /// undistorted per lane ([`crate::fixed::undistort_lanes`]), then the two DLT rows.
-    Lens(crate::fixed::View<'a>),
+    Lens(&'a crate::fixed::View<'a>),
 }
 
 /// An observer ready for the block kernel.

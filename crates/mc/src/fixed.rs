@@ -375,6 +375,7 @@ fn undistort(v: &View<'_>, du: Vector2<f64>) -> Vector2<f64> {
 /// converge. Plain loops over lanes with `+ − × ÷` only (vectorised by the caller's
 /// instruction-set level, the same bits on every level).
 #[inline(always)]
+#[allow(clippy::needless_range_loop)] // lane-indexed loops over parallel arrays vectorise
 pub(crate) fn undistort_lanes(
     v: &View<'_>,
     ex: &Lane,
@@ -424,7 +425,8 @@ pub(crate) fn undistort_lanes(
     }
     for l in 0..b {
         // The last step's residual (before its update) bounds the result's from above.
-        if !(res2[l] < UNDISTORT_RESIDUAL_PX * UNDISTORT_RESIDUAL_PX) {
+        let r2 = res2[l];
+        if r2 >= UNDISTORT_RESIDUAL_PX * UNDISTORT_RESIDUAL_PX || r2.is_nan() {
             scalar(l, x, y);
         }
     }
@@ -432,7 +434,7 @@ pub(crate) fn undistort_lanes(
 
 /// The block engine's description of view `v` (`chain`: correlated mode; `pixel`: σ of the
 /// aimed views' normalized coordinates).
-fn spec<'a>(v: &View<'a>, chain: Option<&Chain>, pixel: Option<f64>) -> ObserverSpec<'a> {
+fn spec<'a>(v: &'a View<'a>, chain: Option<&Chain>, pixel: Option<f64>) -> ObserverSpec<'a> {
     let source = v.source.filter(|_| chain.is_some());
     ObserverSpec {
         c: v.c,
@@ -446,7 +448,7 @@ fn spec<'a>(v: &View<'a>, chain: Option<&Chain>, pixel: Option<f64>) -> Observer
             _ => Matrix3::identity(),
         },
         observation: match v.full_lens {
-            Some(_) => Observation::Lens(*v),
+            Some(_) => Observation::Lens(v),
             None => pixel.map_or(Observation::Ray, Observation::Normalized),
         },
     }
