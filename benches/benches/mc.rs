@@ -4,73 +4,13 @@
 //! Throughput is reported per draw (`Throughput::Elements`), so criterion prints draws/s.
 //! Single-threaded numbers come from a 1-thread rayon pool; the 2-thread grid uses a 2-thread
 //! pool. See docs/performance.md for the numbers and the roofline note.
+use crashrig_benches::{CHAIN, TWO_OBSERVERS, engine_name, engines, one_point_kernel};
 use crashrig_mc::{Chain, Engine, GridStudy, Isa, Scenario};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use rand::RngExt;
 use rand_distr::StandardNormal;
 use std::hint::black_box;
 use std::path::Path;
-
-const TWO_OBSERVERS: &str = r#"
-seed = 1
-samples = 2000
-[grid]
-x_mm = [400.0, 2000.0, 17]
-y_mm = [-600.0, 600.0, 13]
-z_mm = [0.0, 0.0, 1]
-[[grid.observer]]
-position_mm = [200.0, 0.0, 0.0]
-sigma_position_mm = [1.52, 1.54, 1.52]
-sigma_angles_deg = [0.011, 0.011, 0.013]
-[[grid.observer]]
-position_mm = [1300.0, -700.0, 0.0]
-sigma_position_mm = [2.53, 2.51, 2.55]
-sigma_angles_deg = [0.023, 0.023, 0.024]
-"#;
-
-const CHAIN: &str = r#"
-seed = 1
-samples = 1000
-[[camera]]
-name = "cam1"
-position_mm = [0.0, 0.0, 0.0]
-angles_deg = [0.0, 0.0, 0.0]
-sigma_position_mm = [1.0, 1.0, 1.0]
-sigma_angles_deg = [0.01, 0.01, 0.01]
-[[camera]]
-name = "cam2"
-parent = "cam1"
-position_mm = [61.98, -1.71, 179.76]
-angles_deg = [179.92, -0.09, 179.76]
-sigma_position_mm = [0.19, 0.26, 0.13]
-sigma_angles_deg = [0.004, 0.005, 0.008]
-[[camera]]
-name = "cam3"
-parent = "cam2"
-position_mm = [-900.0, 50.0, 600.0]
-angles_deg = [0.0, 0.0, 0.0]
-sigma_position_mm = [2.0, 2.0, 2.0]
-sigma_angles_deg = [0.02, 0.02, 0.02]
-"#;
-
-/// The legacy engine and every SIMD level this CPU has, slowest first.
-fn engines() -> Vec<Engine> {
-    std::iter::once(Engine::Legacy)
-        .chain(
-            Isa::LEVELS
-                .into_iter()
-                .filter(|l| l.is_available())
-                .map(Engine::Simd),
-        )
-        .collect()
-}
-
-fn engine_name(e: Engine) -> String {
-    match e {
-        Engine::Legacy => "legacy".to_string(),
-        Engine::Simd(isa) => isa.name().to_string(),
-    }
-}
 
 fn pool(threads: usize) -> rayon::ThreadPool {
     rayon::ThreadPoolBuilder::new()
@@ -140,10 +80,8 @@ fn normals(c: &mut Criterion) {
 
 fn kernel(c: &mut Criterion) {
     // One grid point, many draws: the per-draw cost of the two-observer kernel.
-    let text = TWO_OBSERVERS
-        .replace("x_mm = [400.0, 2000.0, 17]", "x_mm = [1000.0, 1000.0, 1]")
-        .replace("y_mm = [-600.0, 600.0, 13]", "y_mm = [300.0, 300.0, 1]");
-    let sc = Scenario::from_toml_str(&text, Path::new("bench.toml")).expect("scenario");
+    let sc =
+        Scenario::from_toml_str(&one_point_kernel(), Path::new("bench.toml")).expect("scenario");
     let study = GridStudy::new(&sc, 0, 0).expect("study");
     let n = 64 * 4096;
     let one = pool(1);

@@ -1,1 +1,93 @@
-//! Benchmarks live in `benches/benches/`; this library is empty on purpose.
+//! Shared inputs of the Monte Carlo benchmarks: the criterion benches in `benches/benches/`
+//! and the CPU-time harness `examples/mc_cpu.rs` run the same scenarios and engines, defined
+//! once here.
+//!
+//! ```
+//! let engines = crashrig_benches::engines();
+//! assert_eq!(crashrig_benches::engine_name(engines[0]), "legacy");
+//! assert_eq!(crashrig_benches::engine_of_name("legacy"), Some(engines[0]));
+//! ```
+use crashrig_mc::{Engine, Isa};
+
+/// Two aimed observers with the σ of the paper's Tables 3–4 over a 17 × 13 grid (221 points).
+pub const TWO_OBSERVERS: &str = r#"
+seed = 1
+samples = 2000
+[grid]
+x_mm = [400.0, 2000.0, 17]
+y_mm = [-600.0, 600.0, 13]
+z_mm = [0.0, 0.0, 1]
+[[grid.observer]]
+position_mm = [200.0, 0.0, 0.0]
+sigma_position_mm = [1.52, 1.54, 1.52]
+sigma_angles_deg = [0.011, 0.011, 0.013]
+[[grid.observer]]
+position_mm = [1300.0, -700.0, 0.0]
+sigma_position_mm = [2.53, 2.51, 2.55]
+sigma_angles_deg = [0.023, 0.023, 0.024]
+"#;
+
+/// [`TWO_OBSERVERS`] at one grid point (1000, 300, 0) mm: the per-draw cost of the kernel.
+pub fn one_point_kernel() -> String {
+    TWO_OBSERVERS
+        .replace("x_mm = [400.0, 2000.0, 17]", "x_mm = [1000.0, 1000.0, 1]")
+        .replace("y_mm = [-600.0, 600.0, 13]", "y_mm = [300.0, 300.0, 1]")
+}
+
+/// A three-camera chain (the paper's cam1 → cam2 link, and a third camera).
+pub const CHAIN: &str = r#"
+seed = 1
+samples = 1000
+[[camera]]
+name = "cam1"
+position_mm = [0.0, 0.0, 0.0]
+angles_deg = [0.0, 0.0, 0.0]
+sigma_position_mm = [1.0, 1.0, 1.0]
+sigma_angles_deg = [0.01, 0.01, 0.01]
+[[camera]]
+name = "cam2"
+parent = "cam1"
+position_mm = [61.98, -1.71, 179.76]
+angles_deg = [179.92, -0.09, 179.76]
+sigma_position_mm = [0.19, 0.26, 0.13]
+sigma_angles_deg = [0.004, 0.005, 0.008]
+[[camera]]
+name = "cam3"
+parent = "cam2"
+position_mm = [-900.0, 50.0, 600.0]
+angles_deg = [0.0, 0.0, 0.0]
+sigma_position_mm = [2.0, 2.0, 2.0]
+sigma_angles_deg = [0.02, 0.02, 0.02]
+"#;
+
+/// The legacy engine and every SIMD level this CPU has, slowest first.
+pub fn engines() -> Vec<Engine> {
+    std::iter::once(Engine::Legacy)
+        .chain(
+            Isa::LEVELS
+                .into_iter()
+                .filter(|l| l.is_available())
+                .map(Engine::Simd),
+        )
+        .collect()
+}
+
+/// `legacy`, or the SIMD level's name (`baseline`, `v3`, `v4`, `auto`).
+pub fn engine_name(e: Engine) -> String {
+    match e {
+        Engine::Legacy => "legacy".to_string(),
+        Engine::Simd(isa) => isa.name().to_string(),
+    }
+}
+
+/// The engine named by [`engine_name`], if any.
+pub fn engine_of_name(name: &str) -> Option<Engine> {
+    match name {
+        "legacy" => Some(Engine::Legacy),
+        "auto" => Some(Engine::Simd(Isa::Auto)),
+        _ => Isa::LEVELS
+            .into_iter()
+            .find(|l| l.name() == name)
+            .map(Engine::Simd),
+    }
+}
