@@ -16,9 +16,10 @@
 //! so an expression is either always fused or never. `mul_add` is an FMA instruction on
 //! x86-64-v3/v4 and NEON and the correctly rounded libm `fma` on the SSE2 baseline (glibc's
 //! uses the FMA instruction when the CPU has one, exact software otherwise): the same bits,
-//! only slower. No other libm function is called in the vectorised loops. Sums are kept per
+//! only slower (≈ 10× on the baseline; `docs/performance.md` weighs the alternatives). No other libm function is called in the vectorised loops. Sums are kept per
 //! lane of the 64-draw block and reduced in lane order, whatever the register width. So
 //! every level gives the same bits; `grid::tests::every_isa_gives_identical_grids`,
+//! `fixed::tests::fixed_every_isa_gives_identical_grids`,
 //! `chain::tests::chain_every_isa_gives_identical_results` and
 //! `normal::block_tests::fill_block_is_identical_on_every_isa_and_row_count` force each
 //! available level and compare the results exactly.
