@@ -14,12 +14,14 @@
 //! realistic σ) is recomputed with `sin`/`cos` by the scalar formulas of [`crate::kernel`],
 //! lane by lane, so a draw's result never depends on its block.
 //!
-//! # Entry points for other observation models
-//! [`Normals3::add_ray`] (a ray through a centre, both per lane) and [`Normals3::add_view`] (a
-//! perturbed rotation, a centre and normalized image coordinates per lane: the two DLT rows of
-//! a view) are the building blocks for observers whose rays come from elsewhere, e.g. fixed
-//! cameras with real lenses (pixel noise undistorted through a camera model gives per-lane
-//! normalized coordinates for `add_view`).
+//! # Observation models
+//! Each observer enters a draw through its [`Observation`]: a ray through its centre
+//! ([`Normals3::add_ray`]: aimed, no pixel noise), normalized coordinates with pixel noise
+//! ([`Normals3::add_view`]: aimed, `σ_px/f` per axis), or a fixed camera's lens (the true pixel
+//! plus pixel noise undistorted per lane by `crate::fixed::undistort_lanes`, then
+//! [`Normals3::add_view`]). [`layout`] assigns the normal rows of any mix; [`run_prepared`] is
+//! the one kernel of every grid path (aimed studies enter through [`run_task`], studies with
+//! fixed observers through `crate::fixed::run`).
 //!
 //! # Frames of the perturbation
 //! `δ = (δC, w)`: δC shifts the centre in world axes; `w` rotates about the camera's own axes,
