@@ -100,6 +100,27 @@ fn assert_sem_matches_numpy(v: &Value, np: &Value) {
     }
 }
 
+/// The six robust scores of every epoch equal numpy's. The links agree to 2e-12 mm / rad, i.e.
+/// ≤ 1.2e-10° in an angle; over the smallest MAD/0.6745 of these fixtures (> 0.02°, > 1 mm)
+/// that moves a score by < 1e-8 (measured: 2e-12).
+fn assert_z_scores_match_numpy(v: &Value, np: &Value) {
+    let epochs = field(v, "epochs").as_array().expect("array");
+    let want = field(np, "z_scores").as_array().expect("array");
+    assert_eq!(epochs.len(), want.len());
+    for (i, (e, w)) in epochs.iter().zip(want).enumerate() {
+        let z = numbers(field(e, "z_scores"), "z_scores", 6);
+        let zw = numbers(w, "numpy z_scores", 6);
+        for j in 0..6 {
+            assert!(
+                (z[j] - zw[j]).abs() <= 1e-8,
+                "epoch {i}, score {j}: {} vs {}",
+                z[j],
+                zw[j]
+            );
+        }
+    }
+}
+
 /// Per tangent axis: does ±2·√(diag) of `key` around the mean link cover the truth?
 fn covers_truth(v: &Value, e: &Value, key: &str, over_n: bool) -> Vec<bool> {
     let np = field(e, "numpy");
@@ -141,6 +162,7 @@ fn sim_clean_sequence_has_no_flag_and_its_sem_is_sigma_over_sqrt_n() {
         epsilon = 1e-8 * num(np, "outlier_threshold")
     );
     assert_eq!(string(&v, "sem_rule"), "covariance_over_n");
+    assert_z_scores_match_numpy(&v, np);
     assert_sem_matches_numpy(&v, np);
 }
 
@@ -174,6 +196,7 @@ fn sim_gross_errors_are_flagged_and_nothing_else() {
     }
     // The statistics without the flagged epochs are over the 137 others.
     assert_eq!(uint(field(&v, "without_outliers"), "n_epochs"), 137);
+    assert_z_scores_match_numpy(&v, field(&e, "numpy"));
     assert_sem_matches_numpy(&v, field(&e, "numpy"));
 }
 
@@ -198,6 +221,7 @@ fn sim_ar1_sequence_sem_is_widened_and_covers_the_truth() {
     assert_eq!(num(&e, "rho"), 0.9);
     assert_eq!(string(&v, "sem_rule"), "ar1_effective_n");
     assert!(bools(np, "autocorrelated").iter().all(|a| *a));
+    assert_z_scores_match_numpy(&v, np);
     assert_sem_matches_numpy(&v, np);
     // The known ρ = 0.9 gives f = 20.1 at n = 140. A lag-1 estimate is within 5 of its SEs
     // √((1 − ρ²)/n) = 0.037 of ρ (after the bias correction); at ρ − 5 SE = 0.716 the factor is
