@@ -6,7 +6,7 @@
 //!
 //! | kind (told apart by its fields) | nominal link `A_from_B` | covariance |
 //! |---|---|---|
-//! | `calibrate` (has `n_epochs`) | `base_mm`, `angles_deg` (the mean over all epochs) | `sem_covariance_tangent`: the uncertainty of that mean (required: a calibrate result's `covariance_tangent` is the spread of one epoch's link) |
+//! | `calibrate` (has `n_epochs`) | `link.base_mm`, `link.angles_deg`: the mean the tangent covariances are taken about (mean centre, Karcher mean rotation); the top-level `base_mm`, `angles_deg` (per-angle means, the paper's table) only if `link` is absent | `sem_covariance_tangent`: the uncertainty of that mean (required: a calibrate result's `covariance_tangent` is the spread of one epoch's link) |
 //! | `bootstrap` (has `method` and `iterations`) | `base_mm`, `angles_deg` | `covariance_tangent`: the spread of the replicates |
 //! | a link written by hand (neither marker) | `base_mm`, `angles_deg` | `sem_covariance_tangent` if present, else `covariance_tangent` |
 //!
@@ -105,8 +105,14 @@ pub fn link_from_result_value(v: &Value) -> Result<(ResultKind, UncertainPose), 
             ));
         }
     };
-    let base = vec3(v, "base_mm", what)?;
-    let angles = vec3(v, "angles_deg", what)?;
+    // A calibrate result reports its per-angle means at the top level (the paper's table) and,
+    // under `link`, the mean its tangent covariances are centred on: that one is the link.
+    let nominal_of = match v.get("link") {
+        Some(link) if kind == ResultKind::Calibrate => link,
+        _ => v,
+    };
+    let base = vec3(nominal_of, "base_mm", what)?;
+    let angles = vec3(nominal_of, "angles_deg", what)?;
     if kind == ResultKind::Calibrate && v.get(key).is_none() {
         return Err(fail(
             Some(key),
@@ -222,6 +228,22 @@ mod tests {
                 assert!((back[(i, j)] - want[i][j]).abs() < 1e-15, "{i} {j}");
             }
         }
+    }
+
+    #[test]
+    fn calibrate_takes_the_link_its_covariances_are_centred_on() {
+        let v = json!({"n_epochs": 140, "base_mm": [61.98, -1.71, 179.76],
+            "angles_deg": [179.92, -0.09, 179.76],
+            "link": {"base_mm": [61.97, -1.72, 179.75], "angles_deg": [179.921, -0.091, 179.761]},
+            "sem_covariance_tangent": cov_deg()});
+        let (_, pose) = link_from_result_value(&v).unwrap();
+        assert!((pose.center() - Vec3::new(61.97, -1.72, 179.75)).norm() < 1e-12);
+        let r = opk::rotation_from_opk(
+            179.921f64.to_radians(),
+            -0.091f64.to_radians(),
+            179.761f64.to_radians(),
+        );
+        assert!((pose.rotation().matrix() - r.matrix()).amax() < 1e-15);
     }
 
     #[test]
