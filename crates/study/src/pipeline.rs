@@ -160,6 +160,36 @@ fn axis(a: (f64, f64, usize)) -> crashrig_mc::Axis {
     }
 }
 
+/// The world covariance (mm, rad) a fixed observer with `from = "<chain camera>"` takes: the
+/// chain camera's Monte Carlo propagated world covariance (centre in world axes, rotation
+/// about its own axes), with the draws and seed rule the grid library uses for an aimed
+/// `observer_from` (at least [`crashrig_mc::CHAIN_SAMPLES_MIN`] draws). A fixed observer is
+/// drawn independently of the other observers (a study refuses `correlated = true` with it).
+/// The chain is propagated only when some fixed observer needs it.
+fn fixed_from_covariances<'c>(
+    chain: &'c Chain,
+    ids: &'c [(ChainCamera, CameraId)],
+    layout: &Layout,
+    seed: u64,
+) -> impl Fn(ChainCamera) -> Result<Mat6, crashrig_mc::Error> + 'c {
+    let needed = layout
+        .observers
+        .iter()
+        .any(|o| o.fixed.is_some() && matches!(o.noise, ObserverNoise::From(_)));
+    let mc = needed.then(|| chain.monte_carlo(crashrig_mc::CHAIN_SAMPLES_MIN, seed));
+    move |cam: ChainCamera| {
+        let i = ids.iter().position(|(c, _)| *c == cam).ok_or_else(|| {
+            crashrig_mc::Error::UnknownCamera {
+                key: "layout.observer.from".into(),
+                name: cam.name().into(),
+            }
+        })?;
+        Ok(mc
+            .as_ref()
+            .map_or(Mat6::zeros(), |m| m[i].covariance_tangent))
+    }
+}
+
 /// The layout's grid study on the chain built from the (scaled) inputs.
 fn layout_study(
     inputs: &[(ChainCamera, UncertainPose)],
@@ -169,14 +199,23 @@ fn layout_study(
     seed: u64,
 ) -> Result<GridStudy, crashrig_mc::Error> {
     let (chain, ids) = build_chain(inputs, s)?;
+    let from_cov = fixed_from_covariances(&chain, &ids, layout, seed);
     let mut g = GridBuilder::new(axis(layout.x_mm), axis(layout.y_mm), axis(layout.z_mm))
-        .chain(chain)
+        .chain(chain.clone())
         .threshold_mm(layout.threshold_mm)
         .correlated(layout.correlated);
     if let Some((sigma_px, focal_px)) = layout.pixel {
         g = g.pixel_noise(crashrig_mc::PixelNoise { sigma_px, focal_px });
     }
     for (o, k) in layout.observers.iter().zip(&s.observers) {
+        if let Some(f) = &o.fixed {
+            let c = match &o.noise {
+                ObserverNoise::Given(c) => c * *k,
+                ObserverNoise::From(cam) => from_cov(*cam)?,
+            };
+            g = g.fixed_observer(o.name.clone(), o.position_mm, c, (**f).clone());
+            continue;
+        }
         g = match &o.noise {
             ObserverNoise::Given(c) => g.observer(o.name.clone(), o.position_mm, c * *k),
             ObserverNoise::From(cam) => {

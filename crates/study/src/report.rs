@@ -85,7 +85,11 @@ pub fn write_outputs(
         .zip(results["layouts"].as_array().into_iter().flatten())
     {
         let d = dir.join("grid").join(l.layout.slug());
-        grids::write(&d, "grid.csv", grids::grid_csv(&l.result).as_bytes())?;
+        grids::write(
+            &d,
+            "grid.csv",
+            grids::layout_csv(&l.grid, &l.result).as_bytes(),
+        )?;
         grids::write(&d, "summary.json", &json_pretty(lj))?;
         let m = grids::heat_maps(&l.grid, &l.result)?;
         for h in &m {
@@ -130,12 +134,17 @@ fn plan_sketch(l: &LayoutResult) -> String {
     let h = (y1 - y0) * k;
     let px = |x: f64| (x - x0) * k;
     let py = |y: f64| (y1 - y) * k;
+    let legend2 = if crate::fixed_maps::has_fixed(g) {
+        18.0
+    } else {
+        0.0
+    };
     let mut s = String::new();
     let _ = write!(
         s,
         "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w:.0}\" height=\"{:.0}\" viewBox=\"0 0 {w:.0} {:.0}\" style=\"background:#fafafa;border:1px solid #ccc;max-width:100%\">",
-        h + 20.0,
-        h + 20.0
+        h + 20.0 + legend2,
+        h + 20.0 + legend2
     );
     let _ = write!(
         s,
@@ -150,6 +159,15 @@ fn plan_sketch(l: &LayoutResult) -> String {
         px(0.0) + 3.0
     );
     for p in &l.result.points {
+        if !p.is_measurable() {
+            let _ = write!(
+                s,
+                "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"2.5\" fill=\"none\" stroke=\"#333\" stroke-width=\"0.8\"/>",
+                px(p.point.x),
+                py(p.point.y),
+            );
+            continue;
+        }
         let bad = grids::not_below(p.sigma_max_mm, g.threshold_mm);
         let _ = write!(
             s,
@@ -159,11 +177,23 @@ fn plan_sketch(l: &LayoutResult) -> String {
             if bad { "#d22" } else { "#999" }
         );
     }
+    if crate::fixed_maps::has_fixed(g) {
+        let _ = write!(
+            s,
+            "<text x=\"6\" y=\"{:.0}\" font-size=\"12\">open circles = not measurable (seen by fewer than two cameras); a fixed camera's arrow is its optical axis</text>",
+            h + 15.0 + legend2
+        );
+    }
     let cx = pts.iter().map(|p| p.x).sum::<f64>() / pts.len().max(1) as f64;
     let cy = pts.iter().map(|p| p.y).sum::<f64>() / pts.len().max(1) as f64;
     for o in &g.observers {
         let (ox, oy) = (o.position_mm.x, o.position_mm.y);
-        let (dx, dy) = (cx - ox, cy - oy);
+        // A fixed camera points along its optical axis (third column of R_world_from_cam);
+        // an aimed one re-aims at every point: drawn towards the grid centre.
+        let (dx, dy) = match &o.aim {
+            crashrig_mc::Aim::Fixed(f) => (f.rotation[(0, 2)], f.rotation[(1, 2)]),
+            crashrig_mc::Aim::Point => (cx - ox, cy - oy),
+        };
         let n = (dx * dx + dy * dy).sqrt().max(1e-9);
         let (ux, uy) = (dx / n * 250.0, dy / n * 250.0);
         let _ = write!(
@@ -288,6 +318,34 @@ fn ellipses(l: &LayoutResult) -> String {
     out
 }
 
+/// The "aim" cell of an observer: re-aimed, or fixed with its lens, pixel σ and coverage.
+fn aim_cell(o: &crashrig_mc::Observer, l: &LayoutResult) -> String {
+    match &o.aim {
+        crashrig_mc::Aim::Point => "aimed at every point".into(),
+        crashrig_mc::Aim::Fixed(f) => {
+            let seen = l
+                .summary
+                .fixed
+                .as_ref()
+                .and_then(|fx| fx.observer_coverage.iter().find(|c| c.name == o.name))
+                .map_or(f64::NAN, |c| c.fraction_seen);
+            let p = &f.lens.params;
+            format!(
+                "fixed: {} {}×{} px, params [{}], pixel σ {} px; sees {:.0} % of the grid",
+                f.lens.model.name(),
+                f.lens.width,
+                f.lens.height,
+                p.iter()
+                    .map(|v| format!("{v}"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                f.pixel_sigma_px,
+                100.0 * seen
+            )
+        }
+    }
+}
+
 fn verdict_rows(r: &StudyResult) -> Vec<Vec<String>> {
     r.layouts
         .iter()
@@ -305,7 +363,11 @@ fn verdict_rows(r: &StudyResult) -> Vec<Vec<String>> {
                 .iter()
                 .min_by(|a, b| a.median_sigma_max_mm.total_cmp(&b.median_sigma_max_mm))
                 .map_or("—".to_string(), |d| format!("{} (median σ_max {:.2} → {:.2} mm with its σ halved)", d.input, s.median_sigma_max_mm, d.median_sigma_max_mm));
-            vec![l.layout.name.clone(), format!("{:.1} %", 100.0 * s.fraction_below_threshold), format!("{:.2}", s.median_sigma_max_mm), worst, dominant]
+            let below = match &s.fixed {
+                Some(f) => format!("{:.1} % (measurable at all: {:.1} %)", 100.0 * s.fraction_below_threshold, 100.0 * f.fraction_measurable),
+                None => format!("{:.1} %", 100.0 * s.fraction_below_threshold),
+            };
+            vec![l.layout.name.clone(), below, format!("{:.2}", s.median_sigma_max_mm), worst, dominant]
         })
         .collect()
 }
@@ -542,6 +604,12 @@ pub fn report_html(
         "4. Forward intersection over the interior, per layout".into(),
     ));
     rep.push(Block::Paragraph("Each grid point (vehicle frame: x forwards from the trunk opening, y left, z up) is observed by the layout's cameras aimed at it without roll, intersected by linear least squares (DLT) for every draw; σx σy σz are the sample standard deviations, σ_max the largest. Heat maps share one colour scale from 0 to 3× the threshold; the white contour is the threshold; observers are marked.".into()));
+    if r.layouts
+        .iter()
+        .any(|l| crate::fixed_maps::has_fixed(&l.grid))
+    {
+        rep.push(Block::Paragraph("Layouts with fixed cameras (aim = \"fixed\"): a fixed camera is bolted in place with a real lens; it sees a point only when the point lies in front of it and projects inside its image (COLMAP's pixel convention). Each draw observes the true projection plus the camera's pixel noise, undistorts it through the lens model and intersects the perturbed rays of the cameras that see the point. A point seen by fewer than two cameras is not measurable: hatched grey on the maps, blank in grid.csv, and counted as not below the threshold. The outlines are each fixed camera's field-of-view footprint on the plane; a map of the number of cameras seeing each point follows the σ_max map.".into()));
+    }
     for (l, m) in r.layouts.iter().zip(maps) {
         rep.push(Block::Heading(format!("Layout: {}", l.layout.name)));
         if !l.layout.description.is_empty() {
@@ -555,6 +623,7 @@ pub fn report_html(
                 "noise from",
                 "σ position [mm]",
                 "σ tangent [°]",
+                "aim",
             ]
             .map(String::from)
             .to_vec(),
@@ -574,6 +643,7 @@ pub fn report_html(
                         },
                         f3(s.position_mm.into(), 3),
                         f3(s.angles_rad.map(f64::to_degrees).into(), 4),
+                        aim_cell(o, l),
                     ]
                 })
                 .collect(),
@@ -597,18 +667,33 @@ pub fn report_html(
             rows,
         }));
         rep.push(Block::Raw(plan_sketch(l)));
-        for h in m.iter().filter(|h| h.stem == "sigma_max") {
+        for h in m
+            .iter()
+            .filter(|h| h.stem == "sigma_max" || h.stem == "observers_seen")
+        {
             rep.push(Block::Wide {
-                caption: format!(
-                    "{}: σ_max at z = {} mm (white contour: {} mm threshold)",
-                    l.layout.name, h.z_mm, l.summary.threshold_mm
-                ),
+                caption: if h.stem == "observers_seen" {
+                    format!(
+                        "{}: number of cameras seeing each point at z = {} mm (outlines: field-of-view footprints; hatched: not measurable)",
+                        l.layout.name, h.z_mm
+                    )
+                } else if l.summary.fixed.is_some() {
+                    format!(
+                        "{}: σ_max at z = {} mm (white contour: {} mm threshold; outlines: field-of-view footprints; hatched: not measurable)",
+                        l.layout.name, h.z_mm, l.summary.threshold_mm
+                    )
+                } else {
+                    format!(
+                        "{}: σ_max at z = {} mm (white contour: {} mm threshold)",
+                        l.layout.name, h.z_mm, l.summary.threshold_mm
+                    )
+                },
                 png: h.png.clone(),
             });
         }
         let items: Vec<(String, Vec<u8>)> = m
             .iter()
-            .filter(|h| h.stem != "sigma_max")
+            .filter(|h| h.stem != "sigma_max" && h.stem != "observers_seen")
             .map(|h| {
                 (
                     format!("{} at z = {} mm", h.stem.replace("sigma_", "σ"), h.z_mm),

@@ -126,7 +126,8 @@ impl ChainCamera {
     }
 }
 
-/// An observer of a layout: an interior camera that aims at every grid point.
+/// An observer of a layout: an interior camera that aims at every grid point (the paper's
+/// re-aiming, `aim = "point"`) or is bolted in place with a real lens (`aim = "fixed"`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Observer {
     /// Label.
@@ -135,6 +136,8 @@ pub struct Observer {
     pub position_mm: Vec3,
     /// Its noise.
     pub noise: ObserverNoise,
+    /// `aim = "fixed"`: orientation, lens and pixel noise (`None`: aimed at every point).
+    pub fixed: Option<Box<crashrig_mc::FixedCamera>>,
 }
 
 /// A regularly spaced axis `[start, stop, count]` (mm).
@@ -286,6 +289,12 @@ struct RawObserver {
     sigma_position_mm: Option<Spanned<[f64; 3]>>,
     sigma_angles_deg: Option<Spanned<[f64; 3]>>,
     covariance_tangent: Option<Spanned<Vec<Vec<f64>>>>,
+    aim: Option<Spanned<String>>,
+    angles_deg: Option<Spanned<[f64; 3]>>,
+    look_at_mm: Option<Spanned<[f64; 3]>>,
+    camera: Option<Spanned<crate::fixed_observer::RawLens>>,
+    camera_from: Option<Spanned<String>>,
+    pixel_sigma_px: Option<Spanned<f64>>,
 }
 
 /// 1-based line of a byte offset.
@@ -816,17 +825,46 @@ impl Study {
                         }
                     }
                     None => ObserverNoise::Given(cx.noise(
-                        obs,
+                        obs.clone(),
                         &format!("layout[{li}].observer[{oi}]"),
                         &ob.sigma_position_mm,
                         &ob.sigma_angles_deg,
                         &ob.covariance_tangent,
                     )?),
                 };
+                let fixed = crate::fixed_observer::fixed_from_raw(
+                    &crate::fixed_observer::Site {
+                        path,
+                        text,
+                        dir: &cx.dir,
+                        prefix: format!("layout[{li}].observer[{oi}]"),
+                        span: obs.clone(),
+                    },
+                    &crate::fixed_observer::RawFixed {
+                        aim: &ob.aim,
+                        angles_deg: &ob.angles_deg,
+                        look_at_mm: &ob.look_at_mm,
+                        camera: &ob.camera,
+                        camera_from: &ob.camera_from,
+                        pixel_sigma_px: &ob.pixel_sigma_px,
+                    },
+                    &position_mm,
+                )?;
+                if fixed.is_some()
+                    && l.correlated == Some(true)
+                    && let (ObserverNoise::From(_), Some(f)) = (&noise, &ob.from)
+                {
+                    return cx.err(
+                        Some(f.span()),
+                        &ko("from"),
+                        "a fixed observer takes the chain camera's propagated covariance, drawn independently; it cannot be drawn jointly (correlated = true)",
+                    );
+                }
                 observers.push(Observer {
                     name: ob.name.clone().unwrap_or_else(|| format!("obs{}", oi + 1)),
                     position_mm,
                     noise,
+                    fixed: fixed.map(Box::new),
                 });
             }
             let layout = Layout {
@@ -913,7 +951,7 @@ mod tests {
         let s = Study::from_path(&own()).unwrap();
         assert_eq!(s.seed, 11);
         assert_eq!(s.samples, 300);
-        assert_eq!(s.layouts.len(), 2);
+        assert_eq!(s.layouts.len(), 3);
         assert!(s.calibration.model.is_dir());
         assert_eq!(s.tie.as_ref().unwrap().iterations, 60);
         assert_eq!(

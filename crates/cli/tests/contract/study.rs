@@ -92,7 +92,7 @@ fn study_own_project_matches_the_commands() {
     assert_eq!(results["tie"], boot, "tie = bootstrap --json");
 
     let layouts = results["layouts"].as_array().expect("layouts");
-    assert_eq!(layouts.len(), 2);
+    assert_eq!(layouts.len(), 3);
     for l in layouts {
         let dir = out.join(l["dir"].as_str().expect("dir"));
         assert_eq!(read_json(&dir.join("summary.json")), *l);
