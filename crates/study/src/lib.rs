@@ -10,6 +10,7 @@
 //! - [`grids`]: grid summaries, `grid.csv` and heat maps;
 //! - [`fixed_maps`]: layouts with fixed observers (`aim = "fixed"`): coverage and
 //!   field-of-view footprints;
+//! - [`measure_step`]: `[measure]` — a test sequence measured with the study's own link;
 //! - [`report`]: `results.json`, every step's files and the self-contained `report.html`.
 //!
 //! # Example
@@ -33,6 +34,7 @@ pub mod fixed_maps;
 mod fixed_observer;
 pub mod grids;
 pub mod html;
+pub mod measure_step;
 pub mod pipeline;
 pub mod report;
 pub mod study_file;

@@ -95,6 +95,8 @@ pub struct StudyResult {
     pub chain: Vec<ChainPose>,
     /// One entry per layout.
     pub layouts: Vec<LayoutResult>,
+    /// The measured test sequence (`[measure]`), if the study names one.
+    pub measure: Option<crate::measure_step::MeasureResult>,
 }
 
 /// Covariance multipliers of the inputs (1 = as given; 0.25 = σ halved).
@@ -326,7 +328,11 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
             })
             .sum()
     };
-    let total = (2 + usize::from(study.tie.is_some()) + study.layouts.len() + n_sens) as u64;
+    let total = (2
+        + usize::from(study.tie.is_some())
+        + usize::from(study.measure.is_some())
+        + study.layouts.len()
+        + n_sens) as u64;
     let mut done = 0u64;
     let mut tick = |stage: &str| {
         done = (done + 1).min(total);
@@ -433,6 +439,10 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
             sensitivity,
         });
     }
+    let measure = measure_sequence(study, &calibration, tie.as_ref(), samples, seed)?;
+    if measure.is_some() {
+        tick("measure");
+    }
     Ok(StudyResult {
         seed,
         samples,
@@ -442,7 +452,29 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
         inputs,
         chain,
         layouts,
+        measure,
     })
+}
+
+/// `[measure]`: the test sequence measured with the calibration's typed link (mean with its
+/// SEM covariance) and the tie's (with the replicates' covariance); `samples` replicates per
+/// row unless the section gives its own.
+fn measure_sequence(
+    study: &Study,
+    calibration: &CalibrationResult,
+    tie: Option<&TieResult>,
+    samples: usize,
+    seed: u64,
+) -> Result<Option<crate::measure_step::MeasureResult>, Error> {
+    study
+        .measure
+        .as_ref()
+        .map(|m| {
+            let samples = m.samples.unwrap_or(samples);
+            let tie = tie.map(|t| t.link);
+            crate::measure_step::run_measure(study, m, calibration.link, tie, samples, seed)
+        })
+        .transpose()
 }
 
 fn deg3(v: Vector3<f64>) -> [f64; 3] {
@@ -516,14 +548,18 @@ impl StudyResult {
                 })
             })
             .collect();
-        json!({
+        let mut v = json!({
             "seed": self.seed,
             "samples": self.samples,
             "calibration": self.calibration.to_json(),
             "tie": self.tie.as_ref().map(TieResult::to_json),
             "propagation": {"samples": self.chain_samples, "seed": self.seed, "rotation_noise": "tangent", "cameras": cameras},
             "layouts": layouts,
-        })
+        });
+        if let Some(m) = &self.measure {
+            v["measure"] = json!({"dir": "measure", "summary": m.summary});
+        }
+        v
     }
 }
 

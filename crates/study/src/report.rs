@@ -5,6 +5,7 @@
 use crate::Error;
 use crate::grids::{self, HeatMapPng};
 use crate::html::{Block, Report, Table, escape};
+use crate::measure_step::{self, MarkerPlot, MeasureResult};
 use crate::pipeline::{LayoutResult, StudyResult, phi_deg};
 use crate::study_file::{ChainCamera, ObserverNoise, Study, StudyScale, TieMethod, TieResample};
 use std::fmt::Write as _;
@@ -98,9 +99,163 @@ pub fn write_outputs(
         }
         maps.push(m);
     }
+    let plots = match &r.measure {
+        Some(m) => write_measure(&dir.join("measure"), m)?,
+        None => Vec::new(),
+    };
     grids::write(dir, "results.json", &json_pretty(&results))?;
-    let html = report_html(study, r, &maps, prov);
+    let html = report_html(study, r, &maps, &plots, prov);
     grids::write(dir, "report.html", html.as_bytes())
+}
+
+/// `DIR/measure/`: the files `crashrig measure` writes (`trajectories.csv`,
+/// `displacements.csv`, `plots/<marker>.png|svg`, `summary.json`); returns the plots.
+fn write_measure(d: &Path, m: &MeasureResult) -> Result<Vec<MarkerPlot>, Error> {
+    let ms = &m.measurement;
+    grids::write(
+        d,
+        "trajectories.csv",
+        measure_step::trajectories_csv(ms).as_bytes(),
+    )?;
+    grids::write(
+        d,
+        "displacements.csv",
+        measure_step::displacements_csv(ms).as_bytes(),
+    )?;
+    let plots = measure_step::plots(ms)?;
+    for p in &plots {
+        grids::write(&d.join("plots"), &format!("{}.png", p.stem), &p.png)?;
+        grids::write(&d.join("plots"), &format!("{}.svg", p.stem), &p.svg)?;
+    }
+    let summary = serde_json::to_value(&m.summary).unwrap_or_default();
+    grids::write(d, "summary.json", &json_pretty(&summary))?;
+    Ok(plots)
+}
+
+/// The report section of the measured sequence: summary, displacement σ vs position σ per
+/// marker, flagged rows, and one trajectory plot per marker.
+fn measure_report(rep: &mut Report, study: &Study, m: &MeasureResult, plots: &[MarkerPlot]) {
+    let Some(sec) = &study.measure else { return };
+    let ms = &m.measurement;
+    let s = &m.summary;
+    rep.push(Block::Heading("5. The measured test sequence".into()));
+    rep.push(Block::Paragraph(format!(
+        "{} epochs × {} markers of {} (observations {}), measured with this study's calibrated link A_from_B{} — the same typed values the chain uses — camera A's per-epoch pose uncertainty and {} px pixel noise; {} Monte Carlo replicates per row (seed {}). The link and tie errors are one draw per replicate for the whole sequence (systematic during the test), A's pose error one per epoch, pixel noise one per observation; so the displacements from the reference epoch {:?} cancel most of the systematic part. Files: measure/trajectories.csv, measure/displacements.csv, measure/plots/.",
+        s.epochs,
+        s.markers,
+        sec.model.display(),
+        sec.observations.display(),
+        if s.cameras.len() > 1 { " and the bootstrapped tie B_from_C" } else { "" },
+        s.pixel_sigma_px,
+        s.samples_per_point,
+        s.seed,
+        s.reference_epoch
+    )));
+    let opt = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
+    rep.push(Block::Table(Table {
+        caption: "Summary".into(),
+        header: [
+            "rows",
+            "measured",
+            "below threshold",
+            "median σ_max position [mm]",
+            "median σ_max displacement [mm]",
+            "flagged (fewer than two views / above threshold / reprojection outlier)",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: vec![vec![
+            s.rows.to_string(),
+            s.rows_measured.to_string(),
+            format!(
+                "{:.1} % (< {} mm)",
+                100.0 * s.fraction_below_threshold,
+                s.threshold_mm
+            ),
+            opt(s.median_sigma_max_mm),
+            opt(s.median_displacement_sigma_max_mm),
+            format!(
+                "{} ({} / {} / {})",
+                s.rows_flagged,
+                s.rows_fewer_than_two_views,
+                s.rows_above_threshold,
+                s.rows_reprojection_outlier
+            ),
+        ]],
+    }));
+    let per_marker: Vec<Vec<String>> = ms
+        .markers
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let rows: Vec<_> = ms.rows.iter().filter(|r| r.marker == k).collect();
+            let pos: Vec<f64> = rows.iter().filter_map(|r| r.sigma_max_mm()).collect();
+            let disp: Vec<f64> = rows
+                .iter()
+                .filter(|r| r.epoch != ms.reference_epoch)
+                .filter_map(|r| r.displacement_sigma_mm.map(|v| v.max()))
+                .collect();
+            let (mp, md) = (grids::median(&pos), grids::median(&disp));
+            vec![
+                name.clone(),
+                rows.len().to_string(),
+                format!("{mp:.3}"),
+                format!("{md:.3}"),
+                if mp > 0.0 && md.is_finite() {
+                    format!("{:.2}", md / mp)
+                } else {
+                    "—".into()
+                },
+            ]
+        })
+        .collect();
+    rep.push(Block::Table(Table {
+        caption: "Displacement σ vs position σ per marker (medians over the epochs; displacement from the reference epoch, which is left out)".into(),
+        header: ["marker", "rows", "median σ_max position [mm]", "median σ_max displacement [mm]", "ratio"].map(String::from).to_vec(),
+        rows: per_marker,
+    }));
+    let flagged: Vec<Vec<String>> = ms
+        .rows
+        .iter()
+        .filter(|r| r.flags.any())
+        .take(50)
+        .map(|r| {
+            vec![
+                ms.epochs[r.epoch].name.clone(),
+                ms.markers[r.marker].clone(),
+                r.n_views.to_string(),
+                r.sigma_max_mm().map_or("—".into(), |v| format!("{v:.3}")),
+                r.reprojection_px.map_or("—".into(), |v| format!("{v:.2}")),
+                r.flags.names().join(", "),
+            ]
+        })
+        .collect();
+    if flagged.is_empty() {
+        rep.push(Block::Paragraph("No row is flagged.".into()));
+    } else {
+        rep.push(Block::Table(Table {
+            caption: format!(
+                "Flagged rows ({} of {}; at most 50 listed, all in measure/displacements.csv column flags)",
+                s.rows_flagged, s.rows
+            ),
+            header: ["epoch", "marker", "views", "σ_max [mm]", "reprojection [px]", "flags"].map(String::from).to_vec(),
+            rows: flagged,
+        }));
+    }
+    if !m.warnings.is_empty() {
+        rep.push(Block::List(
+            m.warnings.iter().map(|w| format!("warning: {w}")).collect(),
+        ));
+    }
+    for p in plots {
+        rep.push(Block::Wide {
+            caption: format!(
+                "marker {}: x, y, z (world frame) against time with ±3σ bands",
+                p.marker
+            ),
+            png: p.png.clone(),
+        });
+    }
 }
 
 /// The plan view of a layout (x right, y up, vehicle frame): grid points, observers with their
@@ -418,6 +573,7 @@ pub fn report_html(
     study: &Study,
     r: &StudyResult,
     maps: &[Vec<HeatMapPng>],
+    measure_plots: &[MarkerPlot],
     prov: &Provenance,
 ) -> String {
     let paper = study.reference.as_deref() == Some("kaminski2023");
@@ -747,6 +903,10 @@ pub fn report_html(
             items,
         });
         rep.push(Block::Raw(format!("<div>{}</div>", ellipses(l))));
+    }
+
+    if let Some(m) = &r.measure {
+        measure_report(&mut rep, study, m, measure_plots);
     }
 
     // Provenance.

@@ -84,6 +84,7 @@ fn replaceable(name: &str) -> bool {
             | "calibration/"
             | "tie/"
             | "grid/"
+            | "measure/"
             | "report-screenshot.png"
     ) || name.starts_with(".tmp")
 }

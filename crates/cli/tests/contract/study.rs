@@ -104,6 +104,108 @@ fn study_own_project_matches_the_commands() {
     let html = std::fs::read_to_string(out.join("report.html")).expect("report.html");
     assert!(html.contains("Verdict per layout") && html.contains("rear_and_side"));
 
+    // [measure]: DIR/measure/ holds what `crashrig measure` writes when given the study's own
+    // calibrate/bootstrap results and the same settings and seed.
+    assert!(html.contains("The measured test sequence"));
+    let mdir = out.join("measure");
+    let mout = tmp.path().join("measure_cmd");
+    let (mm, obs) = (
+        own.join("measure/model").display().to_string(),
+        own.join("measure/observations.csv").display().to_string(),
+    );
+    // The study's link is the calibration's typed mean: the SO(3) mean rotation
+    // (`mean_rotation_angles_deg`); `measure --link` reads `angles_deg` (the per-angle mean,
+    // here 5e-6° away). The command gets the same link by naming the SO(3) mean angles.
+    let mut cal_json = read_json(&out.join("calibration/calibrate.json"));
+    cal_json["angles_deg"] = cal_json["mean_rotation_angles_deg"].clone();
+    let link_path = tmp.path().join("link.json");
+    std::fs::write(&link_path, serde_json::to_vec(&cal_json).expect("json")).expect("link");
+    let (link, tie) = (
+        link_path.display().to_string(),
+        out.join("tie/bootstrap.json").display().to_string(),
+    );
+    let mo = mout.display().to_string();
+    let cmd = json_of(&run([
+        "measure",
+        mm.as_str(),
+        "--camera-a",
+        "cam_out/",
+        "--camera-b",
+        "2",
+        "--camera-c",
+        "3",
+        "--link",
+        link.as_str(),
+        "--tie",
+        tie.as_str(),
+        "--observations",
+        obs.as_str(),
+        "--out",
+        mo.as_str(),
+        "--mm-per-unit",
+        "1000",
+        "--sigma-a-position-mm",
+        "0.3",
+        "0.3",
+        "0.3",
+        "--sigma-a-angles-deg",
+        "0.004",
+        "0.004",
+        "0.004",
+        "--pixel-sigma-px",
+        "0.3",
+        "--frame-rate-hz",
+        "1000",
+        "--threshold-mm",
+        "3",
+        "--samples",
+        "40",
+        "--seed",
+        "11",
+        "--json",
+    ]));
+    let ms = &results["measure"]["summary"];
+    assert_eq!(read_json(&mdir.join("summary.json")), *ms);
+    for k in [
+        "epochs",
+        "markers",
+        "rows",
+        "samples_per_point",
+        "rows_measured",
+        "rows_fewer_than_two_views",
+        "rows_flagged",
+        "reference_epoch",
+        "cameras",
+    ] {
+        assert_eq!(ms[k], cmd[k], "measure summary {k}");
+    }
+    assert_eq!(
+        ms["rows_fewer_than_two_views"], 2,
+        "knee hidden from C twice"
+    );
+    // The command reads the link and tie back from JSON in degrees (rad → deg → rad), the
+    // study passes the typed values: the same numbers up to that rounding (≤ 1e-9 relative).
+    for file in ["trajectories.csv", "displacements.csv"] {
+        let a = std::fs::read_to_string(mdir.join(file)).expect("study csv");
+        let b = std::fs::read_to_string(mout.join(file)).expect("measure csv");
+        assert_eq!(a.lines().count(), b.lines().count(), "{file}");
+        assert_eq!(a.lines().next(), b.lines().next(), "{file} header");
+        for (la, lb) in a.lines().zip(b.lines()).skip(1) {
+            for (x, y) in la.split(',').zip(lb.split(',')) {
+                match (x.parse::<f64>(), y.parse::<f64>()) {
+                    (Ok(x), Ok(y)) => assert!(
+                        (x - y).abs() <= 1e-9 * x.abs().max(y.abs()).max(1.0),
+                        "{file}: {la} vs {lb}"
+                    ),
+                    _ => assert_eq!(x, y, "{file}: {la} vs {lb}"),
+                }
+            }
+        }
+    }
+    for m in ["head", "chest", "shoulder", "knee"] {
+        assert!(mdir.join(format!("plots/{m}.png")).is_file(), "plot {m}");
+    }
+
     let out2 = tmp.path().join("out2");
     let o2 = out2.display().to_string();
     let r2 = run([
