@@ -289,10 +289,11 @@ fn plan_sketch(l: &LayoutResult) -> String {
     let h = (y1 - y0) * k;
     let px = |x: f64| (x - x0) * k;
     let py = |y: f64| (y1 - y) * k;
+    // Legend lines under the sketch (the text is 12 px: about 130 characters fit in 900 px).
     let legend2 = if crate::fixed_maps::has_fixed(g) {
-        18.0
+        36.0
     } else {
-        0.0
+        18.0
     };
     let mut s = String::new();
     let _ = write!(
@@ -303,8 +304,9 @@ fn plan_sketch(l: &LayoutResult) -> String {
     );
     let _ = write!(
         s,
-        "<text x=\"6\" y=\"{:.0}\" font-size=\"12\">plan view (vehicle frame): x forwards from the trunk opening, y left; grey dots = grid points, red dots = σ_max at or above the threshold; blue = interior cameras (arrow: towards the grid, they re-aim at every point)</text>",
-        h + 15.0
+        "<text x=\"6\" y=\"{:.0}\" font-size=\"12\">plan view (vehicle frame): x forwards from the trunk opening, y left; grey dots = grid points, red dots = σ_max at or above the threshold;</text><text x=\"6\" y=\"{:.0}\" font-size=\"12\">blue = interior cameras (arrow of an aimed camera: towards the grid, it re-aims at every point)</text>",
+        h + 15.0,
+        h + 33.0
     );
     let _ = write!(
         s,
@@ -336,7 +338,7 @@ fn plan_sketch(l: &LayoutResult) -> String {
         let _ = write!(
             s,
             "<text x=\"6\" y=\"{:.0}\" font-size=\"12\">open circles = not measurable (seen by fewer than two cameras); a fixed camera's arrow is its optical axis</text>",
-            h + 15.0 + legend2
+            h + 51.0
         );
     }
     let cx = pts.iter().map(|p| p.x).sum::<f64>() / pts.len().max(1) as f64;
