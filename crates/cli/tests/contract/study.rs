@@ -441,3 +441,150 @@ fn study_out_is_staged_and_foreign_files_are_refused() {
     assert_clean_error(&run(args), &["notes.txt"]);
     assert_eq!(std::fs::read(out.join("notes.txt")).expect("kept"), b"mine");
 }
+
+/// A study layout with fixed observers runs the same grid as `crashrig grid` on the scenario
+/// with the same observers (fixtures/scenarios/fixed_four_cameras.toml: look_at_mm, OPENCV
+/// lens, given σ), seed and draws: identical `grid.csv` σ and `observers_seen` cells.
+#[test]
+fn study_fixed_layout_equals_grid_on_the_scenario() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let own = own_project(tmp.path());
+    let study = own.join("study.toml");
+    let text = std::fs::read_to_string(&study).expect("study");
+    let cut = text.find("[[layout]]").expect("layout");
+    let scen = crate::common::fixture("scenarios/fixed_four_cameras.toml");
+    let stext = std::fs::read_to_string(&scen).expect("scenario");
+    // The scenario's [grid] and observers as a study layout (same keys, other table names).
+    let grid = &stext[stext.find("[grid]").expect("grid")..];
+    let layout = grid
+        .replace("[grid]", "[[layout]]\nname = \"fixed_four\"")
+        .replace("[[grid.observer]]", "[[layout.observer]]");
+    let body = text[..cut].replace("seed = 11", "seed = 20261121");
+    std::fs::write(&study, format!("{body}{layout}")).expect("write");
+    let out = tmp.path().join("out");
+    let (s, o) = (study.display().to_string(), out.display().to_string());
+    let r = run([
+        "study",
+        s.as_str(),
+        "--out",
+        o.as_str(),
+        "--samples",
+        "40",
+        "--no-sensitivity",
+    ]);
+    assert!(r.success, "{}", r.stderr);
+    let gout = tmp.path().join("grid");
+    let (sc, go) = (scen.display().to_string(), gout.display().to_string());
+    let g = run(["grid", sc.as_str(), "--out", go.as_str(), "--samples", "40"]);
+    assert!(g.success, "{}", g.stderr);
+    let table = |p: &Path| -> Vec<std::collections::HashMap<String, String>> {
+        let t = std::fs::read_to_string(p).expect("csv");
+        let mut lines = t.lines();
+        let head: Vec<String> = lines
+            .next()
+            .expect("header")
+            .split(',')
+            .map(String::from)
+            .collect();
+        lines
+            .map(|l| {
+                head.iter()
+                    .cloned()
+                    .zip(l.split(',').map(String::from))
+                    .collect()
+            })
+            .collect()
+    };
+    let a = table(&out.join("grid/fixed_four/grid.csv"));
+    let b = table(&gout.join("grid.csv"));
+    assert_eq!(a.len(), 442);
+    assert_eq!(a.len(), b.len());
+    let mut measurable = 0;
+    for (ra, rb) in a.iter().zip(&b) {
+        for k in [
+            "x_mm",
+            "y_mm",
+            "z_mm",
+            "sigma_x_mm",
+            "sigma_y_mm",
+            "sigma_z_mm",
+            "sigma_max_mm",
+            "observers_seen",
+        ] {
+            assert_eq!(
+                ra[k], rb[k],
+                "{k} at ({}, {}, {})",
+                ra["x_mm"], ra["y_mm"], ra["z_mm"]
+            );
+        }
+        measurable += usize::from(ra["observers_seen"] == "2" && !ra["sigma_max_mm"].is_empty());
+    }
+    assert!(
+        measurable > 100 && measurable < 442,
+        "{measurable} measurable"
+    );
+    let results = read_json(&out.join("results.json"));
+    let fixed = &results["layouts"][0]["summary"]["fixed"];
+    let gsum = read_json(&gout.join("summary.json"));
+    assert_eq!(fixed["fraction_measurable"], gsum["fraction_measurable"]);
+    assert_eq!(fixed["observer_coverage"], gsum["observer_coverage"]);
+}
+
+/// Bad fixed observers and `[measure]` sections in a study: one error line naming the study
+/// file and the key (or the section whose step failed).
+#[test]
+fn study_bad_fixed_observer_names_the_key() {
+    study_error(
+        |t| {
+            t.replace(
+                "model = \"OPENCV\", width = 1920",
+                "model = \"OPENCVX\", width = 1920",
+            )
+        },
+        &["layout[2].observer[1].camera", "OPENCVX"],
+    );
+    study_error(
+        |t| {
+            t.replace(
+                "width = 1920, height = 1200, params",
+                "width = 0, height = 1200, params",
+            )
+        },
+        &["layout[2].observer[1].camera", "width and height"],
+    );
+    study_error(
+        |t| {
+            t.replace(
+                "params = [1400.0, 1400.0, 960.0, 600.0, -0.05, 0.01, 0.0, 0.0] }",
+                "params = [1400.0, 1400.0, 960.0] }",
+            )
+        },
+        &["layout[2].observer[1].camera"],
+    );
+    study_error(
+        |t| t.replace("look_at_mm = [900.0, 0.0, 0.0]\n", ""),
+        &["layout[2].observer[1].angles_deg", "look_at_mm"],
+    );
+    study_error(
+        |t| {
+            t.replace(
+                "camera_from = \"tie/model:1\"",
+                "camera_from = \"tie/model:9\"",
+            )
+        },
+        &["layout[2].observer[0].camera_from", "no camera 9"],
+    );
+    study_error(
+        |t| t.replace("camera_c = \"3\"", "camera_c = \"3\"\nbogus = 1"),
+        &["bogus"],
+    );
+    study_error(
+        |t| t.replace("measure/observations.csv", "measure/nothing.csv"),
+        &["measure.observations", "nothing.csv"],
+    );
+    // A step failure names [measure] and the library's message (camera 7 is not in the model).
+    study_error(
+        |t| t.replace("camera_b = \"2\"", "camera_b = \"7\""),
+        &["[measure]"],
+    );
+}
