@@ -975,6 +975,37 @@ pub fn report_html(
             t.iterations, t.mm_per_unit, t.max_error_px, r.seed
         ));
     }
+    if let (Some(m), Some(mr)) = (&study.measure, &r.measure) {
+        let dir = if prov.out_dir.is_empty() {
+            "DIR"
+        } else {
+            &prov.out_dir
+        };
+        let a_noise = match &m.a_noise {
+            crate::study_file::MeasureANoise::File(p) => format!("--a-covariance {}", p.display()),
+            crate::study_file::MeasureANoise::Sigmas(p, a) => format!(
+                "--sigma-a-position-mm {} {} {} --sigma-a-angles-deg {} {} {}",
+                p.x, p.y, p.z, a.x, a.y, a.z
+            ),
+        };
+        cmds.push(format!(
+            "crashrig measure {} --camera-a {} --camera-b {}{} --link {dir}/calibration/calibrate.json{} --observations {} --mm-per-unit {} {a_noise} --pixel-sigma-px {} --samples {} --threshold-mm {}{}{}{} --seed {} --out MEASURE_DIR   # = {dir}/measure/ (the study passes the link with the SO(3) mean rotation; the command reads angles_deg, the per-angle mean: set angles_deg to mean_rotation_angles_deg for identical numbers)",
+            m.model.display(),
+            m.camera_a,
+            m.camera_b,
+            m.camera_c.as_ref().map_or(String::new(), |c| format!(" --camera-c {c}")),
+            if m.camera_c.is_some() { format!(" --tie {dir}/tie/bootstrap.json") } else { String::new() },
+            m.observations.display(),
+            m.mm_per_unit,
+            m.pixel_sigma_px,
+            mr.summary.samples_per_point,
+            m.threshold_mm,
+            m.reference_epoch.as_ref().map_or(String::new(), |e| format!(" --reference-epoch {e}")),
+            m.frame_rate_hz.map_or(String::new(), |f| format!(" --frame-rate-hz {f}")),
+            m.max_reprojection_px.map_or(String::new(), |f| format!(" --max-reprojection-px {f}")),
+            r.seed
+        ));
+    }
     cmds.push(format!(
         "crashrig study {} --out {} --seed {} --samples {}   # everything, this page included",
         study.path.display(),

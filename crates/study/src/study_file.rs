@@ -1136,6 +1136,31 @@ mod tests {
         assert!((g[(3, 3)] - 1e-4 * (std::f64::consts::PI / 180.0).powi(2)).abs() < 1e-20);
     }
 
+    /// The fixed layout's observers: `look_at_mm` aims the optical axis (third column of
+    /// `R_vehicle_from_cam`) at the target; `camera_from` takes camera 1 of the tie model; the
+    /// `[measure]` section resolves its paths against the study file.
+    #[test]
+    fn own_project_fixed_layout_and_measure_read() {
+        let s = Study::from_path(&own()).unwrap();
+        let l = &s.layouts[2];
+        let rear = l.observers[0].fixed.as_ref().expect("fixed");
+        let axis = rear.rotation.column(2).into_owned();
+        let want = (Vec3::new(1100.0, 0.0, 0.0) - l.observers[0].position_mm).normalize();
+        assert!((axis - want).norm() < 1e-12, "{axis:?}");
+        assert_eq!((rear.lens.width, rear.lens.height), (1920, 1200));
+        assert_eq!(rear.lens.params[0], 1400.0);
+        assert_eq!(rear.pixel_sigma_px, 0.5);
+        assert!(s.layouts[0].observers.iter().all(|o| o.fixed.is_none()));
+        let m = s.measure.as_ref().expect("[measure]");
+        assert!(m.model.is_dir() && m.observations.is_file());
+        assert_eq!(m.camera_c.as_deref(), Some("3"));
+        assert_eq!(m.frame_rate_hz, Some(1000.0));
+        assert_eq!(
+            m.a_noise,
+            MeasureANoise::Sigmas(Vec3::repeat(0.3), Vec3::repeat(0.004))
+        );
+    }
+
     #[test]
     fn missing_section_names_file_and_section() {
         let t = text().replace("[calibration]", "[calibrationx]");
