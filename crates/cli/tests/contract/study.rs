@@ -588,3 +588,50 @@ fn study_bad_fixed_observer_names_the_key() {
         &["[measure]"],
     );
 }
+
+/// A fixed layout where no two cameras see a common point: the study still runs, the layout
+/// is all not measurable, and one `warning:` line names the study file and the layout.
+#[test]
+fn study_fixed_layout_nothing_measurable_warns() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let own = own_project(tmp.path());
+    let study = own.join("study.toml");
+    let text = std::fs::read_to_string(&study).expect("study");
+    let turned = text.replace(
+        "look_at_mm = [900.0, 0.0, 0.0]",
+        "look_at_mm = [1200.0, 3000.0, 100.0]",
+    );
+    assert_ne!(turned, text);
+    std::fs::write(&study, turned).expect("write");
+    let out = tmp.path().join("out");
+    let (s, o) = (study.display().to_string(), out.display().to_string());
+    let r = run([
+        "study",
+        s.as_str(),
+        "--out",
+        o.as_str(),
+        "--samples",
+        "4",
+        "--no-sensitivity",
+    ]);
+    assert!(r.success, "{}", r.stderr);
+    let warnings: Vec<&str> = r
+        .stderr
+        .lines()
+        .filter(|l| l.starts_with("warning:"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{}", r.stderr);
+    assert!(
+        warnings[0].contains("study.toml") && warnings[0].contains("fixed_rear_and_side"),
+        "{}",
+        warnings[0]
+    );
+    let results = read_json(&out.join("results.json"));
+    let l = &results["layouts"][2]["summary"];
+    assert_eq!(l["fixed"]["fraction_measurable"], 0.0);
+    assert_eq!(l["fraction_below_threshold"], 0.0);
+    assert!(
+        out.join("grid/fixed_rear_and_side/sigma_max_z00_0mm.png")
+            .is_file()
+    );
+}
