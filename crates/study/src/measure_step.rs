@@ -10,10 +10,11 @@
 
 use crate::Error;
 use crate::study_file::{MeasureANoise, MeasureSection, Study};
+use crashrig_colmap::CameraSelector;
 use crashrig_geometry::{UncertainPose, Vec3};
 use crashrig_measure::engine::{Epoch, Measurement, Rig, Row, Settings};
 use crashrig_measure::input::{self, CameraNames};
-use crashrig_measure::sequence::{self, CameraSelector};
+use crashrig_measure::sequence;
 use serde::Serialize;
 use std::fmt::Write as _;
 
