@@ -51,6 +51,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-pose",
             "crashrig-bootstrap",
             "crashrig-mc",
+            "crashrig-measure",
             "crashrig-stats",
             "crashrig-plot",
         ],

@@ -69,6 +69,11 @@ pub struct GridSummary {
     /// `crashrig_mc::degenerate::MIN_INTERSECTION_ANGLE_DEG`): blank σ, left out of the medians,
     /// the maximum and the worst region, counted as not below the threshold.
     pub degenerate_points: usize,
+    /// Layouts with fixed observers only: the fraction of points seen by two or more
+    /// observers and each observer's coverage (not-measurable points have blank σ, are left out
+    /// of the medians and count as not below the threshold).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fixed: Option<crate::fixed_maps::FixedSummary>,
 }
 
 impl GridSummary {
@@ -126,8 +131,10 @@ impl GridSummary {
             degenerate_points: result
                 .points
                 .iter()
-                .filter(|p| p.sigma_max_mm.is_nan())
+                .filter(|p| p.sigma_max_mm.is_nan() && p.is_measurable())
                 .count(),
+            fixed: crate::fixed_maps::has_fixed(grid)
+                .then(|| crate::fixed_maps::FixedSummary::new(grid, result)),
             worst: WorstRegion {
                 max_point_mm: result
                     .points
@@ -162,6 +169,25 @@ pub fn grid_csv(result: &GridResult) -> String {
             c(p.sigma_mm.z),
             c(p.sigma_max_mm)
         ));
+    }
+    s
+}
+
+/// A layout's `grid.csv`: [`grid_csv`], plus the column `observers_seen` (as `crashrig grid`
+/// writes it) when the layout has fixed observers; a point seen by fewer than two has blank σ.
+pub fn layout_csv(grid: &Grid, result: &GridResult) -> String {
+    let base = grid_csv(result);
+    if !crate::fixed_maps::has_fixed(grid) {
+        return base;
+    }
+    let mut s = String::with_capacity(base.len() + 4 * result.points.len());
+    for (i, line) in base.lines().enumerate() {
+        s.push_str(line);
+        if i == 0 {
+            s.push_str(",observers_seen\n");
+        } else {
+            s.push_str(&format!(",{}\n", result.points[i - 1].observers_seen));
+        }
     }
     s
 }
@@ -202,9 +228,25 @@ pub fn heat_maps(grid: &Grid, result: &GridResult) -> Result<Vec<HeatMapPng>, Er
         ("sigma_y", "sigma_y", |p| p.sigma_mm.y),
         ("sigma_z", "sigma_z", |p| p.sigma_mm.z),
     ];
+    let with_fixed = crate::fixed_maps::has_fixed(grid);
     let mut out = Vec::new();
     for (iz, z) in zs.iter().enumerate() {
         let pts = &result.points[iz * per_z..(iz + 1) * per_z];
+        // Fixed observers: field-of-view footprints on this plane, hatched not-measurable
+        // cells, and a map of the number of cameras that see each point.
+        let fp = if with_fixed {
+            crate::fixed_maps::footprints(grid, *z, crate::fixed_maps::footprint_bounds(&xs, &ys))
+        } else {
+            Vec::new()
+        };
+        let outlines = crate::fixed_maps::outlines(&fp);
+        let overlay = if with_fixed {
+            crate::fixed_maps::overlay(&outlines, &[])
+        } else {
+            crashrig_plot::Overlay::default()
+        };
+        let seen_labels: Vec<String> = pts.iter().map(|p| p.observers_seen.to_string()).collect();
+        let seen_overlay = crate::fixed_maps::overlay(&outlines, &seen_labels);
         let markers: Vec<crashrig_plot::Marker> = grid
             .observers
             .iter()
@@ -214,9 +256,19 @@ pub fn heat_maps(grid: &Grid, result: &GridResult) -> Result<Vec<HeatMapPng>, Er
                 label: &o.name,
             })
             .collect();
-        for (stem, title, pick) in specs {
+        let n_obs = grid.observers.len() as f64;
+        let seen_bar = "observers seeing the point [-]".to_string();
+        let seen: (&'static str, &str, Pick) = ("observers_seen", "observers_seen", |p| {
+            p.observers_seen as f64
+        });
+        for (stem, title, pick) in specs.into_iter().chain(with_fixed.then_some(seen)) {
+            let is_seen = stem == "observers_seen";
             let values: Vec<f64> = pts.iter().map(pick).collect();
-            let title = format!("Monte Carlo {title} at z = {z} mm");
+            let title = if is_seen {
+                format!("Cameras seeing the point at z = {z} mm")
+            } else {
+                format!("Monte Carlo {title} at z = {z} mm")
+            };
             let map = crashrig_plot::HeatMap {
                 xs: &xs,
                 ys: &ys,
@@ -224,13 +276,18 @@ pub fn heat_maps(grid: &Grid, result: &GridResult) -> Result<Vec<HeatMapPng>, Er
                 title: &title,
                 x_label: "x [mm] (vehicle frame)",
                 y_label: "y [mm]",
-                colorbar_label: &bar,
-                threshold: Some(grid.threshold_mm),
+                colorbar_label: if is_seen { &seen_bar } else { &bar },
+                threshold: (!is_seen).then_some(grid.threshold_mm),
                 markers: &markers,
-                value_range: Some((0.0, top)),
+                value_range: Some(if is_seen {
+                    (0.0, n_obs.max(1.0))
+                } else {
+                    (0.0, top)
+                }),
             };
+            let ov = if is_seen { &seen_overlay } else { &overlay };
             let draw = |f| {
-                crashrig_plot::heatmap(&map, f).map_err(|source| Error::Plot {
+                crashrig_plot::heatmap_with(&map, ov, f).map_err(|source| Error::Plot {
                     what: format!("heat map {stem} at z = {z} mm"),
                     source,
                 })

@@ -8,6 +8,9 @@
 //! - [`pipeline`]: [`run_study`] — calibration, tie, the chain outward → inward → tie, and one
 //!   grid study per layout, with a one-at-a-time sensitivity;
 //! - [`grids`]: grid summaries, `grid.csv` and heat maps;
+//! - [`fixed_maps`]: layouts with fixed observers (`aim = "fixed"`): coverage and
+//!   field-of-view footprints;
+//! - [`measure_step`]: `[measure]` — a test sequence measured with the study's own link;
 //! - [`report`]: `results.json`, every step's files and the self-contained `report.html`.
 //!
 //! # Example
@@ -27,8 +30,11 @@ pub mod calibration;
 pub mod correspondences;
 pub mod epochs;
 mod error;
+pub mod fixed_maps;
+mod fixed_observer;
 pub mod grids;
 pub mod html;
+pub mod measure_step;
 pub mod pipeline;
 pub mod report;
 pub mod study_file;

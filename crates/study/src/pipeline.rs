@@ -95,6 +95,8 @@ pub struct StudyResult {
     pub chain: Vec<ChainPose>,
     /// One entry per layout.
     pub layouts: Vec<LayoutResult>,
+    /// The measured test sequence (`[measure]`), if the study names one.
+    pub measure: Option<crate::measure_step::MeasureResult>,
 }
 
 /// Covariance multipliers of the inputs (1 = as given; 0.25 = σ halved).
@@ -160,6 +162,36 @@ fn axis(a: (f64, f64, usize)) -> crashrig_mc::Axis {
     }
 }
 
+/// The world covariance (mm, rad) a fixed observer with `from = "<chain camera>"` takes: the
+/// chain camera's Monte Carlo propagated world covariance (centre in world axes, rotation
+/// about its own axes), with the draws and seed rule the grid library uses for an aimed
+/// `observer_from` (at least [`crashrig_mc::CHAIN_SAMPLES_MIN`] draws). A fixed observer is
+/// drawn independently of the other observers (a study refuses `correlated = true` with it).
+/// The chain is propagated only when some fixed observer needs it.
+fn fixed_from_covariances<'c>(
+    chain: &'c Chain,
+    ids: &'c [(ChainCamera, CameraId)],
+    layout: &Layout,
+    seed: u64,
+) -> impl Fn(ChainCamera) -> Result<Mat6, crashrig_mc::Error> + 'c {
+    let needed = layout
+        .observers
+        .iter()
+        .any(|o| o.fixed.is_some() && matches!(o.noise, ObserverNoise::From(_)));
+    let mc = needed.then(|| chain.monte_carlo(crashrig_mc::CHAIN_SAMPLES_MIN, seed));
+    move |cam: ChainCamera| {
+        let i = ids.iter().position(|(c, _)| *c == cam).ok_or_else(|| {
+            crashrig_mc::Error::UnknownCamera {
+                key: "layout.observer.from".into(),
+                name: cam.name().into(),
+            }
+        })?;
+        Ok(mc
+            .as_ref()
+            .map_or(Mat6::zeros(), |m| m[i].covariance_tangent))
+    }
+}
+
 /// The layout's grid study on the chain built from the (scaled) inputs.
 fn layout_study(
     inputs: &[(ChainCamera, UncertainPose)],
@@ -169,14 +201,23 @@ fn layout_study(
     seed: u64,
 ) -> Result<GridStudy, crashrig_mc::Error> {
     let (chain, ids) = build_chain(inputs, s)?;
+    let from_cov = fixed_from_covariances(&chain, &ids, layout, seed);
     let mut g = GridBuilder::new(axis(layout.x_mm), axis(layout.y_mm), axis(layout.z_mm))
-        .chain(chain)
+        .chain(chain.clone())
         .threshold_mm(layout.threshold_mm)
         .correlated(layout.correlated);
     if let Some((sigma_px, focal_px)) = layout.pixel {
         g = g.pixel_noise(crashrig_mc::PixelNoise { sigma_px, focal_px });
     }
     for (o, k) in layout.observers.iter().zip(&s.observers) {
+        if let Some(f) = &o.fixed {
+            let c = match &o.noise {
+                ObserverNoise::Given(c) => c * *k,
+                ObserverNoise::From(cam) => from_cov(*cam)?,
+            };
+            g = g.fixed_observer(o.name.clone(), o.position_mm, c, (**f).clone());
+            continue;
+        }
         g = match &o.noise {
             ObserverNoise::Given(c) => g.observer(o.name.clone(), o.position_mm, c * *k),
             ObserverNoise::From(cam) => {
@@ -287,7 +328,11 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
             })
             .sum()
     };
-    let total = (2 + usize::from(study.tie.is_some()) + study.layouts.len() + n_sens) as u64;
+    let total = (2
+        + usize::from(study.tie.is_some())
+        + usize::from(study.measure.is_some())
+        + study.layouts.len()
+        + n_sens) as u64;
     let mut done = 0u64;
     let mut tick = |stage: &str| {
         done = (done + 1).min(total);
@@ -394,6 +439,10 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
             sensitivity,
         });
     }
+    let measure = measure_sequence(study, &calibration, tie.as_ref(), samples, seed)?;
+    if measure.is_some() {
+        tick("measure");
+    }
     Ok(StudyResult {
         seed,
         samples,
@@ -403,7 +452,29 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
         inputs,
         chain,
         layouts,
+        measure,
     })
+}
+
+/// `[measure]`: the test sequence measured with the calibration's typed link (mean with its
+/// SEM covariance) and the tie's (with the replicates' covariance); `samples` replicates per
+/// row unless the section gives its own.
+fn measure_sequence(
+    study: &Study,
+    calibration: &CalibrationResult,
+    tie: Option<&TieResult>,
+    samples: usize,
+    seed: u64,
+) -> Result<Option<crate::measure_step::MeasureResult>, Error> {
+    study
+        .measure
+        .as_ref()
+        .map(|m| {
+            let samples = m.samples.unwrap_or(samples);
+            let tie = tie.map(|t| t.link);
+            crate::measure_step::run_measure(study, m, calibration.link, tie, samples, seed)
+        })
+        .transpose()
 }
 
 fn deg3(v: Vector3<f64>) -> [f64; 3] {
@@ -477,14 +548,18 @@ impl StudyResult {
                 })
             })
             .collect();
-        json!({
+        let mut v = json!({
             "seed": self.seed,
             "samples": self.samples,
             "calibration": self.calibration.to_json(),
             "tie": self.tie.as_ref().map(TieResult::to_json),
             "propagation": {"samples": self.chain_samples, "seed": self.seed, "rotation_noise": "tangent", "cameras": cameras},
             "layouts": layouts,
-        })
+        });
+        if let Some(m) = &self.measure {
+            v["measure"] = json!({"dir": "measure", "summary": m.summary});
+        }
+        v
     }
 }
 

@@ -126,7 +126,8 @@ impl ChainCamera {
     }
 }
 
-/// An observer of a layout: an interior camera that aims at every grid point.
+/// An observer of a layout: an interior camera that aims at every grid point (the paper's
+/// re-aiming, `aim = "point"`) or is bolted in place with a real lens (`aim = "fixed"`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Observer {
     /// Label.
@@ -135,6 +136,8 @@ pub struct Observer {
     pub position_mm: Vec3,
     /// Its noise.
     pub noise: ObserverNoise,
+    /// `aim = "fixed"`: orientation, lens and pixel noise (`None`: aimed at every point).
+    pub fixed: Option<Box<crashrig_mc::FixedCamera>>,
 }
 
 /// A regularly spaced axis `[start, stop, count]` (mm).
@@ -181,6 +184,48 @@ impl Layout {
     }
 }
 
+/// Camera A's per-epoch pose uncertainty in `[measure]`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MeasureANoise {
+    /// `sigma_a_position_mm` (world axes, mm) and `sigma_a_angles_deg` (tangent, deg); zero
+    /// when absent.
+    Sigmas(Vec3, Vec3),
+    /// `a_covariance`: a JSON file as `crashrig measure --a-covariance` takes it.
+    File(PathBuf),
+}
+
+/// `[measure]`: a crash-test sequence measured with the study's calibrated link (and tie), as
+/// `crashrig measure` takes it (paths relative to the study file, absolute after reading).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeasureSection {
+    /// COLMAP model of the sequence (camera A registered against the lab per epoch).
+    pub model: PathBuf,
+    /// Camera A: image-name prefix or camera id (its images are the epochs).
+    pub camera_a: String,
+    /// Inward camera B: camera id or image-name prefix (intrinsics).
+    pub camera_b: String,
+    /// Tied-in camera C (needs `[tie]`): camera id or image-name prefix.
+    pub camera_c: Option<String>,
+    /// Marker observations CSV `epoch,camera,marker,u_px,v_px`.
+    pub observations: PathBuf,
+    /// Model units → mm (default 1).
+    pub mm_per_unit: f64,
+    /// A's per-epoch uncertainty.
+    pub a_noise: MeasureANoise,
+    /// σ of each pixel coordinate (px, default 0.5).
+    pub pixel_sigma_px: f64,
+    /// Replicates per row (default: the study's `samples`, or `--samples`).
+    pub samples: Option<usize>,
+    /// Reference epoch of the displacements (default: the first measured epoch).
+    pub reference_epoch: Option<String>,
+    /// Frame rate (Hz): times and velocities.
+    pub frame_rate_hz: Option<f64>,
+    /// Rows whose σ_max exceeds this are flagged (mm, default 5).
+    pub threshold_mm: f64,
+    /// Reprojection residual limit (px; default the robust limit of the sequence).
+    pub max_reprojection_px: Option<f64>,
+}
+
 /// A validated study.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Study {
@@ -204,6 +249,8 @@ pub struct Study {
     pub layouts: Vec<Layout>,
     /// `reference = "kaminski2023"`: the report compares with the paper's published values.
     pub reference: Option<String>,
+    /// `[measure]`: a test sequence to measure with the calibrated link, if any.
+    pub measure: Option<MeasureSection>,
 }
 
 // ---------------------------------------------------------------- raw TOML ---
@@ -220,6 +267,27 @@ struct Raw {
     outward: Option<Spanned<RawPose>>,
     #[serde(default)]
     layout: Vec<Spanned<RawLayout>>,
+    measure: Option<Spanned<RawMeasure>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMeasure {
+    model: Option<Spanned<String>>,
+    camera_a: Option<Spanned<String>>,
+    camera_b: Option<Spanned<String>>,
+    camera_c: Option<Spanned<String>>,
+    observations: Option<Spanned<String>>,
+    mm_per_unit: Option<Spanned<f64>>,
+    sigma_a_position_mm: Option<Spanned<[f64; 3]>>,
+    sigma_a_angles_deg: Option<Spanned<[f64; 3]>>,
+    a_covariance: Option<Spanned<String>>,
+    pixel_sigma_px: Option<Spanned<f64>>,
+    samples: Option<Spanned<i64>>,
+    reference_epoch: Option<String>,
+    frame_rate_hz: Option<Spanned<f64>>,
+    threshold_mm: Option<Spanned<f64>>,
+    max_reprojection_px: Option<Spanned<f64>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -286,6 +354,12 @@ struct RawObserver {
     sigma_position_mm: Option<Spanned<[f64; 3]>>,
     sigma_angles_deg: Option<Spanned<[f64; 3]>>,
     covariance_tangent: Option<Spanned<Vec<Vec<f64>>>>,
+    aim: Option<Spanned<String>>,
+    angles_deg: Option<Spanned<[f64; 3]>>,
+    look_at_mm: Option<Spanned<[f64; 3]>>,
+    camera: Option<Spanned<crate::fixed_observer::RawLens>>,
+    camera_from: Option<Spanned<String>>,
+    pixel_sigma_px: Option<Spanned<f64>>,
 }
 
 /// 1-based line of a byte offset.
@@ -472,6 +546,102 @@ impl Ctx<'_> {
         }
         Ok((a[0], a[1], c as usize))
     }
+}
+
+/// `[measure]` → [`MeasureSection`].
+fn measure_section(
+    cx: &Ctx<'_>,
+    m: &Spanned<RawMeasure>,
+    has_tie: bool,
+) -> Result<MeasureSection, Error> {
+    let ms = m.span();
+    let m = m.get_ref();
+    let req = |v: &Option<Spanned<String>>, key: &str| -> Result<Spanned<String>, Error> {
+        cx.required(v, ms.clone(), key).cloned()
+    };
+    let model = cx.existing_path(&req(&m.model, "measure.model")?, "measure.model", true)?;
+    let observations = cx.existing_path(
+        &req(&m.observations, "measure.observations")?,
+        "measure.observations",
+        false,
+    )?;
+    if let Some(c) = &m.camera_c
+        && !has_tie
+    {
+        return cx.err(
+            Some(c.span()),
+            "measure.camera_c",
+            "needs a [tie] section (the tie link B_from_C carries camera C)",
+        );
+    }
+    let a_noise = match (
+        &m.a_covariance,
+        &m.sigma_a_position_mm,
+        &m.sigma_a_angles_deg,
+    ) {
+        (Some(f), None, None) => {
+            MeasureANoise::File(cx.existing_path(f, "measure.a_covariance", false)?)
+        }
+        (Some(f), _, _) => {
+            return cx.err(
+                Some(f.span()),
+                "measure.a_covariance",
+                "give either a_covariance or sigma_a_position_mm / sigma_a_angles_deg, not both",
+            );
+        }
+        (None, p, a) => MeasureANoise::Sigmas(
+            p.as_ref().map_or(Ok(Vec3::zeros()), |v| {
+                cx.sigma3(v, "measure.sigma_a_position_mm")
+            })?,
+            a.as_ref().map_or(Ok(Vec3::zeros()), |v| {
+                cx.sigma3(v, "measure.sigma_a_angles_deg")
+            })?,
+        ),
+    };
+    let pixel_sigma_px = match &m.pixel_sigma_px {
+        None => 0.5,
+        Some(v) if v.get_ref().is_finite() && *v.get_ref() >= 0.0 => *v.get_ref(),
+        Some(v) => {
+            return cx.err(
+                Some(v.span()),
+                "measure.pixel_sigma_px",
+                "must be finite and not negative",
+            );
+        }
+    };
+    Ok(MeasureSection {
+        model,
+        camera_a: req(&m.camera_a, "measure.camera_a")?.into_inner(),
+        camera_b: req(&m.camera_b, "measure.camera_b")?.into_inner(),
+        camera_c: m.camera_c.as_ref().map(|c| c.get_ref().clone()),
+        observations,
+        mm_per_unit: m
+            .mm_per_unit
+            .as_ref()
+            .map_or(Ok(1.0), |v| cx.positive(v, "measure.mm_per_unit"))?,
+        a_noise,
+        pixel_sigma_px,
+        samples: m
+            .samples
+            .as_ref()
+            .map(|v| cx.count(v, "measure.samples", 2))
+            .transpose()?,
+        reference_epoch: m.reference_epoch.clone(),
+        frame_rate_hz: m
+            .frame_rate_hz
+            .as_ref()
+            .map(|v| cx.positive(v, "measure.frame_rate_hz"))
+            .transpose()?,
+        threshold_mm: m
+            .threshold_mm
+            .as_ref()
+            .map_or(Ok(5.0), |v| cx.positive(v, "measure.threshold_mm"))?,
+        max_reprojection_px: m
+            .max_reprojection_px
+            .as_ref()
+            .map(|v| cx.positive(v, "measure.max_reprojection_px"))
+            .transpose()?,
+    })
 }
 
 impl Study {
@@ -816,17 +986,46 @@ impl Study {
                         }
                     }
                     None => ObserverNoise::Given(cx.noise(
-                        obs,
+                        obs.clone(),
                         &format!("layout[{li}].observer[{oi}]"),
                         &ob.sigma_position_mm,
                         &ob.sigma_angles_deg,
                         &ob.covariance_tangent,
                     )?),
                 };
+                let fixed = crate::fixed_observer::fixed_from_raw(
+                    &crate::fixed_observer::Site {
+                        path,
+                        text,
+                        dir: &cx.dir,
+                        prefix: format!("layout[{li}].observer[{oi}]"),
+                        span: obs.clone(),
+                    },
+                    &crate::fixed_observer::RawFixed {
+                        aim: &ob.aim,
+                        angles_deg: &ob.angles_deg,
+                        look_at_mm: &ob.look_at_mm,
+                        camera: &ob.camera,
+                        camera_from: &ob.camera_from,
+                        pixel_sigma_px: &ob.pixel_sigma_px,
+                    },
+                    &position_mm,
+                )?;
+                if fixed.is_some()
+                    && l.correlated == Some(true)
+                    && let (ObserverNoise::From(_), Some(f)) = (&noise, &ob.from)
+                {
+                    return cx.err(
+                        Some(f.span()),
+                        &ko("from"),
+                        "a fixed observer takes the chain camera's propagated covariance, drawn independently; it cannot be drawn jointly (correlated = true)",
+                    );
+                }
                 observers.push(Observer {
                     name: ob.name.clone().unwrap_or_else(|| format!("obs{}", oi + 1)),
                     position_mm,
                     noise,
+                    fixed: fixed.map(Box::new),
                 });
             }
             let layout = Layout {
@@ -855,6 +1054,10 @@ impl Study {
             }
             layouts.push(layout);
         }
+        let measure = match &raw.measure {
+            None => None,
+            Some(m) => Some(measure_section(&cx, m, tie.is_some())?),
+        };
         let _ = whole;
         Ok(Study {
             path: path.to_path_buf(),
@@ -867,6 +1070,7 @@ impl Study {
             outward,
             layouts,
             reference: raw.reference,
+            measure,
         })
     }
 
@@ -913,7 +1117,7 @@ mod tests {
         let s = Study::from_path(&own()).unwrap();
         assert_eq!(s.seed, 11);
         assert_eq!(s.samples, 300);
-        assert_eq!(s.layouts.len(), 2);
+        assert_eq!(s.layouts.len(), 3);
         assert!(s.calibration.model.is_dir());
         assert_eq!(s.tie.as_ref().unwrap().iterations, 60);
         assert_eq!(
@@ -930,6 +1134,31 @@ mod tests {
         };
         assert!((g[(0, 1)] - 0.2).abs() < 1e-15);
         assert!((g[(3, 3)] - 1e-4 * (std::f64::consts::PI / 180.0).powi(2)).abs() < 1e-20);
+    }
+
+    /// The fixed layout's observers: `look_at_mm` aims the optical axis (third column of
+    /// `R_vehicle_from_cam`) at the target; `camera_from` takes camera 1 of the tie model; the
+    /// `[measure]` section resolves its paths against the study file.
+    #[test]
+    fn own_project_fixed_layout_and_measure_read() {
+        let s = Study::from_path(&own()).unwrap();
+        let l = &s.layouts[2];
+        let rear = l.observers[0].fixed.as_ref().expect("fixed");
+        let axis = rear.rotation.column(2).into_owned();
+        let want = (Vec3::new(1100.0, 0.0, 0.0) - l.observers[0].position_mm).normalize();
+        assert!((axis - want).norm() < 1e-12, "{axis:?}");
+        assert_eq!((rear.lens.width, rear.lens.height), (1920, 1200));
+        assert_eq!(rear.lens.params[0], 1400.0);
+        assert_eq!(rear.pixel_sigma_px, 0.5);
+        assert!(s.layouts[0].observers.iter().all(|o| o.fixed.is_none()));
+        let m = s.measure.as_ref().expect("[measure]");
+        assert!(m.model.is_dir() && m.observations.is_file());
+        assert_eq!(m.camera_c.as_deref(), Some("3"));
+        assert_eq!(m.frame_rate_hz, Some(1000.0));
+        assert_eq!(
+            m.a_noise,
+            MeasureANoise::Sigmas(Vec3::repeat(0.3), Vec3::repeat(0.004))
+        );
     }
 
     #[test]

@@ -208,7 +208,74 @@ pub fn study_toml(a: &PaperArgs, seed: u64) -> anyhow::Result<String> {
         false,
         true,
     )?;
+    fixed_layouts(&mut s)?;
     Ok(s)
+}
+
+/// The paper's lens as a study `camera` table (see [`FIXED_LENS_COMMENT`]).
+pub const PAPER_INWARD_LENS: &str = "{ model = \"OPENCV\", width = 2560, height = 1440, params = [1600.0, 1600.0, 1280.0, 720.0, 0.0, 0.0, 0.0, 0.0] }";
+
+/// What the fixed-camera variant assumes (written into the study file; the report repeats it).
+pub const FIXED_LENS_COMMENT: &str = "\
+# Beyond the paper: the paper's layouts with FIXED inward cameras (aim = \"fixed\"), bolted in
+# place with the paper's lenses instead of turning towards every grid point (as
+# fixtures/scenarios/fixed_{four,three}_cameras.toml). Paper section 3.1: 2560 x 1440 px sensors,
+# 12.5 mm outward and 8 mm inward lenses. ASSUMED (not given in the paper):
+#   - pixel pitch 5.0 um: the 8 mm inward lens is f = 1600 px (the 12.5 mm outward lens would
+#     be 2500 px, but the outward camera looks out of the car and observes no interior point,
+#     so only the inward lens appears here);
+#   - principal point at the image centre, (cx, cy) = (1280, 720) px (COLMAP convention: the
+#     upper-left pixel's centre is (0.5, 0.5));
+#   - no distortion (OPENCV with k1 = k2 = p1 = p2 = 0); field of view 77.3 x 48.5 deg;
+#   - pixel_sigma_px = 0, as in the paper's aimed study: the difference to the *_paper layouts
+#     is the field of view alone;
+#   - aim without roll: the rear camera looks along the car at (1200, 0, 150) mm, the door
+#     camera across the car at (1000, 0, 150) mm (half-way between the two grid levels).
+";
+
+/// The fixed-camera variant of the four- and three-camera layouts (both z levels in one grid,
+/// the paper's Table 3-4 σ).
+fn fixed_layouts(s: &mut String) -> anyhow::Result<()> {
+    s.push_str(FIXED_LENS_COMMENT);
+    for (name, figure, door, door_sigma) in [
+        (
+            "four_cameras_fixed_paper",
+            "Figures 10-11",
+            "door (cam2')",
+            1,
+        ),
+        (
+            "three_cameras_fixed_paper",
+            "Figures 12-13",
+            "door (cam3)",
+            2,
+        ),
+    ] {
+        writeln!(
+            s,
+            "[[layout]]\nname = \"{name}\"\ndescription = \"Beyond the paper: {figure} layout with fixed cameras and the paper's lenses (8 mm, 2560 x 1440 px; assumed 5 um pitch, centred principal point), points at camera height and 30 cm higher; paper sigma\"\nx_mm = [400.0, 2000.0, 17]\ny_mm = [-600.0, 600.0, 13]\nz_mm = [0.0, 300.0, 2]\nthreshold_mm = 5.0"
+        )?;
+        for (obs, position, target, sigma) in [
+            ("rear (cam2)", [200.0, 0.0, 0.0], [1200.0, 0.0, 150.0], 1),
+            (
+                door,
+                [1300.0, -700.0, 0.0],
+                [1000.0, 0.0, 150.0],
+                door_sigma,
+            ),
+        ] {
+            writeln!(
+                s,
+                "\n[[layout.observer]]\nname = \"{obs}\"\nposition_mm = {}\naim = \"fixed\"\nlook_at_mm = {}\ncamera = {PAPER_INWARD_LENS}\npixel_sigma_px = 0.0\nsigma_position_mm = {}\nsigma_angles_deg = {}",
+                arr(position),
+                arr(target),
+                arr(crashrig_study::report::published::TABLE3_MM[sigma]),
+                arr(crashrig_study::report::published::TABLE4_DEG[sigma]),
+            )?;
+        }
+        writeln!(s)?;
+    }
+    Ok(())
 }
 
 /// Runs `crashrig paper`.
@@ -277,9 +344,19 @@ mod tests {
             std::fs::read(again.join("results.json")).unwrap()
         );
         assert_eq!(r["seed"], 7);
-        assert_eq!(r["layouts"].as_array().unwrap().len(), 9);
+        assert_eq!(r["layouts"].as_array().unwrap().len(), 11);
+        assert!(
+            r["layouts"][10]["summary"]["fixed"]["fraction_measurable"]
+                .as_f64()
+                .unwrap()
+                < 1.0
+        );
         let html = std::fs::read_to_string(a.out.join("report.html")).unwrap();
         assert!(html.contains("What differs from the paper"));
         assert!(html.contains("verified inliers only"));
+        assert!(
+            html.contains("pixel pitch 5.0 µm"),
+            "the report states the assumed lens"
+        );
     }
 }

@@ -84,6 +84,7 @@ fn replaceable(name: &str) -> bool {
             | "calibration/"
             | "tie/"
             | "grid/"
+            | "measure/"
             | "report-screenshot.png"
     ) || name.starts_with(".tmp")
 }
@@ -145,6 +146,7 @@ pub fn execute(
     let result = run_study(&study, &options);
     bar.finish();
     let result = result?;
+    warnings(study_path, &result);
     let prov = Provenance {
         command: command.to_string(),
         out_dir: out.display().to_string(),
@@ -154,4 +156,25 @@ pub fn execute(
     crashrig_study::report::write_outputs(staged.dir(), &study, &result, &prov)?;
     staged.commit()?;
     Ok(result.to_json())
+}
+
+/// One `warning:` line per layout that nothing can measure (fixed cameras of which no two see
+/// a common point) and per epoch of `[measure]` without a pose of camera A.
+fn warnings(study_path: &Path, r: &crashrig_study::StudyResult) {
+    for l in &r.layouts {
+        if l.summary
+            .fixed
+            .as_ref()
+            .is_some_and(|f| f.fraction_measurable == 0.0)
+        {
+            eprintln!(
+                "warning: {}: layout {:?}: no grid point is seen by two or more observers; every point is not measurable",
+                study_path.display(),
+                l.layout.name
+            );
+        }
+    }
+    for w in r.measure.iter().flat_map(|m| &m.warnings) {
+        eprintln!("warning: {}: [measure]: {w}", study_path.display());
+    }
 }
