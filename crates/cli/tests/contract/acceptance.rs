@@ -502,11 +502,13 @@ fn documented(docs: &str, key: &str) -> bool {
         || docs.contains(&format!("\"{key}\""))
 }
 
-/// Violation: fields emitted by `propagate --json` and by `grid`'s `summary.json` (fixed and
-/// adaptive grids) that no page of `docs/` names (task: docs/REFERENCE.md documents every field
+/// Violation: fields emitted by `propagate --json`, `grid`'s `summary.json` (fixed and adaptive
+/// grids), `colmap convert --json` and `colmap points --point --json` that no page of `docs/` names (task: docs/REFERENCE.md documents every field
 /// emitted; brief: "every command, JSON field and file key you add is documented"). Observed
 /// undocumented: `position_mean_mm` (propagate), `draws_min`, `draws_max`, `draws_total`
-/// (summary.json `adaptive`), `ratio_mc_over_linear_sigma_max` (summary.json `linear`).
+/// (summary.json `adaptive`), `ratio_mc_over_linear_sigma_max` (summary.json `linear`, with its
+/// `min`/`median`/`max`), `input`, `output`, `legacy_input` (`colmap convert --json`), `track`
+/// (`colmap points --point`).
 #[test]
 #[ignore = "violation: emitted JSON fields not documented in docs/"]
 fn docs_name_every_emitted_field() {
@@ -537,6 +539,30 @@ fn docs_name_every_emitted_field() {
     ]);
     assert!(r.success, "{}", r.stderr);
     keys(&read_json(&out2.join("summary.json")), &mut emitted);
+    let conv = tmp.path().join("conv");
+    keys(
+        &json_of(&run([
+            "colmap",
+            "convert",
+            &acc("rig_text").display().to_string(),
+            &conv.display().to_string(),
+            "--to",
+            "bin",
+            "--json",
+        ])),
+        &mut emitted,
+    );
+    keys(
+        &json_of(&run([
+            "colmap",
+            "points",
+            &acc("rig_text").display().to_string(),
+            "--point",
+            "1",
+            "--json",
+        ])),
+        &mut emitted,
+    );
     let missing: Vec<_> = emitted.iter().filter(|k| !documented(&docs, k)).collect();
     assert!(
         missing.is_empty(),
