@@ -695,3 +695,72 @@ fn wrong_type_values_name_the_key() {
         &["s.toml:2", "samples"],
     );
 }
+
+/// Violation of "bad input ends with … one readable `error: …` line on stderr naming the file":
+/// two `measure` errors raised by the engine name no file.
+/// - every observation in an epoch without a pose of A: `error: no observation belongs to an
+///   epoch with a pose of camera A (1 epochs skipped)` (expected: the observations file, and the
+///   epochs skipped, which the docs promise as warnings);
+/// - `--frame-rate-hz` with an image of A whose name has no digits: `error: epoch \`frameA\` has no
+///   frame number (digits in its name), needed for velocities` (expected: the model naming it).
+#[test]
+#[ignore = "violation: measure errors from the engine name no file"]
+fn measure_engine_errors_name_the_file() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    let a = |s: &str| acc(s).display().to_string();
+    let out = t.join("out").display().to_string();
+    let measure = |model: &str, obs: &str, extra: &[&str]| {
+        let mut args = vec![
+            "measure",
+            model,
+            "--camera-a",
+            "left/",
+            "--camera-b",
+            "2",
+            "--camera-c",
+            "3",
+            "--mm-per-unit",
+            "1000",
+            "--samples",
+            "20",
+            "--sigma-a-position-mm",
+            "1",
+            "1",
+            "1",
+            "--out",
+            &out,
+        ];
+        let (l, ti) = (a("link.json"), a("tie.json"));
+        args.extend(["--link", &l, "--tie", &ti, "--observations", obs]);
+        args.extend(extra);
+        run(args)
+    };
+    let none = t.join("unposed.csv");
+    std::fs::write(
+        &none,
+        "epoch,camera,marker,u_px,v_px\nframe_0099,B,m,1,2\nframe_0099,C,m,3,4\n",
+    )
+    .unwrap();
+    let r = measure(&a("rig_text"), &none.display().to_string(), &[]);
+    assert_clean_error(&r, &["unposed.csv"]);
+
+    let model = t.join("nodigits");
+    copy_tree(&acc("rig_text"), &model);
+    let images = model.join("images.txt");
+    let text = std::fs::read_to_string(&images).unwrap();
+    std::fs::write(
+        &images,
+        text.replace("left/frame_0001.jpg", "left/frameA.jpg"),
+    )
+    .unwrap();
+    let obs = t.join("obs.csv");
+    let text = std::fs::read_to_string(acc("obs.csv")).unwrap();
+    std::fs::write(&obs, text.replace(",frame_0001,", ",frameA,")).unwrap();
+    let r = measure(
+        &model.display().to_string(),
+        &obs.display().to_string(),
+        &["--frame-rate-hz", "100"],
+    );
+    assert_clean_error(&r, &["nodigits"]);
+}
