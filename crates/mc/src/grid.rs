@@ -423,9 +423,10 @@ impl GridStudy {
     }
 
     /// Runs with the adaptive stopping rule of GUM-S1 §7.9 per point: batches of
-    /// `adaptive.batch` draws (batch b of point p is task `p·2²⁴ + b`) until
-    /// `2·s/√h ≤ tolerance` for σx, σy and σz (s = standard deviation of the h per-batch σ,
-    /// at least 4 batches) or `max_samples` is reached. The reported σ is that of all draws.
+    /// `adaptive.batch` draws (batch b of point p is task `p·2²⁴ + b`) until the mean
+    /// coordinate and the σ of every axis are stable (`2·s/√h ≤ δ`, see
+    /// [`crate::Adaptive`]; at least [`ADAPTIVE_MIN_BATCHES`] batches) or `max_samples` is
+    /// reached. The reported mean and σ are those of all draws.
     pub fn run_adaptive(
         &self,
         adaptive: &crate::scenario::Adaptive,
@@ -504,18 +505,22 @@ pub const CHAIN_SAMPLES_MIN: usize = 100_000;
 /// Salt of the seed of the chain propagation that resolves `sigma_from`.
 const CHAIN_SEED_SALT: u64 = 0x5EED_C4A1_0000_0001;
 
-#[inline]
+/// Smallest number of batches before the adaptive rule may stop (JCGM 101 §7.9.4 needs h ≥ 2;
+/// 4 keeps the standard deviation of the batch values from being met by chance).
+pub const ADAPTIVE_MIN_BATCHES: usize = 4;
+
 /// Adaptive draws at one point: batches of `adaptive.batch` draws (batch `b` drawn by
-/// `draw(b, m, acc)`) until, after at least 4 batches, `2·s/√h ≤ tolerance_mm` for the σ of
-/// every axis (`s` = standard deviation of the per-batch σ over the `h` batches), or until
-/// `max_samples`. Returns all the draws and whether the tolerance was met.
+/// `draw(b, m, acc)`) until, after at least [`ADAPTIVE_MIN_BATCHES`] batches,
+/// [`adaptive_stable`] holds, or until `max_samples`. Returns all the draws and whether the
+/// tolerance was met.
 pub(crate) fn adaptive_draws(
     point: &Vector3<f64>,
     adaptive: &crate::scenario::Adaptive,
     mut draw: impl FnMut(usize, usize, &mut Acc3),
 ) -> (Acc3, bool) {
     let mut total = Acc3::new(*point);
-    let mut batch_sigmas = Moments::<3>::new();
+    // Per batch: the mean coordinate (x, y, z) and the σ (x, y, z).
+    let mut batches = Moments::<6>::new();
     let mut b = 0usize;
     loop {
         let m = adaptive
@@ -527,19 +532,39 @@ pub(crate) fn adaptive_draws(
         let mut acc = Acc3::new(*point);
         draw(b, m, &mut acc);
         total.merge(&acc);
-        let s = acc.std_dev();
-        batch_sigmas.push(&[s.x, s.y, s.z]);
+        let (mean, s) = (acc.mean(), acc.std_dev());
+        batches.push(&[mean.x, mean.y, mean.z, s.x, s.y, s.z]);
         b += 1;
-        if b >= 4 {
-            let u = batch_sigmas.std_dev() * (2.0 / (b as f64).sqrt());
-            if u.max() <= adaptive.tolerance_mm {
-                return (total, true);
-            }
+        if b >= ADAPTIVE_MIN_BATCHES && adaptive_stable(&batches, &total.std_dev(), adaptive) {
+            return (total, true);
         }
         if b * adaptive.batch >= adaptive.max_samples {
             return (total, false);
         }
     }
+}
+
+/// The stopping test of JCGM 101 §7.9.4 (k) per axis: with `h` batches and `s` the standard
+/// deviation (n − 1) of a per-batch value, `2·s/√h ≤ δ` for the batch means (the estimate y)
+/// and for the batch σ (its standard uncertainty u(y)) of x, y and z; δ of each axis from
+/// `adaptive.tolerance` at `pooled_sigma` (σ of all the draws so far, §7.9.4 i–j). The
+/// coverage-interval endpoints are not tested (the grid keeps no quantiles).
+pub(crate) fn adaptive_stable(
+    batches: &Moments<6>,
+    pooled_sigma: &Vector3<f64>,
+    adaptive: &crate::scenario::Adaptive,
+) -> bool {
+    let h = batches.count() as f64;
+    if h < 2.0 {
+        return false;
+    }
+    let s = batches.std_dev();
+    (0..3).all(|axis| {
+        let delta = adaptive.tolerance.delta_mm(pooled_sigma[axis]);
+        let mean_ok = 2.0 * s[axis] / h.sqrt() <= delta;
+        let sigma_ok = 2.0 * s[axis + 3] / h.sqrt() <= delta;
+        mean_ok && sigma_ok
+    })
 }
 
 fn task_index(point: usize, chunk: usize) -> u64 {

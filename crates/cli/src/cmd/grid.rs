@@ -43,7 +43,10 @@ struct LinearSummary {
 
 #[derive(Serialize)]
 struct AdaptiveSummary {
-    tolerance_mm: f64,
+    /// δ in mm (`tolerance_mm`), or null with `ndig`.
+    tolerance_mm: Option<f64>,
+    /// Significant digits of σ that set δ (`ndig`), or null with `tolerance_mm`.
+    ndig: Option<u32>,
     batch: usize,
     max_samples: usize,
     draws_min: u64,
@@ -617,7 +620,14 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
             ratio_mc_over_linear_sigma_max: spread(&ratio),
         },
         adaptive: grid.adaptive.map(|ad| AdaptiveSummary {
-            tolerance_mm: ad.tolerance_mm,
+            tolerance_mm: match ad.tolerance {
+                crashrig_mc::Tolerance::AbsoluteMm(t) => Some(t),
+                crashrig_mc::Tolerance::SignificantDigits(_) => None,
+            },
+            ndig: match ad.tolerance {
+                crashrig_mc::Tolerance::AbsoluteMm(_) => None,
+                crashrig_mc::Tolerance::SignificantDigits(n) => Some(n),
+            },
             batch: ad.batch,
             max_samples: ad.max_samples,
             draws_min: counts.iter().copied().min().unwrap_or(0),
