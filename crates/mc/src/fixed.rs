@@ -561,6 +561,7 @@ pub(crate) fn run(
     setup: &Setup<'_>,
     draws: Draws<'_>,
     seed: u64,
+    progress: &crate::grid::PointTicks<'_>,
 ) -> Result<Vec<PointStats>, Error> {
     let points = setup.grid.points();
     let views: Vec<Vec<View<'_>>> = points
@@ -582,6 +583,7 @@ pub(crate) fn run(
                     let m = CHUNK.min(samples - k * CHUNK);
                     let mut acc = Acc3::new(points[p]);
                     run_chunk_fixed(&views[p], chain, &mut rng, m, &mut acc);
+                    progress.chunk_done(p);
                     acc
                 })
                 .collect();
@@ -613,6 +615,7 @@ pub(crate) fn run(
                     let mut rng = stream(seed, task_index(p, b));
                     run_chunk_fixed(&views[p], chain, &mut rng, m, acc);
                 });
+                progress.point_done();
                 PointStats {
                     converged: Some(converged),
                     ..finish(point, &views[p], &total)

@@ -11,9 +11,11 @@ use crate::scenario::{Grid, ObserverSigma, PoseSigma, RotationNoise, Scenario};
 use crate::simd::Engine;
 use crate::{CHUNK, Error};
 use crashrig_geometry::uncertain::psd_factor;
+use crashrig_stats::progress::{Counter, Progress};
 use crashrig_stats::{Moments, stream};
 use nalgebra::{DMatrix, Matrix3, Matrix6, SymmetricEigen, Vector3, Vector6};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Statistics of the intersected points at one grid point.
 #[derive(Debug, Clone, PartialEq)]
@@ -315,9 +317,21 @@ impl GridStudy {
     /// # Errors
     /// As [`GridStudy::run`].
     pub fn evaluate(&self) -> Result<GridResult, Error> {
+        self.evaluate_with_progress(None)
+    }
+
+    /// [`GridStudy::evaluate`] reporting `(points done, points)` to `progress`; the result is
+    /// the same as without.
+    ///
+    /// # Errors
+    /// As [`GridStudy::run`].
+    pub fn evaluate_with_progress(
+        &self,
+        progress: Option<Progress<'_>>,
+    ) -> Result<GridResult, Error> {
         match &self.grid.adaptive {
-            Some(a) => self.run_adaptive(a, self.seed),
-            None => self.run(self.samples, self.seed),
+            Some(a) => self.run_adaptive_with_progress(a, self.seed, progress),
+            None => self.run_with_progress(self.samples, self.seed, progress),
         }
     }
 
@@ -382,12 +396,39 @@ impl GridStudy {
     /// [`GridStudy::run`] with an explicit engine (benchmarks and tests; the legacy engine
     /// draws from the former ChaCha8 streams, so its numbers differ statistically only).
     pub fn run_with(&self, samples: usize, seed: u64, engine: Engine) -> Result<GridResult, Error> {
-        if self.has_fixed() {
-            return self.run_fixed(crate::fixed::Draws::Samples(samples), seed);
-        }
-        let points = self.grid.points();
-        let aimed = self.aim_all(&points)?;
+        self.run_engine(samples, seed, engine, None)
+    }
+
+    /// [`GridStudy::run`] reporting `(points done, points)` to `progress` (a point counts when
+    /// its last chunk of draws is done); the result is the same as without.
+    ///
+    /// # Errors
+    /// As [`GridStudy::run`].
+    pub fn run_with_progress(
+        &self,
+        samples: usize,
+        seed: u64,
+        progress: Option<Progress<'_>>,
+    ) -> Result<GridResult, Error> {
+        self.run_engine(samples, seed, Engine::from_env(), progress)
+    }
+
+    fn run_engine(
+        &self,
+        samples: usize,
+        seed: u64,
+        engine: Engine,
+        progress: Option<Progress<'_>>,
+    ) -> Result<GridResult, Error> {
         let chunks = samples.div_ceil(CHUNK);
+        let points = self.grid.points();
+        let ticks = PointTicks::new(progress, points.len(), chunks);
+        if self.has_fixed() {
+            let r = self.run_fixed(crate::fixed::Draws::Samples(samples), seed, &ticks);
+            ticks.finish();
+            return r;
+        }
+        let aimed = self.aim_all(&points)?;
         let tasks: Vec<(usize, usize)> = (0..points.len())
             .flat_map(|p| (0..chunks).map(move |k| (p, k)))
             .collect();
@@ -405,9 +446,11 @@ impl GridStudy {
                     &mut acc,
                     engine,
                 );
+                ticks.chunk_done(p);
                 acc
             })
             .collect();
+        ticks.finish();
         let stats = points
             .iter()
             .enumerate()
@@ -432,10 +475,27 @@ impl GridStudy {
         adaptive: &crate::scenario::Adaptive,
         seed: u64,
     ) -> Result<GridResult, Error> {
-        if self.has_fixed() {
-            return self.run_fixed(crate::fixed::Draws::Adaptive(adaptive), seed);
-        }
+        self.run_adaptive_with_progress(adaptive, seed, None)
+    }
+
+    /// [`GridStudy::run_adaptive`] reporting `(points done, points)` to `progress`; the result
+    /// is the same as without.
+    ///
+    /// # Errors
+    /// As [`GridStudy::run`].
+    pub fn run_adaptive_with_progress(
+        &self,
+        adaptive: &crate::scenario::Adaptive,
+        seed: u64,
+        progress: Option<Progress<'_>>,
+    ) -> Result<GridResult, Error> {
         let points = self.grid.points();
+        let ticks = PointTicks::new(progress, points.len(), 1);
+        if self.has_fixed() {
+            let r = self.run_fixed(crate::fixed::Draws::Adaptive(adaptive), seed, &ticks);
+            ticks.finish();
+            return r;
+        }
         let aimed = self.aim_all(&points)?;
         let stats = points
             .par_iter()
@@ -452,12 +512,14 @@ impl GridStudy {
                         Engine::from_env(),
                     )
                 });
+                ticks.point_done();
                 PointStats {
                     converged: Some(converged),
                     ..self.finish(point, &aimed[p], &total)
                 }
             })
             .collect();
+        ticks.finish();
         Ok(self.result(stats))
     }
 
@@ -469,7 +531,12 @@ impl GridStudy {
             .any(|o| o.aim != crate::scenario::Aim::Point)
     }
 
-    fn run_fixed(&self, draws: crate::fixed::Draws<'_>, seed: u64) -> Result<GridResult, Error> {
+    fn run_fixed(
+        &self,
+        draws: crate::fixed::Draws<'_>,
+        seed: u64,
+        ticks: &PointTicks<'_>,
+    ) -> Result<GridResult, Error> {
         let covariance: Vec<Matrix6<f64>> =
             self.observer_noise.iter().map(|n| n.covariance).collect();
         let kinds: Vec<RotationNoise> = self.observer_noise.iter().map(|n| n.noise).collect();
@@ -480,7 +547,7 @@ impl GridStudy {
             pixel: self.grid.pixel,
             chain: self.ctx.chain.as_ref(),
         };
-        Ok(self.result(crate::fixed::run(&setup, draws, seed)?))
+        Ok(self.result(crate::fixed::run(&setup, draws, seed, ticks)?))
     }
 
     fn finish(&self, point: &Vector3<f64>, aimed: &[Aimed], m: &Acc3) -> PointStats {
@@ -496,6 +563,53 @@ impl GridStudy {
             observers_seen: aimed.len(),
             converged: None,
         }
+    }
+}
+
+/// Progress of a grid run in grid points: a point counts when its last chunk of draws is done
+/// (`chunk_done`, runs split into `chunks` tasks per point) or when it is finished whole
+/// (`point_done`, adaptive runs); `finish` reports the total (points that drew nothing).
+/// Without a callback every call is a no-op and nothing is allocated.
+pub(crate) struct PointTicks<'a> {
+    counter: Counter<'a>,
+    /// Chunks still running per point (only with a callback and more than one chunk).
+    left: Vec<AtomicUsize>,
+}
+
+impl<'a> PointTicks<'a> {
+    pub(crate) fn new(progress: Option<Progress<'a>>, points: usize, chunks: usize) -> Self {
+        let counter = Counter::new(progress, points);
+        let left = if counter.is_reporting() && chunks > 1 {
+            (0..points).map(|_| AtomicUsize::new(chunks)).collect()
+        } else {
+            Vec::new()
+        };
+        Self { counter, left }
+    }
+
+    /// One chunk of point `p` is done.
+    pub(crate) fn chunk_done(&self, p: usize) {
+        if !self.counter.is_reporting() {
+            return;
+        }
+        match self.left.get(p) {
+            Some(left) => {
+                if left.fetch_sub(1, Ordering::Relaxed) == 1 {
+                    self.counter.add(1);
+                }
+            }
+            None => self.counter.add(1),
+        }
+    }
+
+    /// One point is done.
+    pub(crate) fn point_done(&self) {
+        self.counter.add(1);
+    }
+
+    /// The run is done.
+    pub(crate) fn finish(&self) {
+        self.counter.finish();
     }
 }
 

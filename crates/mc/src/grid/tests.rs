@@ -646,3 +646,93 @@ fn adaptive_keys_exactly_one_tolerance() {
         assert!(e.contains("g.toml") && e.contains(key), "{body}: {e}");
     }
 }
+
+/// Records the `(done, total)` reports of a run.
+struct Recorder(std::sync::Mutex<Vec<(usize, usize)>>);
+
+impl Recorder {
+    fn new() -> Self {
+        Self(std::sync::Mutex::new(Vec::new()))
+    }
+
+    fn report(&self, d: usize, t: usize) {
+        self.0.lock().unwrap().push((d, t));
+    }
+
+    /// Every report within `total`, and the largest one at `total`.
+    fn assert_complete(&self, total: usize) {
+        let seen = self.0.lock().unwrap();
+        assert!(!seen.is_empty());
+        assert!(seen.iter().all(|&(d, t)| t == total && d <= t), "{seen:?}");
+        assert_eq!(seen.iter().map(|r| r.0).max(), Some(total));
+    }
+}
+
+const FIXED_TWO: &str = r#"
+[[grid.observer]]
+name = "rear"
+aim = "fixed"
+position_mm = [200.0, 0.0, 100.0]
+look_at_mm = [1200.0, 0.0, 0.0]
+camera = { model = "OPENCV", width = 2560, height = 1440, params = [1600.0, 1610.0, 1280.3, 719.6, -0.08, 0.02, 0.0005, -0.0003] }
+pixel_sigma_px = 0.5
+sigma_position_mm = [1.5, 1.2, 1.0]
+sigma_angles_deg = [0.01, 0.02, 0.012]
+[[grid.observer]]
+name = "door"
+aim = "fixed"
+position_mm = [1300.0, -700.0, 150.0]
+angles_deg = [-100.0, 0.0, 0.0]
+camera = { model = "OPENCV_FISHEYE", width = 1920, height = 1080, params = [700.0, 702.0, 955.0, 545.0, 0.05, -0.01, 0.002, -0.001] }
+pixel_sigma_px = 0.8
+sigma_position_mm = [2.0, 2.0, 2.0]
+sigma_angles_deg = [0.02, 0.02, 0.02]
+"#;
+
+/// Progress reports never change a result (bit-identical with and without a callback), stay
+/// within their totals and reach them: aimed and fixed observers, fixed and adaptive draws,
+/// and the chain propagation.
+#[test]
+fn progress_reports_complete_and_results_unchanged() {
+    let grid = |adaptive: &str, obs: &str| {
+        let text = format!(
+            "seed = 5\nsamples = 9000\n[grid]\nx_mm = [900.0, 1500.0, 3]\ny_mm = [-200.0, 200.0, 2]\nz_mm = [0.0, 0.0, 1]\n{adaptive}\n{obs}"
+        );
+        Scenario::from_toml_str(&text, Path::new("p.toml")).unwrap()
+    };
+    let aimed_obs = TWO_OBS.replace("600.0, 0.0, 0.0", "600.0, 0.0, 300.0");
+    let adaptive = "[grid.adaptive]\ntolerance_mm = 0.05\nbatch = 500\nmax_samples = 5000";
+    for sc in [
+        grid("", &aimed_obs),
+        grid(adaptive, &aimed_obs),
+        grid("", FIXED_TWO),
+        grid(adaptive, FIXED_TWO),
+    ] {
+        let study = GridStudy::new(&sc, sc.samples, sc.seed).unwrap();
+        let rec = Recorder::new();
+        let report = |d: usize, t: usize| rec.report(d, t);
+        let with = study.evaluate_with_progress(Some(&report)).unwrap();
+        assert_eq!(with, study.evaluate().unwrap());
+        rec.assert_complete(6);
+        // One report per measurable point (when its last chunk or batch is done), then the
+        // final one.
+        let measurable = with.points.iter().filter(|p| p.is_measurable()).count();
+        assert!(measurable > 0);
+        assert_eq!(rec.0.lock().unwrap().len(), measurable + 1);
+    }
+    // The chain: 9 000 draws are 3 chunks of CHUNK = 4096.
+    let sc = scenario(
+        "",
+        TWO_OBS,
+        "[[camera]]\nname = \"a\"\nposition_mm = [0.0, 0.0, 0.0]\nangles_deg = [0.0, 0.0, 0.0]\nsigma_position_mm = [1.0, 1.0, 1.0]\nsigma_angles_deg = [0.1, 0.1, 0.1]\n",
+        "tangent",
+    );
+    let chain = Chain::new(&sc);
+    let rec = Recorder::new();
+    let report = |d: usize, t: usize| rec.report(d, t);
+    let with = chain.monte_carlo_with_progress(9000, 3, Some(&report));
+    assert_eq!(with, chain.monte_carlo(9000, 3));
+    rec.assert_complete(3);
+    // One report per chunk plus the final one.
+    assert_eq!(rec.0.lock().unwrap().len(), 4);
+}
