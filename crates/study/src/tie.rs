@@ -312,6 +312,28 @@ pub fn bootstrap_absolute<C: Projector + Sync>(
     resample: Resample,
     with_jackknife: bool,
 ) -> Result<LinkBootstrap, String> {
+    bootstrap_absolute_with_progress(
+        input,
+        iterations,
+        seed,
+        ransac,
+        resample,
+        with_jackknife,
+        None,
+    )
+}
+
+/// [`bootstrap_absolute`] reporting `(replicates done, iterations)` to `progress`; the result
+/// is the same as without.
+pub fn bootstrap_absolute_with_progress<C: Projector + Sync>(
+    input: &AbsoluteInput<C>,
+    iterations: usize,
+    seed: u64,
+    ransac: &RansacOptions,
+    resample: Resample,
+    with_jackknife: bool,
+    progress: Option<boot::Progress<'_>>,
+) -> Result<LinkBootstrap, String> {
     let est = estimate_absolute_pose(&input.camera_b, &input.pixels_b, &input.points_mm, ransac)
         .map_err(|e| format!("resection of image B failed: {e}"))?;
     let inliers = est.inliers;
@@ -345,6 +367,7 @@ pub fn bootstrap_absolute<C: Projector + Sync>(
         iterations,
         seed,
         with_jackknife,
+        progress,
     )?;
     Ok(LinkBootstrap {
         n_candidates,
@@ -376,6 +399,7 @@ fn resample_both(
     iterations: usize,
     seed: u64,
     with_jackknife: bool,
+    progress: Option<boot::Progress<'_>>,
 ) -> Result<
     (
         boot::Replicates<Rigid3, String>,
@@ -384,8 +408,10 @@ fn resample_both(
     String,
 > {
     let replicates = match resample {
-        Resample::Inliers => boot::run(n_inliers, iterations, seed, warm),
-        Resample::AllMatches => boot::run(n_candidates, iterations, seed, rerun),
+        Resample::Inliers => boot::run_with_progress(n_inliers, iterations, seed, warm, progress),
+        Resample::AllMatches => {
+            boot::run_with_progress(n_candidates, iterations, seed, rerun, progress)
+        }
     }
     .map_err(|e| e.to_string())?;
     let jackknife = if with_jackknife {
@@ -404,6 +430,28 @@ pub fn bootstrap_relative<C: Projector + Sync>(
     ransac: &RansacOptions,
     resample: Resample,
     with_jackknife: bool,
+) -> Result<LinkBootstrap, String> {
+    bootstrap_relative_with_progress(
+        input,
+        iterations,
+        seed,
+        ransac,
+        resample,
+        with_jackknife,
+        None,
+    )
+}
+
+/// [`bootstrap_relative`] reporting `(replicates done, iterations)` to `progress`; the result
+/// is the same as without.
+pub fn bootstrap_relative_with_progress<C: Projector + Sync>(
+    input: &RelativeInput<C>,
+    iterations: usize,
+    seed: u64,
+    ransac: &RansacOptions,
+    resample: Resample,
+    with_jackknife: bool,
+    progress: Option<boot::Progress<'_>>,
 ) -> Result<LinkBootstrap, String> {
     let xa = normalize_pixels(&input.camera_a, &input.pixels_a)
         .map_err(|e| format!("undistorting the matched keypoints of image A: {e}"))?;
@@ -437,6 +485,7 @@ pub fn bootstrap_relative<C: Projector + Sync>(
         iterations,
         seed,
         with_jackknife,
+        progress,
     )?;
     Ok(LinkBootstrap {
         n_candidates,
@@ -894,6 +943,18 @@ fn check_config(c: &TieConfig) -> Result<(), TieError> {
 /// the correspondences, estimates B relative to A on the full sample, bootstraps
 /// `config.iterations` replicates (with the jackknife for BCa) and summarises.
 pub fn bootstrap(config: &TieConfig) -> Result<TieResult, TieError> {
+    bootstrap_with_progress(config, None)
+}
+
+/// [`bootstrap`] reporting `(replicates done, config.iterations)` to `progress`; the result is
+/// the same as without.
+///
+/// # Errors
+/// As [`bootstrap`].
+pub fn bootstrap_with_progress(
+    config: &TieConfig,
+    progress: Option<boot::Progress<'_>>,
+) -> Result<TieResult, TieError> {
     check_config(config)?;
     let src = TieSource::open(
         &config.model,
@@ -913,13 +974,14 @@ pub fn bootstrap(config: &TieConfig) -> Result<TieResult, TieError> {
                 points_mm: c.points_mm,
                 a_from_world: c.a.cam_from_world,
             };
-            bootstrap_absolute(
+            bootstrap_absolute_with_progress(
                 &input,
                 config.iterations,
                 config.seed,
                 &ransac,
                 config.resample,
                 true,
+                progress,
             )
             .map_err(|message| TieError::Estimation {
                 path: config.model.clone(),
@@ -965,13 +1027,14 @@ pub fn bootstrap(config: &TieConfig) -> Result<TieResult, TieError> {
                 pixels_b: m.pixels_b,
                 base_mm,
             };
-            bootstrap_relative(
+            bootstrap_relative_with_progress(
                 &input,
                 config.iterations,
                 config.seed,
                 &ransac,
                 config.resample,
                 true,
+                progress,
             )
             .map_err(|message| TieError::Estimation {
                 path: config.database.clone(),
