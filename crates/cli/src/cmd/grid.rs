@@ -379,10 +379,12 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
         names: Vec::new(),
     };
 
+    let bar = crate::progress::Bar::new("crashrig grid");
     let start = std::time::Instant::now();
+    let points = bar.stage("grid points");
     let result = match &grid.adaptive {
-        Some(ad) => study.run_adaptive(ad, seed),
-        None => study.run(samples, seed),
+        Some(ad) => study.run_adaptive_with_progress(ad, seed, bar.hook(&points)),
+        None => study.run_with_progress(samples, seed, bar.hook(&points)),
     }
     .map_err(ctx)?;
     let mut result = result;
@@ -392,9 +394,14 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
     let total_draws: u64 = result.points.iter().map(|p| p.count).sum();
 
     let correlation = if result.correlated {
+        let points = bar.stage("grid points, independent observers");
         let ind = match &grid.adaptive {
-            Some(ad) => study.independent().run_adaptive(ad, seed),
-            None => study.independent().run(samples, seed),
+            Some(ad) => study
+                .independent()
+                .run_adaptive_with_progress(ad, seed, bar.hook(&points)),
+            None => study
+                .independent()
+                .run_with_progress(samples, seed, bar.hook(&points)),
         }
         .map_err(ctx)?;
         let mut ind = ind;
@@ -421,6 +428,7 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
     } else {
         None
     };
+    bar.finish();
 
     let with_fixed = fixed::has_fixed(&grid);
     if result.points.iter().all(|p| !p.is_measurable()) {
