@@ -124,17 +124,35 @@ where
     E: Send,
     F: Fn(&[usize]) -> Result<T, E> + Sync,
 {
+    jackknife_with_progress(n_items, statistic, None)
+}
+
+/// [`jackknife`] reporting `(leave-one-out values done, n_items)` to `progress`; the result is
+/// the same as without.
+pub fn jackknife_with_progress<T, E, F>(
+    n_items: usize,
+    statistic: F,
+    progress: Option<Progress<'_>>,
+) -> Result<Vec<Result<T, E>>, Error>
+where
+    T: Send,
+    E: Send,
+    F: Fn(&[usize]) -> Result<T, E> + Sync,
+{
     if n_items < 2 {
         return Err(Error::TooFewValues {
             needed: 2,
             found: n_items,
         });
     }
+    let counter = Counter::new(progress, n_items);
     Ok((0..n_items)
         .into_par_iter()
         .map(|i| {
             let idx: Vec<usize> = (0..n_items).filter(|&j| j != i).collect();
-            statistic(&idx)
+            let value = statistic(&idx);
+            counter.add(1);
+            value
         })
         .collect())
 }
@@ -216,6 +234,18 @@ mod tests {
         // Each count 1..=40 reported exactly once (one atomic increment per replicate).
         seen.sort_unstable();
         assert_eq!(seen, (1..=40).map(|d| (d, 40)).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn jackknife_with_progress_counts_every_item_and_changes_nothing() {
+        let data = [1.0, 2.0, 3.0, 10.0, -4.0];
+        let seen = std::sync::Mutex::new(Vec::new());
+        let report = |d: usize, t: usize| seen.lock().unwrap().push((d, t));
+        let with = jackknife_with_progress(5, |idx| mean_of(&data, idx), Some(&report)).unwrap();
+        assert_eq!(with, jackknife(5, |idx| mean_of(&data, idx)).unwrap());
+        let mut seen = seen.into_inner().unwrap();
+        seen.sort_unstable();
+        assert_eq!(seen, (1..=5).map(|d| (d, 5)).collect::<Vec<_>>());
     }
 
     #[test]

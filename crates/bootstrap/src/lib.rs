@@ -17,7 +17,7 @@
 //! # Entry points
 //! - [`run`]: the parallel bootstrap ([`run_with_progress`]: with `(done, total)` reports);
 //!   [`resample`]: the indices of one replicate.
-//! - [`jackknife`]: leave-one-out values (for the BCa acceleration).
+//! - [`jackknife`]: leave-one-out values (for the BCa acceleration; [`jackknife_with_progress`]).
 //! - [`sigma`], [`bias`], [`percentile_interval`], [`bca_interval`]: scalar summaries.
 //! - [`normal::cdf`], [`normal::inverse_cdf`]: Φ and Φ⁻¹.
 //!
@@ -47,7 +47,9 @@ mod interval;
 pub mod normal;
 
 pub use crashrig_stats::progress::Progress;
-pub use engine::{Failure, Replicates, jackknife, resample, run, run_with_progress};
+pub use engine::{
+    Failure, Replicates, jackknife, jackknife_with_progress, resample, run, run_with_progress,
+};
 pub use error::{BcaReason, Error};
 pub use interval::{
     Interval, acceleration, bca_interval, bias, bias_correction, percentile_interval, sigma,

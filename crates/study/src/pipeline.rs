@@ -318,7 +318,7 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
     tick("calibration");
     let tie = match &study.tie {
         Some(t) => {
-            let sub = within("tie replicates".into());
+            let sub = within("tie replicates + jackknife".into());
             let r = tie::bootstrap_with_progress(&tie_config(t, seed), hook(on, &sub))
                 .map_err(|e| study.step_error("tie", 0, e.to_string()))?;
             tick("tie");

@@ -323,8 +323,9 @@ pub fn bootstrap_absolute<C: Projector + Sync>(
     )
 }
 
-/// [`bootstrap_absolute`] reporting `(replicates done, iterations)` to `progress`; the result
-/// is the same as without.
+/// [`bootstrap_absolute`] reporting `(replicates + leave-one-out values done, iterations + n)`
+/// to `progress` (n: the inliers of the jackknife, 0 without it); the result is the same as
+/// without.
 pub fn bootstrap_absolute_with_progress<C: Projector + Sync>(
     input: &AbsoluteInput<C>,
     iterations: usize,
@@ -407,15 +408,34 @@ fn resample_both(
     ),
     String,
 > {
+    // Progress over the replicates, then the leave-one-out values: (done, iterations + n).
+    let n_jackknife = if with_jackknife { n_inliers } else { 0 };
+    let total = iterations + n_jackknife;
+    let stage = |offset: usize| {
+        move |d: usize, _: usize| {
+            if let Some(p) = progress {
+                p(offset + d, total);
+            }
+        }
+    };
+    let (replicates_done, jackknife_done) = (stage(0), stage(iterations));
+    let (replicates_done, jackknife_done): (boot::Progress<'_>, boot::Progress<'_>) =
+        (&replicates_done, &jackknife_done);
+    let (on_replicates, on_jackknife) = (
+        progress.and(Some(replicates_done)),
+        progress.and(Some(jackknife_done)),
+    );
     let replicates = match resample {
-        Resample::Inliers => boot::run_with_progress(n_inliers, iterations, seed, warm, progress),
+        Resample::Inliers => {
+            boot::run_with_progress(n_inliers, iterations, seed, warm, on_replicates)
+        }
         Resample::AllMatches => {
-            boot::run_with_progress(n_candidates, iterations, seed, rerun, progress)
+            boot::run_with_progress(n_candidates, iterations, seed, rerun, on_replicates)
         }
     }
     .map_err(|e| e.to_string())?;
     let jackknife = if with_jackknife {
-        boot::jackknife(n_inliers, warm).map_err(|e| e.to_string())?
+        boot::jackknife_with_progress(n_inliers, warm, on_jackknife).map_err(|e| e.to_string())?
     } else {
         Vec::new()
     };
@@ -442,8 +462,8 @@ pub fn bootstrap_relative<C: Projector + Sync>(
     )
 }
 
-/// [`bootstrap_relative`] reporting `(replicates done, iterations)` to `progress`; the result
-/// is the same as without.
+/// [`bootstrap_relative`] reporting progress as [`bootstrap_absolute_with_progress`] does; the
+/// result is the same as without.
 pub fn bootstrap_relative_with_progress<C: Projector + Sync>(
     input: &RelativeInput<C>,
     iterations: usize,
@@ -946,8 +966,9 @@ pub fn bootstrap(config: &TieConfig) -> Result<TieResult, TieError> {
     bootstrap_with_progress(config, None)
 }
 
-/// [`bootstrap`] reporting `(replicates done, config.iterations)` to `progress`; the result is
-/// the same as without.
+/// [`bootstrap`] reporting `(done, total)` over the replicates and then the jackknife's
+/// leave-one-out values (see [`bootstrap_absolute_with_progress`]); the result is the same as
+/// without.
 ///
 /// # Errors
 /// As [`bootstrap`].

@@ -37,7 +37,7 @@ fn study_progress_stays_within_totals_and_changes_nothing() {
     assert_eq!(seen.iter().map(|r| r.1).max(), Some(total));
     for stage in [
         "calibration ",
-        "tie replicates ",
+        "tie replicates + jackknife ",
         "propagation chunks ",
         ": points ",
     ] {

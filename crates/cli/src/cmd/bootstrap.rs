@@ -98,7 +98,7 @@ pub struct BootstrapRun {
 /// `--plots` / `--replicates` are given, warnings on stderr), without printing the result.
 pub fn compute(a: &BootstrapArgs, seed: u64) -> anyhow::Result<BootstrapRun> {
     let bar = crate::progress::Bar::new("crashrig bootstrap");
-    let replicates = bar.stage("replicates");
+    let replicates = bar.stage("replicates + jackknife");
     let r = tie::bootstrap_with_progress(&a.config(seed), bar.hook(&replicates))?;
     bar.finish();
     for w in r.warnings() {
