@@ -45,3 +45,6 @@ mod study;
 
 #[path = "contract/uncertain.rs"]
 mod uncertain;
+
+#[path = "contract/sim.rs"]
+mod sim;

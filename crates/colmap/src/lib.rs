@@ -76,6 +76,7 @@ pub mod fmt;
 pub mod lookup;
 mod reconstruction;
 mod record;
+mod select;
 mod text;
 
 pub use error::{Error, Result};
@@ -84,3 +85,4 @@ pub use record::{
     CameraRecord, DataId, Frame, Image, Point2D, Point3D, RawPose, Rig, RigSensor, SensorId,
     SensorType, TrackElement,
 };
+pub use select::CameraSelector;

@@ -2,7 +2,7 @@
 //! outward camera's pose covariance (JSON).
 
 use crate::Error;
-use crashrig_geometry::{Mat6, Rigid3, UncertainPose, Vec3, opk, quat};
+use crashrig_geometry::{Mat6, Rigid3, UncertainPose};
 use nalgebra::Vector2;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -233,23 +233,6 @@ fn json_err(path: &Path, key: &str, problem: impl Into<String>) -> Error {
     }
 }
 
-fn vec3_key(path: &Path, doc: &serde_json::Value, key: &str) -> Result<Vec3, Error> {
-    let v = doc.get(key).ok_or_else(|| json_err(path, key, "missing"))?;
-    let a = v
-        .as_array()
-        .filter(|a| a.len() == 3)
-        .ok_or_else(|| json_err(path, key, "must be an array of 3 numbers"))?;
-    let mut out = Vec3::zeros();
-    for (i, x) in a.iter().enumerate() {
-        out[i] = x
-            .as_f64()
-            .filter(|x| x.is_finite())
-            .ok_or_else(|| json_err(path, key, "must be an array of 3 finite numbers"))?;
-    }
-    Ok(out)
-}
-
-/// Parses a 6×6 matrix (6 rows of 6 numbers) at `key`.
 fn mat6_value(path: &Path, key: &str, v: &serde_json::Value) -> Result<Mat6, Error> {
     let msg = "must be 6 rows of 6 finite numbers";
     let rows = v
@@ -284,51 +267,26 @@ fn uncertain(
 }
 
 /// Reads a link `parent_from_child` with its covariance from a `calibrate --json` or
-/// `bootstrap --json` result.
+/// `bootstrap --json` result, exactly as a scenario's `from = "…json"` reads it (one reader,
+/// [`crashrig_geometry::result_json`]):
 ///
 /// - `base_mm`: the child's projection centre in the parent's axes (mm);
 /// - `angles_deg`: ω φ κ of `R_parent_from_child` (degrees);
-/// - the covariance (contract tangent units, mm and degrees): `sem_covariance_tangent` (a
-///   `calibrate` result: the uncertainty of the mean link, what a crash test uses), else
-///   `covariance_tangent` (a `bootstrap` result). A `calibrate` result (it has `n_epochs`)
-///   without `sem_covariance_tangent` is refused: its `covariance_tangent` is the spread of
-///   one epoch's link, not the uncertainty of the mean.
-///
-/// This is the crate's one private reader of link files; it will be replaced by the shared
-/// reader (`crashrig_mc::reference::link_from_result_json`) once that lands.
+/// - the covariance (contract tangent units, mm and degrees): a `calibrate` result (it has
+///   `n_epochs`) gives `sem_covariance_tangent`, the uncertainty of the mean link — what a
+///   crash test uses — and is refused without it (its `covariance_tangent` is the spread of
+///   one epoch's link); a `bootstrap` result gives `covariance_tangent`; a link written by
+///   hand (neither marker) gives `sem_covariance_tangent` if present, else
+///   `covariance_tangent`.
 ///
 /// # Errors
 /// [`Error::Io`], [`Error::Json`] naming the key that is missing or invalid (a covariance that
 /// is not symmetric positive semi-definite included).
 pub fn load_link(path: &Path) -> Result<UncertainPose, Error> {
     let doc = read_json(path)?;
-    let base = vec3_key(path, &doc, "base_mm")?;
-    let angles = vec3_key(path, &doc, "angles_deg")?;
-    let r = opk::rotation_from_opk(
-        angles.x.to_radians(),
-        angles.y.to_radians(),
-        angles.z.to_radians(),
-    );
-    let nominal = quat::rigid_from_rotation(&r, &base);
-    let (key, value) = if let Some(v) = doc.get("sem_covariance_tangent") {
-        ("sem_covariance_tangent", v)
-    } else if doc.get("n_epochs").is_some() {
-        return Err(json_err(
-            path,
-            "sem_covariance_tangent",
-            "missing: a calibrate result must give the uncertainty of its mean link",
-        ));
-    } else if let Some(v) = doc.get("covariance_tangent") {
-        ("covariance_tangent", v)
-    } else {
-        return Err(json_err(
-            path,
-            "covariance_tangent",
-            "missing (neither sem_covariance_tangent nor covariance_tangent is given)",
-        ));
-    };
-    let cov = mat6_value(path, key, value)?;
-    uncertain(path, key, nominal, cov)
+    crashrig_geometry::result_json::link_from_result_value(&doc)
+        .map(|(_, link)| link)
+        .map_err(|e| json_err(path, e.key.unwrap_or("$"), e.problem))
 }
 
 /// The outward camera's pose covariance from a JSON file: a default for every epoch and

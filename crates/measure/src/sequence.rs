@@ -14,50 +14,7 @@ use crashrig_colmap::{Image, Reconstruction};
 use crashrig_geometry::Rigid3;
 use std::collections::BTreeMap;
 
-/// Which images (or camera) a role stands for.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum CameraSelector {
-    /// Images whose name starts with this prefix.
-    Prefix(String),
-    /// This COLMAP camera id.
-    CameraId(u32),
-}
-
-impl CameraSelector {
-    /// Digits only → [`CameraSelector::CameraId`], else a prefix.
-    pub fn parse(text: &str) -> Self {
-        if !text.is_empty()
-            && text.bytes().all(|b| b.is_ascii_digit())
-            && let Ok(id) = text.parse::<u32>()
-        {
-            return Self::CameraId(id);
-        }
-        Self::Prefix(text.to_string())
-    }
-
-    fn matches(&self, image: &Image) -> bool {
-        match self {
-            Self::Prefix(p) => image.name.starts_with(p.as_str()),
-            Self::CameraId(id) => image.camera_id == *id,
-        }
-    }
-
-    fn key<'a>(&self, name: &'a str) -> &'a str {
-        match self {
-            Self::Prefix(p) => name.strip_prefix(p.as_str()).unwrap_or(name),
-            Self::CameraId(_) => name.split_once('/').map_or(name, |(_, rest)| rest),
-        }
-    }
-}
-
-impl std::fmt::Display for CameraSelector {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Self::Prefix(p) => f.write_str(p),
-            Self::CameraId(id) => write!(f, "{id}"),
-        }
-    }
-}
+pub use crashrig_colmap::CameraSelector;
 
 /// The epoch name of a key: the key without its extension (the part after the last `.` of its
 /// last path component), if that leaves something.

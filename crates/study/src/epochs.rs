@@ -2,8 +2,9 @@
 //! adapter of the calibration (moved here from `crashrig-rig`, which works on poses only).
 //!
 //! # Selecting cameras A and B
-//! A [`CameraSelector`] is a camera id when the text is made only of digits (`"2"`), and an
-//! image-name prefix otherwise (`"cam_out/"`, COLMAP's rig-config naming).
+//! A [`CameraSelector`] (from `crashrig-colmap`, shared with `measure`) is a camera id when the
+//! text is made only of digits (`"2"`), and an image-name prefix otherwise (`"cam_out/"`,
+//! COLMAP's rig-config naming).
 //!
 //! # Pairing images into epochs
 //! 1. **Shared frame**: an image of A and an image of B that belong to the same COLMAP frame
@@ -26,52 +27,7 @@ use std::collections::{BTreeMap, HashMap};
 /// (a few hundred ulps: the difference carries no significant digit).
 const SCALE_BAR_MIN_RELATIVE_LENGTH: f64 = 1e-13;
 
-/// Which images belong to a camera.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum CameraSelector {
-    /// Images whose name starts with this prefix.
-    Prefix(String),
-    /// Images taken by this COLMAP camera id.
-    CameraId(u32),
-}
-
-impl CameraSelector {
-    /// Parses a selector: digits only → [`CameraSelector::CameraId`], else a prefix.
-    pub fn parse(text: &str) -> Self {
-        if !text.is_empty()
-            && text.bytes().all(|b| b.is_ascii_digit())
-            && let Ok(id) = text.parse::<u32>()
-        {
-            return Self::CameraId(id);
-        }
-        Self::Prefix(text.to_string())
-    }
-
-    /// True when `image` belongs to this camera.
-    pub fn matches(&self, image: &Image) -> bool {
-        match self {
-            Self::Prefix(p) => image.name.starts_with(p.as_str()),
-            Self::CameraId(id) => image.camera_id == *id,
-        }
-    }
-
-    /// The epoch key of an image of this camera: its name without the prefix.
-    pub fn key<'a>(&self, name: &'a str) -> &'a str {
-        match self {
-            Self::Prefix(p) => name.strip_prefix(p.as_str()).unwrap_or(name),
-            Self::CameraId(_) => name.split_once('/').map_or(name, |(_, rest)| rest),
-        }
-    }
-}
-
-impl std::fmt::Display for CameraSelector {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Self::Prefix(p) => f.write_str(p),
-            Self::CameraId(id) => write!(f, "{id}"),
-        }
-    }
-}
+pub use crashrig_colmap::CameraSelector;
 
 /// The epochs of a model and what could not be paired.
 #[derive(Debug, Clone, PartialEq)]
