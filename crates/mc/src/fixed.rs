@@ -760,7 +760,13 @@ pub(crate) fn run(
             .enumerate()
             .map(|(p, point)| {
                 if views[p].len() < 2 {
-                    return not_measurable(point, views[p].len());
+                    // Nothing to draw, nothing left to stabilise: `converged` is true so that
+                    // every adaptive row says true/false and only points that stopped at
+                    // `max_samples` are unconverged.
+                    return PointStats {
+                        converged: Some(true),
+                        ..not_measurable(point, views[p].len())
+                    };
                 }
                 let (total, converged) = crate::grid::adaptive_draws(point, ad, |b, m, acc| {
                     let task = task_index(p, b);

@@ -567,11 +567,16 @@ impl Scenario {
                 || crate::limits::deep_nesting(text).unwrap_or((1, 1)),
                 |span| line_col(text, span.start),
             );
+            // A type error is located at the value: name its key as every other error does.
+            let message = e.message().trim();
+            let key = e
+                .span()
+                .and_then(|span| crate::limits::toml_value_key(text, span.start));
             Error::Toml {
                 path: PathBuf::from(path),
                 line,
                 column,
-                message: e.message().trim().to_string(),
+                message: key.map_or_else(|| message.to_string(), |k| format!("`{k}`: {message}")),
             }
         })?;
         let base = path.parent().unwrap_or(Path::new(""));

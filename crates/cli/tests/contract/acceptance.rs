@@ -502,15 +502,12 @@ fn documented(docs: &str, key: &str) -> bool {
         || docs.contains(&format!("\"{key}\""))
 }
 
-/// Violation: fields emitted by `propagate --json`, `grid`'s `summary.json` (fixed and adaptive
-/// grids), `colmap convert --json` and `colmap points --point --json` that no page of `docs/` names (task: docs/REFERENCE.md documents every field
-/// emitted; brief: "every command, JSON field and file key you add is documented"). Observed
-/// undocumented: `position_mean_mm` (propagate), `draws_min`, `draws_max`, `draws_total`
-/// (summary.json `adaptive`), `ratio_mc_over_linear_sigma_max` (summary.json `linear`, with its
-/// `min`/`median`/`max`), `input`, `output`, `legacy_input` (`colmap convert --json`), `track`
-/// (`colmap points --point`).
+/// Every field emitted by `propagate --json`, `grid`'s `summary.json` (fixed and adaptive
+/// grids), `colmap convert --json` and `colmap points --point --json` is named in `docs/`
+/// (was a violation: `position_mean_mm`, `draws_min`/`draws_max`/`draws_total`,
+/// `ratio_mc_over_linear_sigma_max`, `input`/`output`/`legacy_input`, `track` were undocumented;
+/// now docs/SCENARIO.md "Every output field", docs/COLMAP.md "JSON output", docs/REFERENCE.md).
 #[test]
-#[ignore = "violation: emitted JSON fields not documented in docs/"]
 fn docs_name_every_emitted_field() {
     let tmp = tempfile::tempdir().unwrap();
     let docs = docs_text();
@@ -614,11 +611,9 @@ sigma_angles_deg = [0.01, 0.01, 0.01]
 
 /// Adaptive grid with fixed cameras: the contract's "`grid.csv` adds the columns `draws` and
 /// `converged` (`true`/`false`)", and the one `warning:` line when points stop at `max_samples`.
-/// Violation: a not-measurable point (seen by < 2 cameras) has an EMPTY `converged` cell
-/// (`0,-3000,0,,,,,0,0,`), neither `true` nor `false`. Whichever value the lead picks, the count
-/// of `false` must stay equal to `adaptive.unconverged_points` (here 1).
+/// A not-measurable point (seen by < 2 cameras) says `converged = true` (nothing to draw; it was
+/// an empty cell, a violation); the count of `false` equals `adaptive.unconverged_points` (1).
 #[test]
-#[ignore = "violation: adaptive grid.csv `converged` is empty for not-measurable points"]
 fn adaptive_converged_is_true_or_false_for_every_point() {
     let tmp = tempfile::tempdir().unwrap();
     let scen = tmp.path().join("s.toml");
@@ -657,13 +652,13 @@ fn adaptive_converged_is_true_or_false_for_every_point() {
     assert_eq!(n_false, 1);
 }
 
-/// Violation of the documented error format (`docs/REFERENCE.md`: "A bad study file ends with one
+/// The documented error format (`docs/REFERENCE.md`: "A bad study file ends with one
 /// line `error: STUDY.toml:LINE: \`key\`: what is wrong"; `docs/SCENARIO.md`: "one line
 /// `error: FILE:LINE: \`key\`: what is wrong`"): a value of the wrong TOML type is reported as
-/// `error: study.toml:22:16: invalid type: string "5", expected f64`, naming line and column but
-/// not the key. Realistic: a camera id written as a number (`camera_a = 1`), a quoted number.
+/// `error: study.toml:22:16: \`threshold_mm\`: invalid type: string "5", expected f64` (the key was
+/// missing: a violation). Realistic: a camera id written as a number (`camera_a = 1`), a quoted
+/// number.
 #[test]
-#[ignore = "violation: wrong-type TOML values give serde's message without the key"]
 fn wrong_type_values_name_the_key() {
     let tmp = tempfile::tempdir().unwrap();
     copy_tree(&acc("rig_text"), &tmp.path().join("model"));
