@@ -220,9 +220,9 @@ pub use grid_builder::GridBuilder;
 pub use normal::FastNormal;
 pub use reference::{ResultKind, link_from_result_json};
 pub use scenario::{
-    Adaptive, Aim, Axis, CORRELATED_POSITION_TOLERANCE_MM, Camera, FixedCamera, Grid, MAX_NDIG,
-    Observer, ObserverSigma, PixelNoise, PoseSigma, RotationNoise, Scenario, Tolerance,
-    ndig_tolerance,
+    Adaptive, Aim, AimKeys, Axis, CORRELATED_POSITION_TOLERANCE_MM, Camera, FixedCamera, Grid,
+    LensKeys, MAX_NDIG, Observer, ObserverSigma, PixelNoise, PoseSigma, RotationNoise, Scenario,
+    Tolerance, aim_from_keys, ndig_tolerance,
 };
 pub use simd::{Engine, Isa};
 

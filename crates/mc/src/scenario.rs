@@ -15,7 +15,7 @@ use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
 mod observer;
-pub use observer::{Aim, FixedCamera};
+pub use observer::{Aim, AimKeys, FixedCamera, LensKeys, aim_from_keys};
 
 /// How rotation noise is applied to a pose (fixed semantics, see the crate docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -352,7 +352,7 @@ struct RawObserver {
     aim: Option<String>,
     angles_deg: Option<[f64; 3]>,
     look_at_mm: Option<[f64; 3]>,
-    camera: Option<observer::RawLens>,
+    camera: Option<observer::LensKeys>,
     camera_from: Option<String>,
     pixel_sigma_px: Option<f64>,
 }

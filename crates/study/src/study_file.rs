@@ -357,7 +357,7 @@ struct RawObserver {
     aim: Option<Spanned<String>>,
     angles_deg: Option<Spanned<[f64; 3]>>,
     look_at_mm: Option<Spanned<[f64; 3]>>,
-    camera: Option<Spanned<crate::fixed_observer::RawLens>>,
+    camera: Option<Spanned<crashrig_mc::LensKeys>>,
     camera_from: Option<Spanned<String>>,
     pixel_sigma_px: Option<Spanned<f64>>,
 }

@@ -43,58 +43,104 @@ impl FixedCamera {
     }
 }
 
-/// The inline table `camera = { model, width, height, params }`.
-#[derive(Debug, Deserialize)]
+/// The inline table `camera = { model, width, height, params }` as written (validated by
+/// [`aim_from_keys`]).
+#[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub(super) struct RawLens {
-    model: String,
-    width: i64,
-    height: i64,
-    params: Vec<f64>,
+pub struct LensKeys {
+    /// COLMAP model name, e.g. `OPENCV`.
+    pub model: String,
+    /// Image width (px).
+    pub width: i64,
+    /// Image height (px).
+    pub height: i64,
+    /// Parameters in COLMAP's order.
+    pub params: Vec<f64>,
+}
+
+/// The keys of an observer that decide how it aims, as any front end (a scenario's
+/// `[[grid.observer]]`, a study's `[[layout.observer]]`) reads them.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct AimKeys<'a> {
+    /// `aim`: `"point"` (default) or `"fixed"`.
+    pub aim: Option<&'a str>,
+    /// `angles_deg`: ω φ κ of `R_world_from_cam` (deg).
+    pub angles_deg: Option<[f64; 3]>,
+    /// `look_at_mm`: a target on the optical axis (world mm), no roll.
+    pub look_at_mm: Option<[f64; 3]>,
+    /// `camera = { … }`.
+    pub camera: Option<&'a LensKeys>,
+    /// `camera_from = "<model dir>:<camera id>"` (relative to `base` of [`aim_from_keys`]).
+    pub camera_from: Option<&'a str>,
+    /// `pixel_sigma_px`.
+    pub pixel_sigma_px: Option<f64>,
 }
 
 fn invalid(key: String, problem: &'static str) -> Error {
     Error::Invalid { key, problem }
 }
 
-/// The [`Aim`] of observer `i` (at `position`), with file-relative paths resolved against
-/// `base` (the scenario file's directory).
+/// The [`Aim`] of an observer at `position` from its keys; errors name `{prefix}.{key}`
+/// (e.g. `grid.observer[2].camera`), and `camera_from` paths are relative to `base`. The one
+/// reader of these keys for scenarios and studies (rules: `docs/FIXED_CAMERAS.md`).
+///
+/// # Errors
+/// [`Error::Invalid`], [`Error::Camera`], [`Error::ColmapModel`], [`Error::NoSuchCamera`]
+/// naming the key: fixed-camera keys on an aimed observer, an unknown `aim`, neither or both of
+/// `angles_deg`/`look_at_mm` or of `camera`/`camera_from`, non-finite values, an invalid lens.
+pub fn aim_from_keys(
+    keys: &AimKeys<'_>,
+    prefix: &str,
+    position: &Vector3<f64>,
+    base: &Path,
+) -> Result<Aim, Error> {
+    let k = |f: &str| format!("{prefix}.{f}");
+    match keys.aim.unwrap_or("point") {
+        "point" => {
+            let extra = [
+                ("angles_deg", keys.angles_deg.is_some()),
+                ("look_at_mm", keys.look_at_mm.is_some()),
+                ("camera", keys.camera.is_some()),
+                ("camera_from", keys.camera_from.is_some()),
+                ("pixel_sigma_px", keys.pixel_sigma_px.is_some()),
+            ];
+            if let Some((name, _)) = extra.iter().find(|(_, set)| *set) {
+                return Err(invalid(
+                    k(name),
+                    "is only allowed with aim = \"fixed\" (an aimed observer takes the pixel noise of its grid or layout: pixel_sigma_px and focal_px)",
+                ));
+            }
+            Ok(Aim::Point)
+        }
+        "fixed" => fixed_from_keys(keys, &k, position, base).map(|f| Aim::Fixed(Box::new(f))),
+        _ => Err(invalid(k("aim"), "must be \"point\" or \"fixed\"")),
+    }
+}
+
+/// The [`Aim`] of scenario observer `i`.
 pub(super) fn aim_from_raw(
     i: usize,
     o: &RawObserver,
     position: &Vector3<f64>,
     base: &Path,
 ) -> Result<Aim, Error> {
-    let k = |f: &str| format!("grid.observer[{i}].{f}");
-    match o.aim.as_deref().unwrap_or("point") {
-        "point" => {
-            let extra = [
-                ("angles_deg", o.angles_deg.is_some()),
-                ("look_at_mm", o.look_at_mm.is_some()),
-                ("camera", o.camera.is_some()),
-                ("camera_from", o.camera_from.is_some()),
-                ("pixel_sigma_px", o.pixel_sigma_px.is_some()),
-            ];
-            if let Some((name, _)) = extra.iter().find(|(_, set)| *set) {
-                return Err(invalid(
-                    k(name),
-                    "is only allowed with aim = \"fixed\" (an aimed observer takes the grid's pixel_sigma_px and focal_px)",
-                ));
-            }
-            Ok(Aim::Point)
-        }
-        "fixed" => fixed_from_raw(i, o, position, base).map(|f| Aim::Fixed(Box::new(f))),
-        _ => Err(invalid(k("aim"), "must be \"point\" or \"fixed\"")),
-    }
+    let keys = AimKeys {
+        aim: o.aim.as_deref(),
+        angles_deg: o.angles_deg,
+        look_at_mm: o.look_at_mm,
+        camera: o.camera.as_ref(),
+        camera_from: o.camera_from.as_deref(),
+        pixel_sigma_px: o.pixel_sigma_px,
+    };
+    aim_from_keys(&keys, &format!("grid.observer[{i}]"), position, base)
 }
 
-fn fixed_from_raw(
-    i: usize,
-    o: &RawObserver,
+fn fixed_from_keys(
+    o: &AimKeys<'_>,
+    k: &dyn Fn(&str) -> String,
     position: &Vector3<f64>,
     base: &Path,
 ) -> Result<FixedCamera, Error> {
-    let k = |f: &str| format!("grid.observer[{i}].{f}");
     let rotation = match (o.angles_deg, o.look_at_mm) {
         (Some(a), None) => {
             let a = finite3(k("angles_deg"), a)?.map(f64::to_radians);
@@ -127,7 +173,7 @@ fn fixed_from_raw(
     let opk = crashrig_geometry::opk::opk_from_rotation(
         &nalgebra::Rotation3::from_matrix_unchecked(rotation),
     );
-    let lens = match (&o.camera, &o.camera_from) {
+    let lens = match (o.camera, o.camera_from) {
         (Some(raw), None) => lens_from_raw(k("camera"), raw)?,
         (None, Some(spec)) => lens_from_model(k("camera_from"), spec, base)?,
         (Some(_), Some(_)) => {
@@ -164,7 +210,7 @@ fn fixed_from_raw(
     })
 }
 
-fn lens_from_raw(key: String, raw: &RawLens) -> Result<Lens, Error> {
+fn lens_from_raw(key: String, raw: &LensKeys) -> Result<Lens, Error> {
     let model = ModelId::from_name(&raw.model).map_err(|source| Error::Camera {
         key: key.clone(),
         source,
