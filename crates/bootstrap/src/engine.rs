@@ -1,6 +1,7 @@
 //! The resampling engine: replicates in parallel, one RNG stream per replicate.
 
 use crate::Error;
+use crashrig_stats::progress::{Counter, Progress};
 use rand::RngExt;
 use rayon::prelude::*;
 
@@ -68,15 +69,37 @@ where
     E: Send,
     F: Fn(&[usize]) -> Result<T, E> + Sync,
 {
+    run_with_progress(n_items, replicates, seed, statistic, None)
+}
+
+/// [`run`] reporting `(replicates done, replicates)` to `progress` after each replicate (one
+/// atomic increment each); the result is the same as without.
+pub fn run_with_progress<T, E, F>(
+    n_items: usize,
+    replicates: usize,
+    seed: u64,
+    statistic: F,
+    progress: Option<Progress<'_>>,
+) -> Result<Replicates<T, E>, Error>
+where
+    T: Send,
+    E: Send,
+    F: Fn(&[usize]) -> Result<T, E> + Sync,
+{
     if n_items == 0 {
         return Err(Error::NoItems);
     }
     if replicates == 0 {
         return Err(Error::NoReplicates);
     }
+    let counter = Counter::new(progress, replicates);
     let outcomes: Vec<Result<T, E>> = (0..replicates)
         .into_par_iter()
-        .map(|r| statistic(&resample(n_items, seed, r)))
+        .map(|r| {
+            let outcome = statistic(&resample(n_items, seed, r));
+            counter.add(1);
+            outcome
+        })
         .collect();
     let mut values = Vec::with_capacity(replicates);
     let mut failures = Vec::new();
@@ -101,17 +124,35 @@ where
     E: Send,
     F: Fn(&[usize]) -> Result<T, E> + Sync,
 {
+    jackknife_with_progress(n_items, statistic, None)
+}
+
+/// [`jackknife`] reporting `(leave-one-out values done, n_items)` to `progress`; the result is
+/// the same as without.
+pub fn jackknife_with_progress<T, E, F>(
+    n_items: usize,
+    statistic: F,
+    progress: Option<Progress<'_>>,
+) -> Result<Vec<Result<T, E>>, Error>
+where
+    T: Send,
+    E: Send,
+    F: Fn(&[usize]) -> Result<T, E> + Sync,
+{
     if n_items < 2 {
         return Err(Error::TooFewValues {
             needed: 2,
             found: n_items,
         });
     }
+    let counter = Counter::new(progress, n_items);
     Ok((0..n_items)
         .into_par_iter()
         .map(|i| {
             let idx: Vec<usize> = (0..n_items).filter(|&j| j != i).collect();
-            statistic(&idx)
+            let value = statistic(&idx);
+            counter.add(1);
+            value
         })
         .collect())
 }
@@ -174,6 +215,37 @@ mod tests {
                 .collect::<Vec<_>>()
         };
         assert_eq!(bits(&one), bits(&two));
+    }
+
+    #[test]
+    fn run_with_progress_counts_every_replicate_and_changes_nothing() {
+        let data: Vec<f64> = (0..31).map(|i| f64::from(i).cos()).collect();
+        let seen = std::sync::Mutex::new(Vec::new());
+        let report = |d: usize, t: usize| seen.lock().unwrap().push((d, t));
+        let with =
+            run_with_progress(data.len(), 40, 9, |idx| mean_of(&data, idx), Some(&report)).unwrap();
+        assert_eq!(
+            with,
+            run(data.len(), 40, 9, |idx| mean_of(&data, idx)).unwrap()
+        );
+        let mut seen = seen.into_inner().unwrap();
+        assert_eq!(seen.len(), 40);
+        assert!(seen.iter().all(|&(d, t)| t == 40 && d <= t));
+        // Each count 1..=40 reported exactly once (one atomic increment per replicate).
+        seen.sort_unstable();
+        assert_eq!(seen, (1..=40).map(|d| (d, 40)).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn jackknife_with_progress_counts_every_item_and_changes_nothing() {
+        let data = [1.0, 2.0, 3.0, 10.0, -4.0];
+        let seen = std::sync::Mutex::new(Vec::new());
+        let report = |d: usize, t: usize| seen.lock().unwrap().push((d, t));
+        let with = jackknife_with_progress(5, |idx| mean_of(&data, idx), Some(&report)).unwrap();
+        assert_eq!(with, jackknife(5, |idx| mean_of(&data, idx)).unwrap());
+        let mut seen = seen.into_inner().unwrap();
+        seen.sort_unstable();
+        assert_eq!(seen, (1..=5).map(|d| (d, 5)).collect::<Vec<_>>());
     }
 
     #[test]

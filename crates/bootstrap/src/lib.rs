@@ -15,8 +15,9 @@
 //!   are type 7 (NumPy's default).
 //!
 //! # Entry points
-//! - [`run`]: the parallel bootstrap; [`resample`]: the indices of one replicate.
-//! - [`jackknife`]: leave-one-out values (for the BCa acceleration).
+//! - [`run`]: the parallel bootstrap ([`run_with_progress`]: with `(done, total)` reports);
+//!   [`resample`]: the indices of one replicate.
+//! - [`jackknife`]: leave-one-out values (for the BCa acceleration; [`jackknife_with_progress`]).
 //! - [`sigma`], [`bias`], [`percentile_interval`], [`bca_interval`]: scalar summaries.
 //! - [`normal::cdf`], [`normal::inverse_cdf`]: Φ and Φ⁻¹.
 //!
@@ -45,7 +46,10 @@ mod error;
 mod interval;
 pub mod normal;
 
-pub use engine::{Failure, Replicates, jackknife, resample, run};
+pub use crashrig_stats::progress::Progress;
+pub use engine::{
+    Failure, Replicates, jackknife, jackknife_with_progress, resample, run, run_with_progress,
+};
 pub use error::{BcaReason, Error};
 pub use interval::{
     Interval, acceleration, bca_interval, bias, bias_correction, percentile_interval, sigma,

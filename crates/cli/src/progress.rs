@@ -1,9 +1,12 @@
 //! Progress bars on stderr, only when stderr is a terminal (none in pipes, logs and tests).
 //!
-//! The libraries report `(stage, done, total)` through a plain callback
-//! ([`crashrig_study::pipeline::Progress`]); this module is the only place that draws.
+//! The libraries report `(done, total)` through plain callbacks
+//! ([`crashrig_stats::progress::Progress`]; `study` adds a stage name:
+//! [`crashrig_study::pipeline::Progress`]); this module is the only place that draws. When
+//! stderr is not a terminal no callback is handed to the libraries at all.
 
 use std::io::IsTerminal;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// A progress bar that exists only when stderr is a terminal.
 pub struct Bar(Option<indicatif::ProgressBar>);
@@ -25,6 +28,11 @@ impl Bar {
         Bar(Some(b))
     }
 
+    /// Whether the bar is drawn (stderr is a terminal).
+    pub fn is_shown(&self) -> bool {
+        self.0.is_some()
+    }
+
     /// Reports `done` of `total` at `stage`; `done` is clamped to `total`.
     pub fn set(&self, stage: &str, done: u64, total: u64) {
         if let Some(b) = &self.0 {
@@ -34,10 +42,37 @@ impl Bar {
         }
     }
 
+    /// A `(done, total)` callback for one stage of work: the bar shows the largest `done`
+    /// reported so far (parallel workers may report out of order), clamped to `total`.
+    pub fn stage<'a>(&'a self, stage: &'a str) -> impl Fn(usize, usize) + Sync + 'a {
+        let best = AtomicU64::new(0);
+        move |done: usize, total: usize| {
+            let d = best
+                .fetch_max(done as u64, Ordering::Relaxed)
+                .max(done as u64);
+            self.set(stage, d, total as u64);
+        }
+    }
+
+    /// `Some(callback)` when the bar is drawn, else `None` (the library then counts nothing).
+    pub fn hook<'a>(
+        &self,
+        callback: &'a (dyn Fn(usize, usize) + Sync),
+    ) -> Option<&'a (dyn Fn(usize, usize) + Sync)> {
+        self.is_shown().then_some(callback)
+    }
+
     /// Removes the bar.
     pub fn finish(&self) {
         if let Some(b) = &self.0 {
             b.finish_and_clear();
         }
+    }
+}
+
+impl Drop for Bar {
+    fn drop(&mut self) {
+        // An error path leaves no half-drawn bar before its `error:` line.
+        self.finish();
     }
 }

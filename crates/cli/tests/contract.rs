@@ -48,3 +48,6 @@ mod uncertain;
 
 #[path = "contract/sim.rs"]
 mod sim;
+
+#[path = "contract/acceptance.rs"]
+mod acceptance;

@@ -6,6 +6,7 @@ use crate::scenario::{PoseSigma, RotationNoise, Scenario};
 use crate::simd::Engine;
 use crate::{CHUNK, Error, FastNormal};
 use crashrig_geometry::{Rigid3, Rot3, UncertainPose, quat};
+use crashrig_stats::progress::{Counter, Progress};
 use crashrig_stats::{Moments, stream};
 use nalgebra::{DMatrix, Matrix3, Matrix6, Vector3, Vector6};
 use rayon::prelude::*;
@@ -536,24 +537,53 @@ impl Chain {
 
     /// [`Chain::monte_carlo`] with an explicit engine (benchmarks and tests).
     pub fn monte_carlo_with(&self, samples: usize, seed: u64, engine: Engine) -> Vec<PoseMc> {
+        self.monte_carlo_engine(samples, seed, engine, None)
+    }
+
+    /// [`Chain::monte_carlo`] reporting `(chunks done, chunks)` of [`CHUNK`] draws to
+    /// `progress`; the result is the same as without.
+    pub fn monte_carlo_with_progress(
+        &self,
+        samples: usize,
+        seed: u64,
+        progress: Option<Progress<'_>>,
+    ) -> Vec<PoseMc> {
+        self.monte_carlo_engine(samples, seed, Engine::from_env(), progress)
+    }
+
+    fn monte_carlo_engine(
+        &self,
+        samples: usize,
+        seed: u64,
+        engine: Engine,
+        progress: Option<Progress<'_>>,
+    ) -> Vec<PoseMc> {
+        let chunks = samples.div_ceil(CHUNK);
+        let ticks = Counter::new(progress, chunks);
         let isa = match engine {
-            Engine::Legacy => return self.monte_carlo_legacy(samples, seed),
+            Engine::Legacy => {
+                let r = self.monte_carlo_legacy(samples, seed, &ticks);
+                ticks.finish();
+                return r;
+            }
             Engine::Simd(isa) => isa,
         };
         let n = self.len();
         let key = crate::philox::key_of_seed(seed);
-        let chunks = samples.div_ceil(CHUNK);
         let parts: Vec<Vec<CamSums>> = (0..chunks)
             .into_par_iter()
             .map(|k| {
                 let m = CHUNK.min(samples - k * CHUNK);
-                crate::simd::dispatch(
+                let part = crate::simd::dispatch(
                     isa,
                     #[inline(always)]
                     || crate::chain_block::run_task(self, key, k as u64, m),
-                )
+                );
+                ticks.add(1);
+                part
             })
             .collect();
+        ticks.finish();
         let mut total = vec![CamSums::new(); n];
         for part in &parts {
             for (t, p) in total.iter_mut().zip(part) {
@@ -586,7 +616,7 @@ impl Chain {
     }
 
     /// The former loop (ChaCha8 streams, ziggurat normals, Welford moments per draw).
-    fn monte_carlo_legacy(&self, samples: usize, seed: u64) -> Vec<PoseMc> {
+    fn monte_carlo_legacy(&self, samples: usize, seed: u64, ticks: &Counter<'_>) -> Vec<PoseMc> {
         let n = self.len();
         let chunks = samples.div_ceil(CHUNK);
         let parts: Vec<Vec<(Moments<6>, Moments<6>)>> = (0..chunks)
@@ -611,6 +641,7 @@ impl Chain {
                         acc[i].1.push(&[dc.x, dc.y, dc.z, th.x, th.y, th.z]);
                     }
                 }
+                ticks.add(1);
                 acc
             })
             .collect();

@@ -700,6 +700,7 @@ pub(crate) fn run(
     draws: Draws<'_>,
     seed: u64,
     engine: Engine,
+    progress: &crate::grid::PointTicks<'_>,
 ) -> Result<Vec<PointStats>, Error> {
     let points = setup.grid.points();
     let views: Vec<Vec<View<'_>>> = points
@@ -733,6 +734,7 @@ pub(crate) fn run(
                     run_chunk(
                         &views[p], &blocks[p], chain, seed, task, m, &mut acc, engine,
                     );
+                    progress.chunk_done(p);
                     acc
                 })
                 .collect();
@@ -764,6 +766,7 @@ pub(crate) fn run(
                     let task = task_index(p, b);
                     run_chunk(&views[p], &blocks[p], chain, seed, task, m, acc, engine);
                 });
+                progress.point_done();
                 PointStats {
                     converged: Some(converged),
                     ..finish(point, &views[p], &total)

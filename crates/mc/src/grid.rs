@@ -11,9 +11,11 @@ use crate::scenario::{Grid, ObserverSigma, PoseSigma, RotationNoise, Scenario};
 use crate::simd::Engine;
 use crate::{CHUNK, Error};
 use crashrig_geometry::uncertain::psd_factor;
+use crashrig_stats::progress::{Counter, Progress};
 use crashrig_stats::{Moments, stream};
 use nalgebra::{DMatrix, Matrix3, Matrix6, SymmetricEigen, Vector3, Vector6};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Statistics of the intersected points at one grid point.
 #[derive(Debug, Clone, PartialEq)]
@@ -315,9 +317,21 @@ impl GridStudy {
     /// # Errors
     /// As [`GridStudy::run`].
     pub fn evaluate(&self) -> Result<GridResult, Error> {
+        self.evaluate_with_progress(None)
+    }
+
+    /// [`GridStudy::evaluate`] reporting `(points done, points)` to `progress`; the result is
+    /// the same as without.
+    ///
+    /// # Errors
+    /// As [`GridStudy::run`].
+    pub fn evaluate_with_progress(
+        &self,
+        progress: Option<Progress<'_>>,
+    ) -> Result<GridResult, Error> {
         match &self.grid.adaptive {
-            Some(a) => self.run_adaptive(a, self.seed),
-            None => self.run(self.samples, self.seed),
+            Some(a) => self.run_adaptive_with_progress(a, self.seed, progress),
+            None => self.run_with_progress(self.samples, self.seed, progress),
         }
     }
 
@@ -382,12 +396,39 @@ impl GridStudy {
     /// [`GridStudy::run`] with an explicit engine (benchmarks and tests; the legacy engine
     /// draws from the former ChaCha8 streams, so its numbers differ statistically only).
     pub fn run_with(&self, samples: usize, seed: u64, engine: Engine) -> Result<GridResult, Error> {
-        if self.has_fixed() {
-            return self.run_fixed(crate::fixed::Draws::Samples(samples), seed, engine);
-        }
-        let points = self.grid.points();
-        let aimed = self.aim_all(&points)?;
+        self.run_engine(samples, seed, engine, None)
+    }
+
+    /// [`GridStudy::run`] reporting `(points done, points)` to `progress` (a point counts when
+    /// its last chunk of draws is done); the result is the same as without.
+    ///
+    /// # Errors
+    /// As [`GridStudy::run`].
+    pub fn run_with_progress(
+        &self,
+        samples: usize,
+        seed: u64,
+        progress: Option<Progress<'_>>,
+    ) -> Result<GridResult, Error> {
+        self.run_engine(samples, seed, Engine::from_env(), progress)
+    }
+
+    fn run_engine(
+        &self,
+        samples: usize,
+        seed: u64,
+        engine: Engine,
+        progress: Option<Progress<'_>>,
+    ) -> Result<GridResult, Error> {
         let chunks = samples.div_ceil(CHUNK);
+        let points = self.grid.points();
+        let ticks = PointTicks::new(progress, points.len(), chunks);
+        if self.has_fixed() {
+            let r = self.run_fixed(crate::fixed::Draws::Samples(samples), seed, engine, &ticks);
+            ticks.finish();
+            return r;
+        }
+        let aimed = self.aim_all(&points)?;
         let tasks: Vec<(usize, usize)> = (0..points.len())
             .flat_map(|p| (0..chunks).map(move |k| (p, k)))
             .collect();
@@ -405,9 +446,11 @@ impl GridStudy {
                     &mut acc,
                     engine,
                 );
+                ticks.chunk_done(p);
                 acc
             })
             .collect();
+        ticks.finish();
         let stats = points
             .iter()
             .enumerate()
@@ -423,22 +466,41 @@ impl GridStudy {
     }
 
     /// Runs with the adaptive stopping rule of GUM-S1 §7.9 per point: batches of
-    /// `adaptive.batch` draws (batch b of point p is task `p·2²⁴ + b`) until
-    /// `2·s/√h ≤ tolerance` for σx, σy and σz (s = standard deviation of the h per-batch σ,
-    /// at least 4 batches) or `max_samples` is reached. The reported σ is that of all draws.
+    /// `adaptive.batch` draws (batch b of point p is task `p·2²⁴ + b`) until the mean
+    /// coordinate and the σ of every axis are stable (`2·s/√h ≤ δ`, see
+    /// [`crate::Adaptive`]; at least [`ADAPTIVE_MIN_BATCHES`] batches) or `max_samples` is
+    /// reached. The reported mean and σ are those of all draws.
     pub fn run_adaptive(
         &self,
         adaptive: &crate::scenario::Adaptive,
         seed: u64,
     ) -> Result<GridResult, Error> {
+        self.run_adaptive_with_progress(adaptive, seed, None)
+    }
+
+    /// [`GridStudy::run_adaptive`] reporting `(points done, points)` to `progress`; the result
+    /// is the same as without.
+    ///
+    /// # Errors
+    /// As [`GridStudy::run`].
+    pub fn run_adaptive_with_progress(
+        &self,
+        adaptive: &crate::scenario::Adaptive,
+        seed: u64,
+        progress: Option<Progress<'_>>,
+    ) -> Result<GridResult, Error> {
+        let points = self.grid.points();
+        let ticks = PointTicks::new(progress, points.len(), 1);
         if self.has_fixed() {
-            return self.run_fixed(
+            let r = self.run_fixed(
                 crate::fixed::Draws::Adaptive(adaptive),
                 seed,
                 Engine::from_env(),
+                &ticks,
             );
+            ticks.finish();
+            return r;
         }
-        let points = self.grid.points();
         let aimed = self.aim_all(&points)?;
         let stats = points
             .par_iter()
@@ -455,12 +517,14 @@ impl GridStudy {
                         Engine::from_env(),
                     )
                 });
+                ticks.point_done();
                 PointStats {
                     converged: Some(converged),
                     ..self.finish(point, &aimed[p], &total)
                 }
             })
             .collect();
+        ticks.finish();
         Ok(self.result(stats))
     }
 
@@ -477,6 +541,7 @@ impl GridStudy {
         draws: crate::fixed::Draws<'_>,
         seed: u64,
         engine: Engine,
+        ticks: &PointTicks<'_>,
     ) -> Result<GridResult, Error> {
         let covariance: Vec<Matrix6<f64>> =
             self.observer_noise.iter().map(|n| n.covariance).collect();
@@ -488,7 +553,7 @@ impl GridStudy {
             pixel: self.grid.pixel,
             chain: self.ctx.chain.as_ref(),
         };
-        Ok(self.result(crate::fixed::run(&setup, draws, seed, engine)?))
+        Ok(self.result(crate::fixed::run(&setup, draws, seed, engine, ticks)?))
     }
 
     fn finish(&self, point: &Vector3<f64>, aimed: &[Aimed], m: &Acc3) -> PointStats {
@@ -507,24 +572,75 @@ impl GridStudy {
     }
 }
 
+/// Progress of a grid run in grid points: a point counts when its last chunk of draws is done
+/// (`chunk_done`, runs split into `chunks` tasks per point) or when it is finished whole
+/// (`point_done`, adaptive runs); `finish` reports the total (points that drew nothing).
+/// Without a callback every call is a no-op and nothing is allocated.
+pub(crate) struct PointTicks<'a> {
+    counter: Counter<'a>,
+    /// Chunks still running per point (only with a callback and more than one chunk).
+    left: Vec<AtomicUsize>,
+}
+
+impl<'a> PointTicks<'a> {
+    pub(crate) fn new(progress: Option<Progress<'a>>, points: usize, chunks: usize) -> Self {
+        let counter = Counter::new(progress, points);
+        let left = if counter.is_reporting() && chunks > 1 {
+            (0..points).map(|_| AtomicUsize::new(chunks)).collect()
+        } else {
+            Vec::new()
+        };
+        Self { counter, left }
+    }
+
+    /// One chunk of point `p` is done.
+    pub(crate) fn chunk_done(&self, p: usize) {
+        if !self.counter.is_reporting() {
+            return;
+        }
+        match self.left.get(p) {
+            Some(left) => {
+                if left.fetch_sub(1, Ordering::Relaxed) == 1 {
+                    self.counter.add(1);
+                }
+            }
+            None => self.counter.add(1),
+        }
+    }
+
+    /// One point is done.
+    pub(crate) fn point_done(&self) {
+        self.counter.add(1);
+    }
+
+    /// The run is done.
+    pub(crate) fn finish(&self) {
+        self.counter.finish();
+    }
+}
+
 /// Smallest number of chain draws used to resolve `sigma_from` (σ to ≈ 0.2 %).
 pub const CHAIN_SAMPLES_MIN: usize = 100_000;
 
 /// Salt of the seed of the chain propagation that resolves `sigma_from`.
 const CHAIN_SEED_SALT: u64 = 0x5EED_C4A1_0000_0001;
 
-#[inline]
+/// Smallest number of batches before the adaptive rule may stop (JCGM 101 §7.9.4 needs h ≥ 2;
+/// 4 keeps the standard deviation of the batch values from being met by chance).
+pub const ADAPTIVE_MIN_BATCHES: usize = 4;
+
 /// Adaptive draws at one point: batches of `adaptive.batch` draws (batch `b` drawn by
-/// `draw(b, m, acc)`) until, after at least 4 batches, `2·s/√h ≤ tolerance_mm` for the σ of
-/// every axis (`s` = standard deviation of the per-batch σ over the `h` batches), or until
-/// `max_samples`. Returns all the draws and whether the tolerance was met.
+/// `draw(b, m, acc)`) until, after at least [`ADAPTIVE_MIN_BATCHES`] batches,
+/// [`adaptive_stable`] holds, or until `max_samples`. Returns all the draws and whether the
+/// tolerance was met.
 pub(crate) fn adaptive_draws(
     point: &Vector3<f64>,
     adaptive: &crate::scenario::Adaptive,
     mut draw: impl FnMut(usize, usize, &mut Acc3),
 ) -> (Acc3, bool) {
     let mut total = Acc3::new(*point);
-    let mut batch_sigmas = Moments::<3>::new();
+    // Per batch: the mean coordinate (x, y, z) and the σ (x, y, z).
+    let mut batches = Moments::<6>::new();
     let mut b = 0usize;
     loop {
         let m = adaptive
@@ -536,19 +652,39 @@ pub(crate) fn adaptive_draws(
         let mut acc = Acc3::new(*point);
         draw(b, m, &mut acc);
         total.merge(&acc);
-        let s = acc.std_dev();
-        batch_sigmas.push(&[s.x, s.y, s.z]);
+        let (mean, s) = (acc.mean(), acc.std_dev());
+        batches.push(&[mean.x, mean.y, mean.z, s.x, s.y, s.z]);
         b += 1;
-        if b >= 4 {
-            let u = batch_sigmas.std_dev() * (2.0 / (b as f64).sqrt());
-            if u.max() <= adaptive.tolerance_mm {
-                return (total, true);
-            }
+        if b >= ADAPTIVE_MIN_BATCHES && adaptive_stable(&batches, &total.std_dev(), adaptive) {
+            return (total, true);
         }
         if b * adaptive.batch >= adaptive.max_samples {
             return (total, false);
         }
     }
+}
+
+/// The stopping test of JCGM 101 §7.9.4 (k) per axis: with `h` batches and `s` the standard
+/// deviation (n − 1) of a per-batch value, `2·s/√h ≤ δ` for the batch means (the estimate y)
+/// and for the batch σ (its standard uncertainty u(y)) of x, y and z; δ of each axis from
+/// `adaptive.tolerance` at `pooled_sigma` (σ of all the draws so far, §7.9.4 i–j). The
+/// coverage-interval endpoints are not tested (the grid keeps no quantiles).
+pub(crate) fn adaptive_stable(
+    batches: &Moments<6>,
+    pooled_sigma: &Vector3<f64>,
+    adaptive: &crate::scenario::Adaptive,
+) -> bool {
+    let h = batches.count() as f64;
+    if h < 2.0 {
+        return false;
+    }
+    let s = batches.std_dev();
+    (0..3).all(|axis| {
+        let delta = adaptive.tolerance.delta_mm(pooled_sigma[axis]);
+        let mean_ok = 2.0 * s[axis] / h.sqrt() <= delta;
+        let sigma_ok = 2.0 * s[axis + 3] / h.sqrt() <= delta;
+        mean_ok && sigma_ok
+    })
 }
 
 /// The task number of chunk (or adaptive batch) `chunk` of grid point `point`: `p·2²⁴ + k`,

@@ -215,13 +215,16 @@ mod simd;
 pub use chain::{CameraId, Chain, ChainBuilder, PoseLinear, PoseMc, WorldPose};
 pub use error::Error;
 pub use fixed::{UNDISTORT_RESIDUAL_PX, footprint_margin_px};
-pub use grid::{CHAIN_SAMPLES_MIN, GridResult, GridStudy, INPUTS_PER_OBSERVER, PointStats};
+pub use grid::{
+    ADAPTIVE_MIN_BATCHES, CHAIN_SAMPLES_MIN, GridResult, GridStudy, INPUTS_PER_OBSERVER, PointStats,
+};
 pub use grid_builder::GridBuilder;
 pub use normal::FastNormal;
 pub use reference::{ResultKind, link_from_result_json};
 pub use scenario::{
-    Adaptive, Aim, Axis, CORRELATED_POSITION_TOLERANCE_MM, Camera, FixedCamera, Grid, Observer,
-    ObserverSigma, PixelNoise, PoseSigma, RotationNoise, Scenario,
+    Adaptive, Aim, Axis, CORRELATED_POSITION_TOLERANCE_MM, Camera, FixedCamera, Grid, MAX_NDIG,
+    Observer, ObserverSigma, PixelNoise, PoseSigma, RotationNoise, Scenario, Tolerance,
+    ndig_tolerance,
 };
 pub use simd::{Engine, Isa};
 

@@ -67,6 +67,34 @@ pub(crate) fn line_of(text: &str, offset: usize) -> usize {
         + 1
 }
 
+/// The key whose value starts at byte `offset` of a TOML text (`threshold_mm = "5"` → the
+/// offset of `"5"` gives `threshold_mm`), so a parser's type error ("invalid type: string,
+/// expected f64", located at the value) can name the key. Looks left on the value's line for
+/// `key =`; dotted and quoted keys are returned as written. `None` when the offset is not
+/// right after `key =` (a value inside an array, a syntax error).
+///
+/// ```
+/// use crashrig_mc::limits::toml_value_key;
+/// let text = "[grid]\nthreshold_mm = \"5\"\n";
+/// assert_eq!(toml_value_key(text, text.find('"').unwrap()), Some("threshold_mm"));
+/// let inline = "camera = { model = 3, width = 10 }";
+/// assert_eq!(toml_value_key(inline, inline.find('3').unwrap()), Some("model"));
+/// assert_eq!(toml_value_key("x = [1, 2]", 8), None);
+/// ```
+pub fn toml_value_key(text: &str, offset: usize) -> Option<&str> {
+    let offset = offset.min(text.len());
+    let line_start = text[..offset].rfind('\n').map_or(0, |p| p + 1);
+    let before = text[line_start..offset]
+        .trim_end()
+        .strip_suffix('=')?
+        .trim_end();
+    let start = before
+        .rfind(|c: char| !(c.is_ascii_alphanumeric() || "_-.\"'".contains(c)))
+        .map_or(0, |p| p + 1);
+    let key = &before[start..];
+    (!key.is_empty()).then_some(key)
+}
+
 fn located(path: &Path, text: &str, offset: usize, e: Error) -> Error {
     Error::Located {
         path: path.to_path_buf(),

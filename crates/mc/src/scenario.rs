@@ -149,15 +149,74 @@ impl PixelNoise {
 }
 
 /// Adaptive number of draws per grid point (GUM Supplement 1, JCGM 101:2008 §7.9).
+///
+/// Batches of [`Adaptive::batch`] draws run until, after `h ≥ 4` batches, twice the standard
+/// deviation of the average of the per-batch values, `2·s/√h`, is at most the numerical
+/// tolerance δ of each axis for both the per-batch mean coordinate and the per-batch σ (JCGM 101
+/// §7.9.4 k, without the coverage-interval endpoints), or until [`Adaptive::max_samples`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Adaptive {
-    /// Numerical tolerance δ (mm): stop when `2·s/√h ≤ δ` for each axis σ, `s` being the
-    /// standard deviation of the per-batch σ estimates over the `h` batches so far.
-    pub tolerance_mm: f64,
+    /// How δ is set: an absolute value, or JCGM 101's `ndig` significant digits of σ.
+    pub tolerance: Tolerance,
     /// Draws per batch (≥ 100).
     pub batch: usize,
     /// Upper bound of draws per point.
     pub max_samples: usize,
+}
+
+/// The numerical tolerance δ of the adaptive rule (`[grid.adaptive]`: exactly one of
+/// `tolerance_mm` and `ndig`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Tolerance {
+    /// `tolerance_mm`: δ (mm), the same for every axis and point.
+    AbsoluteMm(f64),
+    /// `ndig`: δ = [`ndig_tolerance`]`(σ, ndig)` of each axis's σ, recomputed from all the
+    /// draws of the point after every batch (JCGM 101 §7.9.2).
+    SignificantDigits(u32),
+}
+
+impl Tolerance {
+    /// δ (mm) for an axis whose current standard uncertainty is `u_mm`.
+    pub fn delta_mm(&self, u_mm: f64) -> f64 {
+        match *self {
+            Tolerance::AbsoluteMm(d) => d,
+            Tolerance::SignificantDigits(ndig) => ndig_tolerance(u_mm, ndig),
+        }
+    }
+}
+
+/// Largest `ndig` accepted (an f64 carries about 15 significant digits).
+pub const MAX_NDIG: u32 = 15;
+
+/// JCGM 101:2008 §7.9.2: the numerical tolerance of a value `u` regarded as meaningful to
+/// `ndig` significant decimal digits. Writing `u = c·10^l` with `c` an `ndig`-digit integer
+/// (`10^(ndig−1) ≤ c < 10^ndig`, i.e. `l = ⌊log₁₀ u⌋ − ndig + 1`), δ = ½·10^l.
+///
+/// `u = 0` gives δ = 0 (an axis without spread is stable when its batches agree exactly);
+/// a non-finite or negative `u` gives NaN (never met).
+///
+/// ```
+/// use crashrig_mc::ndig_tolerance;
+/// // JCGM 101 §7.9.2's example: u = 0.01234 with ndig = 2 is 12 × 10⁻³, δ = 0.0005.
+/// assert!((ndig_tolerance(0.01234, 2) - 0.0005).abs() < 1e-18);
+/// ```
+pub fn ndig_tolerance(u: f64, ndig: u32) -> f64 {
+    if u == 0.0 {
+        return 0.0;
+    }
+    if !u.is_finite() || u < 0.0 || ndig == 0 {
+        return f64::NAN;
+    }
+    let digits = ndig.min(MAX_NDIG) as i32;
+    let mut l = u.log10().floor() as i32 - digits + 1;
+    // log10 may round across a power of ten: fix l so that 10^(ndig−1) ≤ u/10^l < 10^ndig.
+    let ten = |k: i32| 10f64.powi(k);
+    if u >= ten(l + digits) {
+        l += 1;
+    } else if u < ten(l + digits - 1) {
+        l -= 1;
+    }
+    0.5 * ten(l)
 }
 
 /// The grid study.
@@ -274,7 +333,8 @@ struct RawGrid {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawAdaptive {
-    tolerance_mm: f64,
+    tolerance_mm: Option<f64>,
+    ndig: Option<i64>,
     batch: Option<i64>,
     max_samples: Option<i64>,
 }
@@ -799,8 +859,34 @@ fn validate_grid(g: RawGrid, cameras: &[Camera], base: &Path) -> Result<Grid, Er
         .adaptive
         .map(|a| -> Result<Adaptive, Error> {
             let batch = count("grid.adaptive.batch", a.batch.unwrap_or(1000), 100)?;
+            let tolerance = match (a.tolerance_mm, a.ndig) {
+                (Some(t), None) => {
+                    Tolerance::AbsoluteMm(positive("grid.adaptive.tolerance_mm", t)?)
+                }
+                (None, Some(n)) if (1..=i64::from(MAX_NDIG)).contains(&n) => {
+                    Tolerance::SignificantDigits(n as u32)
+                }
+                (None, Some(_)) => {
+                    return Err(Error::Invalid {
+                        key: "grid.adaptive.ndig".into(),
+                        problem: "must be an integer from 1 to 15 (significant digits of σ)",
+                    });
+                }
+                (Some(_), Some(_)) => {
+                    return Err(Error::Invalid {
+                        key: "grid.adaptive.ndig".into(),
+                        problem: "give either tolerance_mm or ndig, not both",
+                    });
+                }
+                (None, None) => {
+                    return Err(Error::Invalid {
+                        key: "grid.adaptive".into(),
+                        problem: "give exactly one of tolerance_mm (mm) and ndig (significant digits of σ)",
+                    });
+                }
+            };
             Ok(Adaptive {
-                tolerance_mm: positive("grid.adaptive.tolerance_mm", a.tolerance_mm)?,
+                tolerance,
                 batch,
                 max_samples: count(
                     "grid.adaptive.max_samples",

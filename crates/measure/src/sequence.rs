@@ -180,13 +180,4 @@ mod tests {
         assert_eq!(frame_number("x12y"), Some(12));
         assert_eq!(frame_number("abc"), None);
     }
-
-    #[test]
-    fn selector_parse() {
-        assert_eq!(CameraSelector::parse("2"), CameraSelector::CameraId(2));
-        assert_eq!(
-            CameraSelector::parse("cam_out/"),
-            CameraSelector::Prefix("cam_out/".into())
-        );
-    }
 }

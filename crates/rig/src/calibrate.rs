@@ -3,7 +3,7 @@
 //! refinement (floored at the uncertainty of the mean).
 
 use crate::drift::{DriftReport, drift_report};
-use crate::refine::{RefineOptions, Refinement, refine};
+use crate::refine::{RefineOptions, Refinement, refine_with_progress};
 use crate::robust::{OutlierReport, flag_outliers};
 use crate::sem::{SemEstimate, sem_covariance, sem_iid};
 use crate::stats::{LinkStatistics, link_statistics};
@@ -132,11 +132,27 @@ fn spread_and_sem(
 /// # Errors
 /// [`Error::TooFewEpochs`] for fewer than two epochs, [`Error::RigConstrained`] when every
 /// epoch gives the same link and [`CalibrateOptions::accept_rig_constrained`] is false, and
-/// the errors of [`links_of`], [`link_statistics`] and [`refine`].
+/// the errors of [`links_of`], [`link_statistics`] and [`crate::refine::refine`].
 pub fn calibrate(
     epochs: &[Epoch],
     mm_per_unit: f64,
     options: &CalibrateOptions,
+) -> Result<Calibration, Error> {
+    calibrate_with_progress(epochs, mm_per_unit, options, None)
+}
+
+/// [`calibrate`] reporting the progress of its refinements (the slow part) to `progress`:
+/// `(weighting rounds done, rounds)` over the refinement of all epochs and, when epochs are
+/// flagged, the one without them (see [`crate::refine::refine_with_progress`]). The result is
+/// the same as without.
+///
+/// # Errors
+/// As [`calibrate`].
+pub fn calibrate_with_progress(
+    epochs: &[Epoch],
+    mm_per_unit: f64,
+    options: &CalibrateOptions,
+    progress: Option<crashrig_stats::progress::Progress<'_>>,
 ) -> Result<Calibration, Error> {
     let links = links_of(epochs, mm_per_unit)?;
     let all = link_statistics(&links)?;
@@ -168,11 +184,32 @@ pub fn calibrate(
     } else {
         None
     };
+    let n_flagged = outliers.outlier.iter().filter(|o| **o).count();
+    // Progress: refinement k of `parts` covers rounds k·R … (k + 1)·R of parts·R.
+    let parts = if n_flagged > 0 && kept.len() >= 2 {
+        2
+    } else {
+        1
+    };
+    let part = |k: usize| {
+        move |d: usize, t: usize| {
+            if let Some(p) = progress {
+                p(k * t + d, parts * t);
+            }
+        }
+    };
+    let (first, second) = (part(0), part(1));
+    let (first, second): (
+        crashrig_stats::progress::Progress<'_>,
+        crashrig_stats::progress::Progress<'_>,
+    ) = (&first, &second);
     let refined = match &options.refine {
-        Some(o) => Some(refine(epochs, mm_per_unit, o)?.floored(&sem.covariance)),
+        Some(o) => Some(
+            refine_with_progress(epochs, mm_per_unit, o, progress.and(Some(first)))?
+                .floored(&sem.covariance),
+        ),
         None => None,
     };
-    let n_flagged = outliers.outlier.iter().filter(|o| **o).count();
     let refined_without_outliers = match &options.refine {
         Some(o) if n_flagged > 0 && kept.len() >= 2 => {
             let kept_epochs: Vec<Epoch> = epochs
@@ -182,7 +219,10 @@ pub fn calibrate(
                 .map(|(e, _)| e.clone())
                 .collect();
             let (_, _, kept_sem) = spread_and_sem(&kept, zero)?;
-            Some(refine(&kept_epochs, mm_per_unit, o)?.floored(&kept_sem.covariance))
+            Some(
+                refine_with_progress(&kept_epochs, mm_per_unit, o, progress.and(Some(second)))?
+                    .floored(&kept_sem.covariance),
+            )
         }
         _ => None,
     };

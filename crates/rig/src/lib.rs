@@ -78,12 +78,13 @@ pub mod sem;
 pub mod stats;
 
 pub use calibrate::{
-    CalibrateOptions, Calibration, ZERO_SPREAD_RAD, ZERO_SPREAD_RELATIVE, calibrate, epoch_spread,
+    CalibrateOptions, Calibration, ZERO_SPREAD_RAD, ZERO_SPREAD_RELATIVE, calibrate,
+    calibrate_with_progress, epoch_spread,
 };
 pub use drift::{DriftReport, drift_report};
 pub use error::Error;
 pub use link::{Epoch, Link, check_scale, link_of, links_of};
-pub use refine::{RefineOptions, Refinement, refine};
+pub use refine::{RefineOptions, Refinement, refine, refine_with_progress};
 pub use robust::{OutlierReport, flag_outliers, outlier_threshold};
 pub use sem::SemEstimate;
 pub use stats::{LinkStatistics, link_statistics};

@@ -311,6 +311,34 @@ pub fn refine(
     mm_per_unit: f64,
     options: &RefineOptions,
 ) -> Result<Refinement, Error> {
+    refine_with_progress(epochs, mm_per_unit, options, None)
+}
+
+/// [`refine`] reporting `(weighting rounds done, rounds)` to `progress` after each
+/// re-weighting round (at most [`RefineOptions::variance_iterations`]; the last report is the
+/// total, also when the weights converge earlier). The result is the same as without.
+///
+/// # Errors
+/// As [`refine`].
+pub fn refine_with_progress(
+    epochs: &[Epoch],
+    mm_per_unit: f64,
+    options: &RefineOptions,
+    progress: Option<crashrig_stats::progress::Progress<'_>>,
+) -> Result<Refinement, Error> {
+    let rounds =
+        crashrig_stats::progress::Counter::new(progress, options.variance_iterations.max(1));
+    let r = refine_rounds(epochs, mm_per_unit, options, &rounds);
+    rounds.finish();
+    r
+}
+
+fn refine_rounds(
+    epochs: &[Epoch],
+    mm_per_unit: f64,
+    options: &RefineOptions,
+    rounds: &crashrig_stats::progress::Counter<'_>,
+) -> Result<Refinement, Error> {
     check_scale(mm_per_unit)?;
     let n = epochs.len();
     if n < 2 {
@@ -397,6 +425,7 @@ pub fn refine(
                 .map_err(|_| Error::SingularNormalMatrix { n_unknowns: p })?,
             weighted / redundancy as f64,
         ));
+        rounds.add(1);
         let (new_rot, new_pos) = floored(rot / group_redundancy, pos / group_redundancy, lever);
         let change = new_rot
             .component_div(&var_rot)

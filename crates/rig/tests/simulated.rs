@@ -275,3 +275,33 @@ fn rig_constrained_sequence_is_refused() {
     let c = calibrate(&epochs_of(&tiny), 1.0, &CalibrateOptions::default()).unwrap();
     assert!(!c.rig_constrained);
 }
+
+/// Progress of `calibrate_with_progress`: with flagged epochs both refinements report, within
+/// the total (2 × the weighting rounds), ending at it; the result is the same as without.
+#[test]
+fn calibrate_progress_covers_both_refinements_and_changes_nothing() {
+    let mut p = clean_parameters(90, 0);
+    p[17][0] += 20.0 * SIGMA[0];
+    let links: Vec<Rigid3> = p.iter().map(opk_pose).collect();
+    let epochs = epochs_of(&links);
+    let options = CalibrateOptions::default();
+    let seen = std::sync::Mutex::new(Vec::new());
+    let report = |d: usize, t: usize| seen.lock().unwrap().push((d, t));
+    let with =
+        crashrig_rig::calibrate_with_progress(&epochs, 1.0, &options, Some(&report)).unwrap();
+    assert_eq!(with, calibrate(&epochs, 1.0, &options).unwrap());
+    assert!(with.refined_without_outliers.is_some());
+    let seen = seen.into_inner().unwrap();
+    let total = 2 * RefineOptions::default().variance_iterations;
+    assert!(seen.iter().all(|&(d, t)| t == total && d <= t), "{seen:?}");
+    assert_eq!(seen.last().map(|r| r.0), Some(total));
+    // Both halves report: rounds of the first refinement, then of the second.
+    assert!(
+        seen.iter().any(|&(d, _)| d > 0 && d < total / 2),
+        "{seen:?}"
+    );
+    assert!(
+        seen.iter().any(|&(d, _)| d > total / 2 && d < total),
+        "{seen:?}"
+    );
+}

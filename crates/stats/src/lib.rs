@@ -12,6 +12,7 @@
 //! - [`stream`]: the RNG for replicate `index` of a run seeded with `seed`.
 //! - [`Moments`]: streaming mean / covariance of fixed-size vectors (Welford, mergeable).
 //! - [`summary::Summary`], [`summary::quantile`]: batch summaries of a slice.
+//! - [`progress::Counter`]: `(done, total)` progress reports of long calls (no UI).
 //!
 //! # Example
 //! ```
@@ -34,6 +35,7 @@
 
 mod error;
 mod moments;
+pub mod progress;
 pub mod summary;
 
 pub use error::Error;

@@ -307,6 +307,19 @@ pub struct CalibrationResult {
 /// Every [`CalibrationError`]: an unreadable model, a bad selector or scale, no epochs, a
 /// rig-constrained model (unless accepted), too few epochs.
 pub fn calibrate(config: &CalibrationConfig) -> Result<CalibrationResult, CalibrationError> {
+    calibrate_with_progress(config, None)
+}
+
+/// [`calibrate`] reporting the progress of the rig-constrained refinement (weighting rounds,
+/// see [`crashrig_rig::calibrate_with_progress`]) to `progress`; the result is the same as
+/// without.
+///
+/// # Errors
+/// As [`calibrate`].
+pub fn calibrate_with_progress(
+    config: &CalibrationConfig,
+    progress: Option<crashrig_stats::progress::Progress<'_>>,
+) -> Result<CalibrationResult, CalibrationError> {
     let model = Reconstruction::read(&config.model)?;
     let sel_a = CameraSelector::parse(&config.camera_a);
     let sel_b = CameraSelector::parse(&config.camera_b);
@@ -330,7 +343,9 @@ pub fn calibrate(config: &CalibrationConfig) -> Result<CalibrationResult, Calibr
         refine: config.refine.then(RefineOptions::default),
         accept_rig_constrained: config.accept_rig_constrained,
     };
-    let run = |o: &CalibrateOptions| crashrig_rig::calibrate(&set.epochs, scale.mm_per_unit(), o);
+    let run = |o: &CalibrateOptions| {
+        crashrig_rig::calibrate_with_progress(&set.epochs, scale.mm_per_unit(), o, progress)
+    };
     let cal = match run(&options) {
         Ok(c) => c,
         Err(e @ (RigError::NoConvergence { .. } | RigError::SingularNormalMatrix { .. })) => {

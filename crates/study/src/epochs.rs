@@ -253,34 +253,3 @@ pub fn scale_from_points(
         mm_per_unit: length_mm / d,
     })
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn camera_selector_parse_nominal() {
-        assert_eq!(
-            CameraSelector::parse("cam_out/"),
-            CameraSelector::Prefix("cam_out/".into())
-        );
-        assert_eq!(CameraSelector::parse("2"), CameraSelector::CameraId(2));
-        assert_eq!(
-            CameraSelector::parse("99999999999"),
-            CameraSelector::Prefix("99999999999".into())
-        );
-        assert_eq!(
-            CameraSelector::parse(""),
-            CameraSelector::Prefix(String::new())
-        );
-    }
-
-    #[test]
-    fn camera_selector_key_strips_prefix_or_directory() {
-        let p = CameraSelector::parse("cam_out/");
-        assert_eq!(p.key("cam_out/000123.png"), "000123.png");
-        let c = CameraSelector::parse("1");
-        assert_eq!(c.key("cam_out/000123.png"), "000123.png");
-        assert_eq!(c.key("left_0001.png"), "left_0001.png");
-    }
-}

@@ -333,20 +333,38 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
         + usize::from(study.measure.is_some())
         + study.layouts.len()
         + n_sens) as u64;
-    let mut done = 0u64;
-    let mut tick = |stage: &str| {
-        done = (done + 1).min(total);
+    let done = std::sync::atomic::AtomicU64::new(0);
+    let tick = |stage: &str| {
+        let d = (done.load(std::sync::atomic::Ordering::Relaxed) + 1).min(total);
+        done.store(d, std::sync::atomic::Ordering::Relaxed);
         if let Some(p) = options.progress {
-            p(stage, done, total);
+            p(stage, d, total);
         }
     };
+    // Finer progress inside a step: `stage d/t` as the message, the step count unchanged.
+    let within = |stage: String| {
+        let done = &done;
+        move |d: usize, t: usize| {
+            if let Some(p) = options.progress {
+                let steps = done.load(std::sync::atomic::Ordering::Relaxed);
+                p(&format!("{stage} {d}/{t}"), steps, total);
+            }
+        }
+    };
+    fn hook(on: bool, f: &(dyn Fn(usize, usize) + Sync)) -> Option<&(dyn Fn(usize, usize) + Sync)> {
+        on.then_some(f)
+    }
+    let on = options.progress.is_some();
 
-    let calibration = calibration::calibrate(&calibration_config(study))
-        .map_err(|e| study.step_error("calibration", 0, e.to_string()))?;
+    let sub = within("calibration".into());
+    let calibration =
+        calibration::calibrate_with_progress(&calibration_config(study), hook(on, &sub))
+            .map_err(|e| study.step_error("calibration", 0, e.to_string()))?;
     tick("calibration");
     let tie = match &study.tie {
         Some(t) => {
-            let r = tie::bootstrap(&tie_config(t, seed))
+            let sub = within("tie replicates + jackknife".into());
+            let r = tie::bootstrap_with_progress(&tie_config(t, seed), hook(on, &sub))
                 .map_err(|e| study.step_error("tie", 0, e.to_string()))?;
             tick("tie");
             Some(r)
@@ -366,7 +384,8 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
         source,
     };
     let (chain_mc, _) = build_chain(&inputs, &Scales::unit(0)).map_err(mc_err)?;
-    let mc = chain_mc.monte_carlo(study.chain_samples, seed);
+    let sub = within("propagation chunks".into());
+    let mc = chain_mc.monte_carlo_with_progress(study.chain_samples, seed, hook(on, &sub));
     let linear = chain_mc.linear();
     let chain: Vec<ChainPose> = inputs
         .iter()
@@ -379,23 +398,26 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
         .collect();
     tick("propagation");
 
-    let run_layout =
-        |layout: &Layout, s: &Scales| -> Result<(crashrig_mc::Grid, GridResult), Error> {
-            let g = layout_study(&inputs, layout, s, samples, seed).map_err(mc_err)?;
-            let mut r = g.evaluate().map_err(mc_err)?;
-            let mut grid = g.grid().clone();
-            // Degenerate points (rays nearly parallel) are blanked (NaN): kept out of colour
-            // scaling, medians and the worst region, counted as not below the threshold.
-            crashrig_mc::degenerate::mask_degenerate(&mut r, &grid);
-            for (o, c) in grid.observers.iter_mut().zip(&r.observer_covariance) {
-                o.sigma = crashrig_mc::ObserverSigma::Covariance(*c);
-            }
-            Ok((grid, r))
-        };
+    let run_layout = |layout: &Layout,
+                      s: &Scales,
+                      stage: String|
+     -> Result<(crashrig_mc::Grid, GridResult), Error> {
+        let g = layout_study(&inputs, layout, s, samples, seed).map_err(mc_err)?;
+        let sub = within(format!("{stage}: points"));
+        let mut r = g.evaluate_with_progress(hook(on, &sub)).map_err(mc_err)?;
+        let mut grid = g.grid().clone();
+        // Degenerate points (rays nearly parallel) are blanked (NaN): kept out of colour
+        // scaling, medians and the worst region, counted as not below the threshold.
+        crashrig_mc::degenerate::mask_degenerate(&mut r, &grid);
+        for (o, c) in grid.observers.iter_mut().zip(&r.observer_covariance) {
+            o.sigma = crashrig_mc::ObserverSigma::Covariance(*c);
+        }
+        Ok((grid, r))
+    };
     let mut layouts = Vec::new();
     for layout in &study.layouts {
         let unit = Scales::unit(layout.observers.len());
-        let (grid, result) = run_layout(layout, &unit)?;
+        let (grid, result) = run_layout(layout, &unit, format!("layout {}", layout.name))?;
         let summary = GridSummary::new(&grid, &result);
         tick(&format!("layout {}", layout.name));
         let mut sensitivity = Vec::new();
@@ -421,7 +443,7 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
                 }
             }
             for (input, s) in variants {
-                let (g, r) = run_layout(layout, &s)?;
+                let (g, r) = run_layout(layout, &s, format!("sensitivity {}", layout.name))?;
                 let sm = GridSummary::new(&g, &r);
                 sensitivity.push(Sensitivity {
                     input,

@@ -669,11 +669,17 @@ impl Study {
                 .rfind('\n')
                 .map_or(offset, |p| offset - p - 1)
                 + 1;
+            // A type error is located at the value: name its key as every other error does.
+            let message = e.message().trim();
+            let message = match crashrig_mc::limits::toml_value_key(text, offset) {
+                Some(key) => format!("`{key}`: {message}"),
+                None => message.to_string(),
+            };
             Error::Toml {
                 path: path.to_path_buf(),
                 line,
                 column: col,
-                message: e.message().trim().to_string(),
+                message,
             }
         })?;
         let dir = path

@@ -312,6 +312,29 @@ pub fn bootstrap_absolute<C: Projector + Sync>(
     resample: Resample,
     with_jackknife: bool,
 ) -> Result<LinkBootstrap, String> {
+    bootstrap_absolute_with_progress(
+        input,
+        iterations,
+        seed,
+        ransac,
+        resample,
+        with_jackknife,
+        None,
+    )
+}
+
+/// [`bootstrap_absolute`] reporting `(replicates + leave-one-out values done, iterations + n)`
+/// to `progress` (n: the inliers of the jackknife, 0 without it); the result is the same as
+/// without.
+pub fn bootstrap_absolute_with_progress<C: Projector + Sync>(
+    input: &AbsoluteInput<C>,
+    iterations: usize,
+    seed: u64,
+    ransac: &RansacOptions,
+    resample: Resample,
+    with_jackknife: bool,
+    progress: Option<boot::Progress<'_>>,
+) -> Result<LinkBootstrap, String> {
     let est = estimate_absolute_pose(&input.camera_b, &input.pixels_b, &input.points_mm, ransac)
         .map_err(|e| format!("resection of image B failed: {e}"))?;
     let inliers = est.inliers;
@@ -345,6 +368,7 @@ pub fn bootstrap_absolute<C: Projector + Sync>(
         iterations,
         seed,
         with_jackknife,
+        progress,
     )?;
     Ok(LinkBootstrap {
         n_candidates,
@@ -376,6 +400,7 @@ fn resample_both(
     iterations: usize,
     seed: u64,
     with_jackknife: bool,
+    progress: Option<boot::Progress<'_>>,
 ) -> Result<
     (
         boot::Replicates<Rigid3, String>,
@@ -383,13 +408,34 @@ fn resample_both(
     ),
     String,
 > {
+    // Progress over the replicates, then the leave-one-out values: (done, iterations + n).
+    let n_jackknife = if with_jackknife { n_inliers } else { 0 };
+    let total = iterations + n_jackknife;
+    let stage = |offset: usize| {
+        move |d: usize, _: usize| {
+            if let Some(p) = progress {
+                p(offset + d, total);
+            }
+        }
+    };
+    let (replicates_done, jackknife_done) = (stage(0), stage(iterations));
+    let (replicates_done, jackknife_done): (boot::Progress<'_>, boot::Progress<'_>) =
+        (&replicates_done, &jackknife_done);
+    let (on_replicates, on_jackknife) = (
+        progress.and(Some(replicates_done)),
+        progress.and(Some(jackknife_done)),
+    );
     let replicates = match resample {
-        Resample::Inliers => boot::run(n_inliers, iterations, seed, warm),
-        Resample::AllMatches => boot::run(n_candidates, iterations, seed, rerun),
+        Resample::Inliers => {
+            boot::run_with_progress(n_inliers, iterations, seed, warm, on_replicates)
+        }
+        Resample::AllMatches => {
+            boot::run_with_progress(n_candidates, iterations, seed, rerun, on_replicates)
+        }
     }
     .map_err(|e| e.to_string())?;
     let jackknife = if with_jackknife {
-        boot::jackknife(n_inliers, warm).map_err(|e| e.to_string())?
+        boot::jackknife_with_progress(n_inliers, warm, on_jackknife).map_err(|e| e.to_string())?
     } else {
         Vec::new()
     };
@@ -404,6 +450,28 @@ pub fn bootstrap_relative<C: Projector + Sync>(
     ransac: &RansacOptions,
     resample: Resample,
     with_jackknife: bool,
+) -> Result<LinkBootstrap, String> {
+    bootstrap_relative_with_progress(
+        input,
+        iterations,
+        seed,
+        ransac,
+        resample,
+        with_jackknife,
+        None,
+    )
+}
+
+/// [`bootstrap_relative`] reporting progress as [`bootstrap_absolute_with_progress`] does; the
+/// result is the same as without.
+pub fn bootstrap_relative_with_progress<C: Projector + Sync>(
+    input: &RelativeInput<C>,
+    iterations: usize,
+    seed: u64,
+    ransac: &RansacOptions,
+    resample: Resample,
+    with_jackknife: bool,
+    progress: Option<boot::Progress<'_>>,
 ) -> Result<LinkBootstrap, String> {
     let xa = normalize_pixels(&input.camera_a, &input.pixels_a)
         .map_err(|e| format!("undistorting the matched keypoints of image A: {e}"))?;
@@ -437,6 +505,7 @@ pub fn bootstrap_relative<C: Projector + Sync>(
         iterations,
         seed,
         with_jackknife,
+        progress,
     )?;
     Ok(LinkBootstrap {
         n_candidates,
@@ -894,6 +963,19 @@ fn check_config(c: &TieConfig) -> Result<(), TieError> {
 /// the correspondences, estimates B relative to A on the full sample, bootstraps
 /// `config.iterations` replicates (with the jackknife for BCa) and summarises.
 pub fn bootstrap(config: &TieConfig) -> Result<TieResult, TieError> {
+    bootstrap_with_progress(config, None)
+}
+
+/// [`bootstrap`] reporting `(done, total)` over the replicates and then the jackknife's
+/// leave-one-out values (see [`bootstrap_absolute_with_progress`]); the result is the same as
+/// without.
+///
+/// # Errors
+/// As [`bootstrap`].
+pub fn bootstrap_with_progress(
+    config: &TieConfig,
+    progress: Option<boot::Progress<'_>>,
+) -> Result<TieResult, TieError> {
     check_config(config)?;
     let src = TieSource::open(
         &config.model,
@@ -913,13 +995,14 @@ pub fn bootstrap(config: &TieConfig) -> Result<TieResult, TieError> {
                 points_mm: c.points_mm,
                 a_from_world: c.a.cam_from_world,
             };
-            bootstrap_absolute(
+            bootstrap_absolute_with_progress(
                 &input,
                 config.iterations,
                 config.seed,
                 &ransac,
                 config.resample,
                 true,
+                progress,
             )
             .map_err(|message| TieError::Estimation {
                 path: config.model.clone(),
@@ -965,13 +1048,14 @@ pub fn bootstrap(config: &TieConfig) -> Result<TieResult, TieError> {
                 pixels_b: m.pixels_b,
                 base_mm,
             };
-            bootstrap_relative(
+            bootstrap_relative_with_progress(
                 &input,
                 config.iterations,
                 config.seed,
                 &ransac,
                 config.resample,
                 true,
+                progress,
             )
             .map_err(|message| TieError::Estimation {
                 path: config.database.clone(),

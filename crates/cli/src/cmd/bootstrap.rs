@@ -97,7 +97,10 @@ pub struct BootstrapRun {
 /// Runs the bootstrap as `crashrig bootstrap` does (plots and replicates written when
 /// `--plots` / `--replicates` are given, warnings on stderr), without printing the result.
 pub fn compute(a: &BootstrapArgs, seed: u64) -> anyhow::Result<BootstrapRun> {
-    let r = tie::bootstrap(&a.config(seed))?;
+    let bar = crate::progress::Bar::new("crashrig bootstrap");
+    let replicates = bar.stage("replicates + jackknife");
+    let r = tie::bootstrap_with_progress(&a.config(seed), bar.hook(&replicates))?;
+    bar.finish();
     for w in r.warnings() {
         eprintln!("warning: {w}");
     }

@@ -5,7 +5,7 @@
 //! retry policy, JSON, report, plots) lives in `crashrig_study::calibration`.
 
 use crate::Global;
-use crashrig_study::calibration::{CalibrationConfig, Scale, calibrate};
+use crashrig_study::calibration::{CalibrationConfig, Scale, calibrate_with_progress};
 use std::path::PathBuf;
 
 /// Arguments of `crashrig calibrate`.
@@ -74,7 +74,10 @@ impl CalibrateArgs {
 
 /// Runs `crashrig calibrate`.
 pub fn run(a: CalibrateArgs, g: &Global) -> anyhow::Result<()> {
-    let r = calibrate(&a.config())?;
+    let bar = crate::progress::Bar::new("crashrig calibrate");
+    let rounds = bar.stage("refinement: weighting rounds");
+    let r = calibrate_with_progress(&a.config(), bar.hook(&rounds))?;
+    bar.finish();
     for w in &r.warnings {
         eprintln!("warning: {w}");
     }

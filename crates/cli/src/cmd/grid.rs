@@ -43,7 +43,10 @@ struct LinearSummary {
 
 #[derive(Serialize)]
 struct AdaptiveSummary {
-    tolerance_mm: f64,
+    /// δ in mm (`tolerance_mm`), or null with `ndig`.
+    tolerance_mm: Option<f64>,
+    /// Significant digits of σ that set δ (`ndig`), or null with `tolerance_mm`.
+    ndig: Option<u32>,
     batch: usize,
     max_samples: usize,
     draws_min: u64,
@@ -376,10 +379,12 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
         names: Vec::new(),
     };
 
+    let bar = crate::progress::Bar::new("crashrig grid");
     let start = std::time::Instant::now();
+    let points = bar.stage("grid points");
     let result = match &grid.adaptive {
-        Some(ad) => study.run_adaptive(ad, seed),
-        None => study.run(samples, seed),
+        Some(ad) => study.run_adaptive_with_progress(ad, seed, bar.hook(&points)),
+        None => study.run_with_progress(samples, seed, bar.hook(&points)),
     }
     .map_err(ctx)?;
     let mut result = result;
@@ -389,9 +394,14 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
     let total_draws: u64 = result.points.iter().map(|p| p.count).sum();
 
     let correlation = if result.correlated {
+        let points = bar.stage("grid points, independent observers");
         let ind = match &grid.adaptive {
-            Some(ad) => study.independent().run_adaptive(ad, seed),
-            None => study.independent().run(samples, seed),
+            Some(ad) => study
+                .independent()
+                .run_adaptive_with_progress(ad, seed, bar.hook(&points)),
+            None => study
+                .independent()
+                .run_with_progress(samples, seed, bar.hook(&points)),
         }
         .map_err(ctx)?;
         let mut ind = ind;
@@ -418,6 +428,7 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
     } else {
         None
     };
+    bar.finish();
 
     let with_fixed = fixed::has_fixed(&grid);
     if result.points.iter().all(|p| !p.is_measurable()) {
@@ -617,7 +628,14 @@ fn compute_typed(a: &GridArgs, seed: Option<u64>) -> anyhow::Result<(Summary, us
             ratio_mc_over_linear_sigma_max: spread(&ratio),
         },
         adaptive: grid.adaptive.map(|ad| AdaptiveSummary {
-            tolerance_mm: ad.tolerance_mm,
+            tolerance_mm: match ad.tolerance {
+                crashrig_mc::Tolerance::AbsoluteMm(t) => Some(t),
+                crashrig_mc::Tolerance::SignificantDigits(_) => None,
+            },
+            ndig: match ad.tolerance {
+                crashrig_mc::Tolerance::AbsoluteMm(_) => None,
+                crashrig_mc::Tolerance::SignificantDigits(n) => Some(n),
+            },
             batch: ad.batch,
             max_samples: ad.max_samples,
             draws_min: counts.iter().copied().min().unwrap_or(0),

@@ -130,7 +130,10 @@ fn compute_typed(a: &PropagateArgs, seed: Option<u64>) -> anyhow::Result<Propaga
         }
     }
     let start = std::time::Instant::now();
-    let mc = chain.monte_carlo(samples, seed);
+    let bar = crate::progress::Bar::new("crashrig propagate");
+    let chunks = bar.stage("chunks of draws");
+    let mc = chain.monte_carlo_with_progress(samples, seed, bar.hook(&chunks));
+    bar.finish();
     let elapsed_s = start.elapsed().as_secs_f64();
     let lin = chain.linear();
     let cameras: Vec<CameraJson> = mc

@@ -141,7 +141,7 @@ pub fn execute(
         seed,
         samples,
         no_sensitivity,
-        progress: Some(&report),
+        progress: bar.is_shown().then_some(&report),
     };
     let result = run_study(&study, &options);
     bar.finish();

@@ -498,3 +498,241 @@ fn full_factor_nominal_matches_linear_propagation() {
         "the correlations must matter for this test to mean anything"
     );
 }
+
+/// JCGM 101 §7.9.2: δ = ½·10^l with u = c·10^l, c an ndig-digit integer.
+#[test]
+fn ndig_tolerance_known_answers() {
+    use crate::scenario::ndig_tolerance;
+    // The standard's example: u = 0.01234 mm, ndig = 2 → 12 × 10⁻³ → δ = 0.0005 mm.
+    let cases = [
+        (0.01234, 2, 0.0005),
+        (0.01234, 1, 0.005),
+        (0.01234, 3, 0.00005),
+        (1.0, 2, 0.05),
+        (9.99, 2, 0.05),
+        (10.0, 2, 0.5),
+        (0.001, 1, 0.0005),
+        (123.4, 3, 0.5),
+        (0.0999, 2, 0.0005),
+    ];
+    for (u, ndig, delta) in cases {
+        let got = ndig_tolerance(u, ndig);
+        assert!(
+            (got - delta).abs() <= 1e-12 * delta,
+            "u = {u}, ndig = {ndig}: δ = {got}, expected {delta}"
+        );
+    }
+    assert_eq!(ndig_tolerance(0.0, 2), 0.0);
+    assert!(ndig_tolerance(f64::NAN, 2).is_nan());
+    assert!(ndig_tolerance(-1.0, 2).is_nan());
+}
+
+fn adaptive(tolerance: crate::Tolerance, batch: usize, max_samples: usize) -> crate::Adaptive {
+    crate::Adaptive {
+        tolerance,
+        batch,
+        max_samples,
+    }
+}
+
+/// Batch `b` of `m` draws: the same ±1 pattern on every axis (σ of every batch the same),
+/// centred at `offset(b)` on every axis.
+fn pattern_batch(m: usize, offset: f64, acc: &mut Acc3) {
+    for i in 0..m {
+        let e = if i % 2 == 0 { 1.0 } else { -1.0 };
+        acc.push(&Vector3::from_element(offset + e));
+    }
+}
+
+/// Only the mean moves between batches: a rule that stabilised σ alone would stop at the
+/// fourth batch; JCGM 101 §7.9.4 also needs the estimate stable, so the point runs on.
+#[test]
+fn adaptive_mean_instability_alone_keeps_a_point_running() {
+    let ad = adaptive(crate::Tolerance::AbsoluteMm(0.01), 100, 10_000);
+    let p = Vector3::zeros();
+    // Batch means alternate ±0.1 mm: s ≈ 0.1, 2·s/√h ≤ 0.01 would need h ≥ 400 > 100 batches.
+    let (total, converged) = adaptive_draws(&p, &ad, |b, m, acc| {
+        pattern_batch(m, if b % 2 == 0 { 0.1 } else { -0.1 }, acc)
+    });
+    assert!(!converged);
+    assert_eq!(total.count(), 10_000);
+    // Control: the same batches with a fixed mean stop at the first check.
+    let (total, converged) = adaptive_draws(&p, &ad, |_, m, acc| pattern_batch(m, 0.1, acc));
+    assert!(converged);
+    assert_eq!(total.count(), (ADAPTIVE_MIN_BATCHES * 100) as u64);
+}
+
+/// The stopping test at the boundary, in both tolerance modes: h = 4 batches whose σ of axis
+/// x alternate c ± a have a standard deviation s = a·√(4/3), so `2·s/√h = s`.
+#[test]
+fn adaptive_stable_known_boundary() {
+    let run = |s_target: f64, pooled: f64, tol: crate::Tolerance| {
+        let a = s_target / (4.0f64 / 3.0).sqrt();
+        let mut m = Moments::<6>::new();
+        for k in 0..4 {
+            let sx = pooled + if k % 2 == 0 { a } else { -a };
+            m.push(&[5.0, 6.0, 7.0, sx, pooled, pooled]);
+        }
+        adaptive_stable(
+            &m,
+            &Vector3::from_element(pooled),
+            &adaptive(tol, 100, 1000),
+        )
+    };
+    // ndig = 2 at u = 0.01234 mm: δ = 0.0005 mm.
+    let ndig = crate::Tolerance::SignificantDigits(2);
+    assert!(run(0.00049, 0.01234, ndig));
+    assert!(!run(0.00051, 0.01234, ndig));
+    // ndig = 1: δ = 0.005 mm.
+    assert!(run(0.0049, 0.01234, crate::Tolerance::SignificantDigits(1)));
+    // Absolute 0.0005 mm whatever u.
+    let abs = crate::Tolerance::AbsoluteMm(0.0005);
+    assert!(run(0.00049, 3.0, abs));
+    assert!(!run(0.00051, 3.0, abs));
+}
+
+/// `ndig` end to end: the point stops when σ is known to ndig digits, and the result agrees
+/// with the closed form to that δ.
+#[test]
+fn grid_adaptive_ndig_stops_within_significant_digits() {
+    let sc = scenario(
+        "[grid.adaptive]\nndig = 2\nbatch = 1000\nmax_samples = 1000000",
+        TWO_OBS,
+        "",
+        "tangent",
+    );
+    let a = sc.grid.as_ref().unwrap().adaptive.unwrap();
+    assert_eq!(a.tolerance, crate::Tolerance::SignificantDigits(2));
+    let study = GridStudy::new(&sc, 0, 0).unwrap();
+    let r = study.run_adaptive(&a, 4).unwrap();
+    let p = &r.points[0];
+    assert_eq!(p.converged, Some(true));
+    assert!(p.count >= 4000 && p.count < 1_000_000, "count {}", p.count);
+    let expect_y =
+        1000f64.hypot(600.0) * 0.01f64.to_radians() / (2f64.sqrt() * (0.6f64).atan().sin());
+    // σy ≈ 0.280 mm = 28 × 10⁻² → δ = 0.005 mm; the stopping rule bounds 2 standard errors
+    // of the batch σ by δ, so 3δ is a > 3-standard-error band.
+    let delta = crate::ndig_tolerance(expect_y, 2);
+    assert!((delta - 0.005).abs() < 1e-15, "δ = {delta}");
+    assert_abs_diff_eq!(p.sigma_mm.y, expect_y, epsilon = 3.0 * delta);
+}
+
+/// `[grid.adaptive]` takes exactly one of `tolerance_mm` and `ndig`.
+#[test]
+fn adaptive_keys_exactly_one_tolerance() {
+    let parse = |body: &str| {
+        let text = format!(
+            "[grid]\nx_mm = [0.0, 0.0, 1]\ny_mm = [1000.0, 1000.0, 1]\nz_mm = [0.0, 0.0, 1]\n[grid.adaptive]\n{body}\n{TWO_OBS}"
+        );
+        Scenario::from_toml_str(&text, Path::new("g.toml"))
+            .map(|s| s.grid.unwrap().adaptive.unwrap())
+    };
+    assert_eq!(
+        parse("tolerance_mm = 0.1").unwrap().tolerance,
+        crate::Tolerance::AbsoluteMm(0.1)
+    );
+    assert_eq!(
+        parse("ndig = 3").unwrap().tolerance,
+        crate::Tolerance::SignificantDigits(3)
+    );
+    for (body, key) in [
+        ("batch = 500", "`grid.adaptive`"),
+        ("tolerance_mm = 0.1\nndig = 2", "`grid.adaptive.ndig`"),
+        ("ndig = 0", "`grid.adaptive.ndig`"),
+        ("ndig = 16", "`grid.adaptive.ndig`"),
+        ("ndig = 2.5", "g.toml:6"),
+    ] {
+        let e = parse(body).unwrap_err().to_string();
+        assert!(e.contains("g.toml") && e.contains(key), "{body}: {e}");
+    }
+}
+
+/// Records the `(done, total)` reports of a run.
+struct Recorder(std::sync::Mutex<Vec<(usize, usize)>>);
+
+impl Recorder {
+    fn new() -> Self {
+        Self(std::sync::Mutex::new(Vec::new()))
+    }
+
+    fn report(&self, d: usize, t: usize) {
+        self.0.lock().unwrap().push((d, t));
+    }
+
+    /// Every report within `total`, and the largest one at `total`.
+    fn assert_complete(&self, total: usize) {
+        let seen = self.0.lock().unwrap();
+        assert!(!seen.is_empty());
+        assert!(seen.iter().all(|&(d, t)| t == total && d <= t), "{seen:?}");
+        assert_eq!(seen.iter().map(|r| r.0).max(), Some(total));
+    }
+}
+
+const FIXED_TWO: &str = r#"
+[[grid.observer]]
+name = "rear"
+aim = "fixed"
+position_mm = [200.0, 0.0, 100.0]
+look_at_mm = [1200.0, 0.0, 0.0]
+camera = { model = "OPENCV", width = 2560, height = 1440, params = [1600.0, 1610.0, 1280.3, 719.6, -0.08, 0.02, 0.0005, -0.0003] }
+pixel_sigma_px = 0.5
+sigma_position_mm = [1.5, 1.2, 1.0]
+sigma_angles_deg = [0.01, 0.02, 0.012]
+[[grid.observer]]
+name = "door"
+aim = "fixed"
+position_mm = [1300.0, -700.0, 150.0]
+angles_deg = [-100.0, 0.0, 0.0]
+camera = { model = "OPENCV_FISHEYE", width = 1920, height = 1080, params = [700.0, 702.0, 955.0, 545.0, 0.05, -0.01, 0.002, -0.001] }
+pixel_sigma_px = 0.8
+sigma_position_mm = [2.0, 2.0, 2.0]
+sigma_angles_deg = [0.02, 0.02, 0.02]
+"#;
+
+/// Progress reports never change a result (bit-identical with and without a callback), stay
+/// within their totals and reach them: aimed and fixed observers, fixed and adaptive draws,
+/// and the chain propagation.
+#[test]
+fn progress_reports_complete_and_results_unchanged() {
+    let grid = |adaptive: &str, obs: &str| {
+        let text = format!(
+            "seed = 5\nsamples = 9000\n[grid]\nx_mm = [900.0, 1500.0, 3]\ny_mm = [-200.0, 200.0, 2]\nz_mm = [0.0, 0.0, 1]\n{adaptive}\n{obs}"
+        );
+        Scenario::from_toml_str(&text, Path::new("p.toml")).unwrap()
+    };
+    let aimed_obs = TWO_OBS.replace("600.0, 0.0, 0.0", "600.0, 0.0, 300.0");
+    let adaptive = "[grid.adaptive]\ntolerance_mm = 0.05\nbatch = 500\nmax_samples = 5000";
+    for sc in [
+        grid("", &aimed_obs),
+        grid(adaptive, &aimed_obs),
+        grid("", FIXED_TWO),
+        grid(adaptive, FIXED_TWO),
+    ] {
+        let study = GridStudy::new(&sc, sc.samples, sc.seed).unwrap();
+        let rec = Recorder::new();
+        let report = |d: usize, t: usize| rec.report(d, t);
+        let with = study.evaluate_with_progress(Some(&report)).unwrap();
+        assert_eq!(with, study.evaluate().unwrap());
+        rec.assert_complete(6);
+        // One report per measurable point (when its last chunk or batch is done), then the
+        // final one.
+        let measurable = with.points.iter().filter(|p| p.is_measurable()).count();
+        assert!(measurable > 0);
+        assert_eq!(rec.0.lock().unwrap().len(), measurable + 1);
+    }
+    // The chain: 9 000 draws are 3 chunks of CHUNK = 4096.
+    let sc = scenario(
+        "",
+        TWO_OBS,
+        "[[camera]]\nname = \"a\"\nposition_mm = [0.0, 0.0, 0.0]\nangles_deg = [0.0, 0.0, 0.0]\nsigma_position_mm = [1.0, 1.0, 1.0]\nsigma_angles_deg = [0.1, 0.1, 0.1]\n",
+        "tangent",
+    );
+    let chain = Chain::new(&sc);
+    let rec = Recorder::new();
+    let report = |d: usize, t: usize| rec.report(d, t);
+    let with = chain.monte_carlo_with_progress(9000, 3, Some(&report));
+    assert_eq!(with, chain.monte_carlo(9000, 3));
+    rec.assert_complete(3);
+    // One report per chunk plus the final one.
+    assert_eq!(rec.0.lock().unwrap().len(), 4);
+}
