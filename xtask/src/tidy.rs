@@ -39,6 +39,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-camera",
             "crashrig-colmap",
             "crashrig-stats",
+            "crashrig-plot",
         ],
     ),
     (

@@ -51,7 +51,8 @@
 //!   a point is seen only inside a camera's image; each draw undistorts the true pixel plus
 //!   pixel noise through the lens; points seen by fewer than two observers are not measurable
 //!   ([`PointStats::is_measurable`], [`GridResult::fraction_measurable`],
-//!   [`footprint_margin_px`] for field-of-view footprints).
+//!   [`footprint_margin_px`] for field-of-view footprints; [`coverage`]: which observer sees
+//!   which point, the fraction each sees, footprint rasters).
 //!
 //! # Example: the builders
 //! ```
@@ -196,6 +197,7 @@ mod accumulate;
 mod block;
 mod chain;
 mod chain_block;
+pub mod coverage;
 pub mod degenerate;
 mod error;
 mod fixed;

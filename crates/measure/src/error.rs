@@ -60,6 +60,15 @@ pub enum Error {
         /// What is wrong.
         problem: String,
     },
+    /// A marker's trajectory plot could not be drawn.
+    #[error("plotting marker `{marker}`")]
+    Plot {
+        /// The marker.
+        marker: String,
+        /// The plotting error.
+        #[source]
+        source: crashrig_plot::Error,
+    },
     /// The COLMAP model could not be read.
     #[error(transparent)]
     Colmap(#[from] crashrig_colmap::Error),

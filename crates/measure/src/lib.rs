@@ -22,8 +22,10 @@
 //!   [`crashrig_colmap::Reconstruction`].
 //! - [`input::read_observations`], [`input::load_link`], [`input::read_a_covariance`]: the
 //!   input files.
-//! - [`engine::measure`]: the measurement → [`engine::Measurement`] (typed rows; the CLI
-//!   formats them).
+//! - [`engine::measure`]: the measurement → [`engine::Measurement`] (typed rows).
+//! - [`output`]: the rows as `crashrig measure`'s files (`trajectories.csv`,
+//!   `displacements.csv`, per-marker plots, the numbers of `summary.json`), shared by the
+//!   command and the study.
 //!
 //! # Example
 //! Two inward cameras 500 mm apart looking along +z; a marker 2 m in front of them.
@@ -95,6 +97,7 @@
 pub mod engine;
 mod error;
 pub mod input;
+pub mod output;
 pub mod sequence;
 
 pub use engine::{Epoch, Measurement, Rig, Row, Settings, measure};

@@ -235,7 +235,11 @@ pub fn heat_maps(grid: &Grid, result: &GridResult) -> Result<Vec<HeatMapPng>, Er
         // Fixed observers: field-of-view footprints on this plane, hatched not-measurable
         // cells, and a map of the number of cameras that see each point.
         let fp = if with_fixed {
-            crate::fixed_maps::footprints(grid, *z, crate::fixed_maps::footprint_bounds(&xs, &ys))
+            crate::fixed_maps::footprints(
+                grid,
+                *z,
+                crashrig_mc::coverage::footprint_bounds(&xs, &ys, &[]),
+            )
         } else {
             Vec::new()
         };

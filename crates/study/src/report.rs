@@ -5,9 +5,10 @@
 use crate::Error;
 use crate::grids::{self, HeatMapPng};
 use crate::html::{Block, Report, Table, escape};
-use crate::measure_step::{self, MarkerPlot, MeasureResult};
+use crate::measure_step::MeasureResult;
 use crate::pipeline::{LayoutResult, StudyResult, phi_deg};
 use crate::study_file::{ChainCamera, ObserverNoise, Study, StudyScale, TieMethod, TieResample};
+use crashrig_measure::output::{self as measure_output, MarkerPlot};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -115,14 +116,27 @@ fn write_measure(d: &Path, m: &MeasureResult) -> Result<Vec<MarkerPlot>, Error> 
     grids::write(
         d,
         "trajectories.csv",
-        measure_step::trajectories_csv(ms).as_bytes(),
+        measure_output::trajectories_csv(ms).as_bytes(),
     )?;
     grids::write(
         d,
         "displacements.csv",
-        measure_step::displacements_csv(ms).as_bytes(),
+        measure_output::displacements_csv(ms).as_bytes(),
     )?;
-    let plots = measure_step::plots(ms)?;
+    let plots = measure_output::marker_plots(ms).map_err(|e| match e {
+        crashrig_measure::Error::Plot { marker, source } => Error::Plot {
+            what: format!("trajectory of marker {marker}"),
+            source,
+        },
+        // `marker_plots` fails only with `Plot`; anything else keeps its message.
+        other => Error::Plot {
+            what: "trajectory plots".into(),
+            source: crashrig_plot::Error::Draw {
+                figure: "trajectory",
+                message: other.to_string(),
+            },
+        },
+    })?;
     for p in &plots {
         grids::write(&d.join("plots"), &format!("{}.png", p.stem), &p.png)?;
         grids::write(&d.join("plots"), &format!("{}.svg", p.stem), &p.svg)?;

@@ -4,13 +4,11 @@ use crate::Global;
 use anyhow::Context;
 use crashrig_colmap::Reconstruction;
 use crashrig_geometry::{Mat6, UncertainPose, Vec3};
-use crashrig_measure::engine::{Epoch, Measurement, Rig, Row, Settings};
+use crashrig_measure::engine::{Epoch, Measurement, Rig, Settings};
 use crashrig_measure::input::{self, CameraNames};
+use crashrig_measure::output;
 use crashrig_measure::sequence::{self, CameraSelector};
-use crashrig_plot::{BandPanel, Format};
-use rayon::prelude::*;
 use serde::Serialize;
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 /// Output files: path relative to `DIR`, bytes.
@@ -87,31 +85,12 @@ struct Skipped {
     observations: usize,
 }
 
-/// `summary.json` (and the `--json` output).
+/// `summary.json` (and the `--json` output): the measurement's numbers
+/// ([`output::Summary`]), then the skipped epochs, names, files and timing.
 #[derive(Debug, Serialize)]
 pub struct Summary {
-    epochs: usize,
-    markers: usize,
-    rows: usize,
-    samples_per_point: usize,
-    threshold_mm: f64,
-    fraction_below_threshold: f64,
-    seed: u64,
-    reference_epoch: String,
-    frame_rate_hz: Option<f64>,
-    pixel_sigma_px: f64,
-    max_reprojection_px: Option<f64>,
-    mm_per_unit: f64,
-    cameras: Vec<&'static str>,
-    rows_measured: usize,
-    rows_fewer_than_two_views: usize,
-    rows_above_threshold: usize,
-    rows_reprojection_outlier: usize,
-    rows_flagged: usize,
-    max_sigma_mm: Option<f64>,
-    median_sigma_max_mm: Option<f64>,
-    max_displacement_sigma_mm: Option<f64>,
-    median_displacement_sigma_max_mm: Option<f64>,
+    #[serde(flatten)]
+    numbers: output::Summary,
     skipped_epochs: Vec<Skipped>,
     epoch_names: Vec<String>,
     marker_names: Vec<String>,
@@ -127,13 +106,13 @@ pub fn run(a: MeasureArgs, g: &Global) -> anyhow::Result<()> {
     } else {
         println!(
             "measured {} rows ({} epochs × {} markers seen), {} draws each; {:.1} % below {} mm; {} flagged; written to {}",
-            summary.rows,
-            summary.epochs,
-            summary.markers,
-            summary.samples_per_point,
-            100.0 * summary.fraction_below_threshold,
-            summary.threshold_mm,
-            summary.rows_flagged,
+            summary.numbers.rows,
+            summary.numbers.epochs,
+            summary.numbers.markers,
+            summary.numbers.samples_per_point,
+            100.0 * summary.numbers.fraction_below_threshold,
+            summary.numbers.threshold_mm,
+            summary.numbers.rows_flagged,
             a.out.display()
         );
     }
@@ -245,16 +224,22 @@ pub fn compute(a: &MeasureArgs, seed: Option<u64>) -> anyhow::Result<Summary> {
 
     // Files.
     let mut files: Files = vec![
-        ("trajectories.csv".into(), trajectories_csv(&m).into_bytes()),
+        (
+            "trajectories.csv".into(),
+            output::trajectories_csv(&m).into_bytes(),
+        ),
         (
             "displacements.csv".into(),
-            displacements_csv(&m).into_bytes(),
+            output::displacements_csv(&m).into_bytes(),
         ),
     ];
     if !a.no_plots {
-        files.extend(plots(&m)?);
+        for p in output::marker_plots(&m)? {
+            files.push((format!("plots/{}.png", p.stem), p.png));
+            files.push((format!("plots/{}.svg", p.stem), p.svg));
+        }
     }
-    let mut summary = summarize(&m, a, seed, &files);
+    let mut summary = summarize(&m, &settings, a, &files);
     summary.files.push("summary.json".into());
     summary.elapsed_s = started.elapsed().as_secs_f64();
     let mut json = serde_json::to_vec_pretty(&summary).context("serializing summary.json")?;
@@ -264,201 +249,14 @@ pub fn compute(a: &MeasureArgs, seed: Option<u64>) -> anyhow::Result<Summary> {
     Ok(summary)
 }
 
-fn num(x: f64) -> String {
-    format!("{x}")
-}
-
-fn opt3(v: Option<Vec3>) -> [String; 3] {
-    match v {
-        Some(v) => [num(v.x), num(v.y), num(v.z)],
-        None => Default::default(),
-    }
-}
-
-/// `trajectories.csv`: the contract's fixed header.
-fn trajectories_csv(m: &Measurement) -> String {
-    let mut s = String::from(
-        "epoch,marker,x_mm,y_mm,z_mm,sigma_x_mm,sigma_y_mm,sigma_z_mm,sigma_max_mm,n_views\n",
-    );
-    for r in &m.rows {
-        let [x, y, z] = opt3(r.position_mm);
-        let [sx, sy, sz] = opt3(r.sigma_mm);
-        let smax = r.sigma_max_mm().map(num).unwrap_or_default();
-        let _ = writeln!(
-            s,
-            "{},{},{x},{y},{z},{sx},{sy},{sz},{smax},{}",
-            csv_field(&m.epochs[r.epoch].name),
-            csv_field(&m.markers[r.marker]),
-            r.n_views
-        );
-    }
-    s
-}
-
-/// Header of `displacements.csv`.
-pub const DISPLACEMENTS_HEADER: &str = "epoch,marker,time_s,dx_mm,dy_mm,dz_mm,sigma_dx_mm,sigma_dy_mm,sigma_dz_mm,sigma_dmax_mm,vx_mm_s,vy_mm_s,vz_mm_s,sigma_vx_mm_s,sigma_vy_mm_s,sigma_vz_mm_s,reprojection_px,flags";
-
-fn displacements_csv(m: &Measurement) -> String {
-    let mut s = format!("{DISPLACEMENTS_HEADER}\n");
-    for r in &m.rows {
-        let ep = &m.epochs[r.epoch];
-        let t = ep.time_s.map(num).unwrap_or_default();
-        let [dx, dy, dz] = opt3(r.displacement_mm);
-        let [sdx, sdy, sdz] = opt3(r.displacement_sigma_mm);
-        let sdmax = r
-            .displacement_sigma_mm
-            .map(|v| num(v.max()))
-            .unwrap_or_default();
-        let [vx, vy, vz] = opt3(r.velocity_mm_s);
-        let [svx, svy, svz] = opt3(r.velocity_sigma_mm_s);
-        let rep = r.reprojection_px.map(num).unwrap_or_default();
-        let _ = writeln!(
-            s,
-            "{},{},{t},{dx},{dy},{dz},{sdx},{sdy},{sdz},{sdmax},{vx},{vy},{vz},{svx},{svy},{svz},{rep},{}",
-            csv_field(&ep.name),
-            csv_field(&m.markers[r.marker]),
-            r.flags.names().join(";")
-        );
-    }
-    s
-}
-
-/// Quotes a text field when CSV needs it.
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
-}
-
-/// File-name-safe version of a marker name (other characters become `_`).
-fn file_stem(marker: &str) -> String {
-    marker
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect()
-}
-
-/// One figure per marker: x, y, z against time (or sequence index) with ±3σ bands.
-fn plots(m: &Measurement) -> anyhow::Result<Files> {
-    let xs: Vec<f64> = m
-        .epochs
-        .iter()
-        .enumerate()
-        .map(|(i, e)| e.time_s.map_or(i as f64, |t| t * 1000.0))
-        .collect();
-    let x_label = if m.epochs.iter().all(|e| e.time_s.is_some()) {
-        "t [ms]"
-    } else {
-        "epoch (sequence index)"
-    };
-    let mut stems: Vec<String> = Vec::with_capacity(m.markers.len());
-    for (i, name) in m.markers.iter().enumerate() {
-        let mut stem = file_stem(name);
-        if stems.contains(&stem) {
-            stem = format!("{stem}_{i}");
-        }
-        stems.push(stem);
-    }
-    let per_marker: Vec<anyhow::Result<Files>> = (0..m.markers.len())
-        .into_par_iter()
-        .map(|k| {
-            let mut ys = vec![vec![f64::NAN; xs.len()]; 3];
-            let mut hw = vec![vec![f64::NAN; xs.len()]; 3];
-            let mut any = false;
-            for r in m.rows.iter().filter(|r| r.marker == k) {
-                if let Some(p) = r.position_mm {
-                    any = true;
-                    for c in 0..3 {
-                        ys[c][r.epoch] = p[c];
-                        hw[c][r.epoch] = r.sigma_mm.map_or(f64::NAN, |s| 3.0 * s[c]);
-                    }
-                }
-            }
-            if !any {
-                return Ok(Vec::new());
-            }
-            let labels = ["x [mm] (±3σ)", "y [mm] (±3σ)", "z [mm] (±3σ)"];
-            let panels: Vec<BandPanel<'_>> = (0..3)
-                .map(|c| BandPanel {
-                    y_label: labels[c],
-                    ys: &ys[c],
-                    half_widths: &hw[c],
-                })
-                .collect();
-            let title = format!("marker {} (world frame)", m.markers[k]);
-            let mut out = Vec::new();
-            for (fmt, ext) in [(Format::Png, "png"), (Format::Svg, "svg")] {
-                let bytes = crashrig_plot::banded_panels(&xs, &panels, &title, x_label, fmt)
-                    .with_context(|| format!("plotting marker `{}`", m.markers[k]))?;
-                out.push((format!("plots/{}.{ext}", stems[k]), bytes));
-            }
-            Ok(out)
-        })
-        .collect();
-    let mut files = Vec::new();
-    for f in per_marker {
-        files.extend(f?);
-    }
-    Ok(files)
-}
-
-fn median(mut v: Vec<f64>) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    })
-}
-
-fn summarize(m: &Measurement, a: &MeasureArgs, seed: u64, files: &[(String, Vec<u8>)]) -> Summary {
-    let smax: Vec<f64> = m.rows.iter().filter_map(Row::sigma_max_mm).collect();
-    let dmax: Vec<f64> = m
-        .rows
-        .iter()
-        .filter(|r| r.epoch != m.reference_epoch)
-        .filter_map(|r| r.displacement_sigma_mm.map(|v| v.max()))
-        .collect();
-    let count = |f: &dyn Fn(&Row) -> bool| m.rows.iter().filter(|r| f(r)).count();
+fn summarize(
+    m: &Measurement,
+    settings: &Settings,
+    a: &MeasureArgs,
+    files: &[(String, Vec<u8>)],
+) -> Summary {
     Summary {
-        epochs: m.epochs.len(),
-        markers: m.markers.len(),
-        rows: m.rows.len(),
-        samples_per_point: m.samples,
-        threshold_mm: a.threshold_mm,
-        fraction_below_threshold: m.fraction_below(a.threshold_mm),
-        seed,
-        reference_epoch: m.epochs[m.reference_epoch].name.clone(),
-        frame_rate_hz: a.frame_rate_hz,
-        pixel_sigma_px: a.pixel_sigma_px,
-        max_reprojection_px: m.reprojection_limit_px,
-        mm_per_unit: a.mm_per_unit,
-        cameras: if a.tie.is_some() {
-            vec!["B", "C"]
-        } else {
-            vec!["B"]
-        },
-        rows_measured: smax.len(),
-        rows_fewer_than_two_views: count(&|r| r.flags.fewer_than_two_views),
-        rows_above_threshold: count(&|r| r.flags.sigma_above_threshold),
-        rows_reprojection_outlier: count(&|r| r.flags.reprojection_outlier),
-        rows_flagged: count(&|r| r.flags.any()),
-        max_sigma_mm: smax.iter().copied().reduce(f64::max),
-        median_sigma_max_mm: median(smax),
-        max_displacement_sigma_mm: dmax.iter().copied().reduce(f64::max),
-        median_displacement_sigma_max_mm: median(dmax),
+        numbers: output::Summary::new(m, settings, a.mm_per_unit, a.tie.is_some()),
         skipped_epochs: m
             .skipped
             .iter()
