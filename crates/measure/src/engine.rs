@@ -504,8 +504,9 @@ fn prep_view(
 /// # Errors
 /// [`Error::Setting`] for settings out of range or an unknown reference epoch;
 /// [`Error::Input`] when no observation has a posed epoch, an observation names camera C
-/// without a tie, a pixel cannot be undistorted, or (with a frame rate) an epoch name has no
-/// frame number or frame numbers do not increase along the sequence.
+/// without a tie or a pixel cannot be undistorted; [`Error::Sequence`] when (with a frame
+/// rate) an epoch name has no frame number or frame numbers do not increase along the
+/// sequence. [`Error::in_files`] names the file each is about.
 pub fn measure(
     epochs: &[Epoch],
     rig: &Rig,
@@ -564,7 +565,7 @@ pub fn measure(
         let time_s = match settings.frame_rate_hz {
             Some(hz) => {
                 let f = frame.ok_or_else(|| {
-                    Error::Input(format!(
+                    Error::Sequence(format!(
                         "epoch `{}` has no frame number (digits in its name), needed for velocities",
                         ep.name
                     ))
@@ -576,7 +577,7 @@ pub fn measure(
         if let (Some(t), Some(last)) = (time_s, measured.last())
             && last.time_s.is_some_and(|lt| lt >= t)
         {
-            return Err(Error::Input(format!(
+            return Err(Error::Sequence(format!(
                 "frame numbers do not increase along the sequence: epoch `{}` follows `{}` (zero-pad the image names)",
                 ep.name, last.name
             )));

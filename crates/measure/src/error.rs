@@ -72,4 +72,35 @@ pub enum Error {
     /// The COLMAP model could not be read.
     #[error(transparent)]
     Colmap(#[from] crashrig_colmap::Error),
+    /// Camera A's epochs cannot carry the requested quantity (an image name without a frame
+    /// number, frame numbers that do not increase): a problem of the model's image names.
+    #[error("{0}")]
+    Sequence(String),
+    /// An error of the engine placed in the file it is about ([`Error::in_files`]).
+    #[error("{}: {source}", path.display())]
+    Located {
+        /// The observations file or the model directory.
+        path: PathBuf,
+        /// The engine's error.
+        #[source]
+        source: Box<Error>,
+    },
+}
+
+impl Error {
+    /// Names the file an engine error is about, for a caller that knows the paths:
+    /// [`Error::Input`] → the observations file, [`Error::Sequence`] → the model of the
+    /// sequence; every other error already names its file (or is a setting) and is returned
+    /// unchanged.
+    pub fn in_files(self, observations: &std::path::Path, model: &std::path::Path) -> Error {
+        let path = match &self {
+            Error::Input(_) => observations,
+            Error::Sequence(_) => model,
+            _ => return self,
+        };
+        Error::Located {
+            path: path.to_path_buf(),
+            source: Box::new(self),
+        }
+    }
 }

@@ -211,7 +211,8 @@ pub fn compute(a: &MeasureArgs, seed: Option<u64>) -> anyhow::Result<Summary> {
         camera_b,
         c: c.map(|(_, tie, cam)| (tie, cam)),
     };
-    let m = crashrig_measure::measure(&epochs, &rig, &observations, &settings)?;
+    let m = crashrig_measure::measure(&epochs, &rig, &observations, &settings)
+        .map_err(|e| e.in_files(&a.observations, &a.model))?;
     for s in &m.skipped {
         eprintln!(
             "warning: epoch `{}` has no pose of camera A ({}) in {}: its {} observation(s) are skipped",
