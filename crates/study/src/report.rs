@@ -522,6 +522,16 @@ fn verdict_rows(r: &StudyResult) -> Vec<Vec<String>> {
         .iter()
         .map(|l| {
             let s = &l.summary;
+            if !s.max_sigma_mm.is_finite() {
+                // Nothing measurable (a fixed layout whose cameras share no point): no σ at all.
+                return vec![
+                    l.layout.name.clone(),
+                    "0.0 % (no point is seen by two cameras)".to_string(),
+                    "—".to_string(),
+                    "the whole grid is not measurable".to_string(),
+                    "—".to_string(),
+                ];
+            }
             let worst = match s.worst.above_threshold_box_mm {
                 Some(b) => format!(
                     "{} points ≥ {} mm within x {:.0}…{:.0}, y {:.0}…{:.0} mm; max {:.2} mm at ({:.0}, {:.0}, {:.0})",

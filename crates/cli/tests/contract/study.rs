@@ -634,4 +634,8 @@ fn study_fixed_layout_nothing_measurable_warns() {
         out.join("grid/fixed_rear_and_side/sigma_max_z00_0mm.png")
             .is_file()
     );
+    // The verdict says so in words, never "max NaN mm".
+    let html = std::fs::read_to_string(out.join("report.html")).expect("report");
+    assert!(html.contains("the whole grid is not measurable"));
+    assert!(!html.contains("NaN"), "a NaN reached the report");
 }
