@@ -435,6 +435,9 @@ fn ellipses(l: &LayoutResult) -> String {
         })
         .map(|(_, p)| p)
         .collect();
+    if sub.is_empty() {
+        return "<p>No measurable point: no error ellipses.</p>".to_string();
+    }
     let mut out = String::new();
     for (view, a, b, label) in [
         ("plan view (x–y)", 0usize, 1usize, "y"),
@@ -872,23 +875,26 @@ pub fn report_html(
                 .collect(),
         }));
         let s = &l.summary;
-        let mut rows = vec![vec![
-            "as given".into(),
-            format!("{:.2}", s.median_sigma_max_mm),
-            format!("{:.1} %", 100.0 * s.fraction_below_threshold),
-        ]];
-        for x in &l.sensitivity {
-            rows.push(vec![
-                format!("σ of {} halved", x.input),
-                format!("{:.2}", x.median_sigma_max_mm),
-                format!("{:.1} %", 100.0 * x.fraction_below_threshold),
-            ]);
+        // A layout with nothing measurable has no σ to summarise (its verdict row says so).
+        if s.max_sigma_mm.is_finite() {
+            let mut rows = vec![vec![
+                "as given".into(),
+                format!("{:.2}", s.median_sigma_max_mm),
+                format!("{:.1} %", 100.0 * s.fraction_below_threshold),
+            ]];
+            for x in &l.sensitivity {
+                rows.push(vec![
+                    format!("σ of {} halved", x.input),
+                    format!("{:.2}", x.median_sigma_max_mm),
+                    format!("{:.1} %", 100.0 * x.fraction_below_threshold),
+                ]);
+            }
+            rep.push(Block::Table(Table {
+                caption: format!("One-at-a-time sensitivity (median σ_x σ_y σ_z = {} mm; first-order median σ_max {:.2} mm)", f3(s.median_sigma_mm, 2), s.linear_median_sigma_max_mm),
+                header: ["inputs", "median σ_max [mm]", "below threshold"].map(String::from).to_vec(),
+                rows,
+            }));
         }
-        rep.push(Block::Table(Table {
-            caption: format!("One-at-a-time sensitivity (median σ_x σ_y σ_z = {} mm; first-order median σ_max {:.2} mm)", f3(s.median_sigma_mm, 2), s.linear_median_sigma_max_mm),
-            header: ["inputs", "median σ_max [mm]", "below threshold"].map(String::from).to_vec(),
-            rows,
-        }));
         rep.push(Block::Raw(plan_sketch(l)));
         for h in m
             .iter()
