@@ -58,8 +58,8 @@ fn fail(key: &str, problem: String) -> Error {
     }
 }
 
-/// 1-based line of a byte offset.
-pub(crate) fn line_of(text: &str, offset: usize) -> usize {
+/// 1-based line of a byte offset of a text (the line errors name; used by scenarios and studies).
+pub fn line_of(text: &str, offset: usize) -> usize {
     text.as_bytes()[..offset.min(text.len())]
         .iter()
         .filter(|b| **b == b'\n')

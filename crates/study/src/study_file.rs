@@ -362,10 +362,7 @@ struct RawObserver {
     pixel_sigma_px: Option<Spanned<f64>>,
 }
 
-/// 1-based line of a byte offset.
-pub(crate) fn line_of(text: &str, offset: usize) -> usize {
-    text[..offset.min(text.len())].matches('\n').count() + 1
-}
+pub(crate) use crashrig_mc::limits::line_of;
 
 /// The line of `[name]` / `[[name]]` (the `n`-th occurrence), for errors about a section.
 pub(crate) fn section_line(text: &str, name: &str, n: usize) -> Option<usize> {
