@@ -153,21 +153,34 @@ impl<const L: usize> LaneSums<L> {
     #[inline(always)]
     pub(crate) fn add(&mut self, xs: &[[f64; L]; 3], b: usize, shift: &Vector3<f64>) {
         self.n += b as u64;
-        #[allow(clippy::needless_range_loop)] // one index over nine parallel lane arrays
+        #[allow(clippy::needless_range_loop)] // one index over three parallel lane arrays
         for d in 0..b.min(L) {
-            let x = xs[0][d] - shift.x;
-            let y = xs[1][d] - shift.y;
-            let z = xs[2][d] - shift.z;
-            self.s1[0][d] += x;
-            self.s1[1][d] += y;
-            self.s1[2][d] += z;
-            self.s2[0][d] += x * x;
-            self.s2[1][d] += x * y;
-            self.s2[2][d] += x * z;
-            self.s2[3][d] += y * y;
-            self.s2[4][d] += y * z;
-            self.s2[5][d] += z * z;
+            self.add_lane(d, [xs[0][d], xs[1][d], xs[2][d]], shift);
         }
+    }
+
+    /// Adds point `p` to lane `d` (as a deviation from `shift`) without counting it: callers
+    /// that add whole blocks lane by lane count them once with [`Self::count`].
+    #[inline(always)]
+    pub(crate) fn add_lane(&mut self, d: usize, p: [f64; 3], shift: &Vector3<f64>) {
+        let x = p[0] - shift.x;
+        let y = p[1] - shift.y;
+        let z = p[2] - shift.z;
+        self.s1[0][d] += x;
+        self.s1[1][d] += y;
+        self.s1[2][d] += z;
+        self.s2[0][d] += x * x;
+        self.s2[1][d] += x * y;
+        self.s2[2][d] += x * z;
+        self.s2[3][d] += y * y;
+        self.s2[4][d] += y * z;
+        self.s2[5][d] += z * z;
+    }
+
+    /// Counts `b` points added with [`Self::add_lane`].
+    #[inline(always)]
+    pub(crate) fn count(&mut self, b: usize) {
+        self.n += b as u64;
     }
 
     /// Sums over lanes, in lane order.

@@ -16,7 +16,7 @@
 //!
 //! # Observation models
 //! Each observer enters a draw through its [`Observation`]: a ray through its centre
-//! ([`Normals3::add_ray`]: aimed, no pixel noise), normalized coordinates with pixel noise
+//! ([`ray_pass`]: aimed, no pixel noise), normalized coordinates with pixel noise
 //! ([`Normals3::add_view`]: aimed, `σ_px/f` per axis), or a fixed camera's lens (the true pixel
 //! plus pixel noise undistorted per lane by `crate::fixed::undistort_lanes`, then
 //! [`Normals3::add_view`]). [`layout`] assigns the normal rows of any mix; [`run_prepared`] is
@@ -35,6 +35,7 @@ use crate::grid::{Aimed, Ctx};
 use crate::kernel::{Normal3, SMALL_ANGLE_SQ, exp_e3, exp_matrix, opk_e3, rot_opk};
 use crate::normal::{LANES, Lane, fill_block};
 use crate::scenario::RotationNoise;
+use crate::simd::Width;
 use nalgebra::{Matrix3, Matrix6, Vector3};
 
 /// Lower-triangular factor `L` of a pose's 6×6 noise covariance (order x y z mm, then the
@@ -87,6 +88,23 @@ impl NoiseFactor {
         self
     }
 
+    /// `δ = L·ε` of lane `d` (the same operations as [`Self::apply`], so the same bits).
+    #[inline(always)]
+    fn delta_lane<const DIAGONAL: bool>(&self, e: &[Lane], d: usize) -> [f64; 6] {
+        std::array::from_fn(|i| {
+            let li = &self.l[i];
+            if DIAGONAL {
+                li[i] * e[i][d]
+            } else {
+                let mut s = li[0] * e[0][d];
+                for k in 1..=i {
+                    s += li[k] * e[k][d];
+                }
+                s
+            }
+        })
+    }
+
     /// `δ = L·ε` per lane; `e` holds the six normal rows. Row `i` is `Σ_{k ≤ i} L_ik ε_k`
     /// summed in k order (with a diagonal factor the other terms are zeros, so both forms give
     /// the same bits for non-zero σ).
@@ -136,23 +154,21 @@ impl Normals3 {
         }
     }
 
-    /// Adds, per lane, the ray through `c` with unit direction `d`: `I − ddᵀ`, `(I − ddᵀ)c`.
+    /// Adds to lane `l` the ray through `c` with unit direction `d`: `I − ddᵀ`, `(I − ddᵀ)c`.
     #[inline(always)]
-    pub(crate) fn add_ray(&mut self, d: &[Lane; 3], c: &[Lane; 3]) {
-        for l in 0..LANES {
-            let (dx, dy, dz) = (d[0][l], d[1][l], d[2][l]);
-            let (cx, cy, cz) = (c[0][l], c[1][l], c[2][l]);
-            let dc = dx.mul_add(cx, dy.mul_add(cy, dz * cz));
-            self.n[0][l] += (-dx).mul_add(dx, 1.0);
-            self.n[1][l] = (-dx).mul_add(dy, self.n[1][l]);
-            self.n[2][l] = (-dx).mul_add(dz, self.n[2][l]);
-            self.n[3][l] += (-dy).mul_add(dy, 1.0);
-            self.n[4][l] = (-dy).mul_add(dz, self.n[4][l]);
-            self.n[5][l] += (-dz).mul_add(dz, 1.0);
-            self.r[0][l] += (-dx).mul_add(dc, cx);
-            self.r[1][l] += (-dy).mul_add(dc, cy);
-            self.r[2][l] += (-dz).mul_add(dc, cz);
-        }
+    fn add_ray_lane(&mut self, l: usize, d: [f64; 3], c: [f64; 3]) {
+        let [dx, dy, dz] = d;
+        let [cx, cy, cz] = c;
+        let dc = dx.mul_add(cx, dy.mul_add(cy, dz * cz));
+        self.n[0][l] += (-dx).mul_add(dx, 1.0);
+        self.n[1][l] = (-dx).mul_add(dy, self.n[1][l]);
+        self.n[2][l] = (-dx).mul_add(dz, self.n[2][l]);
+        self.n[3][l] += (-dy).mul_add(dy, 1.0);
+        self.n[4][l] = (-dy).mul_add(dz, self.n[4][l]);
+        self.n[5][l] += (-dz).mul_add(dz, 1.0);
+        self.r[0][l] += (-dx).mul_add(dc, cx);
+        self.r[1][l] += (-dy).mul_add(dc, cy);
+        self.r[2][l] += (-dz).mul_add(dc, cz);
     }
 
     /// Adds, per lane, the two DLT rows of a view with rotation `rot` (`R_world_from_cam`,
@@ -180,10 +196,32 @@ impl Normals3 {
         }
     }
 
+    /// Solves every lane ([`Self::solve`]) and adds the points to `sums` as deviations from
+    /// `shift` ([`LaneSums::add`]), in one pass: the same operations, so the same bits.
+    #[inline(always)]
+    fn solve_into(&self, sums: &mut LaneSums<LANES>, shift: &Vector3<f64>) {
+        for l in 0..LANES {
+            let x = self.solve_lane(l);
+            sums.add_lane(l, x, shift);
+        }
+        sums.count(LANES);
+    }
+
     /// Solves every lane by cofactors (NaN for a singular lane).
     #[inline(always)]
     fn solve(&self, out: &mut [Lane; 3]) {
         for l in 0..LANES {
+            let x = self.solve_lane(l);
+            for i in 0..3 {
+                out[i][l] = x[i];
+            }
+        }
+    }
+
+    /// Lane `l` solved by cofactors (NaN when singular).
+    #[inline(always)]
+    fn solve_lane(&self, l: usize) -> [f64; 3] {
+        {
             let [a, b, c, d, e, f] = [
                 self.n[0][l],
                 self.n[1][l],
@@ -200,9 +238,11 @@ impl Normals3 {
             let c22 = a.mul_add(d, -(b * b));
             let inv = 1.0 / a.mul_add(c00, b.mul_add(c01, c * c02));
             let (r0, r1, r2) = (self.r[0][l], self.r[1][l], self.r[2][l]);
-            out[0][l] = c00.mul_add(r0, c01.mul_add(r1, c02 * r2)) * inv;
-            out[1][l] = c01.mul_add(r0, c11.mul_add(r1, c12 * r2)) * inv;
-            out[2][l] = c02.mul_add(r0, c12.mul_add(r1, c22 * r2)) * inv;
+            [
+                c00.mul_add(r0, c01.mul_add(r1, c02 * r2)) * inv,
+                c01.mul_add(r0, c11.mul_add(r1, c12 * r2)) * inv,
+                c02.mul_add(r0, c12.mul_add(r1, c22 * r2)) * inv,
+            ]
         }
     }
 }
@@ -230,21 +270,56 @@ fn keep_max(m: &mut f64, t: f64) {
     *m = if t > *m { t } else { *m };
 }
 
-/// Ray `R̄·Exp(w)·e₃` per lane (w = rows 3..6 of `delta`); θ² into `tmax`.
+/// Ray `R̄·Exp(w)·e₃` and θ² = |w|² (Taylor form of `Exp`).
 #[inline(always)]
-fn tangent_ray(r: &[f64; 9], delta: &[Lane; 6], dir: &mut [Lane; 3], tmax: &mut Lane) {
+fn tangent_dir(r: &[f64; 9], w: [f64; 3]) -> ([f64; 3], f64) {
+    let [wx, wy, wz] = w;
+    let t = wx * wx + wy * wy + wz * wz;
+    let (s, c) = sinc_cosc_series(t);
+    // Exp(w)e₃ = e₃ + s (w × e₃) + c w × (w × e₃).
+    let v0 = s * wy + c * wx * wz;
+    let v1 = c * wy * wz - s * wx;
+    let v2 = 1.0 - c * (wx * wx + wy * wy);
+    let dir =
+        std::array::from_fn(|i| r[3 * i].mul_add(v0, r[3 * i + 1].mul_add(v1, r[3 * i + 2] * v2)));
+    (dir, t)
+}
+
+/// [`ray_pass`] in separate passes over the block (δ, centres, rays, normal equations), for
+/// narrow registers ([`Width::Narrow`]): the same operations, so the same bits.
+#[inline(always)]
+fn ray_stages<const TANGENT: bool>(
+    o: &Prepared<'_>,
+    e: Option<&[Lane]>,
+    delta: &mut [Lane; 6],
+    cpos: &mut [Lane; 3],
+    dir: &mut [Lane; 3],
+    ne: &mut Normals3,
+    tmax: &mut Lane,
+) {
+    if let Some(e) = e {
+        o.noise.apply(e, delta);
+    }
+    for i in 0..3 {
+        for l in 0..LANES {
+            cpos[i][l] = o.c[i] + delta[i][l];
+        }
+    }
     for l in 0..LANES {
-        let (wx, wy, wz) = (delta[3][l], delta[4][l], delta[5][l]);
-        let t = wx * wx + wy * wy + wz * wz;
-        let (s, c) = sinc_cosc_series(t);
-        // Exp(w)e₃ = e₃ + s (w × e₃) + c w × (w × e₃).
-        let v0 = s * wy + c * wx * wz;
-        let v1 = c * wy * wz - s * wx;
-        let v2 = 1.0 - c * (wx * wx + wy * wy);
+        let w = [delta[3][l], delta[4][l], delta[5][l]];
+        let (d, t) = if TANGENT {
+            tangent_dir(&o.r, w)
+        } else {
+            euler_dir(&o.trig, w)
+        };
         for i in 0..3 {
-            dir[i][l] = r[3 * i].mul_add(v0, r[3 * i + 1].mul_add(v1, r[3 * i + 2] * v2));
+            dir[i][l] = d[i];
         }
         keep_max(&mut tmax[l], t);
+    }
+    for l in 0..LANES {
+        let d = [dir[0][l], dir[1][l], dir[2][l]];
+        ne.add_ray_lane(l, d, [cpos[0][l], cpos[1][l], cpos[2][l]]);
     }
 }
 
@@ -299,15 +374,47 @@ fn perturbed_trig(nom: &Trig, d: [f64; 3]) -> ([f64; 3], [f64; 3], f64) {
     (s, c, t)
 }
 
-/// Ray of `Rx(ω)Ry(φ)Rz(κ)` (third column) at the perturbed angles, per lane.
+/// Ray of `Rx(ω)Ry(φ)Rz(κ)` (third column) at the nominal angles plus `w`, and the largest
+/// squared offset.
 #[inline(always)]
-fn euler_ray(nom: &Trig, delta: &[Lane; 6], dir: &mut [Lane; 3], tmax: &mut Lane) {
+fn euler_dir(nom: &Trig, w: [f64; 3]) -> ([f64; 3], f64) {
+    let (s, c, t) = perturbed_trig(nom, w);
+    ([s[1], -(s[0] * c[1]), c[0] * c[1]], t)
+}
+
+/// One aimed observer with a ray observation, fused over the block: per lane its `δ` (from
+/// the normal rows `e`, or read from `delta` when drawn from the chain), the perturbed centre
+/// and ray, added to the normal equations. `δ` is kept in `delta` for the exact fix-up of a
+/// lane beyond the series ([`exact_lane`]). One pass instead of four over the lane arrays
+/// (the same operations in the same order as the separate loops had, so the same bits).
+#[inline(always)]
+fn ray_pass<const TANGENT: bool, const DIAGONAL: bool>(
+    o: &Prepared<'_>,
+    e: Option<&[Lane]>,
+    delta: &mut [Lane; 6],
+    ne: &mut Normals3,
+    tmax: &mut Lane,
+) {
     for l in 0..LANES {
-        let (s, c, t) = perturbed_trig(nom, [delta[3][l], delta[4][l], delta[5][l]]);
-        dir[0][l] = s[1];
-        dir[1][l] = -(s[0] * c[1]);
-        dir[2][l] = c[0] * c[1];
+        let d = match e {
+            Some(e) => {
+                let d = o.noise.delta_lane::<DIAGONAL>(e, l);
+                for i in 0..6 {
+                    delta[i][l] = d[i];
+                }
+                d
+            }
+            None => std::array::from_fn(|i| delta[i][l]),
+        };
+        let c = std::array::from_fn(|i| o.c[i] + d[i]);
+        let w = [d[3], d[4], d[5]];
+        let (dir, t) = if TANGENT {
+            tangent_dir(&o.r, w)
+        } else {
+            euler_dir(&o.trig, w)
+        };
         keep_max(&mut tmax[l], t);
+        ne.add_ray_lane(l, dir, c);
     }
 }
 
@@ -338,7 +445,7 @@ fn euler_rotation(nom: &Trig, delta: &[Lane; 6], rot: &mut [Lane; 9], tmax: &mut
 /// How an observer's image observation enters a draw.
 #[derive(Debug, Clone, Copy)]
 pub(crate) enum Observation<'a> {
-    /// At the principal point, no pixel noise: the ray form ([`Normals3::add_ray`]).
+    /// At the principal point, no pixel noise: the ray form ([`ray_pass`]).
     Ray,
     /// At the principal point with pixel noise of this σ in normalized coordinates (the aimed
     /// observers' `pixel_sigma_px / focal_px`): the two DLT rows.
@@ -471,14 +578,16 @@ pub(crate) fn run_task(
     task: u64,
     m: usize,
     acc: &mut Acc3,
+    width: Width,
 ) {
     let (prep, rows) = prepare(obs, ctx);
-    run_prepared(&prep, rows, ctx.chain.as_ref(), key, task, m, acc);
+    run_prepared(&prep, rows, ctx.chain.as_ref(), key, task, m, acc, width);
 }
 
 /// `m` draws of prepared observers ([`layout`]) into `acc`: the kernel of every grid path.
-/// Must be called inside [`crate::simd::dispatch`].
+/// Must be called inside [`crate::simd::dispatch`], which gives the level's `width`.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn run_prepared(
     prep: &[Prepared<'_>],
     rows: usize,
@@ -487,6 +596,7 @@ pub(crate) fn run_prepared(
     task: u64,
     m: usize,
     acc: &mut Acc3,
+    width: Width,
 ) {
     let mut s = Scratch {
         e: vec![[0.0; LANES]; rows.next_multiple_of(2)],
@@ -506,7 +616,7 @@ pub(crate) fn run_prepared(
     let mut done = 0;
     while done < m {
         let b = LANES.min(m - done);
-        fill_block(key, task, done as u64, &mut s.e);
+        fill_block(key, task, done as u64, &mut s.e, width);
         if let Some(chain) = chain {
             chain_deltas(chain, prep, &mut s, b);
         }
@@ -514,6 +624,23 @@ pub(crate) fn run_prepared(
         tmax = [0.0; LANES];
         for (j, o) in prep.iter().enumerate() {
             let delta = &mut s.delta[j];
+            if let Observation::Ray = o.observation {
+                let e = o.row.map(|r| &s.e[r..r + 6]);
+                let (ne, tmax) = (&mut ne, &mut tmax);
+                match (width, o.tangent, o.noise.is_diagonal()) {
+                    (Width::Wide, true, true) => ray_pass::<true, true>(o, e, delta, ne, tmax),
+                    (Width::Wide, true, false) => ray_pass::<true, false>(o, e, delta, ne, tmax),
+                    (Width::Wide, false, true) => ray_pass::<false, true>(o, e, delta, ne, tmax),
+                    (Width::Wide, false, false) => ray_pass::<false, false>(o, e, delta, ne, tmax),
+                    (Width::Narrow, true, _) => {
+                        ray_stages::<true>(o, e, delta, &mut cpos, &mut dir, ne, tmax);
+                    }
+                    (Width::Narrow, false, _) => {
+                        ray_stages::<false>(o, e, delta, &mut cpos, &mut dir, ne, tmax);
+                    }
+                }
+                continue;
+            }
             if let Some(r) = o.row {
                 o.noise.apply(&s.e[r..r + 6], delta);
             }
@@ -523,15 +650,6 @@ pub(crate) fn run_prepared(
                 }
             }
             let tangent = o.tangent;
-            if let Observation::Ray = o.observation {
-                if tangent {
-                    tangent_ray(&o.r, delta, &mut dir, &mut tmax);
-                } else {
-                    euler_ray(&o.trig, delta, &mut dir, &mut tmax);
-                }
-                ne.add_ray(&dir, &cpos);
-                continue;
-            }
             if tangent {
                 tangent_rotation(&o.r, delta, &mut rot, &mut tmax);
             } else {
@@ -550,6 +668,14 @@ pub(crate) fn run_prepared(
                 Observation::Ray => unreachable!("handled above"),
             }
             ne.add_view(&rot, &cpos, px, py);
+        }
+        // A full block with every lane inside the series' range (all of them, for realistic
+        // σ): solve and accumulate in one pass.
+        let all_small = tmax.iter().fold(true, |ok, &t| ok & (t < SMALL_ANGLE_SQ));
+        if b == LANES && all_small {
+            ne.solve_into(&mut lanes, &shift);
+            done += b;
+            continue;
         }
         ne.solve(&mut xs);
         for l in 0..b {

@@ -577,7 +577,7 @@ impl Chain {
                 let part = crate::simd::dispatch(
                     isa,
                     #[inline(always)]
-                    || crate::chain_block::run_task(self, key, k as u64, m),
+                    |width| crate::chain_block::run_task(self, key, k as u64, m, width),
                 );
                 ticks.add(1);
                 part

@@ -22,6 +22,7 @@ use crate::chain::Chain;
 use crate::kernel::SMALL_ANGLE_SQ;
 use crate::normal::{LANES, Lane, fill_block};
 use crate::scenario::RotationNoise;
+use crate::simd::Width;
 use nalgebra::{Matrix6, Vector3, Vector6};
 
 /// cos φ below which a lane goes to the scalar angle extraction (far above the geometry
@@ -230,7 +231,13 @@ struct PoseLanes {
 /// `m` joint draws (task `task` of the run keyed `key`), returning per-camera sums. Must be
 /// called inside [`crate::simd::dispatch`].
 #[inline(always)]
-pub(crate) fn run_task(chain: &Chain, key: [u32; 2], task: u64, m: usize) -> Vec<CamSums> {
+pub(crate) fn run_task(
+    chain: &Chain,
+    key: [u32; 2],
+    task: u64,
+    m: usize,
+    width: Width,
+) -> Vec<CamSums> {
     let n = chain.len();
     let plan = chain.plan();
     let mut e = vec![[0.0; LANES]; 6 * n];
@@ -249,7 +256,7 @@ pub(crate) fn run_task(chain: &Chain, key: [u32; 2], task: u64, m: usize) -> Vec
     let mut done = 0;
     while done < m {
         let b = LANES.min(m - done);
-        fill_block(key, task, done as u64, &mut e);
+        fill_block(key, task, done as u64, &mut e, width);
         ok = [true; LANES];
         for &i in chain.order() {
             let p = &plan[i];

@@ -684,7 +684,10 @@ fn run_chunk(
             crate::simd::dispatch(
                 isa,
                 #[inline(always)]
-                || crate::block::run_prepared(&block.prep, block.rows, chain, key, task, m, acc),
+                |width| {
+                    let rows = block.rows;
+                    crate::block::run_prepared(&block.prep, rows, chain, key, task, m, acc, width)
+                },
             );
         }
         Engine::Legacy => {

@@ -711,7 +711,7 @@ pub(crate) fn run_chunk(
             crate::simd::dispatch(
                 isa,
                 #[inline(always)]
-                || crate::block::run_task(obs, ctx, key, task, m, acc),
+                |width| crate::block::run_task(obs, ctx, key, task, m, acc, width),
             );
         }
         Engine::Legacy => {

@@ -253,7 +253,7 @@ pub mod bench {
         dispatch(
             isa,
             #[inline(always)]
-            || fill_block(key, task, draw0, rows),
+            |width| fill_block(key, task, draw0, rows, width),
         );
     }
 }

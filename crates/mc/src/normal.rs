@@ -29,7 +29,8 @@
 //! abscissa is quantized to 2⁻²³ of the layer width, irrelevant for Monte Carlo σ. Wedge and
 //! tail cases (≈ 1 % of draws) use further 64-bit words with 53-bit uniforms.
 
-use crate::philox::{counter, philox4x32_10};
+use crate::philox::{counter, philox4x32_10, philox4x32_10_lanes};
+use crate::simd::Width;
 use rand::Rng;
 use std::sync::OnceLock;
 
@@ -222,25 +223,22 @@ pub(crate) fn ln_unit(u: f64) -> f64 {
     // m ∈ [1, 2); halve it (exponent − 1) when above √2, and count that in e.
     let big = (f64::from_bits(mant) > SQRT2) as u64;
     let m = f64::from_bits(mant - (big << 52));
-    let e = (f64::from_bits(MAGIC_BITS | (b >> 52)) - MAGIC) - 1023.0
-        + f64::from_bits(ONE_BITS & 0u64.wrapping_sub(big));
+    // The exponent (plus `big`) as a float: exact integer arithmetic.
+    let e = f64::from_bits(MAGIC_BITS | ((b >> 52) + big)) - (MAGIC + 1023.0);
     let s = (m - 1.0) / (m + 1.0);
     let z = s * s;
-    // 2 atanh s = 2s Σ z^k/(2k+1), k ≤ 10 (z ≤ 0.0295: next term < 10⁻¹⁸ relative).
-    const ATANH: [f64; 11] = [
-        1.0 / 21.0,
-        1.0 / 19.0,
-        1.0 / 17.0,
-        1.0 / 15.0,
-        1.0 / 13.0,
-        1.0 / 11.0,
-        1.0 / 9.0,
-        1.0 / 7.0,
-        1.0 / 5.0,
-        1.0 / 3.0,
-        1.0,
+    // fdlibm e_log.c: 2 atanh s = 2s + s·R(z), R(z) = Lg1 z + … + Lg7 z⁷.
+    #[allow(clippy::excessive_precision)]
+    const LG: [f64; 7] = [
+        1.479_819_860_511_658_591e-01,
+        1.531_383_769_920_937_332e-01,
+        1.818_357_216_161_805_012e-01,
+        2.222_219_843_214_978_396e-01,
+        2.857_142_874_366_239_149e-01,
+        3.999_999_999_940_941_908e-01,
+        6.666_666_666_666_735_130e-01,
     ];
-    let lnm = (s + s) * horner(z, &ATANH);
+    let lnm = s.mul_add(z * horner(z, &LG), s + s);
     e.mul_add(LN2_HI, e.mul_add(LN2_LO, lnm))
 }
 
@@ -280,26 +278,57 @@ pub(crate) fn box_muller(v: u64) -> (f64, f64) {
 /// Fills `rows` with standard normals for the draws `draw0 .. draw0 + LANES` of `task`:
 /// `rows[i][d]` is normal `i` of draw `draw0 + d`. Normals `4s .. 4s + 4` of a draw come from
 /// its slot `s` (one Philox block: pairs `(w₀, w₁)` and `(w₂, w₃)`), so a draw's normals do
-/// not depend on the block it is in, on `rows.len()` beyond the slots it needs, or on the
-/// instruction set. Inline into a dispatched kernel (see [`crate::simd`]).
+/// not depend on the block it is in, on `rows.len()` beyond the slots it needs, on the
+/// instruction set or on `width` (which only chooses the loop shape, see [`Width`]). Inline
+/// into a dispatched kernel (see [`crate::simd`]).
 #[inline(always)]
 #[allow(clippy::needless_range_loop)] // lane-indexed loops over parallel arrays vectorise
-pub(crate) fn fill_block(key: [u32; 2], task: u64, draw0: u64, rows: &mut [Lane]) {
+pub(crate) fn fill_block(key: [u32; 2], task: u64, draw0: u64, rows: &mut [Lane], width: Width) {
     debug_assert!(rows.len().is_multiple_of(2), "normals come in pairs");
+    // Wide registers: Philox on K lanes at a time, round by round (`philox4x32_10_lanes`).
+    const K: usize = 32;
     let mut bits = [[0u64; LANES]; 2];
     for (slot, group) in rows.chunks_mut(4).enumerate() {
-        for d in 0..LANES {
-            let w = philox4x32_10(counter(task, draw0 + d as u64, slot as u32), key);
-            bits[0][d] = w[0] as u64 | (w[1] as u64) << 32;
-            bits[1][d] = w[2] as u64 | (w[3] as u64) << 32;
+        match width {
+            Width::Wide => {
+                for h in 0..LANES / K {
+                    let mut st = [[0u64; K]; 4];
+                    for d in 0..K {
+                        let c = counter(task, draw0 + (h * K + d) as u64, slot as u32);
+                        for w in 0..4 {
+                            st[w][d] = c[w] as u64;
+                        }
+                    }
+                    philox4x32_10_lanes(&mut st, key);
+                    for d in 0..K {
+                        bits[0][h * K + d] = (st[0][d] & 0xFFFF_FFFF) | st[1][d] << 32;
+                        bits[1][h * K + d] = (st[2][d] & 0xFFFF_FFFF) | st[3][d] << 32;
+                    }
+                }
+            }
+            Width::Narrow => {
+                for d in 0..LANES {
+                    let w = philox4x32_10(counter(task, draw0 + d as u64, slot as u32), key);
+                    bits[0][d] = w[0] as u64 | (w[1] as u64) << 32;
+                    bits[1][d] = w[2] as u64 | (w[3] as u64) << 32;
+                }
+            }
         }
-        for (pair, b) in group.chunks_exact_mut(2).zip(&bits) {
-            let (a, b1) = pair.split_at_mut(1);
-            let (out0, out1) = (&mut a[0], &mut b1[0]);
+        // Both pairs of the slot in one loop: two independent chains per iteration.
+        if let [r0, r1, r2, r3] = group {
             for d in 0..LANES {
-                let (z0, z1) = box_muller(b[d]);
-                out0[d] = z0;
-                out1[d] = z1;
+                let (z0, z1) = box_muller(bits[0][d]);
+                let (z2, z3) = box_muller(bits[1][d]);
+                r0[d] = z0;
+                r1[d] = z1;
+                r2[d] = z2;
+                r3[d] = z3;
+            }
+        } else if let [r0, r1] = group {
+            for d in 0..LANES {
+                let (z0, z1) = box_muller(bits[0][d]);
+                r0[d] = z0;
+                r1[d] = z1;
             }
         }
     }
@@ -412,6 +441,44 @@ mod block_tests {
         }
     }
 
+    #[test]
+    fn fill_block_nominal_equals_the_scalar_generator() {
+        // The block form (Philox round by round over 32 lanes, then Box–Muller) gives, lane
+        // by lane, the scalar definition: slot s of draw d is philox(counter(task, d, s)).
+        let key = key_of_seed(0xDEAD_BEEF_0123);
+        let (task, draw0) = (77, (5u64 << 32) + 640);
+        let mut rows = vec![[0.0; LANES]; 12];
+        dispatch(
+            Isa::Auto,
+            #[inline(always)]
+            |width| fill_block(key, task, draw0, &mut rows, width),
+        );
+        for d in 0..LANES {
+            for slot in 0..3 {
+                let w = philox4x32_10(counter(task, draw0 + d as u64, slot as u32), key);
+                let (a, b) = box_muller(w[0] as u64 | (w[1] as u64) << 32);
+                let (c, e) = box_muller(w[2] as u64 | (w[3] as u64) << 32);
+                let got: Vec<f64> = (0..4).map(|k| rows[4 * slot + k][d]).collect();
+                assert_eq!(got, [a, b, c, e], "draw {d}, slot {slot}");
+            }
+        }
+    }
+
+    #[test]
+    fn fill_block_is_identical_for_both_widths() {
+        // The two loop shapes of `simd::Width` (called outside any level, so on every CPU),
+        // with 12 rows (3 slots) and 6 rows (a half-used slot).
+        let key = key_of_seed(99);
+        for rows in [12, 6] {
+            let (mut wide, mut narrow) = (vec![[0.0; LANES]; rows], vec![[0.0; LANES]; rows]);
+            for block in [0u64, 1, (1 << 32) + 3] {
+                fill_block(key, 5, block * LANES as u64, &mut wide, Width::Wide);
+                fill_block(key, 5, block * LANES as u64, &mut narrow, Width::Narrow);
+                assert_eq!(wide, narrow, "rows {rows}, block {block}");
+            }
+        }
+    }
+
     /// Normals `0..rows` of draws `0..draws` of one task, with the given level.
     fn normals(isa: Isa, seed: u64, task: u64, draws: u64, rows: usize) -> Vec<f64> {
         let key = key_of_seed(seed);
@@ -421,7 +488,7 @@ mod block_tests {
             dispatch(
                 isa,
                 #[inline(always)]
-                || fill_block(key, task, b * LANES as u64, &mut block),
+                |width| fill_block(key, task, b * LANES as u64, &mut block, width),
             );
             out.extend(block.iter().flatten());
         }
@@ -485,7 +552,7 @@ mod block_tests {
             dispatch(
                 isa,
                 #[inline(always)]
-                || fill_block(key, task, b * LANES as u64, &mut block),
+                |width| fill_block(key, task, b * LANES as u64, &mut block, width),
             );
             for row in &block {
                 for &z in row {

@@ -131,21 +131,45 @@ fn best() -> Isa {
         .unwrap_or(Isa::Baseline)
 }
 
+/// How much the level's vector registers hold, fixed per level at compile time: the block
+/// kernels choose their loop shapes from it. Both shapes compute the same operations in the
+/// same order, so the results are the same bits; only the speed differs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Width {
+    /// At least 256 f64 lanes of registers (AVX-512: 32 registers × 8 lanes): Philox round
+    /// by round over 32 lanes, and each aimed observer's stages fused into one pass. On
+    /// x86-64-v4 this is 1.10–1.2× faster than the narrow shape (`docs/performance.md`).
+    Wide,
+    /// Fewer (AVX2: 16 × 4, NEON: 32 × 2, SSE2: 16 × 2): the wide shape's live values would
+    /// spill (measured 1.3× slower on x86-64-v3), so Philox lane by lane and one pass per stage.
+    Narrow,
+}
+
 /// A closure run under a SIMD level.
 struct Job<F>(F);
 
-impl<R, F: FnOnce() -> R> pulp::WithSimd for Job<F> {
+impl<R, F: FnOnce(Width) -> R> pulp::WithSimd for Job<F> {
     type Output = R;
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _simd: S) -> R {
-        (self.0)()
+        let lanes = S::REGISTER_COUNT * (size_of::<S::f64s>() / size_of::<f64>());
+        let wide = lanes >= 256;
+        #[cfg(test)]
+        let wide = wide && !FORCE_NARROW.load(std::sync::atomic::Ordering::Relaxed);
+        (self.0)(if wide { Width::Wide } else { Width::Narrow })
     }
 }
 
-/// Runs `f` compiled for `isa` (see the module docs). `f` and everything it calls in the hot
-/// loop must be `#[inline(always)]` so that it is compiled inside the level's function.
+/// Tests: run the wide levels with the narrow loop shapes (both must give the same bits).
+#[cfg(test)]
+pub(crate) static FORCE_NARROW: std::sync::atomic::AtomicBool =
+    std::sync::atomic::AtomicBool::new(false);
+
+/// Runs `f` compiled for `isa` (see the module docs), passing it the level's [`Width`] (a
+/// constant inside each level's function). `f` and everything it calls in the hot loop must
+/// be `#[inline(always)]` so that it is compiled inside the level's function.
 #[inline(always)]
-pub(crate) fn dispatch<R>(isa: Isa, f: impl FnOnce() -> R) -> R {
+pub(crate) fn dispatch<R>(isa: Isa, f: impl FnOnce(Width) -> R) -> R {
     let job = Job(f);
     match isa.resolve() {
         #[cfg(target_arch = "x86_64")]

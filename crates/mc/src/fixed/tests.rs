@@ -3,6 +3,7 @@
 //! determinism, not-measurable layouts and every documented scenario error.
 
 use super::*;
+use crate::simd::Width;
 use crate::{GridStudy, Scenario};
 use std::path::Path;
 
@@ -784,7 +785,13 @@ fn fixed_undistort_lanes_matches_camera_crate_with_fix_up() {
     };
     let vs = views(&setup, &Vector3::new(1200.0, -200.0, 0.0)).unwrap();
     let mut rows = vec![[0.0; LANES]; 2];
-    crate::normal::fill_block(crate::philox::key_of_seed(3), 0, 0, &mut rows);
+    crate::normal::fill_block(
+        crate::philox::key_of_seed(3),
+        0,
+        0,
+        &mut rows,
+        Width::Narrow,
+    );
     let (ex, ey) = (rows[0], rows[1]);
     let mut checked = 0;
     for v in vs.iter().filter(|v| v.full_lens.is_some()) {
@@ -865,7 +872,13 @@ fn fixed_undistort_lanes_need_no_fix_up_at_half_a_pixel() {
         assert_eq!(v.sigma_px, 0.5);
         let mut rows = vec![[0.0; LANES]; 2];
         for block in 0..64u64 {
-            crate::normal::fill_block(crate::philox::key_of_seed(5), 1, 64 * block, &mut rows);
+            crate::normal::fill_block(
+                crate::philox::key_of_seed(5),
+                1,
+                64 * block,
+                &mut rows,
+                Width::Narrow,
+            );
             let (mut x, mut y, mut rx, mut ry) =
                 ([0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
             undistort_lanes(v, &rows[0], &rows[1], &mut x, &mut y, LANES);
