@@ -171,28 +171,26 @@ impl Normals3 {
         self.r[2][l] += (-dz).mul_add(dc, cz);
     }
 
-    /// Adds, per lane, the two DLT rows of a view with rotation `rot` (`R_world_from_cam`,
+    /// Adds to lane `l` the two DLT rows of a view with rotation `rot` (`R_world_from_cam`,
     /// row-major: `rot[3i + j]` = R_ij), centre `c` and normalized coordinates `(x, y)`:
     /// `a = x·c₃ − c₁`, `b = y·c₃ − c₂` (cⱼ the columns of R).
     #[inline(always)]
-    pub(crate) fn add_view(&mut self, rot: &[Lane; 9], c: &[Lane; 3], x: &Lane, y: &Lane) {
-        for l in 0..LANES {
-            let (cx, cy, cz) = (c[0][l], c[1][l], c[2][l]);
-            for (obs, col) in [(x[l], 0), (y[l], 1)] {
-                let a0 = obs * rot[2][l] - rot[col][l];
-                let a1 = obs * rot[5][l] - rot[3 + col][l];
-                let a2 = obs * rot[8][l] - rot[6 + col][l];
-                let ac = a0 * cx + a1 * cy + a2 * cz;
-                self.n[0][l] += a0 * a0;
-                self.n[1][l] += a0 * a1;
-                self.n[2][l] += a0 * a2;
-                self.n[3][l] += a1 * a1;
-                self.n[4][l] += a1 * a2;
-                self.n[5][l] += a2 * a2;
-                self.r[0][l] += a0 * ac;
-                self.r[1][l] += a1 * ac;
-                self.r[2][l] += a2 * ac;
-            }
+    fn add_view_lane(&mut self, l: usize, rot: &[f64; 9], c: [f64; 3], x: f64, y: f64) {
+        let [cx, cy, cz] = c;
+        for (obs, col) in [(x, 0), (y, 1)] {
+            let a0 = obs * rot[2] - rot[col];
+            let a1 = obs * rot[5] - rot[3 + col];
+            let a2 = obs * rot[8] - rot[6 + col];
+            let ac = a0 * cx + a1 * cy + a2 * cz;
+            self.n[0][l] += a0 * a0;
+            self.n[1][l] += a0 * a1;
+            self.n[2][l] += a0 * a2;
+            self.n[3][l] += a1 * a1;
+            self.n[4][l] += a1 * a2;
+            self.n[5][l] += a2 * a2;
+            self.r[0][l] += a0 * ac;
+            self.r[1][l] += a1 * ac;
+            self.r[2][l] += a2 * ac;
         }
     }
 
@@ -292,14 +290,14 @@ fn ray_stages<const TANGENT: bool>(
     o: &Prepared<'_>,
     e: Option<&[Lane]>,
     delta: &mut [Lane; 6],
-    cpos: &mut [Lane; 3],
-    dir: &mut [Lane; 3],
+    scratch: &mut StageScratch,
     ne: &mut Normals3,
     tmax: &mut Lane,
 ) {
     if let Some(e) = e {
         o.noise.apply(e, delta);
     }
+    let StageScratch { cpos, dir, .. } = scratch;
     for i in 0..3 {
         for l in 0..LANES {
             cpos[i][l] = o.c[i] + delta[i][l];
@@ -323,33 +321,29 @@ fn ray_stages<const TANGENT: bool>(
     }
 }
 
-/// Rotation `R̄·Exp(w)` per lane (row-major); θ² into `tmax`.
+/// Rotation `R̄·Exp(w)` (row-major) and θ² = |w|² (Taylor form of `Exp`).
 #[inline(always)]
-fn tangent_rotation(r: &[f64; 9], delta: &[Lane; 6], rot: &mut [Lane; 9], tmax: &mut Lane) {
-    for l in 0..LANES {
-        let (wx, wy, wz) = (delta[3][l], delta[4][l], delta[5][l]);
-        let t = wx * wx + wy * wy + wz * wz;
-        let (s, c) = sinc_cosc_series(t);
-        // Exp(w) = I + s[w]× + c(wwᵀ − tI).
-        let e = [
-            1.0 + c * (wx * wx - t),
-            c * wx * wy - s * wz,
-            s * wy + c * wx * wz,
-            s * wz + c * wx * wy,
-            1.0 + c * (wy * wy - t),
-            c * wy * wz - s * wx,
-            c * wx * wz - s * wy,
-            s * wx + c * wy * wz,
-            1.0 + c * (wz * wz - t),
-        ];
-        for i in 0..3 {
-            for j in 0..3 {
-                rot[3 * i + j][l] =
-                    r[3 * i] * e[j] + r[3 * i + 1] * e[3 + j] + r[3 * i + 2] * e[6 + j];
-            }
-        }
-        keep_max(&mut tmax[l], t);
-    }
+fn tangent_rot(r: &[f64; 9], w: [f64; 3]) -> ([f64; 9], f64) {
+    let [wx, wy, wz] = w;
+    let t = wx * wx + wy * wy + wz * wz;
+    let (s, c) = sinc_cosc_series(t);
+    // Exp(w) = I + s[w]× + c(wwᵀ − tI).
+    let e = [
+        1.0 + c * (wx * wx - t),
+        c * wx * wy - s * wz,
+        s * wy + c * wx * wz,
+        s * wz + c * wx * wy,
+        1.0 + c * (wy * wy - t),
+        c * wy * wz - s * wx,
+        c * wx * wz - s * wy,
+        s * wx + c * wy * wz,
+        1.0 + c * (wz * wz - t),
+    ];
+    let rot = std::array::from_fn(|k| {
+        let (i, j) = (k / 3, k % 3);
+        r[3 * i] * e[j] + r[3 * i + 1] * e[3 + j] + r[3 * i + 2] * e[6 + j]
+    });
+    (rot, t)
 }
 
 /// Sines and cosines of the nominal ω, φ, κ of an observer.
@@ -396,16 +390,7 @@ fn ray_pass<const TANGENT: bool, const DIAGONAL: bool>(
     tmax: &mut Lane,
 ) {
     for l in 0..LANES {
-        let d = match e {
-            Some(e) => {
-                let d = o.noise.delta_lane::<DIAGONAL>(e, l);
-                for i in 0..6 {
-                    delta[i][l] = d[i];
-                }
-                d
-            }
-            None => std::array::from_fn(|i| delta[i][l]),
-        };
+        let d = lane_delta::<DIAGONAL>(o, e, delta, l);
         let c = std::array::from_fn(|i| o.c[i] + d[i]);
         let w = [d[3], d[4], d[5]];
         let (dir, t) = if TANGENT {
@@ -418,27 +403,120 @@ fn ray_pass<const TANGENT: bool, const DIAGONAL: bool>(
     }
 }
 
-/// `Rx(ω)Ry(φ)Rz(κ)` at the perturbed angles, per lane (row-major).
+/// `Rx(ω)Ry(φ)Rz(κ)` (row-major) at the nominal angles plus `w`, and the largest squared
+/// offset.
 #[inline(always)]
-fn euler_rotation(nom: &Trig, delta: &[Lane; 6], rot: &mut [Lane; 9], tmax: &mut Lane) {
+fn euler_rot(nom: &Trig, w: [f64; 3]) -> ([f64; 9], f64) {
+    let (s, c, t) = perturbed_trig(nom, w);
+    let (so, co, sp, cp, sk, ck) = (s[0], c[0], s[1], c[1], s[2], c[2]);
+    let m = [
+        cp * ck,
+        -(cp * sk),
+        sp,
+        co * sk + so * sp * ck,
+        co * ck - so * sp * sk,
+        -(so * cp),
+        so * sk - co * sp * ck,
+        so * ck + co * sp * sk,
+        co * cp,
+    ];
+    (m, t)
+}
+
+/// One observer with image coordinates (`x`, `y` per lane: pixel noise, or a fixed camera's
+/// undistorted observation) fused over the block: per lane its `δ` (from the normal rows `e`,
+/// or read from `delta` when drawn from the chain), the perturbed centre and rotation, and its
+/// two DLT rows added to the normal equations (the same operations as [`view_stages`]).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn view_pass<const TANGENT: bool, const DIAGONAL: bool>(
+    o: &Prepared<'_>,
+    e: Option<&[Lane]>,
+    delta: &mut [Lane; 6],
+    x: &Lane,
+    y: &Lane,
+    ne: &mut Normals3,
+    tmax: &mut Lane,
+) {
     for l in 0..LANES {
-        let (s, c, t) = perturbed_trig(nom, [delta[3][l], delta[4][l], delta[5][l]]);
-        let (so, co, sp, cp, sk, ck) = (s[0], c[0], s[1], c[1], s[2], c[2]);
-        let m = [
-            cp * ck,
-            -(cp * sk),
-            sp,
-            co * sk + so * sp * ck,
-            co * ck - so * sp * sk,
-            -(so * cp),
-            so * sk - co * sp * ck,
-            so * ck + co * sp * sk,
-            co * cp,
-        ];
-        for (k, v) in m.into_iter().enumerate() {
-            rot[k][l] = v;
+        let d = lane_delta::<DIAGONAL>(o, e, delta, l);
+        let c = std::array::from_fn(|i| o.c[i] + d[i]);
+        let w = [d[3], d[4], d[5]];
+        let (rot, t) = if TANGENT {
+            tangent_rot(&o.r, w)
+        } else {
+            euler_rot(&o.trig, w)
+        };
+        keep_max(&mut tmax[l], t);
+        ne.add_view_lane(l, &rot, c, x[l], y[l]);
+    }
+}
+
+/// [`view_pass`] in separate passes over the block, for narrow registers.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn view_stages<const TANGENT: bool>(
+    o: &Prepared<'_>,
+    e: Option<&[Lane]>,
+    delta: &mut [Lane; 6],
+    x: &Lane,
+    y: &Lane,
+    scratch: &mut StageScratch,
+    ne: &mut Normals3,
+    tmax: &mut Lane,
+) {
+    if let Some(e) = e {
+        o.noise.apply(e, delta);
+    }
+    let StageScratch { cpos, rot, .. } = scratch;
+    for i in 0..3 {
+        for l in 0..LANES {
+            cpos[i][l] = o.c[i] + delta[i][l];
+        }
+    }
+    for l in 0..LANES {
+        let w = [delta[3][l], delta[4][l], delta[5][l]];
+        let (r, t) = if TANGENT {
+            tangent_rot(&o.r, w)
+        } else {
+            euler_rot(&o.trig, w)
+        };
+        for k in 0..9 {
+            rot[k][l] = r[k];
         }
         keep_max(&mut tmax[l], t);
+    }
+    for l in 0..LANES {
+        let r = std::array::from_fn(|k| rot[k][l]);
+        ne.add_view_lane(l, &r, [cpos[0][l], cpos[1][l], cpos[2][l]], x[l], y[l]);
+    }
+}
+
+/// Lane arrays of the staged (narrow) passes.
+struct StageScratch {
+    cpos: [Lane; 3],
+    dir: [Lane; 3],
+    rot: [Lane; 9],
+}
+
+/// `δ` of lane `l`: `L·ε` from the rows `e` (stored into `delta` for [`exact_lane`]), or the
+/// chain-drawn `δ` already in `delta`.
+#[inline(always)]
+fn lane_delta<const DIAGONAL: bool>(
+    o: &Prepared<'_>,
+    e: Option<&[Lane]>,
+    delta: &mut [Lane; 6],
+    l: usize,
+) -> [f64; 6] {
+    match e {
+        Some(e) => {
+            let d = o.noise.delta_lane::<DIAGONAL>(e, l);
+            for i in 0..6 {
+                delta[i][l] = d[i];
+            }
+            d
+        }
+        None => std::array::from_fn(|i| delta[i][l]),
     }
 }
 
@@ -606,9 +684,11 @@ pub(crate) fn run_prepared(
         drawn: chain.map_or_else(Vec::new, |c| c.nominal().to_vec()),
     };
     let mut ne = Normals3::new();
-    let mut cpos = [[0.0; LANES]; 3];
-    let mut dir = [[0.0; LANES]; 3];
-    let mut rot = [[0.0; LANES]; 9];
+    let mut stage = StageScratch {
+        cpos: [[0.0; LANES]; 3],
+        dir: [[0.0; LANES]; 3],
+        rot: [[0.0; LANES]; 9],
+    };
     let mut xs = [[0.0; LANES]; 3];
     let mut tmax;
     let shift = acc.shift();
@@ -624,37 +704,24 @@ pub(crate) fn run_prepared(
         tmax = [0.0; LANES];
         for (j, o) in prep.iter().enumerate() {
             let delta = &mut s.delta[j];
+            let e = o.row.map(|r| &s.e[r..r + 6]);
+            let (ne, tmax) = (&mut ne, &mut tmax);
             if let Observation::Ray = o.observation {
-                let e = o.row.map(|r| &s.e[r..r + 6]);
-                let (ne, tmax) = (&mut ne, &mut tmax);
                 match (width, o.tangent, o.noise.is_diagonal()) {
                     (Width::Wide, true, true) => ray_pass::<true, true>(o, e, delta, ne, tmax),
                     (Width::Wide, true, false) => ray_pass::<true, false>(o, e, delta, ne, tmax),
                     (Width::Wide, false, true) => ray_pass::<false, true>(o, e, delta, ne, tmax),
                     (Width::Wide, false, false) => ray_pass::<false, false>(o, e, delta, ne, tmax),
                     (Width::Narrow, true, _) => {
-                        ray_stages::<true>(o, e, delta, &mut cpos, &mut dir, ne, tmax);
+                        ray_stages::<true>(o, e, delta, &mut stage, ne, tmax)
                     }
                     (Width::Narrow, false, _) => {
-                        ray_stages::<false>(o, e, delta, &mut cpos, &mut dir, ne, tmax);
+                        ray_stages::<false>(o, e, delta, &mut stage, ne, tmax);
                     }
                 }
                 continue;
             }
-            if let Some(r) = o.row {
-                o.noise.apply(&s.e[r..r + 6], delta);
-            }
-            for i in 0..3 {
-                for l in 0..LANES {
-                    cpos[i][l] = o.c[i] + delta[i][l];
-                }
-            }
-            let tangent = o.tangent;
-            if tangent {
-                tangent_rotation(&o.r, delta, &mut rot, &mut tmax);
-            } else {
-                euler_rotation(&o.trig, delta, &mut rot, &mut tmax);
-            }
+            // The image coordinates first (they do not depend on the pose).
             let [ex, ey] = [&s.e[o.pixel_row], &s.e[o.pixel_row + 1]];
             let [px, py] = &mut s.xy[j];
             match &o.observation {
@@ -667,7 +734,25 @@ pub(crate) fn run_prepared(
                 Observation::Lens(v) => crate::fixed::undistort_lanes(v, ex, ey, px, py, b),
                 Observation::Ray => unreachable!("handled above"),
             }
-            ne.add_view(&rot, &cpos, px, py);
+            let (px, py) = (&*px, &*py);
+            match (width, o.tangent, o.noise.is_diagonal()) {
+                (Width::Wide, true, true) => view_pass::<true, true>(o, e, delta, px, py, ne, tmax),
+                (Width::Wide, true, false) => {
+                    view_pass::<true, false>(o, e, delta, px, py, ne, tmax);
+                }
+                (Width::Wide, false, true) => {
+                    view_pass::<false, true>(o, e, delta, px, py, ne, tmax);
+                }
+                (Width::Wide, false, false) => {
+                    view_pass::<false, false>(o, e, delta, px, py, ne, tmax);
+                }
+                (Width::Narrow, true, _) => {
+                    view_stages::<true>(o, e, delta, px, py, &mut stage, ne, tmax);
+                }
+                (Width::Narrow, false, _) => {
+                    view_stages::<false>(o, e, delta, px, py, &mut stage, ne, tmax);
+                }
+            }
         }
         // A full block with every lane inside the series' range (all of them, for realistic
         // σ): solve and accumulate in one pass.
