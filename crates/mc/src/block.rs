@@ -642,8 +642,8 @@ struct Scratch {
     delta: Vec<[Lane; 6]>,
     /// The normalized image coordinates of each observer with pixel noise.
     xy: Vec<[Lane; 2]>,
-    eps: Vec<f64>,
-    drawn: Vec<crate::chain::WorldPose>,
+    /// The vectorised chain composition (observers drawn jointly from the chain).
+    composer: Option<crate::chain_block::Composer>,
 }
 
 /// `m` draws of one grid point (task `task` of the run keyed `key`) into `acc`. Must be
@@ -680,8 +680,7 @@ pub(crate) fn run_prepared(
         e: vec![[0.0; LANES]; rows.next_multiple_of(2)],
         delta: vec![[[0.0; LANES]; 6]; prep.len()],
         xy: vec![[[0.0; LANES]; 2]; prep.len()],
-        eps: vec![0.0; chain.map_or(0, |c| 6 * c.len())],
-        drawn: chain.map_or_else(Vec::new, |c| c.nominal().to_vec()),
+        composer: chain.map(crate::chain_block::Composer::new),
     };
     let mut ne = Normals3::new();
     let mut stage = StageScratch {
@@ -777,24 +776,25 @@ pub(crate) fn run_prepared(
     acc.merge(&lanes.reduce(shift));
 }
 
-/// δ of the observers drawn jointly from the chain, per lane (scalar chain composition).
-#[inline(never)]
+/// δ of the observers drawn jointly from the chain, per lane: the chain composed in lanes
+/// ([`crate::chain_block::Composer`], scalar formulas only for a lane beyond its series),
+/// then each observer's centre error and its chain camera's body-axis error turned into the
+/// observer's axes (`R·Exp(Rᵀ R̄ θ)`: `w = chain_to_own·θ`).
+#[inline(always)]
 fn chain_deltas(chain: &crate::chain::Chain, prep: &[Prepared<'_>], s: &mut Scratch, b: usize) {
-    let n = s.eps.len();
-    for l in 0..b {
-        for (k, e) in s.eps.iter_mut().enumerate().take(n) {
-            *e = s.e[k][l];
-        }
-        chain.compose_into(&s.eps, &mut s.drawn);
-        for (j, o) in prep.iter().enumerate() {
-            if let Some(i) = o.source {
-                let (dc, th) = chain.error_of(i, &s.drawn[i]);
-                // World-frame rotation Exp(R̄θ) on the observer's R: R·Exp(Rᵀ R̄ θ).
-                let m = &o.chain_to_own;
+    let Some(composer) = s.composer.as_mut() else {
+        return;
+    };
+    composer.compose::<false>(chain, &s.e, b);
+    for (j, o) in prep.iter().enumerate() {
+        if let Some(i) = o.source {
+            let (v, th, m) = (&composer.v[i], &composer.th[i], &o.chain_to_own);
+            let delta = &mut s.delta[j];
+            for l in 0..LANES {
                 for k in 0..3 {
-                    s.delta[j][k][l] = dc[k];
-                    s.delta[j][3 + k][l] =
-                        m[3 * k] * th[0] + m[3 * k + 1] * th[1] + m[3 * k + 2] * th[2];
+                    delta[k][l] = v[k][l];
+                    delta[3 + k][l] =
+                        m[3 * k] * th[0][l] + m[3 * k + 1] * th[1][l] + m[3 * k + 2] * th[2][l];
                 }
             }
         }

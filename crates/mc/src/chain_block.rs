@@ -239,28 +239,76 @@ pub(crate) fn run_task(
     width: Width,
 ) -> Vec<CamSums> {
     let n = chain.len();
-    let plan = chain.plan();
     let mut e = vec![[0.0; LANES]; 6 * n];
-    let mut poses = vec![
-        PoseLanes {
-            c: [[0.0; LANES]; 3],
-            r: [[0.0; LANES]; 9],
-        };
-        n
-    ];
+    let mut composer = Composer::new(chain);
     let mut lanes = vec![CamLanes::new(); n];
-    let mut v = vec![[[0.0; LANES]; 6]; n];
-    let mut th = vec![[[0.0; LANES]; 3]; n];
-    let mut delta = [[0.0; LANES]; 6];
-    let mut ok;
     let mut done = 0;
     while done < m {
         let b = LANES.min(m - done);
         fill_block(key, task, done as u64, &mut e, width);
-        ok = [true; LANES];
+        composer.compose::<true>(chain, &e, b);
+        for i in 0..n {
+            lanes[i].add(&composer.v[i], &composer.th[i], b);
+        }
+        done += b;
+    }
+    lanes.iter().map(|c| c.reduce(m as u64)).collect()
+}
+
+/// The vectorised composition of a chain over a block of joint draws, with its lane arrays
+/// (allocated once per task): per camera the centre error and ω φ κ offsets (`v`) and the
+/// body-axis error `log(R̄ᵀR)` (`th`). Used by the chain propagation ([`run_task`]) and by the
+/// grid kernel for observers drawn jointly from the chain (`block::run_prepared`).
+pub(crate) struct Composer {
+    plan: Vec<CamPlan>,
+    poses: Vec<PoseLanes>,
+    /// Per camera: centre − nominal (mm, rows 0–2), ω φ κ offsets (rad, rows 3–5; only
+    /// with `ANGLES`).
+    pub(crate) v: Vec<[Lane; 6]>,
+    /// Per camera: the body-axis error (rad).
+    pub(crate) th: Vec<[Lane; 3]>,
+    delta: [Lane; 6],
+    ok: [bool; LANES],
+}
+
+impl Composer {
+    pub(crate) fn new(chain: &Chain) -> Self {
+        let n = chain.len();
+        Composer {
+            plan: chain.plan(),
+            poses: vec![
+                PoseLanes {
+                    c: [[0.0; LANES]; 3],
+                    r: [[0.0; LANES]; 9],
+                };
+                n
+            ],
+            v: vec![[[0.0; LANES]; 6]; n],
+            th: vec![[[0.0; LANES]; 3]; n],
+            delta: [[0.0; LANES]; 6],
+            ok: [true; LANES],
+        }
+    }
+
+    /// Composes the block whose chain normals are the rows `e[..6n]` (6 per camera, camera
+    /// `i` at `6i`) into `v` and `th`; the first `b` lanes are valid, a lane beyond the series'
+    /// range is recomputed by the scalar formulas. Without `ANGLES` the ω φ κ offsets are
+    /// skipped (rows 3–5 of `v` are left as they are).
+    #[inline(always)]
+    pub(crate) fn compose<const ANGLES: bool>(&mut self, chain: &Chain, e: &[Lane], b: usize) {
+        let n = chain.len();
+        let Composer {
+            plan,
+            poses,
+            v,
+            th,
+            delta,
+            ok,
+        } = self;
+        *ok = [true; LANES];
         for &i in chain.order() {
             let p = &plan[i];
-            p.noise_factor.apply(&e[6 * i..6 * i + 6], &mut delta);
+            p.noise_factor.apply(&e[6 * i..6 * i + 6], delta);
             let mut link = PoseLanes {
                 c: [[0.0; LANES]; 3],
                 r: [[0.0; LANES]; 9],
@@ -348,19 +396,14 @@ pub(crate) fn run_task(
             }
         }
         for i in 0..n {
-            errors(&plan[i], &poses[i], &mut v[i], &mut th[i], &mut ok);
+            errors::<ANGLES>(&plan[i], &poses[i], &mut v[i], &mut th[i], ok);
         }
         for l in 0..b {
             if !ok[l] {
-                exact_lane(chain, &e, l, &mut v, &mut th);
+                exact_lane(chain, &e[..6 * n], l, v, th);
             }
         }
-        for i in 0..n {
-            lanes[i].add(&v[i], &th[i], b);
-        }
-        done += b;
     }
-    lanes.iter().map(|c| c.reduce(m as u64)).collect()
 }
 
 /// `a·b` of row-major 3×3 matrices.
@@ -374,7 +417,7 @@ fn mat_mul(a: &[f64; 9], b: &[f64; 9]) -> [f64; 9] {
 
 /// Per lane: (centre − nominal, ω φ κ offsets) and the body-axis error of one camera.
 #[inline(always)]
-fn errors(
+fn errors<const ANGLES: bool>(
     p: &CamPlan,
     pose: &PoseLanes,
     v: &mut [Lane; 6],
@@ -390,16 +433,18 @@ fn errors(
         for k in 0..3 {
             v[k][l] = pose.c[k][l] - p.nominal_c[k];
         }
-        // ω = atan2(−r₁₂, r₂₂), κ = atan2(−r₀₁, r₀₀) (both scaled by cos φ > 0);
-        // φ = atan2(r₀₂, √(r₀₀² + r₀₁²)). Offsets by the angle-difference identities.
-        let (yo, xo) = (-r[5], r[8]);
-        v[3][l] = atan2_small(yo * co - xo * so, xo * co + yo * so, &mut lok);
-        let cphi = (r[0] * r[0] + r[1] * r[1]).sqrt();
-        // Near gimbal lock the scalar extraction switches convention: leave it to it.
-        lok &= cphi >= GIMBAL_COS_PHI;
-        v[4][l] = atan2_small(r[2] * cp - cphi * sp, cphi * cp + r[2] * sp, &mut lok);
-        let (yk, xk) = (-r[1], r[0]);
-        v[5][l] = atan2_small(yk * ck - xk * sk, xk * ck + yk * sk, &mut lok);
+        if ANGLES {
+            // ω = atan2(−r₁₂, r₂₂), κ = atan2(−r₀₁, r₀₀) (both scaled by cos φ > 0);
+            // φ = atan2(r₀₂, √(r₀₀² + r₀₁²)). Offsets by the angle-difference identities.
+            let (yo, xo) = (-r[5], r[8]);
+            v[3][l] = atan2_small(yo * co - xo * so, xo * co + yo * so, &mut lok);
+            let cphi = (r[0] * r[0] + r[1] * r[1]).sqrt();
+            // Near gimbal lock the scalar extraction switches convention: leave it to it.
+            lok &= cphi >= GIMBAL_COS_PHI;
+            v[4][l] = atan2_small(r[2] * cp - cphi * sp, cphi * cp + r[2] * sp, &mut lok);
+            let (yk, xk) = (-r[1], r[0]);
+            v[5][l] = atan2_small(yk * ck - xk * sk, xk * ck + yk * sk, &mut lok);
+        }
         // Body-axis error: M = R̄ᵀR, v = ½(M − Mᵀ)∨, θ = atan2(|v|, (tr M − 1)/2)·v/|v|.
         let mt = |i: usize, j: usize| {
             rn[i] * r[j] + rn[3 + i] * r[3 + j] + rn[6 + i] * r[6 + j] // (R̄ᵀR)_ij
