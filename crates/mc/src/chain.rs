@@ -9,7 +9,6 @@ use crashrig_geometry::{Rigid3, Rot3, UncertainPose, quat};
 use crashrig_stats::progress::{Counter, Progress};
 use crashrig_stats::{Moments, stream};
 use nalgebra::{DMatrix, Matrix3, Matrix6, Vector3, Vector6};
-use rayon::prelude::*;
 
 /// A world pose: projection centre and `R_world_from_cam`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -570,9 +569,10 @@ impl Chain {
         };
         let n = self.len();
         let key = crate::philox::key_of_seed(seed);
-        let parts: Vec<Vec<CamSums>> = (0..chunks)
-            .into_par_iter()
-            .map(|k| {
+        let mut total = vec![CamSums::new(); n];
+        crate::ordered::map_fold_in_order(
+            chunks,
+            |k| {
                 let m = CHUNK.min(samples - k * CHUNK);
                 let part = crate::simd::dispatch(
                     isa,
@@ -581,15 +581,14 @@ impl Chain {
                 );
                 ticks.add(1);
                 part
-            })
-            .collect();
+            },
+            |_, part| {
+                for (t, p) in total.iter_mut().zip(&part) {
+                    t.merge(p);
+                }
+            },
+        );
         ticks.finish();
-        let mut total = vec![CamSums::new(); n];
-        for part in &parts {
-            for (t, p) in total.iter_mut().zip(part) {
-                t.merge(p);
-            }
-        }
         total
             .iter()
             .enumerate()
@@ -619,9 +618,10 @@ impl Chain {
     fn monte_carlo_legacy(&self, samples: usize, seed: u64, ticks: &Counter<'_>) -> Vec<PoseMc> {
         let n = self.len();
         let chunks = samples.div_ceil(CHUNK);
-        let parts: Vec<Vec<(Moments<6>, Moments<6>)>> = (0..chunks)
-            .into_par_iter()
-            .map(|k| {
+        let mut total = vec![(Moments::<6>::new(), Moments::<6>::new()); n];
+        crate::ordered::map_fold_in_order(
+            chunks,
+            |k| {
                 let mut rng = stream(seed, k as u64);
                 let m = CHUNK.min(samples - k * CHUNK);
                 let mut acc = vec![(Moments::<6>::new(), Moments::<6>::new()); n];
@@ -643,15 +643,14 @@ impl Chain {
                 }
                 ticks.add(1);
                 acc
-            })
-            .collect();
-        let mut total = vec![(Moments::<6>::new(), Moments::<6>::new()); n];
-        for part in &parts {
-            for (t, p) in total.iter_mut().zip(part) {
-                t.0.merge(&p.0);
-                t.1.merge(&p.1);
-            }
-        }
+            },
+            |_, part| {
+                for (t, p) in total.iter_mut().zip(&part) {
+                    t.0.merge(&p.0);
+                    t.1.merge(&p.1);
+                }
+            },
+        );
         total
             .iter()
             .enumerate()

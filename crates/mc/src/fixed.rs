@@ -724,13 +724,14 @@ pub(crate) fn run(
     match draws {
         Draws::Samples(samples) => {
             let chunks = samples.div_ceil(CHUNK);
-            let tasks: Vec<(usize, usize)> = (0..points.len())
-                .filter(|&p| views[p].len() >= 2)
-                .flat_map(|p| (0..chunks).map(move |k| (p, k)))
-                .collect();
-            let parts: Vec<Acc3> = tasks
-                .par_iter()
-                .map(|&(p, k)| {
+            // Only points seen by at least two observers are drawn; task t = (measurable point
+            // t / chunks, chunk t % chunks), each point's chunks merged in order.
+            let drawn: Vec<usize> = (0..points.len()).filter(|&p| views[p].len() >= 2).collect();
+            let mut sums: Vec<Acc3> = points.iter().map(|p| Acc3::new(*p)).collect();
+            crate::ordered::map_fold_in_order(
+                drawn.len() * chunks,
+                |t| {
+                    let (p, k) = (drawn[t / chunks], t % chunks);
                     let m = CHUNK.min(samples - k * CHUNK);
                     let mut acc = Acc3::new(points[p]);
                     let task = task_index(p, k);
@@ -739,22 +740,18 @@ pub(crate) fn run(
                     );
                     progress.chunk_done(p);
                     acc
-                })
-                .collect();
-            let mut next = 0;
+                },
+                |t, part| sums[drawn[t / chunks]].merge(&part),
+            );
             Ok(points
                 .iter()
+                .zip(&sums)
                 .enumerate()
-                .map(|(p, point)| {
+                .map(|(p, (point, m))| {
                     if views[p].len() < 2 {
                         return not_measurable(point, views[p].len());
                     }
-                    let mut m = Acc3::new(*point);
-                    for part in &parts[next..next + chunks] {
-                        m.merge(part);
-                    }
-                    next += chunks;
-                    finish(point, &views[p], &m)
+                    finish(point, &views[p], m)
                 })
                 .collect())
         }

@@ -429,12 +429,12 @@ impl GridStudy {
             return r;
         }
         let aimed = self.aim_all(&points)?;
-        let tasks: Vec<(usize, usize)> = (0..points.len())
-            .flat_map(|p| (0..chunks).map(move |k| (p, k)))
-            .collect();
-        let parts: Vec<Acc3> = tasks
-            .par_iter()
-            .map(|&(p, k)| {
+        // Task t = (point t / chunks, chunk t % chunks); each point's chunks merged in order.
+        let mut sums: Vec<Acc3> = points.iter().map(|p| Acc3::new(*p)).collect();
+        crate::ordered::map_fold_in_order(
+            points.len() * chunks,
+            |t| {
+                let (p, k) = (t / chunks, t % chunks);
                 let m = CHUNK.min(samples - k * CHUNK);
                 let mut acc = Acc3::new(points[p]);
                 run_chunk(
@@ -448,19 +448,15 @@ impl GridStudy {
                 );
                 ticks.chunk_done(p);
                 acc
-            })
-            .collect();
+            },
+            |t, part| sums[t / chunks].merge(&part),
+        );
         ticks.finish();
         let stats = points
             .iter()
+            .zip(&sums)
             .enumerate()
-            .map(|(p, point)| {
-                let mut m = Acc3::new(*point);
-                for part in &parts[p * chunks..(p + 1) * chunks] {
-                    m.merge(part);
-                }
-                self.finish(point, &aimed[p], &m)
-            })
+            .map(|(p, (point, m))| self.finish(point, &aimed[p], m))
             .collect();
         Ok(self.result(stats))
     }

@@ -207,6 +207,7 @@ mod kernel;
 mod legacy;
 pub mod limits;
 mod normal;
+mod ordered;
 mod philox;
 pub mod reference;
 mod scenario;
