@@ -1,10 +1,13 @@
 //! Criterion benchmarks of the Monte Carlo engine: the random-number source, the
-//! two-observer forward-intersection kernel, the grid, and the chain propagation.
+//! two-observer forward-intersection kernel, each kernel path (tangent, euler, full covariance,
+//! pixel noise, three observers, chain-drawn observers), the grid, and the chain propagation.
 //!
 //! Throughput is reported per draw (`Throughput::Elements`), so criterion prints draws/s.
 //! Single-threaded numbers come from a 1-thread rayon pool; the 2-thread grid uses a 2-thread
 //! pool. See docs/performance.md for the numbers and the roofline note.
-use crashrig_benches::{CHAIN, TWO_OBSERVERS, engine_name, engines, one_point_kernel};
+use crashrig_benches::{
+    CHAIN, TWO_OBSERVERS, engine_name, engines, kernel_paths, one_point_kernel,
+};
 use crashrig_mc::{Chain, Engine, GridStudy, Isa, Scenario};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use rand::RngExt;
@@ -97,6 +100,26 @@ fn kernel(c: &mut Criterion) {
     g.finish();
 }
 
+fn paths(c: &mut Criterion) {
+    // One grid point per kernel path (`crashrig_benches::kernel_paths`), one thread, every
+    // engine: the per-draw cost of each path.
+    let n = 16 * 4096;
+    let one = pool(1);
+    let mut g = c.benchmark_group("paths_1thread");
+    g.throughput(Throughput::Elements(n as u64));
+    g.sample_size(10);
+    for (name, toml) in kernel_paths() {
+        let sc = Scenario::from_toml_str(&toml, Path::new("bench.toml")).expect("scenario");
+        let study = GridStudy::new(&sc, 0, 0).expect("study");
+        for engine in engines() {
+            g.bench_function(format!("{name}/{}", engine_name(engine)), |b| {
+                b.iter(|| one.install(|| black_box(study.run_with(n, 7, engine).expect("run"))))
+            });
+        }
+    }
+    g.finish();
+}
+
 fn grid(c: &mut Criterion) {
     let sc = Scenario::from_toml_str(TWO_OBSERVERS, Path::new("bench.toml")).expect("scenario");
     let study = GridStudy::new(&sc, 0, 0).expect("study");
@@ -136,5 +159,5 @@ fn chain(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, normals, kernel, grid, chain);
+criterion_group!(benches, normals, kernel, paths, grid, chain);
 criterion_main!(benches);

@@ -34,6 +34,43 @@ pub fn one_point_kernel() -> String {
         .replace("y_mm = [-600.0, 600.0, 13]", "y_mm = [300.0, 300.0, 1]")
 }
 
+/// One grid point (1000, 300, 0) mm of each kernel path, by name: tangent and euler noise
+/// (diagonal factors), a full tangent covariance, pixel noise, three observers, and observers
+/// drawn jointly from a chain (`correlated`). The per-path benches
+/// (`benches/mc.rs`, group `paths_1thread`) run each on every engine.
+pub fn kernel_paths() -> Vec<(&'static str, String)> {
+    let one = one_point_kernel();
+    let tangent = format!("rotation_noise = \"tangent\"\n{one}");
+    let full = tangent.replacen(
+        "sigma_position_mm = [1.52, 1.54, 1.52]\nsigma_angles_deg = [0.011, 0.011, 0.013]",
+        "covariance_tangent = [[2.31, 0.4, 0.0, 0.001, 0.0, 0.0], [0.4, 2.37, 0.0, 0.0, 0.0, 0.0], \
+         [0.0, 0.0, 2.31, 0.0, 0.0, 0.0], [0.001, 0.0, 0.0, 1.2e-4, 0.0, 0.0], \
+         [0.0, 0.0, 0.0, 0.0, 1.2e-4, 0.0], [0.0, 0.0, 0.0, 0.0, 0.0, 1.7e-4]]",
+        1,
+    );
+    let pixel = tangent.replace(
+        "[grid]\n",
+        "[grid]\npixel_sigma_px = 0.5\nfocal_px = 1500.0\n",
+    );
+    let three = format!(
+        "{tangent}[[grid.observer]]\nposition_mm = [1300.0, 700.0, 300.0]\n\
+         sigma_position_mm = [2.0, 2.0, 2.0]\nsigma_angles_deg = [0.02, 0.02, 0.02]\n"
+    );
+    // The bundled correlated scenario (observers at cam2 and cam3, drawn jointly with the
+    // chain) at the same single point.
+    let correlated = include_str!("../../fixtures/scenarios/three_cameras_correlated.toml")
+        .replace("x_mm = [400.0, 2000.0, 17]", "x_mm = [1000.0, 1000.0, 1]")
+        .replace("y_mm = [-600.0, 600.0, 13]", "y_mm = [300.0, 300.0, 1]");
+    vec![
+        ("tangent", tangent),
+        ("euler", one),
+        ("full_covariance", full),
+        ("pixel", pixel),
+        ("three_observers", three),
+        ("correlated", correlated),
+    ]
+}
+
 /// A three-camera chain (the paper's cam1 → cam2 link, and a third camera).
 pub const CHAIN: &str = r#"
 seed = 1
@@ -89,5 +126,37 @@ pub fn engine_of_name(name: &str) -> Option<Engine> {
             .into_iter()
             .find(|l| l.name() == name)
             .map(Engine::Simd),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crashrig_mc::{GridStudy, Scenario};
+    use std::path::Path;
+
+    #[test]
+    fn every_kernel_path_parses_and_runs() {
+        let paths = kernel_paths();
+        // Every replacement took effect: six different scenarios.
+        for (i, (a, ta)) in paths.iter().enumerate() {
+            for (b, tb) in &paths[i + 1..] {
+                assert_ne!(ta, tb, "{a} and {b} are the same scenario");
+            }
+        }
+        for (name, toml) in paths {
+            let sc = Scenario::from_toml_str(&toml, Path::new("bench.toml"))
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
+            let study = GridStudy::new(&sc, 0, 0).unwrap_or_else(|e| panic!("{name}: {e}"));
+            let r = study.run_with(200, 1, Engine::default()).unwrap();
+            assert_eq!(r.points.len(), 1, "{name}");
+            assert!(
+                r.points[0]
+                    .sigma_mm
+                    .iter()
+                    .all(|s| s.is_finite() && *s > 0.0),
+                "{name}"
+            );
+        }
     }
 }
