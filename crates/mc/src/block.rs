@@ -90,9 +90,19 @@ impl NoiseFactor {
 
     /// `δ = L·ε` of lane `d` (the same operations as [`Self::apply`], so the same bits).
     #[inline(always)]
-    fn delta_lane(&self, e: &[Lane], d: usize) -> [f64; 6] {
-        debug_assert!(self.diagonal);
-        std::array::from_fn(|i| self.l[i][i] * e[i][d])
+    fn delta_lane<const DIAGONAL: bool>(&self, e: &[Lane], d: usize) -> [f64; 6] {
+        std::array::from_fn(|i| {
+            let li = &self.l[i];
+            if DIAGONAL {
+                li[i] * e[i][d]
+            } else {
+                let mut s = li[0] * e[0][d];
+                for k in 1..=i {
+                    s += li[k] * e[k][d];
+                }
+                s
+            }
+        })
     }
 
     /// `δ = L·ε` per lane; `e` holds the six normal rows. Row `i` is `Σ_{k ≤ i} L_ik ε_k`
@@ -372,7 +382,7 @@ fn euler_dir(nom: &Trig, w: [f64; 3]) -> ([f64; 3], f64) {
 /// lane beyond the series ([`exact_lane`]). One pass instead of four over the lane arrays
 /// (the same operations in the same order as the separate loops had, so the same bits).
 #[inline(always)]
-fn ray_pass<const TANGENT: bool>(
+fn ray_pass<const TANGENT: bool, const DIAGONAL: bool>(
     o: &Prepared<'_>,
     e: Option<&[Lane]>,
     delta: &mut [Lane; 6],
@@ -380,7 +390,7 @@ fn ray_pass<const TANGENT: bool>(
     tmax: &mut Lane,
 ) {
     for l in 0..LANES {
-        let d = lane_delta(o, e, delta, l);
+        let d = lane_delta::<DIAGONAL>(o, e, delta, l);
         let c = std::array::from_fn(|i| o.c[i] + d[i]);
         let w = [d[3], d[4], d[5]];
         let (dir, t) = if TANGENT {
@@ -419,7 +429,7 @@ fn euler_rot(nom: &Trig, w: [f64; 3]) -> ([f64; 9], f64) {
 /// two DLT rows added to the normal equations (the same operations as [`view_stages`]).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn view_pass<const TANGENT: bool>(
+fn view_pass<const TANGENT: bool, const DIAGONAL: bool>(
     o: &Prepared<'_>,
     e: Option<&[Lane]>,
     delta: &mut [Lane; 6],
@@ -429,7 +439,7 @@ fn view_pass<const TANGENT: bool>(
     tmax: &mut Lane,
 ) {
     for l in 0..LANES {
-        let d = lane_delta(o, e, delta, l);
+        let d = lane_delta::<DIAGONAL>(o, e, delta, l);
         let c = std::array::from_fn(|i| o.c[i] + d[i]);
         let w = [d[3], d[4], d[5]];
         let (rot, t) = if TANGENT {
@@ -492,10 +502,15 @@ struct StageScratch {
 /// `δ` of lane `l`: `L·ε` from the rows `e` (stored into `delta` for [`exact_lane`]), or the
 /// chain-drawn `δ` already in `delta`.
 #[inline(always)]
-fn lane_delta(o: &Prepared<'_>, e: Option<&[Lane]>, delta: &mut [Lane; 6], l: usize) -> [f64; 6] {
+fn lane_delta<const DIAGONAL: bool>(
+    o: &Prepared<'_>,
+    e: Option<&[Lane]>,
+    delta: &mut [Lane; 6],
+    l: usize,
+) -> [f64; 6] {
     match e {
         Some(e) => {
-            let d = o.noise.delta_lane(e, l);
+            let d = o.noise.delta_lane::<DIAGONAL>(e, l);
             for i in 0..6 {
                 delta[i][l] = d[i];
             }
@@ -690,16 +705,18 @@ pub(crate) fn run_prepared(
             let delta = &mut s.delta[j];
             let e = o.row.map(|r| &s.e[r..r + 6]);
             let (ne, tmax) = (&mut ne, &mut tmax);
-            // Fused passes on wide levels for diagonal factors (and chain-drawn δ); a full
-            // factor's L·ε runs as its own vectorised stage (the lane form of its triangular
-            // sums compiled to slower code there).
-            let fused = width == Width::Wide && (e.is_none() || o.noise.is_diagonal());
             if let Observation::Ray = o.observation {
-                match (fused, o.tangent) {
-                    (true, true) => ray_pass::<true>(o, e, delta, ne, tmax),
-                    (true, false) => ray_pass::<false>(o, e, delta, ne, tmax),
-                    (false, true) => ray_stages::<true>(o, e, delta, &mut stage, ne, tmax),
-                    (false, false) => ray_stages::<false>(o, e, delta, &mut stage, ne, tmax),
+                match (width, o.tangent, o.noise.is_diagonal()) {
+                    (Width::Wide, true, true) => ray_pass::<true, true>(o, e, delta, ne, tmax),
+                    (Width::Wide, true, false) => ray_pass::<true, false>(o, e, delta, ne, tmax),
+                    (Width::Wide, false, true) => ray_pass::<false, true>(o, e, delta, ne, tmax),
+                    (Width::Wide, false, false) => ray_pass::<false, false>(o, e, delta, ne, tmax),
+                    (Width::Narrow, true, _) => {
+                        ray_stages::<true>(o, e, delta, &mut stage, ne, tmax)
+                    }
+                    (Width::Narrow, false, _) => {
+                        ray_stages::<false>(o, e, delta, &mut stage, ne, tmax);
+                    }
                 }
                 continue;
             }
@@ -717,11 +734,23 @@ pub(crate) fn run_prepared(
                 Observation::Ray => unreachable!("handled above"),
             }
             let (px, py) = (&*px, &*py);
-            match (fused, o.tangent) {
-                (true, true) => view_pass::<true>(o, e, delta, px, py, ne, tmax),
-                (true, false) => view_pass::<false>(o, e, delta, px, py, ne, tmax),
-                (false, true) => view_stages::<true>(o, e, delta, px, py, &mut stage, ne, tmax),
-                (false, false) => view_stages::<false>(o, e, delta, px, py, &mut stage, ne, tmax),
+            match (width, o.tangent, o.noise.is_diagonal()) {
+                (Width::Wide, true, true) => view_pass::<true, true>(o, e, delta, px, py, ne, tmax),
+                (Width::Wide, true, false) => {
+                    view_pass::<true, false>(o, e, delta, px, py, ne, tmax);
+                }
+                (Width::Wide, false, true) => {
+                    view_pass::<false, true>(o, e, delta, px, py, ne, tmax);
+                }
+                (Width::Wide, false, false) => {
+                    view_pass::<false, false>(o, e, delta, px, py, ne, tmax);
+                }
+                (Width::Narrow, true, _) => {
+                    view_stages::<true>(o, e, delta, px, py, &mut stage, ne, tmax);
+                }
+                (Width::Narrow, false, _) => {
+                    view_stages::<false>(o, e, delta, px, py, &mut stage, ne, tmax);
+                }
             }
         }
         // A full block with every lane inside the series' range (all of them, for realistic
