@@ -323,7 +323,7 @@ fn ray_stages<const TANGENT: bool>(
 
 /// Rotation `R̄·Exp(w)` (row-major) and θ² = |w|² (Taylor form of `Exp`).
 #[inline(always)]
-fn tangent_rot(r: &[f64; 9], w: [f64; 3]) -> ([f64; 9], f64) {
+pub(crate) fn tangent_rot(r: &[f64; 9], w: [f64; 3]) -> ([f64; 9], f64) {
     let [wx, wy, wz] = w;
     let t = wx * wx + wy * wy + wz * wz;
     let (s, c) = sinc_cosc_series(t);
@@ -346,11 +346,11 @@ fn tangent_rot(r: &[f64; 9], w: [f64; 3]) -> ([f64; 9], f64) {
     (rot, t)
 }
 
-/// Sines and cosines of the nominal ω, φ, κ of an observer.
+/// Sines and cosines of the nominal ω, φ, κ of an observer (or of a chain link).
 #[derive(Debug, Clone, Copy)]
-struct Trig {
-    s: [f64; 3],
-    c: [f64; 3],
+pub(crate) struct Trig {
+    pub(crate) s: [f64; 3],
+    pub(crate) c: [f64; 3],
 }
 
 /// `sin`, `cos` of `nominal + δ` per angle by the addition theorem (δ small).
@@ -406,7 +406,7 @@ fn ray_pass<const TANGENT: bool, const DIAGONAL: bool>(
 /// `Rx(ω)Ry(φ)Rz(κ)` (row-major) at the nominal angles plus `w`, and the largest squared
 /// offset.
 #[inline(always)]
-fn euler_rot(nom: &Trig, w: [f64; 3]) -> ([f64; 9], f64) {
+pub(crate) fn euler_rot(nom: &Trig, w: [f64; 3]) -> ([f64; 9], f64) {
     let (s, c, t) = perturbed_trig(nom, w);
     let (so, co, sp, cp, sk, ck) = (s[0], c[0], s[1], c[1], s[2], c[2]);
     let m = [

@@ -496,8 +496,10 @@ impl Chain {
                     noise: l.noise,
                     position: [l.position_mm.x, l.position_mm.y, l.position_mm.z],
                     rotation: std::array::from_fn(|k| l.rotation[(k / 3, k % 3)]),
-                    angles_sin: std::array::from_fn(|k| l.angles_rad[k].sin()),
-                    angles_cos: std::array::from_fn(|k| l.angles_rad[k].cos()),
+                    angles: crate::block::Trig {
+                        s: std::array::from_fn(|k| l.angles_rad[k].sin()),
+                        c: std::array::from_fn(|k| l.angles_rad[k].cos()),
+                    },
                     // δ = L·ε (diagonal fast path when the covariance is diagonal).
                     noise_factor: crate::block::NoiseFactor::from_lower(&l.factor),
                     nominal_c: [nom.position_mm.x, nom.position_mm.y, nom.position_mm.z],

@@ -17,7 +17,7 @@
 
 #![allow(clippy::needless_range_loop)] // lane-indexed loops over parallel arrays are the point (they vectorise)
 
-use crate::block::NoiseFactor;
+use crate::block::{NoiseFactor, Trig, euler_rot, tangent_rot};
 use crate::chain::Chain;
 use crate::kernel::SMALL_ANGLE_SQ;
 use crate::normal::{LANES, Lane, fill_block};
@@ -59,14 +59,6 @@ fn atan2_small(y: f64, x: f64, ok: &mut bool) -> f64 {
     let t = z * z;
     *ok &= x > 0.0 && t < ATAN_Z_MAX * ATAN_Z_MAX;
     z * atan_over_z(t)
-}
-
-/// `(sin θ/θ, (1 − cos θ)/θ²)` for θ² = t (Taylor; t < SMALL_ANGLE_SQ).
-#[inline(always)]
-fn sinc_cosc_series(t: f64) -> (f64, f64) {
-    let s = 1.0 + t * (-1.0 / 6.0 + t * (1.0 / 120.0 + t * (-1.0 / 5040.0)));
-    let c = 0.5 + t * (-1.0 / 24.0 + t * (1.0 / 720.0 + t * (-1.0 / 40320.0)));
-    (s, c)
 }
 
 /// Shifted sums of one camera's (centre mm, ω φ κ offsets rad) and body-axis error.
@@ -319,51 +311,13 @@ impl Composer {
                 for k in 0..3 {
                     link.c[k][l] = p.position[k] + d[k];
                 }
-                let rl = match p.noise {
-                    RotationNoise::Tangent => {
-                        let (wx, wy, wz) = (d[3], d[4], d[5]);
-                        let t = wx * wx + wy * wy + wz * wz;
-                        *lok &= t < SMALL_ANGLE_SQ;
-                        let (s, c) = sinc_cosc_series(t);
-                        let ex = [
-                            1.0 + c * (wx * wx - t),
-                            c * wx * wy - s * wz,
-                            s * wy + c * wx * wz,
-                            s * wz + c * wx * wy,
-                            1.0 + c * (wy * wy - t),
-                            c * wy * wz - s * wx,
-                            c * wx * wz - s * wy,
-                            s * wx + c * wy * wz,
-                            1.0 + c * (wz * wz - t),
-                        ];
-                        mat_mul(&p.rotation, &ex)
-                    }
-                    RotationNoise::Euler => {
-                        let mut s = [0.0; 3];
-                        let mut c = [0.0; 3];
-                        for k in 0..3 {
-                            let x = d[3 + k];
-                            let t = x * x;
-                            *lok &= t < SMALL_ANGLE_SQ;
-                            let (sc, cc) = sinc_cosc_series(t);
-                            let (sd, cd) = (x * sc, 1.0 - t * cc);
-                            s[k] = p.angles_sin[k] * cd + p.angles_cos[k] * sd;
-                            c[k] = p.angles_cos[k] * cd - p.angles_sin[k] * sd;
-                        }
-                        let (so, co, sp, cp, sk, ck) = (s[0], c[0], s[1], c[1], s[2], c[2]);
-                        [
-                            cp * ck,
-                            -(cp * sk),
-                            sp,
-                            co * sk + so * sp * ck,
-                            co * ck - so * sp * sk,
-                            -(so * cp),
-                            so * sk - co * sp * ck,
-                            so * ck + co * sp * sk,
-                            co * cp,
-                        ]
-                    }
+                // The link's perturbed rotation: the grid kernel's own series forms.
+                let w = [d[3], d[4], d[5]];
+                let (rl, t) = match p.noise {
+                    RotationNoise::Tangent => tangent_rot(&p.rotation, w),
+                    RotationNoise::Euler => euler_rot(&p.angles, w),
                 };
+                *lok &= t < SMALL_ANGLE_SQ;
                 for k in 0..9 {
                     link.r[k][l] = rl[k];
                 }
@@ -489,8 +443,8 @@ pub(crate) struct CamPlan {
     pub(crate) noise: RotationNoise,
     pub(crate) position: [f64; 3],
     pub(crate) rotation: [f64; 9],
-    pub(crate) angles_sin: [f64; 3],
-    pub(crate) angles_cos: [f64; 3],
+    /// Sines and cosines of the link's ω φ κ (base of euler noise).
+    pub(crate) angles: Trig,
     /// The link's noise factor: δ = L·ε (x y z in the parent's axes, rotation).
     pub(crate) noise_factor: NoiseFactor,
     pub(crate) nominal_c: [f64; 3],
