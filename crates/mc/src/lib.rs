@@ -193,10 +193,8 @@
 //! ```
 #![deny(missing_docs)]
 
-mod accumulate;
 mod block;
 mod chain;
-mod chain_block;
 pub mod coverage;
 pub mod degenerate;
 mod error;
@@ -204,45 +202,43 @@ mod fixed;
 mod grid;
 mod grid_builder;
 mod kernel;
+#[cfg(test)]
 mod legacy;
 pub mod limits;
-mod normal;
-mod ordered;
-mod philox;
+mod model;
 pub mod reference;
+mod result;
 mod scenario;
-mod simd;
+mod schedule;
+mod view;
 
 pub use chain::{CameraId, Chain, ChainBuilder, PoseLinear, PoseMc, WorldPose};
 pub use error::Error;
-pub use fixed::{UNDISTORT_RESIDUAL_PX, footprint_margin_px};
-pub use grid::{
-    ADAPTIVE_MIN_BATCHES, CHAIN_SAMPLES_MIN, GridResult, GridStudy, INPUTS_PER_OBSERVER, PointStats,
-};
+pub use grid::{CHAIN_SAMPLES_MIN, GridStudy, INPUTS_PER_OBSERVER};
 pub use grid_builder::GridBuilder;
-pub use normal::FastNormal;
-pub use reference::{ResultKind, link_from_result_json};
-pub use scenario::{
-    Adaptive, Aim, AimKeys, Axis, CORRELATED_POSITION_TOLERANCE_MM, Camera, FixedCamera, Grid,
-    LensKeys, MAX_NDIG, Observer, ObserverSigma, PixelNoise, PoseSigma, RotationNoise, Scenario,
-    Tolerance, aim_from_keys, ndig_tolerance,
+pub use kernel::Isa;
+pub use model::{
+    Adaptive, Aim, Axis, CORRELATED_POSITION_TOLERANCE_MM, Camera, FixedCamera, Grid, MAX_NDIG,
+    MIN_OBSERVER_DISTANCE_MM, Observer, ObserverSigma, PixelNoise, PoseSigma, RotationNoise,
+    Scenario, Tolerance, ndig_tolerance,
 };
-pub use simd::{Engine, Isa};
+pub use reference::{ResultKind, link_from_result_json};
+pub use result::{GridResult, PointStats};
+pub use scenario::{AimKeys, LensKeys, aim_from_keys};
+pub use schedule::ADAPTIVE_MIN_BATCHES;
+pub use view::{UNDISTORT_RESIDUAL_PX, footprint_margin_px};
 
 /// Draws per work chunk (and per RNG stream). Fixed, so results do not depend on the thread
 /// count.
-pub const CHUNK: usize = 4096;
-
-/// Smallest distance (mm) between an observer and a grid point.
-pub const MIN_OBSERVER_DISTANCE_MM: f64 = 1e-6;
+pub const CHUNK: usize = schedule::CHUNK;
 
 /// Hooks for the benchmarks (`benches/`) and external tests: the engine's building blocks
 /// with an explicit instruction-set level. Not a stable interface.
 #[doc(hidden)]
 pub mod bench {
-    use crate::normal::{LANES, fill_block};
-    use crate::philox::key_of_seed;
-    use crate::simd::{Isa, dispatch};
+    use crate::kernel::normal::{LANES, fill_block};
+    use crate::kernel::philox::key_of_seed;
+    use crate::kernel::simd::{Isa, dispatch};
 
     /// Draws per block of the vectorised kernels.
     pub const BLOCK: usize = LANES;

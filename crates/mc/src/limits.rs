@@ -405,9 +405,7 @@ pub fn locate(e: Error, path: &Path) -> Error {
     };
     let line = match &e {
         Error::GimbalLock { name } => camera_name_line(&text, name),
-        other => other
-            .key()
-            .and_then(|k| crate::scenario::key_line(&text, k)),
+        other => other.key().and_then(|k| key_line(&text, k)),
     };
     Error::Located {
         path: path.to_path_buf(),
@@ -455,6 +453,75 @@ pub fn check_samples(samples: usize) -> Result<(), Error> {
         ));
     }
     Ok(())
+}
+
+/// 1-based line of a dotted scenario key such as `camera[1].position_mm`,
+/// `grid.observer[0].sigma_from`, `grid.x_mm` or `seed`: the line `name = …` inside the table the
+/// key's prefix names (the table's header line when the key names the table itself). Inline
+/// tables and dotted keys are not searched (`None`).
+pub(crate) fn key_line(text: &str, key: &str) -> Option<usize> {
+    let headers: std::collections::HashSet<&str> = text.lines().filter_map(header_of).collect();
+    let (base, index) = split_index(key);
+    if headers.contains(base) {
+        // The key names a table (or one element of an array of tables): its header line.
+        return nth_header_line(text, base, index.unwrap_or(0));
+    }
+    let Some(dot) = key.rfind('.') else {
+        // A top-level key: `key = …` before the first header.
+        return text
+            .lines()
+            .take_while(|l| header_of(l).is_none())
+            .position(|l| is_assignment_of(l, key))
+            .map(|i| i + 1);
+    };
+    let (table_key, leaf) = (&key[..dot], &key[dot + 1..]);
+    let (table, index) = split_index(table_key);
+    let start = nth_header_line(text, table, index.unwrap_or(0))?;
+    let found = text
+        .lines()
+        .enumerate()
+        .skip(start)
+        .take_while(|(_, l)| header_of(l).is_none())
+        .find(|(_, l)| is_assignment_of(l, leaf))
+        .map(|(i, _)| i + 1);
+    // An absent key (a default, or a value checked against another table) points at its table.
+    found.or(Some(start))
+}
+
+/// `("grid.observer", Some(1))` for `grid.observer[1]`, `("camera", None)` for `camera`.
+fn split_index(key: &str) -> (&str, Option<usize>) {
+    match key.strip_suffix(']').and_then(|k| k.rsplit_once('[')) {
+        Some((base, i)) => (base, i.parse().ok()),
+        None => (key, None),
+    }
+}
+
+/// 1-based line of the `n`-th (0-based) header of table `name`.
+fn nth_header_line(text: &str, name: &str, n: usize) -> Option<usize> {
+    text.lines()
+        .enumerate()
+        .filter(|(_, l)| header_of(l) == Some(name))
+        .nth(n)
+        .map(|(i, _)| i + 1)
+}
+
+/// Whether `line` assigns `name` (`name = …`).
+fn is_assignment_of(line: &str, name: &str) -> bool {
+    line.split_once('=')
+        .is_some_and(|(lhs, _)| lhs.trim() == name)
+}
+
+/// `camera` for `[[camera]]`, `grid` for `[grid]` (comments after the header allowed).
+fn header_of(line: &str) -> Option<&str> {
+    let l = line.split('#').next().unwrap_or("").trim();
+    if !l.starts_with('[') {
+        return None;
+    }
+    let inner = l
+        .strip_prefix("[[")
+        .and_then(|r| r.strip_suffix("]]"))
+        .or_else(|| l.strip_prefix('[').and_then(|r| r.strip_suffix(']')))?;
+    Some(inner.trim())
 }
 
 #[cfg(test)]
