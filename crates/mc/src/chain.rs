@@ -474,7 +474,7 @@ impl Chain {
         eps: &mut [f64],
         out: &mut [WorldPose],
     ) {
-        let nd = crate::legacy::FastNormal::new();
+        let nd = crate::kernel::ziggurat::FastNormal::new();
         for &i in &self.order {
             nd.fill(rng, &mut eps[6 * i..6 * i + 6]);
         }

@@ -221,7 +221,7 @@ pub(crate) fn intersect_perturbed(views: &[View<'_>], delta: &[f64]) -> Vector3<
     n.solve()
 }
 
-/// The former scalar engine of the fixed path (`CRASHRIG_ISA=legacy`, the benchmark
+/// The former scalar engine of the fixed path (tests only, the statistical cross-check
 /// baseline): `m` draws of one grid point into `acc`: blocks of [`LANES`] draws, the normals of
 /// a block drawn row by row (row `8j + k`: view j's pose component k < 6, pixel axis k − 6), no
 /// allocation except the per-call block buffer, no `Result` in the loop.
@@ -233,7 +233,7 @@ pub(crate) fn run_chunk_fixed<R: rand::Rng>(
     m: usize,
     acc: &mut Acc3,
 ) {
-    let nd = crate::legacy::FastNormal::new();
+    let nd = crate::kernel::ziggurat::FastNormal::new();
     let rows = NORMALS_PER_VIEW * views.len();
     let mut e = vec![[0.0f64; LANES]; rows];
     let mut eps = vec![0.0; chain.map_or(0, |c| 6 * c.len())];

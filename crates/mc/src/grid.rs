@@ -489,7 +489,7 @@ pub(crate) fn run_chunk(
         #[cfg(test)]
         Engine::Legacy => {
             let mut rng = crashrig_stats::stream(seed, task);
-            crate::legacy::run_chunk(obs, ctx, &mut rng, m, acc);
+            legacy::run_chunk(obs, ctx, &mut rng, m, acc);
         }
     }
 }
@@ -601,5 +601,7 @@ pub(crate) fn linear_covariance(obs: &[Aimed], ctx: &Ctx, point: &Vector3<f64>) 
     Matrix3::from_fn(|r, cc| c[(r, cc)])
 }
 
+#[cfg(test)]
+mod legacy;
 #[cfg(test)]
 mod tests;

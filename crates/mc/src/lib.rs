@@ -202,17 +202,18 @@ mod fixed;
 mod grid;
 mod grid_builder;
 mod kernel;
-#[cfg(test)]
-mod legacy;
 pub mod limits;
 mod model;
+#[cfg(feature = "scenario")]
 pub mod reference;
 mod result;
+#[cfg(feature = "scenario")]
 mod scenario;
 mod schedule;
 mod view;
 
 pub use chain::{CameraId, Chain, ChainBuilder, PoseLinear, PoseMc, WorldPose};
+pub use crashrig_geometry::result_kind::ResultKind;
 pub use error::Error;
 pub use grid::{CHAIN_SAMPLES_MIN, GridStudy, INPUTS_PER_OBSERVER};
 pub use grid_builder::GridBuilder;
@@ -222,8 +223,10 @@ pub use model::{
     MIN_OBSERVER_DISTANCE_MM, Observer, ObserverSigma, PixelNoise, PoseSigma, RotationNoise,
     Scenario, Tolerance, ndig_tolerance,
 };
-pub use reference::{ResultKind, link_from_result_json};
+#[cfg(feature = "scenario")]
+pub use reference::link_from_result_json;
 pub use result::{GridResult, PointStats};
+#[cfg(feature = "scenario")]
 pub use scenario::{AimKeys, LensKeys, aim_from_keys};
 pub use schedule::ADAPTIVE_MIN_BATCHES;
 pub use view::{UNDISTORT_RESIDUAL_PX, footprint_margin_px};

@@ -6,8 +6,12 @@
 //! it checks array lengths, finiteness, magnitudes and counts of every key it knows, wherever
 //! the key sits, so new tables that reuse the key names are covered too.
 
+// Without the scenario reader the document walk below is not compiled and its helpers are unused.
+#![cfg_attr(not(feature = "scenario"), allow(dead_code))]
+
 use crate::Error;
 use std::path::Path;
+#[cfg(feature = "scenario")]
 use toml::de::{DeTable, DeValue};
 
 /// Largest number of Monte Carlo draws (`samples`, `--samples`; per grid point for `grid`).
@@ -189,6 +193,7 @@ pub(crate) fn deep_nesting(text: &str) -> Option<(usize, usize)> {
 }
 
 /// A number of the document: its value as f64 and, for an integer, as i128.
+#[cfg(feature = "scenario")]
 fn number(v: &DeValue<'_>) -> Option<(f64, Option<i128>)> {
     match v {
         DeValue::Integer(i) => {
@@ -227,6 +232,7 @@ fn count_bound(leaf: &str) -> Option<u128> {
     }
 }
 
+#[cfg(feature = "scenario")]
 struct Walk<'a> {
     text: &'a str,
     path: &'a Path,
@@ -237,6 +243,7 @@ struct Walk<'a> {
     grid_offset: Option<usize>,
 }
 
+#[cfg(feature = "scenario")]
 impl Walk<'_> {
     fn err(&self, offset: usize, key: &str, problem: String) -> Error {
         located(self.path, self.text, offset, fail(key, problem))
@@ -357,6 +364,7 @@ impl Walk<'_> {
 
 /// Checks the bounds of a scenario document (see the module docs); errors are located at the
 /// offending value's line.
+#[cfg(feature = "scenario")]
 pub(crate) fn check_document(text: &str, path: &Path) -> Result<(), Error> {
     let Ok(doc) = DeTable::parse(text) else {
         return Ok(()); // syntax errors are reported by the typed parse
@@ -393,6 +401,7 @@ pub(crate) fn check_document(text: &str, path: &Path) -> Result<(), Error> {
 /// an error with a key gets that key's line, a gimbal-lock error the line of its camera's
 /// `name`. Errors that already name the file, and files that cannot be read again, are returned
 /// as they are, wrapped with the path and line 1 when nothing better is known.
+#[cfg(feature = "scenario")]
 pub fn locate(e: Error, path: &Path) -> Error {
     if matches!(
         e,
@@ -415,6 +424,7 @@ pub fn locate(e: Error, path: &Path) -> Error {
 }
 
 /// Line of `name = "<name>"` inside a `[[camera]]` table.
+#[cfg(feature = "scenario")]
 fn camera_name_line(text: &str, name: &str) -> Option<usize> {
     let doc = DeTable::parse(text).ok()?;
     let cams = doc.get_ref().get("camera")?;

@@ -7,7 +7,7 @@
 use crate::error::Error;
 use crashrig_camera::Camera as Lens;
 use crashrig_geometry::result_kind::ResultKind;
-use crashrig_geometry::{Rigid3, UncertainPose};
+use crashrig_geometry::UncertainPose;
 use nalgebra::{Matrix3, Matrix6, Vector3};
 use std::path::PathBuf;
 
@@ -295,21 +295,6 @@ impl FixedCamera {
     pub fn cam_from_world(&self, center: &Vector3<f64>, x: &Vector3<f64>) -> Vector3<f64> {
         self.rotation.transpose() * (x - center)
     }
-}
-
-/// Nominal `world_from_cam` of every camera (file order); the parent links must be acyclic.
-pub(crate) fn nominal_world_poses(cameras: &[Camera]) -> Vec<Rigid3> {
-    let mut out = vec![Rigid3::identity(); cameras.len()];
-    // A validated scenario has no cycle; an edited one falls back to file order.
-    let order = topological_order(cameras).unwrap_or_else(|_| (0..cameras.len()).collect());
-    for i in order {
-        let own = cameras[i].pose.b_from_a;
-        out[i] = match cameras[i].parent {
-            Some(p) if p < cameras.len() => out[p] * own,
-            _ => own,
-        };
-    }
-    out
 }
 
 /// Parents before children; a cycle is an error naming its cameras.

@@ -10,7 +10,7 @@ use crate::error::Error;
 use crate::limits::key_line;
 use crate::model::{
     Adaptive, Axis, Camera, Grid, MAX_NDIG, Observer, ObserverSigma, PixelNoise, PoseSigma,
-    RotationNoise, Scenario, Tolerance, check_grid, nominal_world_poses, topological_order,
+    RotationNoise, Scenario, Tolerance, check_grid, topological_order,
 };
 use crate::reference::ResultKind;
 use crashrig_geometry::uncertain::check_covariance;
@@ -610,6 +610,21 @@ fn validate_grid(g: RawGrid, cameras: &[Camera], base: &Path) -> Result<Grid, Er
     let names: Vec<String> = cameras.iter().map(|c| c.name.clone()).collect();
     check_grid(&grid, &world, &names)?;
     Ok(grid)
+}
+
+/// Nominal `world_from_cam` of every camera (file order); the parent links must be acyclic.
+pub(crate) fn nominal_world_poses(cameras: &[Camera]) -> Vec<Rigid3> {
+    let mut out = vec![Rigid3::identity(); cameras.len()];
+    // A validated scenario has no cycle; an edited one falls back to file order.
+    let order = topological_order(cameras).unwrap_or_else(|_| (0..cameras.len()).collect());
+    for i in order {
+        let own = cameras[i].pose.b_from_a;
+        out[i] = match cameras[i].parent {
+            Some(p) if p < cameras.len() => out[p] * own,
+            _ => own,
+        };
+    }
+    out
 }
 
 #[cfg(test)]

@@ -15,7 +15,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 pub(crate) const CHUNK: usize = 4096;
 
 /// Which engine draws: the vectorised engine at an instruction-set level, or (tests only) the
-/// former ChaCha8 + ziggurat loops of `legacy`, the statistical cross-check.
+/// former ChaCha8 + ziggurat loops (`grid::legacy`, `Chain::draw_into`, `fixed::run_chunk_fixed`),
+/// the statistical cross-check.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Engine {
     /// Philox normals, blocks of 64 draws, compiled for the level.

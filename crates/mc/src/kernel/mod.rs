@@ -19,6 +19,8 @@ pub(crate) mod ordered;
 pub(crate) mod philox;
 pub(crate) mod scalar;
 pub(crate) mod simd;
+#[cfg(test)]
+pub(crate) mod ziggurat;
 
 pub(crate) use scalar::*;
 pub use simd::Isa;

@@ -3,13 +3,10 @@
 //! independent statistical cross-check of the vectorised engine (different random numbers,
 //! the same distribution). Not part of the library.
 
-mod normal;
-
-pub(crate) use normal::FastNormal;
-
 use crate::block::{Aimed, Ctx};
 use crate::chain::WorldPose;
 use crate::kernel::accumulate::Acc3;
+use crate::kernel::ziggurat::FastNormal;
 use crate::kernel::{Normal3, SMALL_ANGLE_SQ, exp_e3, exp_matrix, opk_e3, rot_opk};
 use crate::model::RotationNoise;
 use nalgebra::Vector3;

@@ -1,4 +1,4 @@
-//! The former generator of the benchmarks' legacy engine (tests only): a 256-layer ziggurat
+//! The former generator of the legacy engine (compiled into the tests only): a 256-layer ziggurat
 //! (Marsaglia & Tsang 2000) over a `rand::Rng`, one draw at a time.
 //!
 //! Each 64-bit word gives two normals; each 32-bit half supplies 8 bits for the layer and a
