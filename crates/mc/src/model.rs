@@ -6,8 +6,8 @@
 
 use crate::error::Error;
 use crashrig_camera::Camera as Lens;
-use crashrig_geometry::result_kind::ResultKind;
 use crashrig_geometry::UncertainPose;
+use crashrig_geometry::result_kind::ResultKind;
 use nalgebra::{Matrix3, Matrix6, Vector3};
 use std::path::PathBuf;
 
