@@ -20,11 +20,21 @@
 //!   sums of deviations from the grid point, which vectorise and need no per-draw division).
 //! - Normals: Philox4x32-10 counter-based bits (key = seed, counter = (task, draw, slot)) into
 //!   a vectorised Box–Muller transform, 64 draws per block, compiled for the CPU's best
-//!   instruction set at run time ([`Isa`], `CRASHRIG_ISA`). The former ChaCha8 + ziggurat
-//!   engine ([`FastNormal`]) remains as [`Engine::Legacy`], the benchmarks' baseline.
+//!   instruction set at run time ([`Isa::Auto`]; `run_with` / `monte_carlo_with` take an
+//!   explicit [`Isa`], a typed argument — no environment variable is read).
 //! - Determinism: work is cut into fixed chunks of [`CHUNK`] draws (tasks), each with its own
 //!   counter range, merged in index order: the same seed gives bit-identical results on any
 //!   number of threads and on every instruction-set level.
+//!
+//! # Layers and features
+//! The crate reads bottom-up (`docs/ARCHITECTURE.md`): a `kernel` layer (instruction-set
+//! dispatch, Philox, normals, the lane forms of the pose noise, rotations and DLT rows, streaming
+//! sums) that imports nothing above it; the engine's vocabulary (`model`: [`Camera`], [`Grid`],
+//! [`Observer`], …); the chain and grid engines; and, behind the default feature `scenario`,
+//! the TOML scenario reader ([`Scenario::from_path`]), [`reference`] and the COLMAP model reader
+//! of `camera_from`. With `default-features = false` the engine builds without toml,
+//! serde_json, the COLMAP reader and SQLite: build chains and grids with [`ChainBuilder`] and
+//! [`GridBuilder`].
 //!
 //! # Entry points
 //! - [`ChainBuilder`] → [`Chain`]: world poses and links as
