@@ -723,7 +723,7 @@ pixel_sigma_px = 0.5
 sigma_from = "cam2"
 "#;
 
-/// The statement of `simd.rs` for the fixed path: every instruction-set level gives the same
+/// The statement of `kernel/simd.rs` for the fixed path: every instruction-set level gives the same
 /// bits (each available level forced and compared with the baseline, a partial final block).
 #[test]
 fn fixed_every_isa_gives_identical_grids() {

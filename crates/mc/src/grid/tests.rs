@@ -341,7 +341,7 @@ fn kernel_paths() -> Vec<(&'static str, GridStudy)> {
 
 #[test]
 fn every_isa_gives_identical_grids() {
-    // The statement of `simd.rs`: every instruction-set level gives the same bits. Each
+    // The statement of `kernel/simd.rs`: every instruction-set level gives the same bits. Each
     // available level is forced and compared with the baseline (SSE2 on x86-64), on every
     // kernel path, with a partial final block.
     let n = crate::CHUNK + 70;
