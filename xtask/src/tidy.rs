@@ -40,6 +40,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-colmap",
             "crashrig-stats",
             "crashrig-plot",
+            "crashrig-outdir",
         ],
     ),
     (
