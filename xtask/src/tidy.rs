@@ -56,6 +56,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-measure",
             "crashrig-stats",
             "crashrig-plot",
+            "crashrig-outdir",
         ],
     ),
     (
