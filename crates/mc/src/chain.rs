@@ -564,6 +564,7 @@ impl Chain {
     ) -> Vec<PoseMc> {
         let chunks = samples.div_ceil(CHUNK);
         let ticks = Counter::new(progress, chunks);
+        #[allow(clippy::infallible_destructuring_match)] // one variant outside the tests
         let isa = match engine {
             #[cfg(test)]
             Engine::Legacy => {
