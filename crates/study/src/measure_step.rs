@@ -46,8 +46,19 @@ pub fn run_measure(
     seed: u64,
 ) -> Result<MeasureResult, Error> {
     let step = |e: &dyn std::fmt::Display| study.step_error("measure", 0, e.to_string());
+    let a_cov = match &s.a_noise {
+        MeasureANoise::File(p) => Some(input::read_a_covariance(p).map_err(|e| step(&e))?),
+        MeasureANoise::Sigmas(..) => None,
+    };
+    let mm_per_unit = input::model_scale(s.mm_per_unit, a_cov.as_ref(), "measure.mm_per_unit")
+        .map_err(|e| match e {
+            crashrig_measure::Error::Setting { problem, .. } => {
+                study.key_error("measure", "mm_per_unit", problem)
+            }
+            e => step(&e),
+        })?;
     let model = crashrig_colmap::Reconstruction::read(&s.model).map_err(|e| step(&e))?;
-    let seq = sequence::a_sequence(&model, &CameraSelector::parse(&s.camera_a), s.mm_per_unit)
+    let seq = sequence::a_sequence(&model, &CameraSelector::parse(&s.camera_a), mm_per_unit)
         .map_err(|e| step(&e))?;
     let (b_id, camera_b) =
         sequence::inward_camera(&model, &CameraSelector::parse(&s.camera_b), 'B')
@@ -67,10 +78,6 @@ pub fn run_measure(
         has_c: c.is_some(),
     };
     let observations = input::read_observations(&s.observations, &names).map_err(|e| step(&e))?;
-    let a_cov = match &s.a_noise {
-        MeasureANoise::File(p) => Some(input::read_a_covariance(p).map_err(|e| step(&e))?),
-        MeasureANoise::Sigmas(..) => None,
-    };
     let mut epochs = Vec::with_capacity(seq.poses.len());
     for p in &seq.poses {
         let world_from_a = match (&a_cov, &s.a_noise) {
@@ -113,7 +120,7 @@ pub fn run_measure(
     };
     let measurement =
         crashrig_measure::measure(&epochs, &rig, &observations, &settings).map_err(|e| step(&e))?;
-    let warnings = measurement
+    let mut warnings: Vec<String> = measurement
         .skipped
         .iter()
         .map(|k| {
@@ -126,7 +133,13 @@ pub fn run_measure(
             )
         })
         .collect();
-    let summary = MeasureSummary::new(&measurement, &settings, s.mm_per_unit, has_c);
+    warnings.extend(crashrig_measure::plausible::warnings(
+        &measurement,
+        s.frame_rate_hz,
+        "measure.frame_rate_hz",
+        "measure.mm_per_unit",
+    ));
+    let summary = MeasureSummary::new(&measurement, &settings, mm_per_unit, has_c);
     Ok(MeasureResult {
         measurement,
         summary,

@@ -23,13 +23,13 @@ pub struct MeasureArgs {
     /// COLMAP model of the sequence (camera A registered against the lab per epoch).
     pub model: PathBuf,
     /// Camera A: image-name prefix (e.g. `cam_out/`) or camera id; epochs are its images.
-    #[arg(long, value_name = "A")]
+    #[arg(long, value_name = "A", value_parser = crate::limits::parse_camera)]
     pub camera_a: String,
     /// Camera B (inward, linked to A): camera id or an image-name prefix, for its intrinsics.
-    #[arg(long, value_name = "B")]
+    #[arg(long, value_name = "B", value_parser = crate::limits::parse_camera)]
     pub camera_b: String,
     /// Camera C (tied to B by `--tie`): camera id or an image-name prefix.
-    #[arg(long, value_name = "C")]
+    #[arg(long, value_name = "C", value_parser = crate::limits::parse_camera)]
     pub camera_c: Option<String>,
     /// The calibrated link A_from_B: a `calibrate --json` result (uses sem_covariance_tangent).
     #[arg(long, value_name = "JSON")]
@@ -43,9 +43,9 @@ pub struct MeasureArgs {
     /// Output directory (written all-or-nothing).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// Model units → mm.
-    #[arg(long, value_name = "F", default_value_t = 1.0)]
-    pub mm_per_unit: f64,
+    /// Model units → mm (required unless `--a-covariance` states `mm_per_unit`).
+    #[arg(long, value_name = "F", value_parser = crate::limits::parse_mm_per_unit)]
+    pub mm_per_unit: Option<f64>,
     /// σ of A's projection centre per epoch (world axes, mm).
     #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
     pub sigma_a_position_mm: Option<Vec<f64>>,
@@ -59,7 +59,7 @@ pub struct MeasureArgs {
     #[arg(long, value_name = "PX", default_value_t = 0.5)]
     pub pixel_sigma_px: f64,
     /// Monte Carlo replicates per row.
-    #[arg(long, value_name = "N", default_value_t = 2000)]
+    #[arg(long, value_name = "N", default_value_t = 2000, value_parser = crate::limits::parse_measure_samples)]
     pub samples: usize,
     /// Reference epoch of the displacements (default: the first measured epoch).
     #[arg(long, value_name = "EPOCH")]
@@ -142,9 +142,16 @@ pub fn compute(a: &MeasureArgs, seed: Option<u64>) -> anyhow::Result<Summary> {
         a.camera_c.is_some() == a.tie.is_some(),
         "--camera-c and --tie go together (give both for a tied-in camera C, or neither)"
     );
+    // A's per-epoch uncertainty; it may state the model's units.
+    let a_cov = a
+        .a_covariance
+        .as_deref()
+        .map(input::read_a_covariance)
+        .transpose()?;
+    let mm_per_unit = input::model_scale(a.mm_per_unit, a_cov.as_ref(), "--mm-per-unit")?;
     let model = Reconstruction::read(&a.model)?;
     let sel_a = CameraSelector::parse(&a.camera_a);
-    let seq = sequence::a_sequence(&model, &sel_a, a.mm_per_unit)?;
+    let seq = sequence::a_sequence(&model, &sel_a, mm_per_unit)?;
     let (b_id, camera_b) =
         sequence::inward_camera(&model, &CameraSelector::parse(&a.camera_b), 'B')?;
     let c = match (&a.camera_c, &a.tie) {
@@ -162,12 +169,6 @@ pub fn compute(a: &MeasureArgs, seed: Option<u64>) -> anyhow::Result<Summary> {
     };
     let observations = input::read_observations(&a.observations, &names)?;
 
-    // A's per-epoch uncertainty.
-    let a_cov = a
-        .a_covariance
-        .as_deref()
-        .map(input::read_a_covariance)
-        .transpose()?;
     if a_cov.is_none() && a.sigma_a_position_mm.is_none() && a.sigma_a_angles_deg.is_none() {
         eprintln!(
             "warning: no uncertainty given for camera A's pose (--sigma-a-position-mm, --sigma-a-angles-deg or --a-covariance): it is treated as exact"
@@ -222,6 +223,14 @@ pub fn compute(a: &MeasureArgs, seed: Option<u64>) -> anyhow::Result<Summary> {
             s.observations
         );
     }
+    for w in crashrig_measure::plausible::warnings(
+        &m,
+        a.frame_rate_hz,
+        "--frame-rate-hz",
+        "--mm-per-unit",
+    ) {
+        eprintln!("warning: {w}");
+    }
 
     // Files.
     let mut files: Files = vec![
@@ -240,7 +249,7 @@ pub fn compute(a: &MeasureArgs, seed: Option<u64>) -> anyhow::Result<Summary> {
             files.push((format!("plots/{}.svg", p.stem), p.svg));
         }
     }
-    let mut summary = summarize(&m, &settings, a, &files);
+    let mut summary = summarize(&m, &settings, a, mm_per_unit, &files);
     summary.files.push("summary.json".into());
     summary.elapsed_s = started.elapsed().as_secs_f64();
     let mut json = serde_json::to_vec_pretty(&summary).context("serializing summary.json")?;
@@ -254,10 +263,11 @@ fn summarize(
     m: &Measurement,
     settings: &Settings,
     a: &MeasureArgs,
+    mm_per_unit: f64,
     files: &[(String, Vec<u8>)],
 ) -> Summary {
     Summary {
-        numbers: output::Summary::new(m, settings, a.mm_per_unit, a.tie.is_some()),
+        numbers: output::Summary::new(m, settings, mm_per_unit, a.tie.is_some()),
         skipped_epochs: m
             .skipped
             .iter()
