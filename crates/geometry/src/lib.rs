@@ -30,8 +30,6 @@
 //! - [`umeyama::align`]: similarity alignment of point sets.
 //! - [`UncertainPose`]: a nominal `b_from_a` with its 6×6 tangent covariance (sampling,
 //!   estimation from samples, first-order composition and inversion, ω φ κ for display).
-//! - [`input_file::read_limited`]: the one reader of a user's input file (regular files only,
-//!   with a size limit).
 //! - `result_json::link_from_result_value` (feature `json`): the uncertain link of a
 //!   `calibrate --json` / `bootstrap --json` result.
 //!
@@ -63,7 +61,6 @@
 
 pub mod angles;
 mod error;
-pub mod input_file;
 pub mod look_at;
 pub mod mean;
 pub mod opk;

@@ -34,7 +34,7 @@ pub const MAX_PIXELS: f64 = 1e6;
 /// Largest |value| of any other number in a scenario (covariance entries in mm², deg², …).
 pub const MAX_ABS_OTHER: f64 = 1e14;
 /// Largest scenario file (bytes).
-pub const MAX_FILE_BYTES: u64 = crashrig_geometry::input_file::MAX_TOML_BYTES;
+pub const MAX_FILE_BYTES: u64 = crashrig_colmap::input_file::MAX_TOML_BYTES;
 /// Largest nesting depth of arrays and inline tables in a scenario file.
 pub const MAX_NESTING: usize = 16;
 
@@ -106,7 +106,7 @@ fn located(path: &Path, text: &str, offset: usize, e: Error) -> Error {
 /// Reads a scenario file with the size bound and a located UTF-8 check.
 pub(crate) fn read_text(path: &Path) -> Result<String, Error> {
     let bytes =
-        crashrig_geometry::input_file::read_limited(path, MAX_FILE_BYTES).map_err(|source| {
+        crashrig_colmap::input_file::read_limited(path, MAX_FILE_BYTES).map_err(|source| {
             Error::Io {
                 path: path.to_path_buf(),
                 source,

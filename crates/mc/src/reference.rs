@@ -27,9 +27,9 @@ pub fn link_from_result_json(path: &Path) -> Result<(ResultKind, UncertainPose),
         file: path.to_path_buf(),
         problem,
     };
-    let text = crashrig_geometry::input_file::read_text_limited(
+    let text = crashrig_colmap::input_file::read_text_limited(
         path,
-        crashrig_geometry::input_file::MAX_JSON_BYTES,
+        crashrig_colmap::input_file::MAX_JSON_BYTES,
     )
     .map_err(|e| fail(format!("cannot read: {e}")))?;
     let value: Value = serde_json::from_str(&text).map_err(|e| {

@@ -2,7 +2,8 @@
 //! outward camera's pose covariance (JSON).
 
 use crate::Error;
-use crashrig_geometry::{Mat6, Rigid3, UncertainPose, input_file};
+use crashrig_colmap::input_file;
+use crashrig_geometry::{Mat6, Rigid3, UncertainPose};
 use nalgebra::Vector2;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};

@@ -300,8 +300,8 @@ fn chain_inputs_used(layout: &Layout) -> [bool; 3] {
 ///
 /// # Errors
 /// [`Error::Step`] naming the study file and the section whose step failed (the step's own
-/// message names the data file), [`Error::Mc`] when the Monte Carlo library refuses the chain
-/// or a layout.
+/// message names the data file), also when the Monte Carlo library refuses the chain (named
+/// at `[outward]`) or a layout (at its `[[layout]]`).
 pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Error> {
     let seed = options.seed.unwrap_or(study.seed);
     let samples = options.samples.unwrap_or(study.samples);
@@ -384,10 +384,8 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
     if let Some(t) = &tie {
         inputs.push((ChainCamera::Tie, t.link));
     }
-    let mc_err = |source| Error::Mc {
-        path: study.path.clone(),
-        source,
-    };
+    // The chain of outward → inward → tie: its errors name `[outward]`'s line.
+    let mc_err = |e: crashrig_mc::Error| study.step_error("outward", 0, e.to_string());
     let (chain_mc, _) = build_chain(&inputs, &Scales::unit(0)).map_err(mc_err)?;
     let sub = within("propagation chunks".into());
     let mc = chain_mc.monte_carlo_with_progress(study.chain_samples, seed, hook(on, &sub));
@@ -419,7 +417,9 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
         let g = layout_study(&inputs, layout, s, samples, seed).map_err(at_layout)?;
         crashrig_mc::degenerate::check_layout(g.grid()).map_err(at_layout)?;
         let sub = within(format!("{stage}: points"));
-        let mut r = g.evaluate_with_progress(hook(on, &sub)).map_err(mc_err)?;
+        let mut r = g
+            .evaluate_with_progress(hook(on, &sub))
+            .map_err(at_layout)?;
         let mut grid = g.grid().clone();
         // Degenerate points (rays nearly parallel) are blanked (NaN): kept out of colour
         // scaling, medians and the worst region, counted as not below the threshold.

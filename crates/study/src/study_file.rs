@@ -759,9 +759,9 @@ impl Study {
     /// # Errors
     /// [`Error::Read`], [`Error::Toml`] or [`Error::Key`] naming the file, key and line.
     pub fn from_path(path: &Path) -> Result<Study, Error> {
-        let text = crashrig_geometry::input_file::read_text_limited(
+        let text = crashrig_colmap::input_file::read_text_limited(
             path,
-            crashrig_geometry::input_file::MAX_TOML_BYTES,
+            crashrig_colmap::input_file::MAX_TOML_BYTES,
         )
         .map_err(|source| Error::Read {
             path: path.to_path_buf(),

@@ -8,7 +8,7 @@
 //! or exhaust its memory. `docs/LIMITS.md` lists the limits of each kind of file.
 //!
 //! ```
-//! use crashrig_geometry::input_file;
+//! use crashrig_colmap::input_file;
 //! let dir = std::env::temp_dir().join(format!("crashrig-input-file-doc-{}", std::process::id()));
 //! std::fs::create_dir_all(&dir)?;
 //! std::fs::write(dir.join("a.csv"), b"x\n1\n")?;
