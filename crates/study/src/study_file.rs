@@ -404,6 +404,59 @@ pub(crate) fn key_line_top(text: &str, key: &str) -> Option<usize> {
         .map(|i| i + 1)
 }
 
+/// Keys of a study whose value is exactly three numbers (serde would silently drop a fourth).
+const STUDY_THREE_VECTORS: &[&str] = &[
+    "position_mm",
+    "angles_deg",
+    "sigma_position_mm",
+    "sigma_angles_deg",
+    "look_at_mm",
+    "sigma_a_position_mm",
+    "sigma_a_angles_deg",
+    "x_mm",
+    "y_mm",
+    "z_mm",
+];
+
+/// The first 3-vector key of `text` whose array does not hold exactly three values:
+/// (dotted key, 1-based line, length).
+fn wrong_length_vector(text: &str) -> Option<(String, usize, usize)> {
+    use toml::de::{DeTable, DeValue};
+    fn walk(t: &DeTable<'_>, prefix: &str, text: &str) -> Option<(String, usize, usize)> {
+        for (k, v) in t.iter() {
+            let leaf = k.get_ref().as_ref();
+            let key = if prefix.is_empty() {
+                leaf.to_string()
+            } else {
+                format!("{prefix}.{leaf}")
+            };
+            match v.get_ref() {
+                DeValue::Table(t) => {
+                    if let Some(found) = walk(t, &key, text) {
+                        return Some(found);
+                    }
+                }
+                DeValue::Array(a) => {
+                    for (i, e) in a.iter().enumerate() {
+                        if let DeValue::Table(t) = e.get_ref()
+                            && let Some(found) = walk(t, &format!("{key}[{i}]"), text)
+                        {
+                            return Some(found);
+                        }
+                    }
+                    if STUDY_THREE_VECTORS.contains(&leaf) && a.len() != 3 {
+                        return Some((key, line_of(text, v.span().start), a.len()));
+                    }
+                }
+                _ => {}
+            }
+        }
+        None
+    }
+    let doc = DeTable::parse(text).ok()?;
+    walk(doc.get_ref(), "", text)
+}
+
 struct Ctx<'a> {
     path: &'a Path,
     text: &'a str,
@@ -795,6 +848,14 @@ impl Study {
                 message,
             }
         })?;
+        if let Some((key, line, n)) = wrong_length_vector(text) {
+            return Err(Error::Key {
+                path: path.to_path_buf(),
+                line: Some(line),
+                key,
+                message: format!("must have exactly 3 values, found {n}"),
+            });
+        }
         let dir = path
             .parent()
             .filter(|p| !p.as_os_str().is_empty())
