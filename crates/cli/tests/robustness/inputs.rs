@@ -176,19 +176,19 @@ pub fn unbounded() -> Vec<Case> {
         (
             "iterations = 60",
             "iterations = 9223372036854775807",
-            "iterations = 60",
+            "iterations =",
             "`tie.iterations`",
         ),
         (
             "iterations = 60",
             "iterations = 1000000000000000",
-            "iterations = 60",
+            "iterations =",
             "`tie.iterations`",
         ),
         (
             "samples = 300",
             "samples = 10000001",
-            "samples = 300",
+            "samples = 10000001",
             "`samples`",
         ),
         (
@@ -200,7 +200,7 @@ pub fn unbounded() -> Vec<Case> {
         (
             "z_mm = [0.0, 0.0, 1]",
             "z_mm = [0.0, 300.0, 10001]",
-            "z_mm = [0.0, 0.0, 1]",
+            "z_mm = [0.0, 300.0, 10001]",
             "`layout[0].z_mm`",
         ),
         (
