@@ -52,5 +52,7 @@ mod sim;
 #[path = "contract/acceptance.rs"]
 mod acceptance;
 
+#[path = "contract/pinned.rs"]
+mod pinned;
 #[path = "contract/units.rs"]
 mod units;
