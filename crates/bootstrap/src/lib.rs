@@ -47,6 +47,11 @@ mod interval;
 pub mod normal;
 
 pub use crashrig_stats::progress::Progress;
+
+/// Largest number of bootstrap replicates a user may ask for (`bootstrap --iterations`, a
+/// study's `[tie] iterations`): checked before the replicates are allocated
+/// (`docs/LIMITS.md`).
+pub const MAX_ITERATIONS: usize = 1_000_000;
 pub use engine::{
     Failure, Replicates, jackknife, jackknife_with_progress, resample, run, run_with_progress,
 };

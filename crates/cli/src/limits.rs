@@ -5,9 +5,11 @@
 /// Largest worker-thread count (`--threads`, `RAYON_NUM_THREADS`).
 pub const MAX_THREADS: usize = 1024;
 /// Largest `bootstrap --iterations`.
-pub const MAX_BOOTSTRAP_ITERATIONS: usize = 1_000_000;
+pub const MAX_BOOTSTRAP_ITERATIONS: usize = crashrig_bootstrap::MAX_ITERATIONS;
 /// Smallest and largest `--mm-per-unit` (a model in nanometre … kilometre-scale units).
-pub const MM_PER_UNIT_RANGE: (f64, f64) = (1e-9, 1e9);
+pub const MM_PER_UNIT_RANGE: (f64, f64) = crashrig_measure::input::MM_PER_UNIT_RANGE;
+/// Largest `measure --samples` (replicates per row).
+pub const MAX_MEASURE_SAMPLES: usize = crashrig_measure::plausible::MAX_SAMPLES;
 
 /// clap value parser of `--mm-per-unit`: a finite number within [`MM_PER_UNIT_RANGE`].
 pub fn parse_mm_per_unit(s: &str) -> Result<f64, String> {
@@ -35,6 +37,43 @@ pub fn parse_iterations(s: &str) -> Result<usize, String> {
         Ok(v as usize)
     } else {
         Err(format!("must be from 2 to {MAX_BOOTSTRAP_ITERATIONS}"))
+    }
+}
+
+/// clap value parser of `measure --samples`: 2 ..= [`MAX_MEASURE_SAMPLES`].
+pub fn parse_measure_samples(s: &str) -> Result<usize, String> {
+    let v: u128 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a whole number"))?;
+    if (2..=MAX_MEASURE_SAMPLES as u128).contains(&v) {
+        Ok(v as usize)
+    } else {
+        Err(format!("must be from 2 to {MAX_MEASURE_SAMPLES}"))
+    }
+}
+
+/// clap value parser of `study --samples`, `paper --samples` and `paper --chain-samples`:
+/// 2 ..= [`crashrig_mc::limits::MAX_SAMPLES`].
+pub fn parse_samples(s: &str) -> Result<usize, String> {
+    let max = crashrig_mc::limits::MAX_SAMPLES;
+    let v: u128 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a whole number"))?;
+    if (2..=max as u128).contains(&v) {
+        Ok(v as usize)
+    } else {
+        Err(format!("must be from 2 to {max}"))
+    }
+}
+
+/// clap value parser of a camera selector (`--camera-a` …): not empty or blank.
+pub fn parse_camera(s: &str) -> Result<String, String> {
+    if s.trim().is_empty() {
+        Err("must name a camera (an image-name prefix such as `cam_in/`, or a camera id)".into())
+    } else {
+        Ok(s.to_string())
     }
 }
 
@@ -83,6 +122,13 @@ mod tests {
         assert!(parse_iterations("18446744073709551615").is_err());
         assert!(parse_iterations("99999999999999999999999999999").is_err());
         assert!(parse_iterations("1").is_err());
+        assert_eq!(parse_samples("10000000"), Ok(10_000_000));
+        assert!(parse_samples("10000001").is_err() && parse_samples("1").is_err());
+        assert_eq!(parse_measure_samples("10000000"), Ok(10_000_000));
+        assert!(parse_measure_samples("10000001").is_err());
+        assert!(parse_measure_samples("1000000000").is_err());
+        assert!(parse_camera("").is_err() && parse_camera("  ").is_err());
+        assert_eq!(parse_camera("cam_in/"), Ok("cam_in/".to_string()));
         assert_eq!(parse_threads("1024"), Ok(1024));
         assert!(parse_threads("1025").is_err());
         assert!(parse_threads("0").is_err());

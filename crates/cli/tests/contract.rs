@@ -54,3 +54,5 @@ mod acceptance;
 
 #[path = "contract/pinned.rs"]
 mod pinned;
+#[path = "contract/units.rs"]
+mod units;

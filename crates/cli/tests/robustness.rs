@@ -12,10 +12,13 @@
 //!
 //! Classes: wrong-length arrays, huge counts, extreme and non-finite values, control bytes,
 //! non-UTF-8, truncated scenarios, deep nesting, degenerate geometry, truncated and bit-flipped
-//! models and databases, huge arguments, interrupted writes.
+//! models and databases, huge arguments, interrupted writes; and (issue 25) inputs that are not
+//! regular files (`/dev/zero`, a FIFO, a directory), sizes beyond their bound in a study, and
+//! SIGINT right before a study's swap.
 //!
 //! `cargo test -p crashrig-cli --test robustness` runs a fast subset (every 25th case plus all
-//! degenerate-geometry and one of each interruption kind); the whole suite (≥ 1 000 cases) is
+//! degenerate-geometry, non-regular-input, unbounded-size and interrupted-study cases and one
+//! of each interruption kind); the whole suite (≥ 1 000 cases) is
 //! `cargo test -p crashrig-cli --test robustness -- --ignored` (or `cargo xtask test --slow`).
 
 #[path = "robustness/harness.rs"]
@@ -23,6 +26,9 @@ mod harness;
 
 #[path = "robustness/cases.rs"]
 mod cases;
+
+#[path = "robustness/inputs.rs"]
+mod inputs;
 
 use harness::{Case, Expect, run_case};
 
@@ -32,6 +38,9 @@ fn all_cases() -> Vec<Case> {
     v.extend(cases::databases());
     v.extend(cases::arguments());
     v.extend(cases::interruptions());
+    v.extend(inputs::non_regular());
+    v.extend(inputs::unbounded());
+    v.extend(inputs::study_interrupted());
     v
 }
 
@@ -84,7 +93,7 @@ fn robustness_generates_at_least_1000_cases_over_every_class() {
     let cases = all_cases();
     assert!(cases.len() >= 1000, "{} cases", cases.len());
     let classes: std::collections::BTreeSet<&str> = cases.iter().map(|c| c.class).collect();
-    assert_eq!(classes.len(), 14, "{classes:?}");
+    assert_eq!(classes.len(), 17, "{classes:?}");
 }
 
 #[test]
@@ -97,6 +106,9 @@ fn robustness_fast_subset() {
         .filter(|(i, c)| {
             i % 25 == 0
                 || c.class == "degenerate geometry"
+                || c.class == "non-regular input"
+                || c.class == "unbounded size"
+                || c.class == "interrupted study"
                 || match &c.expect {
                     Expect::Interrupted { sigint } => {
                         seen_interrupt.insert((*sigint, c.args[0].clone()))

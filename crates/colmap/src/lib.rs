@@ -34,6 +34,8 @@
 //! - [`Reconstruction::image_cam_from_world`], [`Reconstruction::image_by_name`]: poses.
 //! - [`database::Database::open`]: read-only access to `database.db` (keypoints, matches,
 //!   two-view geometries oriented as asked, rigs, frames, pose priors).
+//! - [`input_file::read_limited`]: the one reader of every input file of the workspace (a regular
+//!   file within a size limit; `/dev/zero`, FIFOs and directories are refused).
 //! - [`fmt::g17`]: `%.17g` number formatting as COLMAP's text writer.
 //!
 //! # Example
@@ -73,6 +75,7 @@ mod convert;
 pub mod database;
 mod error;
 pub mod fmt;
+pub mod input_file;
 pub mod lookup;
 mod reconstruction;
 mod record;

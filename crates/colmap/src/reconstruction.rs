@@ -90,7 +90,8 @@ pub struct Reconstruction {
 }
 
 fn read_file(path: &Path) -> Result<Vec<u8>> {
-    std::fs::read(path).map_err(|source| Error::Io {
+    use crate::input_file;
+    input_file::read_limited(path, input_file::MAX_MODEL_FILE_BYTES).map_err(|source| Error::Io {
         path: path.to_path_buf(),
         source,
     })

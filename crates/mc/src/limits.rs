@@ -38,7 +38,7 @@ pub const MAX_PIXELS: f64 = 1e6;
 /// Largest |value| of any other number in a scenario (covariance entries in mm², deg², …).
 pub const MAX_ABS_OTHER: f64 = 1e14;
 /// Largest scenario file (bytes).
-pub const MAX_FILE_BYTES: u64 = 16 * 1024 * 1024;
+pub const MAX_FILE_BYTES: u64 = crashrig_colmap::input_file::MAX_TOML_BYTES;
 /// Largest nesting depth of arrays and inline tables in a scenario file.
 pub const MAX_NESTING: usize = 16;
 
@@ -109,25 +109,13 @@ fn located(path: &Path, text: &str, offset: usize, e: Error) -> Error {
 
 /// Reads a scenario file with the size bound and a located UTF-8 check.
 pub(crate) fn read_text(path: &Path) -> Result<String, Error> {
-    use std::io::Read;
-    let io = |source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    let file = std::fs::File::open(path).map_err(io)?;
-    let mut bytes = Vec::new();
-    file.take(MAX_FILE_BYTES + 1)
-        .read_to_end(&mut bytes)
-        .map_err(io)?;
-    if bytes.len() as u64 > MAX_FILE_BYTES {
-        return Err(Error::Io {
-            path: path.to_path_buf(),
-            source: std::io::Error::other(format!(
-                "larger than {} MiB (the scenario size limit)",
-                MAX_FILE_BYTES / (1024 * 1024)
-            )),
-        });
-    }
+    let bytes =
+        crashrig_colmap::input_file::read_limited(path, MAX_FILE_BYTES).map_err(|source| {
+            Error::Io {
+                path: path.to_path_buf(),
+                source,
+            }
+        })?;
     String::from_utf8(bytes).map_err(|e| {
         let valid = e.utf8_error().valid_up_to();
         let bytes = e.as_bytes();

@@ -27,7 +27,11 @@ pub fn link_from_result_json(path: &Path) -> Result<(ResultKind, UncertainPose),
         file: path.to_path_buf(),
         problem,
     };
-    let text = std::fs::read_to_string(path).map_err(|e| fail(format!("cannot read: {e}")))?;
+    let text = crashrig_colmap::input_file::read_text_limited(
+        path,
+        crashrig_colmap::input_file::MAX_JSON_BYTES,
+    )
+    .map_err(|e| fail(format!("cannot read: {e}")))?;
     let value: Value = serde_json::from_str(&text).map_err(|e| {
         fail(format!(
             "not a JSON document (line {}, column {}): {e}",

@@ -431,8 +431,15 @@ fn velocity_pair(e: usize, marker: usize, preps: &[EpochPrep]) -> Option<(usize,
 
 fn check_settings(s: &Settings) -> Result<(), Error> {
     let bad = |name, problem: String| Err(Error::Setting { name, problem });
-    if s.samples < 2 {
-        return bad("--samples", format!("{} (at least 2)", s.samples));
+    if !(2..=crate::plausible::MAX_SAMPLES).contains(&s.samples) {
+        return bad(
+            "--samples",
+            format!(
+                "{} (from 2 to {})",
+                s.samples,
+                crate::plausible::MAX_SAMPLES
+            ),
+        );
     }
     if !(s.pixel_sigma_px.is_finite() && s.pixel_sigma_px >= 0.0) {
         return bad(
@@ -514,6 +521,7 @@ pub fn measure(
     settings: &Settings,
 ) -> Result<Measurement, Error> {
     check_settings(settings)?;
+    crate::input::check_in_image(observations, &rig.camera_b, rig.c.as_ref().map(|(_, c)| c))?;
     let groups = group_observations(epochs, rig, observations)?;
     let (measured, reference_epoch) = measured_epochs(epochs, &groups, settings)?;
     let marker_idx: HashMap<&str, usize> = groups
@@ -557,7 +565,7 @@ pub fn measure(
         reference_epoch,
         reprojection_limit_px,
     );
-    Ok(Measurement {
+    let m = Measurement {
         epochs: measured,
         markers: groups.markers,
         rows,
@@ -572,7 +580,10 @@ pub fn measure(
             .collect(),
         samples: settings.samples,
         reprojection_limit_px,
-    })
+    };
+    crate::plausible::check_measurable(&m)?;
+    crate::plausible::check_finite(&m)?;
+    Ok(m)
 }
 
 /// One epoch's observations: marker → camera → observation.

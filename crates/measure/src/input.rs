@@ -2,6 +2,7 @@
 //! outward camera's pose covariance (JSON).
 
 use crate::Error;
+use crashrig_colmap::input_file;
 use crashrig_geometry::{Mat6, Rigid3, UncertainPose};
 use nalgebra::Vector2;
 use std::collections::{BTreeMap, HashMap};
@@ -99,10 +100,11 @@ pub const OBSERVATION_COLUMNS: [&str; 5] = ["epoch", "camera", "marker", "u_px",
 /// [`Error::Io`], and [`Error::Csv`] naming the line for every problem above (an empty file is
 /// line 1).
 pub fn read_observations(path: &Path, names: &CameraNames) -> Result<Vec<Observation>, Error> {
-    let bytes = std::fs::read(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes =
+        input_file::read_limited(path, input_file::MAX_CSV_BYTES).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
     let bad = |line: u64, problem: String| Error::Csv {
         path: path.to_path_buf(),
         line,
@@ -214,10 +216,11 @@ pub fn read_observations(path: &Path, names: &CameraNames) -> Result<Vec<Observa
 }
 
 fn read_json(path: &Path) -> Result<serde_json::Value, Error> {
-    let bytes = std::fs::read(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes =
+        input_file::read_limited(path, input_file::MAX_JSON_BYTES).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
     serde_json::from_slice(&bytes).map_err(|e| Error::Json {
         path: path.to_path_buf(),
         key: "$".into(),
@@ -300,6 +303,10 @@ pub struct ACovariance {
     pub per_epoch_deg: BTreeMap<String, Mat6>,
     /// The file (for messages).
     pub path: PathBuf,
+    /// `mm_per_unit`: the scale of the model the covariance was computed on (a `crashrig
+    /// covariance` result states it), the units of `measure`'s model when `--mm-per-unit` is
+    /// not given ([`model_scale`]).
+    pub mm_per_unit: Option<f64>,
 }
 
 impl ACovariance {
@@ -339,6 +346,22 @@ pub fn read_a_covariance(path: &Path) -> Result<ACovariance, Error> {
             out.per_epoch_deg.insert(name.clone(), m);
         }
     }
+    if let Some(v) = doc.get("mm_per_unit") {
+        let f = v
+            .as_f64()
+            .filter(|f| f.is_finite() && (MM_PER_UNIT_RANGE.0..=MM_PER_UNIT_RANGE.1).contains(f))
+            .ok_or_else(|| {
+                json_err(
+                    path,
+                    "mm_per_unit",
+                    format!(
+                        "must be a number from {:e} to {:e} (mm per model unit)",
+                        MM_PER_UNIT_RANGE.0, MM_PER_UNIT_RANGE.1
+                    ),
+                )
+            })?;
+        out.mm_per_unit = Some(f);
+    }
     if out.default_deg.is_none() && out.per_epoch_deg.is_empty() {
         return Err(json_err(
             path,
@@ -347,4 +370,77 @@ pub fn read_a_covariance(path: &Path) -> Result<ACovariance, Error> {
         ));
     }
     Ok(out)
+}
+
+/// Checks that every observation lies inside the image of the camera that took it (COLMAP
+/// pixels: `0 ≤ u_px ≤ width`, `0 ≤ v_px ≤ height`). A pixel far outside the image (a typo,
+/// a value in the wrong unit) would otherwise give a ray nearly parallel to the image plane,
+/// an intersection behind the cameras and an infinite reprojection error.
+///
+/// # Errors
+/// [`Error::Input`] naming the line, the column and its unit (px) and the image size; located
+/// to the observations file by [`Error::in_files`].
+pub fn check_in_image(
+    observations: &[Observation],
+    camera_b: &crashrig_camera::Camera,
+    camera_c: Option<&crashrig_camera::Camera>,
+) -> Result<(), Error> {
+    for o in observations {
+        let Some(cam) = (match o.camera {
+            Inward::B => Some(camera_b),
+            Inward::C => camera_c,
+        }) else {
+            continue;
+        };
+        let size = [cam.width as f64, cam.height as f64];
+        for (k, (&v, &max)) in o.pixel.iter().zip(&size).enumerate() {
+            if !(0.0..=max).contains(&v) {
+                return Err(Error::Input(format!(
+                    "line {}: `{}` = {v} px lies outside camera {}'s image of {} × {} px (marker `{}`, epoch `{}`)",
+                    o.line,
+                    OBSERVATION_COLUMNS[3 + k],
+                    o.camera.letter(),
+                    cam.width,
+                    cam.height,
+                    o.marker,
+                    o.epoch
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Smallest and largest model scale (mm per model unit): a model in nanometre …
+/// kilometre-scale units.
+pub const MM_PER_UNIT_RANGE: (f64, f64) = (1e-9, 1e9);
+
+/// The model's units in mm: `given` (`--mm-per-unit`, `[measure] mm_per_unit`), else the
+/// `mm_per_unit` that the A-covariance file states (a `crashrig covariance` result). Units
+/// are never guessed: neither is an error; both, differing by more than 1 part in 10⁹, too.
+///
+/// # Errors
+/// [`Error::Setting`] naming `key` (the flag or study key) and its unit.
+pub fn model_scale(
+    given: Option<f64>,
+    a_covariance: Option<&ACovariance>,
+    key: &'static str,
+) -> Result<f64, Error> {
+    let stated = a_covariance.and_then(|c| c.mm_per_unit.map(|f| (f, &c.path)));
+    match (given, stated) {
+        (Some(f), Some((s, path))) if (f - s).abs() > 1e-9 * f.abs().max(s.abs()) => {
+            Err(Error::Setting {
+                name: key,
+                problem: format!(
+                    "{f} mm per model unit, but {} states mm_per_unit = {s} for the same model",
+                    path.display()
+                ),
+            })
+        }
+        (Some(f), _) | (None, Some((f, _))) => Ok(f),
+        (None, None) => Err(Error::Setting {
+            name: key,
+            problem: "missing: the model's units are never guessed; give mm per model unit (1000 for a model in metres, 1 for millimetres), or an A covariance from `crashrig covariance` that states mm_per_unit".into(),
+        }),
+    }
 }

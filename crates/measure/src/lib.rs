@@ -25,6 +25,8 @@
 //! - [`input::read_observations`], [`input::load_link`], [`input::read_a_covariance`]: the
 //!   input files.
 //! - [`engine::measure`]: the measurement → [`engine::Measurement`] (typed rows).
+//! - [`plausible`]: the bound on the replicates, the finiteness check of the result and the
+//!   plausibility warnings (frame rate, velocity) that name the suspect flag and its unit.
 //! - [`output`]: the rows as `crashrig measure`'s files (`trajectories.csv`,
 //!   `displacements.csv`, per-marker plots, the numbers of `summary.json`), shared by the
 //!   command and the study.
@@ -100,6 +102,7 @@ pub mod engine;
 mod error;
 pub mod input;
 pub mod output;
+pub mod plausible;
 mod run;
 pub mod sequence;
 

@@ -141,9 +141,37 @@ fn remove_tree(p: &Path) {
     }
 }
 
+/// Set by the signal thread before it removes the pending directories: [`Staged::write`] then
+/// waits for the exit instead of writing.
+static TERMINATING: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Removes every directory of `dirs` until none has come back for a few milliseconds (at most
+/// about 2 s): a writer that writes straight into a staging directory
+/// ([`Staged::dir`]) may still create a file or recreate a directory (`create_dir_all`) after a
+/// first removal; such a writer either finishes its file or blocks in [`Staged::commit`] /
+/// [`Staged::write`] on the registry lock that the caller holds, so the tree stays gone.
+fn remove_until_gone(dirs: &[PathBuf]) {
+    let mut quiet = 0;
+    for _ in 0..400 {
+        for d in dirs {
+            remove_tree(d);
+        }
+        if dirs.iter().any(|d| std::fs::symlink_metadata(d).is_ok()) {
+            quiet = 0;
+            continue;
+        }
+        quiet += 1;
+        if quiet >= 3 {
+            return;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+}
+
 /// Installs (once per process) a thread that, on SIGINT/SIGTERM/SIGHUP, removes every pending
-/// directory and exits with status 128 + signal. The registry lock is held during a swap, so a
-/// signal that arrives mid-swap is handled after it.
+/// directory ([`remove_until_gone`]) and exits with status 128 + signal. The registry lock is
+/// held during a swap and during the clean-up, so a signal that arrives mid-swap is handled
+/// after it, and no commit or write starts while the staging directories are removed.
 fn install_handler() {
     HANDLER.call_once(|| {
         use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
@@ -155,9 +183,8 @@ fn install_handler() {
             .spawn(move || {
                 if let Some(sig) = signals.forever().next() {
                     let dirs = pending();
-                    for d in dirs.iter() {
-                        remove_tree(d);
-                    }
+                    TERMINATING.store(true, std::sync::atomic::Ordering::SeqCst);
+                    remove_until_gone(&dirs);
                     eprintln!("interrupted: removed the unfinished output");
                     std::process::exit(128 + sig);
                 }
@@ -352,6 +379,13 @@ impl Staged {
     /// Writes `bytes` to `name` (relative, `/`-separated subdirectories are created) inside the
     /// staging directory, and flushes it to disk.
     pub fn write(&mut self, name: &str, bytes: &[u8]) -> Result<()> {
+        // During a signal's clean-up, wait for the exit (the lock is held until then).
+        if TERMINATING.load(std::sync::atomic::Ordering::SeqCst) {
+            drop(pending());
+            loop {
+                std::thread::park();
+            }
+        }
         let rel = Path::new(name);
         let ok = !name.is_empty()
             && rel

@@ -261,6 +261,33 @@ pub enum ResolvedScale {
     Default,
 }
 
+impl CalibrationResult {
+    /// The warning (without `warning: `) for a baseline |base_mm| outside
+    /// [`BASELINE_RANGE_MM`], naming the input that set the scale and its unit: `bar_key` for a
+    /// scale bar's length (mm), `factor_key` for a given or default mm per model unit.
+    pub fn baseline_warning(&self, bar_key: &str, factor_key: &str) -> Option<String> {
+        let base = self.link.b_from_a.translation.vector.norm();
+        let (lo, hi) = BASELINE_RANGE_MM;
+        if (lo..=hi).contains(&base) || !base.is_finite() {
+            return None;
+        }
+        let cause = match &self.scale {
+            ResolvedScale::Bar(b) => format!(
+                "check {bar_key} = {} (mm: the scale bar's length in millimetres)",
+                b.length_mm
+            ),
+            ResolvedScale::Given(f) => format!("check {factor_key} = {f} (mm per model unit)"),
+            ResolvedScale::Default => format!(
+                "the model's units were taken as mm: give {factor_key} (mm per model unit) or a scale bar"
+            ),
+        };
+        Some(format!(
+            "the rig baseline |base_mm| = {base:.3} mm is outside the plausible {lo} mm – {} m; {cause}",
+            hi / 1000.0
+        ))
+    }
+}
+
 impl ResolvedScale {
     /// mm per model unit.
     pub fn mm_per_unit(&self) -> f64 {
@@ -271,6 +298,10 @@ impl ResolvedScale {
         }
     }
 }
+
+/// Plausible rig baselines (mm): an on-board camera pair is more than 20 mm and less than 5 m
+/// apart; a baseline outside is a scale in the wrong unit (a 1.2 m scale bar typed as 1.2 mm).
+pub const BASELINE_RANGE_MM: (f64, f64) = (20.0, 5000.0);
 
 /// A finished calibration: typed values, printed by [`CalibrationResult::to_json`] and
 /// [`CalibrationResult::text_report`].
@@ -396,7 +427,7 @@ pub fn calibrate_with_progress(
             axes.join(", ")
         ));
     }
-    Ok(CalibrationResult {
+    let mut result = CalibrationResult {
         link: cal.link,
         epoch_covariance: cal.epoch_spread.covariance,
         sem_rule: cal.sem.rule.to_string(),
@@ -406,7 +437,13 @@ pub fn calibrate_with_progress(
         pairing: set,
         scale,
         calibration: cal,
-    })
+    };
+    // Units are never guessed: an implausible baseline names the scale input (the command's
+    // flags here; the study names its own keys).
+    if let Some(w) = result.baseline_warning("--scale-length-mm", "--mm-per-unit") {
+        result.warnings.push(w);
+    }
+    Ok(result)
 }
 
 fn unpaired_warnings(set: &EpochSet) -> Vec<String> {

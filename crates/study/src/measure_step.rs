@@ -12,6 +12,7 @@ use crate::Error;
 use crate::study_file::{MeasureANoise, MeasureSection, Study};
 use crashrig_geometry::UncertainPose;
 use crashrig_measure::engine::{Measurement, Settings};
+use crashrig_measure::input;
 use crashrig_measure::{ANoise, MeasureConfig};
 
 /// The measured sequence of a study.
@@ -47,6 +48,18 @@ pub fn run_measure(
     if s.camera_c.is_some() && b_from_c.is_none() {
         return Err(step(&"camera_c needs a [tie] section (the link B_from_C)"));
     }
+    // Units are never guessed: the key, or the units the A covariance file states.
+    let a_cov = match &s.a_noise {
+        MeasureANoise::File(p) => Some(input::read_a_covariance(p).map_err(|e| step(&e))?),
+        MeasureANoise::Sigmas(..) => None,
+    };
+    let mm_per_unit = input::model_scale(s.mm_per_unit, a_cov.as_ref(), "measure.mm_per_unit")
+        .map_err(|e| match e {
+            crashrig_measure::Error::Setting { problem, .. } => {
+                study.key_error("measure", "mm_per_unit", problem)
+            }
+            e => step(&e),
+        })?;
     let config = MeasureConfig {
         model: s.model.clone(),
         camera_a: s.camera_a.clone(),
@@ -55,7 +68,7 @@ pub fn run_measure(
         a_from_b,
         b_from_c: b_from_c.filter(|_| s.camera_c.is_some()),
         observations: s.observations.clone(),
-        mm_per_unit: s.mm_per_unit,
+        mm_per_unit,
         a_noise: match &s.a_noise {
             MeasureANoise::File(p) => ANoise::File(p.clone()),
             MeasureANoise::Sigmas(pos, ang) => ANoise::Sigmas {
@@ -75,9 +88,16 @@ pub fn run_measure(
         out: None,
     };
     let r = crashrig_measure::run(&config).map_err(|e| step(&e))?;
+    let mut warnings = r.warnings;
+    warnings.extend(crashrig_measure::plausible::warnings(
+        &r.measurement,
+        s.frame_rate_hz,
+        "measure.frame_rate_hz",
+        "measure.mm_per_unit",
+    ));
     Ok(MeasureResult {
         measurement: r.measurement,
         summary: r.summary.numbers,
-        warnings: r.warnings,
+        warnings,
     })
 }

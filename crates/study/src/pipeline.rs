@@ -300,18 +300,23 @@ fn chain_inputs_used(layout: &Layout) -> [bool; 3] {
 ///
 /// # Errors
 /// [`Error::Step`] naming the study file and the section whose step failed (the step's own
-/// message names the data file), [`Error::Mc`] when the Monte Carlo library refuses the chain
-/// or a layout.
+/// message names the data file), also when the Monte Carlo library refuses the chain (named
+/// at `[outward]`) or a layout (at its `[[layout]]`).
 pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Error> {
     let seed = options.seed.unwrap_or(study.seed);
     let samples = options.samples.unwrap_or(study.samples);
-    if samples < 2 {
+    let max = crashrig_mc::limits::MAX_SAMPLES;
+    if !(2..=max).contains(&samples) {
         return Err(Error::Key {
             path: study.path.clone(),
-            line: None,
+            line: Some(crate::study_file::key_line_top(&study.text, "samples").unwrap_or(1)),
             key: "samples".into(),
-            message: format!("must be at least 2, got {samples}"),
+            message: format!("must be from 2 to {max}, got {samples}"),
         });
+    }
+    for (i, layout) in study.layouts.iter().enumerate() {
+        crate::study_file::check_layout_size(layout, samples)
+            .map_err(|m| study.step_error("layout", i, m))?;
     }
     let n_sens: usize = if options.no_sensitivity {
         0
@@ -379,10 +384,8 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
     if let Some(t) = &tie {
         inputs.push((ChainCamera::Tie, t.link));
     }
-    let mc_err = |source| Error::Mc {
-        path: study.path.clone(),
-        source,
-    };
+    // The chain of outward → inward → tie: its errors name `[outward]`'s line.
+    let mc_err = |e: crashrig_mc::Error| study.step_error("outward", 0, e.to_string());
     let (chain_mc, _) = build_chain(&inputs, &Scales::unit(0)).map_err(mc_err)?;
     let sub = within("propagation chunks".into());
     let mc = chain_mc.monte_carlo_with_progress(study.chain_samples, seed, hook(on, &sub));
@@ -402,9 +405,21 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
                       s: &Scales,
                       stage: String|
      -> Result<(crashrig_mc::Grid, GridResult), Error> {
-        let g = layout_study(&inputs, layout, s, samples, seed).map_err(mc_err)?;
+        // Errors about a layout name its `[[layout]]` line.
+        let at_layout = |e: crashrig_mc::Error| {
+            let i = study
+                .layouts
+                .iter()
+                .position(|l| std::ptr::eq(l, layout))
+                .unwrap_or(0);
+            study.step_error("layout", i, e.to_string())
+        };
+        let g = layout_study(&inputs, layout, s, samples, seed).map_err(at_layout)?;
+        crashrig_mc::degenerate::check_layout(g.grid()).map_err(at_layout)?;
         let sub = within(format!("{stage}: points"));
-        let mut r = g.evaluate_with_progress(hook(on, &sub)).map_err(mc_err)?;
+        let mut r = g
+            .evaluate_with_progress(hook(on, &sub))
+            .map_err(at_layout)?;
         let mut grid = g.grid().clone();
         // Degenerate points (rays nearly parallel) are blanked (NaN): kept out of colour
         // scaling, medians and the worst region, counted as not below the threshold.

@@ -1019,14 +1019,14 @@ pub fn report_html(
             ),
         };
         cmds.push(format!(
-            "crashrig measure {} --camera-a {} --camera-b {}{} --link {dir}/calibration/calibrate.json{} --observations {} --mm-per-unit {} {a_noise} --pixel-sigma-px {} --samples {} --threshold-mm {}{}{}{} --seed {} --out MEASURE_DIR   # = {dir}/measure/ (the study passes the link with the SO(3) mean rotation; the command reads angles_deg, the per-angle mean: set angles_deg to mean_rotation_angles_deg for identical numbers)",
+            "crashrig measure {} --camera-a {} --camera-b {}{} --link {dir}/calibration/calibrate.json{} --observations {}{} {a_noise} --pixel-sigma-px {} --samples {} --threshold-mm {}{}{}{} --seed {} --out MEASURE_DIR   # = {dir}/measure/ (the study passes the link with the SO(3) mean rotation; the command reads angles_deg, the per-angle mean: set angles_deg to mean_rotation_angles_deg for identical numbers)",
             m.model.display(),
             m.camera_a,
             m.camera_b,
             m.camera_c.as_ref().map_or(String::new(), |c| format!(" --camera-c {c}")),
             if m.camera_c.is_some() { format!(" --tie {dir}/tie/bootstrap.json") } else { String::new() },
             m.observations.display(),
-            m.mm_per_unit,
+            m.mm_per_unit.map_or(String::new(), |f| format!(" --mm-per-unit {f}")),
             m.pixel_sigma_px,
             mr.summary.samples_per_point,
             m.threshold_mm,

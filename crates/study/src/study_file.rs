@@ -209,7 +209,7 @@ pub struct MeasureSection {
     /// Marker observations CSV `epoch,camera,marker,u_px,v_px`.
     pub observations: PathBuf,
     /// Model units → mm (default 1).
-    pub mm_per_unit: f64,
+    pub mm_per_unit: Option<f64>,
     /// A's per-epoch uncertainty.
     pub a_noise: MeasureANoise,
     /// σ of each pixel coordinate (px, default 0.5).
@@ -259,9 +259,9 @@ pub struct Study {
 #[serde(deny_unknown_fields)]
 struct Raw {
     seed: Option<u64>,
-    samples: Option<i64>,
-    chain_samples: Option<i64>,
-    reference: Option<String>,
+    samples: Option<Spanned<i64>>,
+    chain_samples: Option<Spanned<i64>>,
+    reference: Option<Spanned<String>>,
     calibration: Option<Spanned<RawCalibration>>,
     tie: Option<Spanned<RawTie>>,
     outward: Option<Spanned<RawPose>>,
@@ -376,6 +376,87 @@ pub(crate) fn section_line(text: &str, name: &str, n: usize) -> Option<usize> {
         .map(|(i, _)| i + 1)
 }
 
+/// 1-based line of `key = …` in the `n`-th `[section]` (or `[[section]]`) of `text`, else of
+/// the section header.
+pub(crate) fn key_line(text: &str, section: &str, n: usize, key: &str) -> Option<usize> {
+    let start = section_line(text, section, n)?;
+    text.lines()
+        .enumerate()
+        .skip(start)
+        .map(|(i, l)| (i, l.split('#').next().unwrap_or("").trim()))
+        .take_while(|(_, l)| !l.starts_with('['))
+        .find(|(_, l)| {
+            l.strip_prefix(key)
+                .is_some_and(|rest| rest.trim_start().starts_with('='))
+        })
+        .map_or(Some(start), |(i, _)| Some(i + 1))
+}
+
+/// 1-based line of a top-level `key = …` (before the first section header).
+pub(crate) fn key_line_top(text: &str, key: &str) -> Option<usize> {
+    text.lines()
+        .map(|l| l.split('#').next().unwrap_or("").trim())
+        .take_while(|l| !l.starts_with('['))
+        .position(|l| {
+            l.strip_prefix(key)
+                .is_some_and(|rest| rest.trim_start().starts_with('='))
+        })
+        .map(|i| i + 1)
+}
+
+/// Keys of a study whose value is exactly three numbers (serde would silently drop a fourth).
+const STUDY_THREE_VECTORS: &[&str] = &[
+    "position_mm",
+    "angles_deg",
+    "sigma_position_mm",
+    "sigma_angles_deg",
+    "look_at_mm",
+    "sigma_a_position_mm",
+    "sigma_a_angles_deg",
+    "x_mm",
+    "y_mm",
+    "z_mm",
+];
+
+/// The first 3-vector key of `text` whose array does not hold exactly three values:
+/// (dotted key, 1-based line, length).
+fn wrong_length_vector(text: &str) -> Option<(String, usize, usize)> {
+    use toml::de::{DeTable, DeValue};
+    fn walk(t: &DeTable<'_>, prefix: &str, text: &str) -> Option<(String, usize, usize)> {
+        for (k, v) in t.iter() {
+            let leaf = k.get_ref().as_ref();
+            let key = if prefix.is_empty() {
+                leaf.to_string()
+            } else {
+                format!("{prefix}.{leaf}")
+            };
+            match v.get_ref() {
+                DeValue::Table(t) => {
+                    if let Some(found) = walk(t, &key, text) {
+                        return Some(found);
+                    }
+                }
+                DeValue::Array(a) => {
+                    for (i, e) in a.iter().enumerate() {
+                        if let DeValue::Table(t) = e.get_ref()
+                            && let Some(found) = walk(t, &format!("{key}[{i}]"), text)
+                        {
+                            return Some(found);
+                        }
+                    }
+                    if STUDY_THREE_VECTORS.contains(&leaf) && a.len() != 3 {
+                        return Some((key, line_of(text, v.span().start), a.len()));
+                    }
+                }
+                _ => {}
+            }
+        }
+        None
+    }
+    let doc = DeTable::parse(text).ok()?;
+    walk(doc.get_ref(), "", text)
+}
+
 struct Ctx<'a> {
     path: &'a Path,
     text: &'a str,
@@ -445,13 +526,35 @@ impl Ctx<'_> {
         Ok(x)
     }
 
-    fn count(&self, v: &Spanned<i64>, key: &str, min: i64) -> Result<usize, Error> {
+    /// A model scale (mm per model unit) within [`crashrig_measure::input::MM_PER_UNIT_RANGE`].
+    fn scale(&self, v: &Spanned<f64>, key: &str) -> Result<f64, Error> {
+        let (lo, hi) = crashrig_measure::input::MM_PER_UNIT_RANGE;
+        let x = *v.get_ref();
+        if !(x.is_finite() && (lo..=hi).contains(&x)) {
+            return self.err(
+                Some(v.span()),
+                key,
+                format!("must be a number from {lo:e} to {hi:e} (mm per model unit), got {x}"),
+            );
+        }
+        Ok(x)
+    }
+
+    /// A count of work `min ..= max` (checked before anything is allocated or run).
+    fn count(&self, v: &Spanned<i64>, key: &str, min: i64, max: usize) -> Result<usize, Error> {
         let x = *v.get_ref();
         if x < min {
             return self.err(
                 Some(v.span()),
                 key,
                 format!("must be at least {min}, got {x}"),
+            );
+        }
+        if x as u64 > max as u64 {
+            return self.err(
+                Some(v.span()),
+                key,
+                format!("{x} exceeds the limit of {max}"),
             );
         }
         Ok(x as usize)
@@ -534,11 +637,19 @@ impl Ctx<'_> {
         let v = self.required(v, section, key)?;
         let a = v.get_ref();
         let c = a[2];
-        if !(a[0].is_finite() && a[1].is_finite()) || c < 1.0 || c.fract() != 0.0 || c > 1e6 {
+        if !(a[0].is_finite() && a[1].is_finite()) || c < 1.0 || c.fract() != 0.0 {
             return self.err(
                 Some(v.span()),
                 key,
                 "must be [start, stop, count] with finite mm and a whole count ≥ 1",
+            );
+        }
+        let max = crashrig_mc::limits::MAX_AXIS_COUNT;
+        if c > max as f64 {
+            return self.err(
+                Some(v.span()),
+                key,
+                format!("count {c} exceeds the limit of {max} values per axis"),
             );
         }
         Ok((a[0], a[1], c as usize))
@@ -546,6 +657,36 @@ impl Ctx<'_> {
 }
 
 /// `[measure]` → [`MeasureSection`].
+/// Two observers of a layout closer than this (mm) are coincident: an error naming both.
+pub const MIN_OBSERVER_DISTANCE_MM: f64 = 1.0;
+
+/// Checks a layout's grid size against [`crashrig_mc::limits::MAX_GRID_POINTS`] and its draws
+/// (points × `samples`) against [`crashrig_mc::limits::MAX_GRID_DRAWS`], before anything is
+/// allocated; the message gives the memory the grid's results would need.
+///
+/// # Errors
+/// The message (the caller names the file, line and key).
+pub fn check_layout_size(layout: &Layout, samples: usize) -> Result<(), String> {
+    use crashrig_mc::limits::{MAX_GRID_DRAWS, MAX_GRID_POINTS};
+    let (nx, ny, nz) = (layout.x_mm.2, layout.y_mm.2, layout.z_mm.2);
+    let points = nx as u128 * ny as u128 * nz as u128;
+    if points > MAX_GRID_POINTS as u128 {
+        // Per point: its statistics and at least one row of grid.csv (~200 bytes).
+        let bytes = points * (std::mem::size_of::<crashrig_mc::PointStats>() as u128 + 200);
+        return Err(format!(
+            "{nx} × {ny} × {nz} = {points} grid points exceed the limit of {MAX_GRID_POINTS} (their results alone would need {} MiB)",
+            bytes >> 20
+        ));
+    }
+    let draws = points * samples as u128;
+    if draws > MAX_GRID_DRAWS as u128 {
+        return Err(format!(
+            "{points} grid points × {samples} samples = {draws} draws exceed the limit of {MAX_GRID_DRAWS}"
+        ));
+    }
+    Ok(())
+}
+
 fn measure_section(
     cx: &Ctx<'_>,
     m: &Spanned<RawMeasure>,
@@ -562,6 +703,14 @@ fn measure_section(
         "measure.observations",
         false,
     )?;
+    // A marker needs two views: camera B alone measures nothing.
+    if m.camera_c.is_none() {
+        return cx.err(
+            Some(ms),
+            "measure.camera_c",
+            "missing: a marker needs two views, and camera B alone gives one; name the tied camera C (camera_c, with a [tie] section)",
+        );
+    }
     if let Some(c) = &m.camera_c
         && !has_tie
     {
@@ -595,6 +744,18 @@ fn measure_section(
             })?,
         ),
     };
+    let mm_per_unit = m
+        .mm_per_unit
+        .as_ref()
+        .map(|v| cx.scale(v, "measure.mm_per_unit"))
+        .transpose()?;
+    if mm_per_unit.is_none() && matches!(a_noise, MeasureANoise::Sigmas(..)) {
+        return cx.err(
+            Some(ms),
+            "measure.mm_per_unit",
+            "missing: the model's units are never guessed; give mm per model unit (1000 for a model in metres, 1 for millimetres), or an a_covariance from `crashrig covariance` that states mm_per_unit",
+        );
+    }
     let pixel_sigma_px = match &m.pixel_sigma_px {
         None => 0.5,
         Some(v) if v.get_ref().is_finite() && *v.get_ref() >= 0.0 => *v.get_ref(),
@@ -612,16 +773,20 @@ fn measure_section(
         camera_b: req(&m.camera_b, "measure.camera_b")?.into_inner(),
         camera_c: m.camera_c.as_ref().map(|c| c.get_ref().clone()),
         observations,
-        mm_per_unit: m
-            .mm_per_unit
-            .as_ref()
-            .map_or(Ok(1.0), |v| cx.positive(v, "measure.mm_per_unit"))?,
+        mm_per_unit,
         a_noise,
         pixel_sigma_px,
         samples: m
             .samples
             .as_ref()
-            .map(|v| cx.count(v, "measure.samples", 2))
+            .map(|v| {
+                cx.count(
+                    v,
+                    "measure.samples",
+                    2,
+                    crashrig_measure::plausible::MAX_SAMPLES,
+                )
+            })
             .transpose()?,
         reference_epoch: m.reference_epoch.clone(),
         frame_rate_hz: m
@@ -647,7 +812,11 @@ impl Study {
     /// # Errors
     /// [`Error::Read`], [`Error::Toml`] or [`Error::Key`] naming the file, key and line.
     pub fn from_path(path: &Path) -> Result<Study, Error> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Read {
+        let text = crashrig_colmap::input_file::read_text_limited(
+            path,
+            crashrig_colmap::input_file::MAX_TOML_BYTES,
+        )
+        .map_err(|source| Error::Read {
             path: path.to_path_buf(),
             source,
         })?;
@@ -679,44 +848,44 @@ impl Study {
                 message,
             }
         })?;
+        if let Some((key, line, n)) = wrong_length_vector(text) {
+            return Err(Error::Key {
+                path: path.to_path_buf(),
+                line: Some(line),
+                key,
+                message: format!("must have exactly 3 values, found {n}"),
+            });
+        }
         let dir = path
             .parent()
             .filter(|p| !p.as_os_str().is_empty())
             .map_or_else(|| PathBuf::from("."), Path::to_path_buf);
         let cx = Ctx { path, text, dir };
         let whole = 0..0;
+        // A missing section has no line of its own: the file's first line.
         let missing_section = |name: &str| Error::Key {
             path: path.to_path_buf(),
-            line: None,
+            line: Some(1),
             key: name.to_string(),
             message: "missing section (required)".into(),
         };
 
-        let samples = match raw.samples {
-            Some(n) if n < 2 => {
-                return cx.err(None, "samples", format!("must be at least 2, got {n}"));
-            }
-            Some(n) => n as usize,
-            None => 2000,
-        };
-        let chain_samples = match raw.chain_samples {
-            Some(n) if n < 2 => {
-                return cx.err(
-                    None,
-                    "chain_samples",
-                    format!("must be at least 2, got {n}"),
-                );
-            }
-            Some(n) => n as usize,
-            None => 200_000,
-        };
+        let samples = raw.samples.as_ref().map_or(Ok(2000), |v| {
+            cx.count(v, "samples", 2, crashrig_mc::limits::MAX_SAMPLES)
+        })?;
+        let chain_samples = raw.chain_samples.as_ref().map_or(Ok(200_000), |v| {
+            cx.count(v, "chain_samples", 2, crashrig_mc::limits::MAX_SAMPLES)
+        })?;
         if let Some(r) = &raw.reference
-            && r != "kaminski2023"
+            && r.get_ref() != "kaminski2023"
         {
             return cx.err(
-                None,
+                Some(r.span()),
                 "reference",
-                format!("unknown reference {r:?} (known: \"kaminski2023\")"),
+                format!(
+                    "unknown reference {:?} (known: \"kaminski2023\")",
+                    r.get_ref()
+                ),
             );
         }
 
@@ -755,9 +924,7 @@ impl Study {
                     length_mm: cx.positive(l, "calibration.scale_length_mm")?,
                 }
             }
-            (None, None, Some(f)) => {
-                StudyScale::MmPerUnit(cx.positive(f, "calibration.mm_per_unit")?)
-            }
+            (None, None, Some(f)) => StudyScale::MmPerUnit(cx.scale(f, "calibration.mm_per_unit")?),
             (Some(_), None, _) => {
                 return cx.err(
                     Some(cs),
@@ -792,10 +959,9 @@ impl Study {
             camera_a,
             camera_b,
             scale,
-            max_lag: c
-                .max_lag
-                .as_ref()
-                .map_or(Ok(10), |v| cx.count(v, "calibration.max_lag", 1))?,
+            max_lag: c.max_lag.as_ref().map_or(Ok(10), |v| {
+                cx.count(v, "calibration.max_lag", 1, usize::MAX)
+            })?,
             refine: c.refine.unwrap_or(true),
             accept_rig_constrained: c.accept_rig_constrained.unwrap_or(false),
         };
@@ -845,14 +1011,13 @@ impl Study {
                     image_a: req(&t.image_a, "tie.image_a")?.into_inner(),
                     image_b: req(&t.image_b, "tie.image_b")?.into_inner(),
                     method,
-                    iterations: t
-                        .iterations
-                        .as_ref()
-                        .map_or(Ok(500), |v| cx.count(v, "tie.iterations", 2))?,
+                    iterations: t.iterations.as_ref().map_or(Ok(500), |v| {
+                        cx.count(v, "tie.iterations", 2, crashrig_bootstrap::MAX_ITERATIONS)
+                    })?,
                     mm_per_unit: t
                         .mm_per_unit
                         .as_ref()
-                        .map_or(Ok(1.0), |v| cx.positive(v, "tie.mm_per_unit"))?,
+                        .map_or(Ok(1.0), |v| cx.scale(v, "tie.mm_per_unit"))?,
                     max_error_px: t
                         .max_error_px
                         .as_ref()
@@ -945,15 +1110,29 @@ impl Study {
                     ),
                 );
             }
-            let mut observers = Vec::new();
+            let mut observers: Vec<Observer> = Vec::new();
             for (oi, ob) in l.observer.iter().enumerate() {
                 let obs = ob.span();
                 let ob = ob.get_ref();
                 let ko = |f: &str| format!("layout[{li}].observer[{oi}].{f}");
-                let position_mm = cx.finite3(
-                    cx.required(&ob.position_mm, obs.clone(), &ko("position_mm"))?,
-                    &ko("position_mm"),
-                )?;
+                let position = cx.required(&ob.position_mm, obs.clone(), &ko("position_mm"))?;
+                let position_mm = cx.finite3(position, &ko("position_mm"))?;
+                if let Some((oj, other)) = observers
+                    .iter()
+                    .enumerate()
+                    .find(|(_, o)| (o.position_mm - position_mm).norm() < MIN_OBSERVER_DISTANCE_MM)
+                {
+                    return cx.err(
+                        Some(position.span()),
+                        &ko("position_mm"),
+                        format!(
+                            "observer {:?} is {:.3} mm from observer[{oj}] {:?} (less than {MIN_OBSERVER_DISTANCE_MM} mm): coincident cameras see a point along the same ray and cannot intersect it (σ would be empty)",
+                            ob.name.clone().unwrap_or_else(|| format!("obs{}", oi + 1)),
+                            (other.position_mm - position_mm).norm(),
+                            other.name
+                        ),
+                    );
+                }
                 let noise = match &ob.from {
                     Some(f) => {
                         if ob.sigma_position_mm.is_some()
@@ -1045,6 +1224,12 @@ impl Study {
                 correlated: l.correlated.unwrap_or(false),
                 observers,
             };
+            check_layout_size(&layout, samples).map_err(|message| Error::Key {
+                path: path.to_path_buf(),
+                line: Some(line_of(text, ls.start)),
+                key: format!("layout[{li}]"),
+                message,
+            })?;
             if layout.slug().is_empty() || layouts.iter().any(|o| o.slug() == layout.slug()) {
                 return cx.err(
                     Some(layout_name_span),
@@ -1072,7 +1257,7 @@ impl Study {
             tie,
             outward,
             layouts,
-            reference: raw.reference,
+            reference: raw.reference.map(Spanned::into_inner),
             measure,
         })
     }
@@ -1082,12 +1267,23 @@ impl Study {
         section_line(&self.text, name, n)
     }
 
+    /// An error about `key` of the first `[section]`, located at the key's line (else the
+    /// section's).
+    pub fn key_error(&self, section: &str, key: &str, message: impl Into<String>) -> Error {
+        Error::Key {
+            path: self.path.clone(),
+            line: key_line(&self.text, section, 0, key),
+            key: format!("{section}.{key}"),
+            message: message.into(),
+        }
+    }
+
     /// An [`Error::Step`] for a failure of the step configured by section `key`.
     pub fn step_error(&self, key: &str, n: usize, message: impl Into<String>) -> Error {
         let section = key.split('[').next().unwrap_or(key);
         Error::Step {
             path: self.path.clone(),
-            line: self.section_line(section, n),
+            line: self.section_line(section, n).or(Some(1)),
             key: key.to_string(),
             message: message.into(),
         }

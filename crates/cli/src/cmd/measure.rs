@@ -15,13 +15,13 @@ pub struct MeasureArgs {
     /// COLMAP model of the sequence (camera A registered against the lab per epoch).
     pub model: PathBuf,
     /// Camera A: image-name prefix (e.g. `cam_out/`) or camera id; epochs are its images.
-    #[arg(long, value_name = "A")]
+    #[arg(long, value_name = "A", value_parser = crate::limits::parse_camera)]
     pub camera_a: String,
     /// Camera B (inward, linked to A): camera id or an image-name prefix, for its intrinsics.
-    #[arg(long, value_name = "B")]
+    #[arg(long, value_name = "B", value_parser = crate::limits::parse_camera)]
     pub camera_b: String,
     /// Camera C (tied to B by `--tie`): camera id or an image-name prefix.
-    #[arg(long, value_name = "C")]
+    #[arg(long, value_name = "C", value_parser = crate::limits::parse_camera)]
     pub camera_c: Option<String>,
     /// The calibrated link A_from_B: a `calibrate --json` result (uses sem_covariance_tangent).
     #[arg(long, value_name = "JSON")]
@@ -35,9 +35,9 @@ pub struct MeasureArgs {
     /// Output directory (written all-or-nothing).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// Model units → mm.
-    #[arg(long, value_name = "F", default_value_t = 1.0)]
-    pub mm_per_unit: f64,
+    /// Model units → mm (required unless `--a-covariance` states `mm_per_unit`).
+    #[arg(long, value_name = "F", value_parser = crate::limits::parse_mm_per_unit)]
+    pub mm_per_unit: Option<f64>,
     /// σ of A's projection centre per epoch (world axes, mm).
     #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
     pub sigma_a_position_mm: Option<Vec<f64>>,
@@ -51,7 +51,7 @@ pub struct MeasureArgs {
     #[arg(long, value_name = "PX", default_value_t = 0.5)]
     pub pixel_sigma_px: f64,
     /// Monte Carlo replicates per row.
-    #[arg(long, value_name = "N", default_value_t = 2000)]
+    #[arg(long, value_name = "N", default_value_t = 2000, value_parser = crate::limits::parse_measure_samples)]
     pub samples: usize,
     /// Reference epoch of the displacements (default: the first measured epoch).
     #[arg(long, value_name = "EPOCH")]
@@ -76,6 +76,14 @@ pub fn run(a: MeasureArgs, g: &Global) -> anyhow::Result<()> {
     let config = config(&a, g.seed)?;
     let r = crashrig_measure::run(&config)?;
     for w in &r.warnings {
+        eprintln!("warning: {w}");
+    }
+    for w in crashrig_measure::plausible::warnings(
+        &r.measurement,
+        a.frame_rate_hz,
+        "--frame-rate-hz",
+        "--mm-per-unit",
+    ) {
         eprintln!("warning: {w}");
     }
     let s = &r.summary;
@@ -118,6 +126,13 @@ fn config(a: &MeasureArgs, seed: Option<u64>) -> anyhow::Result<MeasureConfig> {
         a.camera_c.is_some() == a.tie.is_some(),
         "--camera-c and --tie go together (give both for a tied-in camera C, or neither)"
     );
+    // Units are never guessed: the flag, or the units the A covariance states.
+    let a_cov = a
+        .a_covariance
+        .as_deref()
+        .map(input::read_a_covariance)
+        .transpose()?;
+    let mm_per_unit = input::model_scale(a.mm_per_unit, a_cov.as_ref(), "--mm-per-unit")?;
     let a_noise = match &a.a_covariance {
         Some(p) => ANoise::File(p.clone()),
         None => {
@@ -140,7 +155,7 @@ fn config(a: &MeasureArgs, seed: Option<u64>) -> anyhow::Result<MeasureConfig> {
         a_from_b: input::load_link(&a.link)?,
         b_from_c: a.tie.as_deref().map(input::load_link).transpose()?,
         observations: a.observations.clone(),
-        mm_per_unit: a.mm_per_unit,
+        mm_per_unit,
         a_noise,
         settings: Settings {
             samples: a.samples,

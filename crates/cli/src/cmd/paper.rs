@@ -20,13 +20,13 @@ pub struct PaperArgs {
     #[arg(long, default_value = "out/paper")]
     pub out: PathBuf,
     /// Monte Carlo draws per grid point (the heat maps).
-    #[arg(long, default_value_t = 2000)]
+    #[arg(long, default_value_t = 2000, value_parser = crate::limits::parse_samples)]
     pub samples: usize,
     /// Monte Carlo draws of the chain propagation (Tables 3–4).
-    #[arg(long = "chain-samples", default_value_t = 200_000)]
+    #[arg(long = "chain-samples", default_value_t = 200_000, value_parser = crate::limits::parse_samples)]
     pub chain_samples: usize,
     /// Bootstrap replicates (Figures 8–9).
-    #[arg(long, default_value_t = 500)]
+    #[arg(long, default_value_t = 500, value_parser = crate::limits::parse_iterations)]
     pub iterations: usize,
 }
 

@@ -16,7 +16,7 @@ pub struct StudyArgs {
     #[arg(long)]
     pub out: PathBuf,
     /// Monte Carlo draws per grid point (overrides the study file's `samples`).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::limits::parse_samples)]
     pub samples: Option<usize>,
     /// Skip the one-at-a-time sensitivity runs (the verdict's "dominant input").
     #[arg(long)]
@@ -161,6 +161,12 @@ pub fn execute(
 /// One `warning:` line per layout that nothing can measure (fixed cameras of which no two see
 /// a common point) and per epoch of `[measure]` without a pose of camera A.
 fn warnings(study_path: &Path, r: &crashrig_study::StudyResult) {
+    if let Some(w) = r
+        .calibration
+        .baseline_warning("calibration.scale_length_mm", "calibration.mm_per_unit")
+    {
+        eprintln!("warning: {}: [calibration]: {w}", study_path.display());
+    }
     for l in &r.layouts {
         if l.summary
             .fixed

@@ -5,7 +5,7 @@ use crate::common::{assert_clean_error, json_of, read_json, run};
 use std::path::{Path, PathBuf};
 
 /// Copies the own project into a temporary directory (so a run never writes into the repo).
-fn own_project(tmp: &Path) -> PathBuf {
+pub fn own_project(tmp: &Path) -> PathBuf {
     fn copy(from: &Path, to: &Path) {
         std::fs::create_dir_all(to).expect("mkdir");
         for e in std::fs::read_dir(from).expect("read dir") {
@@ -226,7 +226,7 @@ fn study_own_project_matches_the_commands() {
     );
 }
 
-fn study_error(edit: impl Fn(&str) -> String, needles: &[&str]) {
+pub fn study_error(edit: impl Fn(&str) -> String, needles: &[&str]) {
     let tmp = tempfile::tempdir().expect("temp dir");
     let own = own_project(tmp.path());
     let study = own.join("study.toml");

@@ -1,0 +1,455 @@
+//! Units are never guessed (issue 25 §2, contract "Units are never guessed"): every case of
+//! the issue runs the binary and checks the exact `error:` / `warning:` line — it names the
+//! flag or key and its unit — and that nothing is written on an error. Every run is capped
+//! (`capped`): a regression to a hang fails instead of blocking CI.
+
+use crate::common::{Run, assert_clean_error, fixture};
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Per-run limit of these tests (debug build, tiny inputs: each run takes seconds).
+const TIMEOUT: Duration = Duration::from_secs(300);
+
+/// Runs `crashrig args` like [`crate::common::run`], killed (and the test failed) after
+/// [`TIMEOUT`].
+fn capped(args: &[String]) -> Run {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (o, e) = (dir.path().join("stdout"), dir.path().join("stderr"));
+    let mut child = Command::new(env!("CARGO_BIN_EXE_crashrig"))
+        .args(args)
+        .env("RUST_BACKTRACE", "1")
+        .env_remove("RAYON_NUM_THREADS")
+        .stdin(Stdio::null())
+        .stdout(std::fs::File::create(&o).expect("stdout file"))
+        .stderr(std::fs::File::create(&e).expect("stderr file"))
+        .spawn()
+        .expect("the crashrig binary runs");
+    let start = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().expect("wait") {
+            break s;
+        }
+        if start.elapsed() > TIMEOUT {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("crashrig {args:?}: no exit within {TIMEOUT:?} (a hang)");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    Run {
+        success: status.success(),
+        code: status.code(),
+        stdout: std::fs::read_to_string(&o).expect("stdout is UTF-8"),
+        stderr: std::fs::read_to_string(&e).expect("stderr is UTF-8"),
+    }
+}
+
+fn strings(v: &[&str]) -> Vec<String> {
+    v.iter().map(|s| s.to_string()).collect()
+}
+
+/// The `warning:` lines of a run's stderr.
+fn warnings(r: &Run) -> Vec<&str> {
+    r.stderr
+        .lines()
+        .filter(|l| l.starts_with("warning: "))
+        .collect()
+}
+
+fn seq(name: &str) -> String {
+    fixture("measure/sequence").join(name).display().to_string()
+}
+
+/// `measure` on `fixtures/measure/sequence` (50 draws, no plots) into `out`, with `extra`;
+/// `--mm-per-unit 1000` unless `with_scale` is false.
+fn measure_args(out: &Path, observations: &str, with_scale: bool, extra: &[&str]) -> Vec<String> {
+    let mut a = strings(&["measure"]);
+    a.push(seq("model"));
+    a.extend(strings(&[
+        "--camera-a",
+        "cam_out/",
+        "--camera-b",
+        "2",
+        "--camera-c",
+        "3",
+        "--link",
+    ]));
+    a.push(seq("link.json"));
+    a.push("--tie".into());
+    a.push(seq("tie.json"));
+    a.push("--observations".into());
+    a.push(observations.to_string());
+    a.push("--a-covariance".into());
+    a.push(seq("a_covariance.json"));
+    if with_scale {
+        a.extend(strings(&["--mm-per-unit", "1000"]));
+    }
+    a.extend(strings(&["--samples", "50", "--no-plots", "--out"]));
+    a.push(out.display().to_string());
+    a.extend(strings(extra));
+    a
+}
+
+fn assert_nothing_written(out: &Path) {
+    assert!(!out.exists(), "{} written after an error", out.display());
+    let parent = out.parent().expect("parent");
+    let left: Vec<String> = std::fs::read_dir(parent)
+        .expect("list")
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains("crashrig-staging"))
+        .collect();
+    assert!(left.is_empty(), "staging left behind: {left:?}");
+}
+
+/// A 1.2 m scale bar typed into the mm key: the baseline shrinks to ~0.1 mm and one warning
+/// names `--scale-length-mm` and its unit; the right length gives no such warning.
+#[test]
+fn units_scale_bar_in_metres_warns_naming_the_flag() {
+    let model = fixture("rig/paper").display().to_string();
+    let calibrate = |len: &str| {
+        capped(&strings(&[
+            "calibrate",
+            &model,
+            "--camera-a",
+            "cam_out/",
+            "--camera-b",
+            "cam_in/",
+            "--scale-points",
+            "1",
+            "2",
+            "--scale-length-mm",
+            len,
+            "--no-refine",
+            "--json",
+        ]))
+    };
+    let r = calibrate("1.2");
+    assert!(r.success, "{}", r.stderr);
+    let w: Vec<&str> = warnings(&r)
+        .into_iter()
+        .filter(|l| l.contains("rig baseline"))
+        .collect();
+    assert_eq!(w.len(), 1, "{}", r.stderr);
+    assert!(
+        w[0].starts_with("warning: the rig baseline |base_mm| = 0.1")
+            && w[0].contains("outside the plausible 20 mm – 5 m")
+            && w[0].contains("check --scale-length-mm = 1.2 (mm:"),
+        "{}",
+        w[0]
+    );
+    let v: serde_json::Value = serde_json::from_str(&r.stdout).expect("json");
+    assert!(
+        v["warnings"].to_string().contains("rig baseline"),
+        "the JSON's warnings hold it too"
+    );
+    let r = calibrate("2000");
+    assert!(r.success, "{}", r.stderr);
+    assert!(!r.stderr.contains("rig baseline"), "{}", r.stderr);
+}
+
+/// `measure` without `--mm-per-unit` is an error naming the flag and its unit, before any
+/// work and with nothing written; an A covariance that states `mm_per_unit` gives the units
+/// (same result as the flag), and a flag that contradicts it is an error.
+#[test]
+fn units_measure_without_mm_per_unit_is_an_error() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let out = tmp.path().join("m");
+    let obs = seq("observations.csv");
+    let r = capped(&measure_args(&out, &obs, false, &[]));
+    assert_clean_error(
+        &r,
+        &[
+            "--mm-per-unit",
+            "missing",
+            "mm per model unit",
+            "never guessed",
+        ],
+    );
+    assert_nothing_written(&out);
+
+    // The A covariance states the units.
+    let mut cov: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(seq("a_covariance.json")).expect("read"))
+            .expect("json");
+    cov["mm_per_unit"] = serde_json::json!(1000.0);
+    let stated = tmp.path().join("a_cov_stated.json");
+    std::fs::write(&stated, cov.to_string()).expect("write");
+    let with_stated = |args: Vec<String>| -> Vec<String> {
+        let i = args
+            .iter()
+            .position(|a| a == "--a-covariance")
+            .expect("flag")
+            + 1;
+        let mut a = args;
+        a[i] = stated.display().to_string();
+        a
+    };
+    let out_stated = tmp.path().join("stated");
+    let r = capped(&with_stated(measure_args(&out_stated, &obs, false, &[])));
+    assert!(r.success, "{}", r.stderr);
+    let out_flag = tmp.path().join("flag");
+    let r = capped(&with_stated(measure_args(&out_flag, &obs, true, &[])));
+    assert!(r.success, "{}", r.stderr);
+    assert_eq!(
+        std::fs::read(out_stated.join("trajectories.csv")).expect("csv"),
+        std::fs::read(out_flag.join("trajectories.csv")).expect("csv"),
+        "the stated units and the flag give the same result"
+    );
+    let out_bad = tmp.path().join("bad");
+    let mut a = with_stated(measure_args(&out_bad, &obs, false, &[]));
+    a.extend(strings(&["--mm-per-unit", "1"]));
+    let r = capped(&a);
+    assert_clean_error(
+        &r,
+        &["--mm-per-unit", "1 mm per model unit", "mm_per_unit = 1000"],
+    );
+    assert_nothing_written(&out_bad);
+}
+
+/// A frame rate below 100 Hz (typed in kHz) warns naming the flag and Hz; a frame rate that
+/// makes a marker faster than 100 m/s warns naming the frame rate (Hz) and the scale.
+#[test]
+fn units_measure_frame_rate_and_velocity_warnings() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let obs = seq("observations.csv");
+    let r = capped(&measure_args(
+        &tmp.path().join("khz"),
+        &obs,
+        true,
+        &["--frame-rate-hz", "20"],
+    ));
+    assert!(r.success, "{}", r.stderr);
+    assert!(
+        warnings(&r).contains(
+            &"warning: --frame-rate-hz = 20 Hz is below 100 Hz: crash-test cameras record at 500 Hz or more; give the rate in Hz (e.g. 20000 for 20 kHz)"
+        ),
+        "{}",
+        r.stderr
+    );
+    let r = capped(&measure_args(
+        &tmp.path().join("fast"),
+        &obs,
+        true,
+        &["--frame-rate-hz", "10000000"],
+    ));
+    assert!(r.success, "{}", r.stderr);
+    let w: Vec<&str> = warnings(&r)
+        .into_iter()
+        .filter(|l| l.contains("m/s"))
+        .collect();
+    assert_eq!(w.len(), 1, "{}", r.stderr);
+    assert!(
+        w[0].contains(
+            "above 100 m/s: check --frame-rate-hz (Hz) and --mm-per-unit (mm per model unit)"
+        ),
+        "{}",
+        w[0]
+    );
+    // The fixture's own rate (1000 Hz) gives neither warning.
+    let r = capped(&measure_args(
+        &tmp.path().join("ok"),
+        &obs,
+        true,
+        &["--frame-rate-hz", "1000"],
+    ));
+    assert!(r.success, "{}", r.stderr);
+    assert!(
+        !r.stderr.contains("Hz") && !r.stderr.contains("m/s"),
+        "{}",
+        r.stderr
+    );
+}
+
+/// `--mm-per-unit 1e300` (the result would be `inf`), an empty camera and an out-of-range
+/// sample count are refused by the option parser, naming the flag; nothing is written.
+#[test]
+fn units_measure_bad_flags_name_the_flag() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let out = tmp.path().join("m");
+    let obs = seq("observations.csv");
+    let mut a = measure_args(&out, &obs, false, &[]);
+    a.extend(strings(&["--mm-per-unit", "1e300"]));
+    let r = capped(&a);
+    assert_clean_error(&r, &["--mm-per-unit", "mm per model unit"]);
+    assert_nothing_written(&out);
+
+    let mut a = measure_args(&out, &obs, true, &[]);
+    let i = a.iter().position(|s| s == "--camera-b").expect("flag") + 1;
+    a[i] = String::new();
+    let r = capped(&a);
+    assert_clean_error(&r, &["--camera-b", "must name a camera"]);
+    assert_nothing_written(&out);
+
+    for n in ["1000000000", "10000001"] {
+        let mut a = measure_args(&out, &obs, true, &[]);
+        let i = a.iter().position(|s| s == "--samples").expect("flag") + 1;
+        a[i] = n.into();
+        let r = capped(&a);
+        assert_clean_error(&r, &["--samples", "must be from 2 to 10000000"]);
+        assert_nothing_written(&out);
+    }
+}
+
+/// `u_px = 1e6` (an infinite reprojection before) is an error naming the file, line, column
+/// and unit; nothing is written.
+#[test]
+fn units_measure_pixel_outside_the_image_is_an_error() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let out = tmp.path().join("m");
+    let text = std::fs::read_to_string(seq("observations.csv")).expect("read");
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let mut f: Vec<String> = lines[2].split(',').map(String::from).collect();
+    f[3] = "1e6".into();
+    lines[2] = f.join(",");
+    let obs = tmp.path().join("obs.csv");
+    std::fs::write(&obs, lines.join("\n") + "\n").expect("write");
+    let r = capped(&measure_args(&out, &obs.display().to_string(), true, &[]));
+    assert_clean_error(
+        &r,
+        &["obs.csv", "line 3", "`u_px` = 1000000 px", "outside camera"],
+    );
+    assert_nothing_written(&out);
+}
+
+/// `measure` without camera C: every marker has one view, nothing is measurable — an error,
+/// not a table of empty σ with exit 0.
+#[test]
+fn units_measure_single_camera_is_an_error() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let out = tmp.path().join("m");
+    let text = std::fs::read_to_string(seq("observations.csv")).expect("read");
+    let b_only: String = text
+        .lines()
+        .filter(|l| !l.contains(",C,"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let obs = tmp.path().join("b_only.csv");
+    std::fs::write(&obs, b_only).expect("write");
+    let mut a = measure_args(&out, &obs.display().to_string(), true, &[]);
+    for flag in ["--camera-c", "--tie"] {
+        let i = a.iter().position(|s| s == flag).expect("flag");
+        a.drain(i..i + 2);
+    }
+    let r = capped(&a);
+    assert_clean_error(
+        &r,
+        &["b_only.csv", "no marker could be measured", "--camera-c"],
+    );
+    assert_nothing_written(&out);
+}
+
+fn study_line(text: &str, starts: &str) -> usize {
+    text.lines()
+        .position(|l| l.starts_with(starts))
+        .expect("line")
+        + 1
+}
+
+/// `[measure]` without its third camera, and without `mm_per_unit`, are errors naming the
+/// key and the line of `[measure]`; nothing is written.
+#[test]
+fn units_study_measure_needs_camera_c_and_units() {
+    let text = std::fs::read_to_string(fixture("study/own/study.toml")).expect("study");
+    let line = study_line(&text, "[measure]");
+    crate::study::study_error(
+        |t| t.replace("camera_c = \"3\"\n", ""),
+        &[
+            &format!("study.toml:{line}: `measure.camera_c`: missing"),
+            "two views",
+        ],
+    );
+    crate::study::study_error(
+        |t| t.replace("mm_per_unit = 1000.0\nsigma_a", "sigma_a"),
+        &[
+            &format!("study.toml:{line}: `measure.mm_per_unit`: missing"),
+            "mm per model unit",
+        ],
+    );
+}
+
+/// A 4-number position and out-of-range counts in a study name the key and its line.
+#[test]
+fn units_study_values_name_key_and_line() {
+    let text = std::fs::read_to_string(fixture("study/own/study.toml")).expect("study");
+    let line = study_line(&text, "position_mm = [150.0, 0.0, 0.0]");
+    crate::study::study_error(
+        |t| {
+            t.replacen(
+                "position_mm = [150.0, 0.0, 0.0]",
+                "position_mm = [150.0, 0.0, 0.0, 1.0]",
+                1,
+            )
+        },
+        &[&format!("study.toml:{line}:"), "position_mm"],
+    );
+    let line = study_line(&text, "samples = 300");
+    crate::study::study_error(
+        |t| t.replace("samples = 300", "samples = 10000001"),
+        &[
+            &format!("study.toml:{line}: `samples`"),
+            "exceeds the limit of 10000000",
+        ],
+    );
+    let line = study_line(&text, "chain_samples");
+    crate::study::study_error(
+        |t| t.replace("chain_samples = 20000", "chain_samples = 1000000000000000"),
+        &[
+            &format!("study.toml:{line}: `chain_samples`"),
+            "exceeds the limit",
+        ],
+    );
+    let line = study_line(&text, "iterations = 60");
+    crate::study::study_error(
+        |t| t.replace("iterations = 60", "iterations = 9223372036854775807"),
+        &[
+            &format!("study.toml:{line}: `tie.iterations`"),
+            "exceeds the limit of 1000000",
+        ],
+    );
+    let line = study_line(&text, "z_mm = [0.0, 0.0, 1]");
+    crate::study::study_error(
+        |t| t.replacen("z_mm = [0.0, 0.0, 1]", "z_mm = [0.0, 300.0, 10001]", 1),
+        &[
+            &format!("study.toml:{line}: `layout[0].z_mm`"),
+            "exceeds the limit of 10000 values per axis",
+        ],
+    );
+    let line = study_line(&text, "[[layout]]");
+    crate::study::study_error(
+        |t| {
+            t.replacen(
+                "x_mm = [400.0, 1800.0, 8]",
+                "x_mm = [400.0, 1800.0, 2000]",
+                1,
+            )
+            .replacen(
+                "y_mm = [-500.0, 500.0, 6]",
+                "y_mm = [-500.0, 500.0, 1000]",
+                1,
+            )
+        },
+        &[
+            &format!("study.toml:{line}: `layout[0]`"),
+            "2000000 grid points exceed the limit of 1000000",
+            "MiB",
+        ],
+    );
+    // Coincident observers: σ would be empty (null) for every point; an error naming both.
+    let line = study_line(&text, "position_mm = [1200.0, 650.0, 100.0]");
+    crate::study::study_error(
+        |t| {
+            t.replacen(
+                "position_mm = [1200.0, 650.0, 100.0]",
+                "position_mm = [150.0, 0.0, 0.0]",
+                1,
+            )
+        },
+        &[
+            &format!("study.toml:{line}: `layout[0].observer[1].position_mm`"),
+            "\"side (tie)\" is 0.000 mm from observer[0] \"rear (inward)\"",
+            "coincident",
+        ],
+    );
+}

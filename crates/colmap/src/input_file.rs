@@ -1,0 +1,159 @@
+//! Reading a user's input file with a size limit: the one reader of every input file
+//! (COLMAP model files, scenario and study TOML, CSV, JSON results).
+//!
+//! An input that is not a regular file — a directory, a FIFO (reading it would wait for a
+//! writer for ever), a device such as `/dev/zero` (it never ends) — is refused before it is
+//! opened, and a regular file larger than the caller's limit is refused before anything is
+//! allocated (its size is taken from the file system), so that no input can hang the program
+//! or exhaust its memory. `docs/LIMITS.md` lists the limits of each kind of file.
+//!
+//! ```
+//! use crashrig_colmap::input_file;
+//! let dir = std::env::temp_dir().join(format!("crashrig-input-file-doc-{}", std::process::id()));
+//! std::fs::create_dir_all(&dir)?;
+//! std::fs::write(dir.join("a.csv"), b"x\n1\n")?;
+//! assert_eq!(input_file::read_limited(&dir.join("a.csv"), 16)?, b"x\n1\n");
+//! // Too large for a 3-byte limit, and a directory is not a file.
+//! assert!(input_file::read_limited(&dir.join("a.csv"), 3).is_err());
+//! let e = input_file::read_limited(&dir, 16).unwrap_err();
+//! assert!(e.to_string().contains("not a regular file"));
+//! # std::fs::remove_dir_all(&dir)?;
+//! # Ok::<(), std::io::Error>(())
+//! ```
+
+use std::io::Read;
+use std::path::Path;
+
+/// Size limit of a COLMAP model file (`cameras`, `images`, `points3D`, `rigs`, `frames`):
+/// 4 GiB.
+pub const MAX_MODEL_FILE_BYTES: u64 = 4 << 30;
+/// Size limit of a CSV input (observations, control points): 1 GiB.
+pub const MAX_CSV_BYTES: u64 = 1 << 30;
+/// Size limit of a JSON input (`calibrate`/`bootstrap`/`covariance` results): 256 MiB.
+pub const MAX_JSON_BYTES: u64 = 256 << 20;
+/// Size limit of a scenario or study file (TOML): 16 MiB.
+pub const MAX_TOML_BYTES: u64 = 16 << 20;
+
+/// Human form of a byte count (`16 MiB`, `4 GiB`, `12 bytes`).
+pub fn human_bytes(n: u64) -> String {
+    if n >= 1 << 30 && n % (1 << 30) == 0 {
+        format!("{} GiB", n >> 30)
+    } else if n >= 1 << 20 && n % (1 << 20) == 0 {
+        format!("{} MiB", n >> 20)
+    } else if n >= 1 << 20 {
+        format!("{:.1} MiB", n as f64 / (1u64 << 20) as f64)
+    } else {
+        format!("{n} bytes")
+    }
+}
+
+/// Checks that `path` is a regular file (symbolic links followed) of at most `limit` bytes,
+/// without opening it.
+///
+/// # Errors
+/// The file system's error, or [`std::io::ErrorKind::InvalidInput`] saying that the path is a
+/// directory / not a regular file, or that it is larger than `limit`.
+pub fn check_regular(path: &Path, limit: u64) -> std::io::Result<u64> {
+    let meta = std::fs::metadata(path)?;
+    if meta.is_dir() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "is a directory, not a regular file",
+        ));
+    }
+    if !meta.is_file() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a regular file (a device, FIFO or socket is not read)",
+        ));
+    }
+    if meta.len() > limit {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            format!(
+                "{} is larger than the limit of {} for this kind of file",
+                human_bytes(meta.len()),
+                human_bytes(limit)
+            ),
+        ));
+    }
+    Ok(meta.len())
+}
+
+/// Reads the regular file `path` whole, refusing anything that is not a regular file or is
+/// larger than `limit` bytes ([`check_regular`]); the read itself stops at `limit` + 1 bytes
+/// (a file that grows while it is read is refused too).
+///
+/// # Errors
+/// As [`check_regular`], and the read's error.
+pub fn read_limited(path: &Path, limit: u64) -> std::io::Result<Vec<u8>> {
+    let len = check_regular(path, limit)?;
+    let file = std::fs::File::open(path)?;
+    let mut bytes = Vec::with_capacity(usize::try_from(len).unwrap_or(0));
+    file.take(limit.saturating_add(1)).read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > limit {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            format!(
+                "grew beyond the limit of {} while it was read",
+                human_bytes(limit)
+            ),
+        ));
+    }
+    Ok(bytes)
+}
+
+/// [`read_limited`], then UTF-8.
+///
+/// # Errors
+/// As [`read_limited`], and [`std::io::ErrorKind::InvalidData`] for text that is not UTF-8.
+pub fn read_text_limited(path: &Path, limit: u64) -> std::io::Result<String> {
+    String::from_utf8(read_limited(path, limit)?).map_err(|e| {
+        std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!(
+                "not valid UTF-8 text (byte {})",
+                e.utf8_error().valid_up_to()
+            ),
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn input_file_refuses_directories_devices_and_large_files() {
+        let dir = std::env::temp_dir().join(format!("crashrig-input-file-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("x.txt");
+        std::fs::write(&f, b"12345").unwrap();
+        assert_eq!(read_limited(&f, 5).unwrap(), b"12345");
+        let e = read_limited(&f, 4).unwrap_err().to_string();
+        assert!(e.contains("5 bytes") && e.contains("4 bytes"), "{e}");
+        assert!(
+            read_limited(&dir, 100)
+                .unwrap_err()
+                .to_string()
+                .contains("directory")
+        );
+        #[cfg(unix)]
+        {
+            let e = read_limited(Path::new("/dev/zero"), 100)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("not a regular file"), "{e}");
+        }
+        std::fs::write(&f, [0xff, 0xfe]).unwrap();
+        assert!(
+            read_text_limited(&f, 10)
+                .unwrap_err()
+                .to_string()
+                .contains("UTF-8")
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(human_bytes(16 << 20), "16 MiB");
+        assert_eq!(human_bytes(4 << 30), "4 GiB");
+    }
+}
