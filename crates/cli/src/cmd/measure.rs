@@ -5,6 +5,7 @@ use anyhow::Context;
 use crashrig_colmap::Reconstruction;
 use crashrig_geometry::{Mat6, UncertainPose, Vec3};
 use crashrig_measure::engine::{Epoch, Measurement, Rig, Settings};
+use crashrig_measure::filter::{CfcSpec, Standard};
 use crashrig_measure::input::{self, CameraNames};
 use crashrig_measure::output;
 use crashrig_measure::sequence::{self, CameraSelector};
@@ -77,6 +78,22 @@ pub struct MeasureArgs {
     /// Skip the trajectory plots.
     #[arg(long)]
     pub no_plots: bool,
+    /// CFC filter class (60, 180, 600, 1000) of the kinematics: each marker's displacement
+    /// filtered in every replicate, velocity and acceleration from it (kinematics.csv; needs
+    /// --frame-rate-hz).
+    #[arg(long, value_name = "CLASS")]
+    pub cfc: Option<u32>,
+    /// The filter's standard: j211 (SAE J211-1, default) or iso6487 (ISO 6487).
+    #[arg(long, value_name = "STANDARD", requires = "cfc")]
+    pub cfc_standard: Option<String>,
+    /// σ of camera A's trigger offset against the inward cameras (ms; needs --frame-rate-hz).
+    #[arg(
+        long,
+        value_name = "MS",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    pub sync_sigma_ms: f64,
 }
 
 #[derive(Debug, Serialize)]
@@ -115,6 +132,9 @@ pub fn run(a: MeasureArgs, g: &Global) -> anyhow::Result<()> {
             summary.numbers.rows_flagged,
             a.out.display()
         );
+        if let Some(s) = &summary.numbers.sync_offset {
+            println!("{}", s.line());
+        }
     }
     Ok(())
 }
@@ -205,6 +225,14 @@ pub fn compute(a: &MeasureArgs, seed: Option<u64>) -> anyhow::Result<Summary> {
         frame_rate_hz: a.frame_rate_hz,
         threshold_mm: a.threshold_mm,
         max_reprojection_px: a.max_reprojection_px,
+        cfc: match a.cfc {
+            Some(class) => Some(CfcSpec {
+                class,
+                standard: Standard::parse(a.cfc_standard.as_deref().unwrap_or("j211"))?,
+            }),
+            None => None,
+        },
+        sync_sigma_ms: a.sync_sigma_ms,
     };
     let rig = Rig {
         a_from_b,
@@ -234,8 +262,14 @@ pub fn compute(a: &MeasureArgs, seed: Option<u64>) -> anyhow::Result<Summary> {
             output::displacements_csv(&m).into_bytes(),
         ),
     ];
+    if let Some(k) = output::kinematics_csv(&m) {
+        files.push(("kinematics.csv".into(), k.into_bytes()));
+    }
     if !a.no_plots {
-        for p in output::marker_plots(&m)? {
+        for p in output::marker_plots(&m)?
+            .into_iter()
+            .chain(output::kinematics_plots(&m)?)
+        {
             files.push((format!("plots/{}.png", p.stem), p.png));
             files.push((format!("plots/{}.svg", p.stem), p.svg));
         }
@@ -301,7 +335,7 @@ fn check_out_dir(dir: &Path) -> anyhow::Result<()> {
 fn replaceable(name: &str) -> bool {
     matches!(
         name,
-        "trajectories.csv" | "displacements.csv" | "summary.json" | "plots/"
+        "trajectories.csv" | "displacements.csv" | "kinematics.csv" | "summary.json" | "plots/"
     )
 }
 
