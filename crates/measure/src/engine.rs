@@ -1004,14 +1004,14 @@ fn assemble_kinematics(
                 let Some(s) = preps[e].slot_of[mk] else {
                     continue;
                 };
-                let sigma = |m: &Moments<3>| sigma_of(m);
+                let [d, v, a] = &acc.m[i];
                 rows[offsets[e] + s] = KinRow {
                     displacement_mm: Some(scratch.f[i]),
-                    displacement_sigma_mm: sigma(&acc.d[i]),
+                    displacement_sigma_mm: d.std_dev(),
                     velocity_m_s: Some(scratch.v[i]),
-                    velocity_sigma_m_s: sigma(&acc.v[i]),
+                    velocity_sigma_m_s: v.std_dev(),
                     acceleration_m_s2: Some(scratch.a[i]),
-                    acceleration_sigma_m_s2: sigma(&acc.a[i]),
+                    acceleration_sigma_m_s2: a.std_dev(),
                 };
                 with += 1;
             }
@@ -1174,10 +1174,10 @@ fn feed_run(
             continue;
         }
         scratch.filter_and_differentiate(filter, d.iter().copied());
-        for i in 0..run.len {
-            acc.d[i].push_vec(&scratch.f[i]);
-            acc.v[i].push_vec(&scratch.v[i]);
-            acc.a[i].push_vec(&scratch.a[i]);
+        for (i, m) in acc.m.iter_mut().enumerate() {
+            m[0].push(&scratch.f[i]);
+            m[1].push(&scratch.v[i]);
+            m[2].push(&scratch.a[i]);
         }
     }
     scratch.d = d;

@@ -36,7 +36,6 @@
 
 use crate::filter::{Cfc, MIN_SAMPLES};
 use crashrig_geometry::Vec3;
-use crashrig_stats::Moments;
 
 /// The filtered kinematics of one (epoch, marker) row; every field is `None` where the row is
 /// not in a run that carries kinematics (module docs).
@@ -136,20 +135,42 @@ pub(crate) fn runs(
         .collect()
 }
 
-/// Streaming moments of one run's filtered displacement, velocity and acceleration.
+/// Streaming per-axis mean and variance (Welford; the diagonal of
+/// [`crashrig_stats::Moments`], with the same arithmetic per element, without the off-diagonal
+/// work that σ per axis does not need).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct AxisMoments {
+    n: u64,
+    mean: Vec3,
+    m2: Vec3,
+}
+
+impl AxisMoments {
+    #[inline]
+    pub fn push(&mut self, x: &Vec3) {
+        self.n += 1;
+        let delta = x - self.mean;
+        self.mean += delta / self.n as f64;
+        self.m2 += delta.component_mul(&(x - self.mean));
+    }
+
+    /// σ per axis (n − 1), `None` below two samples.
+    pub fn std_dev(&self) -> Option<Vec3> {
+        (self.n >= 2).then(|| (self.m2 / (self.n as f64 - 1.0)).map(f64::sqrt))
+    }
+}
+
+/// Streaming moments of one run's filtered displacement, velocity and acceleration: per
+/// epoch of the run `[d, v, a]`.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct RunAcc {
-    pub d: Vec<Moments<3>>,
-    pub v: Vec<Moments<3>>,
-    pub a: Vec<Moments<3>>,
+    pub m: Vec<[AxisMoments; 3]>,
 }
 
 impl RunAcc {
     pub fn new(len: usize) -> RunAcc {
         RunAcc {
-            d: vec![Moments::new(); len],
-            v: vec![Moments::new(); len],
-            a: vec![Moments::new(); len],
+            m: vec![[AxisMoments::default(); 3]; len],
         }
     }
 }
@@ -223,6 +244,24 @@ mod tests {
         assert_eq!(r[1].len(), 2);
         assert_eq!((r[1][0].start, r[1][0].len), (0, 7));
         assert_eq!((r[1][1].start, r[1][1].len), (7, 4));
+    }
+
+    #[test]
+    fn axis_moments_are_the_diagonal_of_moments() {
+        let xs = [
+            Vec3::new(1.0, -2.0, 0.5),
+            Vec3::new(3.0, 0.0, 0.25),
+            Vec3::new(-1.0, 5.0, 2.0),
+        ];
+        let mut a = AxisMoments::default();
+        let mut full = crashrig_stats::Moments::<3>::new();
+        for x in &xs {
+            a.push(x);
+            full.push_vec(x);
+        }
+        assert_eq!(a.std_dev(), Some(full.std_dev()));
+        // Known answer: x values 1, 3, −1 → mean 1, variance (0 + 4 + 4)/2 = 4.
+        assert_eq!(a.std_dev().unwrap().x, 2.0);
     }
 
     #[test]
