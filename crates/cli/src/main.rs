@@ -54,6 +54,9 @@ enum Command {
     Paper(cmd::paper::PaperArgs),
     /// The whole study on your own COLMAP project (study file), with results.json and a report.
     Study(cmd::study::StudyArgs),
+    /// Export a measure output to a crash lab's data system (ISO-MME).
+    #[command(subcommand)]
+    Export(cmd::export::ExportCommand),
 }
 
 /// The error line of a failed run: the context chain joined with ": ", skipping a cause whose
@@ -130,6 +133,7 @@ fn main() -> std::process::ExitCode {
         Command::Measure(a) => cmd::measure::run(a, &cli.global),
         Command::Paper(a) => cmd::paper::run(a, &cli.global),
         Command::Study(a) => cmd::study::run(a, &cli.global),
+        Command::Export(c) => cmd::export::run(c, &cli.global),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

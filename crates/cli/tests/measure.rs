@@ -311,3 +311,180 @@ fn sigma_options_and_the_missing_uncertainty_warning() {
     // A's per-epoch error does not cancel in displacements: without it they are smaller.
     assert!(without < 0.8 * with, "{without} vs {with}");
 }
+
+/// The base arguments without `--frame-rate-hz`.
+fn without_frame_rate(mut args: Vec<String>) -> Vec<String> {
+    let k = args.iter().position(|a| a == "--frame-rate-hz").unwrap();
+    args.drain(k..k + 2);
+    args
+}
+
+#[test]
+fn kinematics_trigger_offset_and_iso_mme_export() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("m");
+    let obs = fixture().join("observations.csv");
+    let o = run(
+        &base_args(&out, &obs),
+        &[
+            "--cfc",
+            "60",
+            "--cfc-standard",
+            "iso6487",
+            "--sync-sigma-ms",
+            "0.3",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("trigger offset σ 0.3 ms: share of the variance"),
+        "{stdout}"
+    );
+    let kin = std::fs::read_to_string(out.join("kinematics.csv")).unwrap();
+    assert_eq!(
+        kin.lines().next().unwrap(),
+        "epoch,marker,time_s,dx_mm,dy_mm,dz_mm,sigma_dx_mm,sigma_dy_mm,sigma_dz_mm,vx_m_s,vy_m_s,vz_m_s,sigma_vx_m_s,sigma_vy_m_s,sigma_vz_m_s,ax_m_s2,ay_m_s2,az_m_s2,sigma_ax_m_s2,sigma_ay_m_s2,sigma_az_m_s2"
+    );
+    let traj = std::fs::read_to_string(out.join("trajectories.csv")).unwrap();
+    assert_eq!(kin.lines().count(), traj.lines().count());
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(s["kinematics"]["cfc"], 60);
+    assert_eq!(s["kinematics"]["standard"], "iso6487");
+    assert!(
+        s["kinematics"]["filter"]
+            .as_str()
+            .unwrap()
+            .starts_with("ISO 6487")
+    );
+    let share = &s["sync_offset"]["variance_share"]["filtered_displacement"]["median"];
+    assert!((0.0..=1.0).contains(&share.as_f64().unwrap()), "{share}");
+    assert!(out.join("plots").read_dir().unwrap().any(|e| {
+        e.unwrap()
+            .file_name()
+            .to_string_lossy()
+            .ends_with("_kinematics.png")
+    }));
+
+    // Export: T.mme, Channel/T.chn, Channel/T.001 … with filter class D (CFC 60).
+    let iso = tmp.path().join("iso");
+    let e = Command::new(env!("CARGO_BIN_EXE_crashrig"))
+        .args(["export", "iso-mme"])
+        .arg(&out)
+        .arg("--out")
+        .arg(&iso)
+        .args(["--test-number", "T26", "--json"])
+        .output()
+        .unwrap();
+    assert!(e.status.success(), "{}", stderr(&e));
+    let j: serde_json::Value = serde_json::from_slice(&e.stdout).unwrap();
+    assert_eq!(j["filter_class"], "D");
+    assert_eq!(j["source"], "kinematics.csv");
+    let n = j["channels"].as_array().unwrap().len();
+    assert_eq!(n, 6 * s["markers"].as_u64().unwrap() as usize);
+    assert!(iso.join("T26.mme").is_file() && iso.join("Channel/T26.chn").is_file());
+    assert!(iso.join(format!("Channel/T26.{n:03}")).is_file());
+}
+
+#[test]
+fn kinematics_bad_input_is_one_error_line_and_nothing_written() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    let good = std::fs::read_to_string(fixture().join("observations.csv")).unwrap();
+    fails(
+        t,
+        &good,
+        &["--cfc", "100"],
+        &["--cfc", "100", "60, 180, 600, 1000"],
+    );
+    fails(
+        t,
+        &good,
+        &["--cfc", "600"],
+        &["--cfc", "CFC 600", "1000 frames/s"],
+    );
+    fails(
+        t,
+        &good,
+        &["--cfc", "60", "--cfc-standard", "iso"],
+        &["--cfc-standard", "`iso`"],
+    );
+    fails(t, &good, &["--sync-sigma-ms", "-1"], &["--sync-sigma-ms"]);
+    // Without a frame rate.
+    let obs_path = t.join("obs.csv");
+    let out = t.join("out");
+    for (extra, needle) in [
+        (["--cfc", "60"], "--cfc"),
+        (["--sync-sigma-ms", "1"], "--sync-sigma-ms"),
+    ] {
+        let o = run(&without_frame_rate(base_args(&out, &obs_path)), &extra);
+        let err = stderr(&o);
+        assert!(!o.status.success());
+        let lines: Vec<&str> = err.lines().filter(|l| !l.starts_with("warning:")).collect();
+        assert_eq!(lines.len(), 1, "{err}");
+        assert!(
+            lines[0].starts_with("error: ")
+                && lines[0].contains(needle)
+                && lines[0].contains("--frame-rate-hz"),
+            "{err}"
+        );
+        assert!(!out.exists());
+    }
+}
+
+#[test]
+fn export_refuses_bad_input_and_writes_nothing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let m = tmp.path().join("m");
+    let obs = fixture().join("observations.csv");
+    // A measure output without a frame rate.
+    let o = run(&without_frame_rate(base_args(&m, &obs)), &["--no-plots"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let export = |dir: &Path, extra: &[&str]| {
+        let tn = if extra.contains(&"--test-number") {
+            &[][..]
+        } else {
+            &["--test-number", "T1"][..]
+        };
+        Command::new(env!("CARGO_BIN_EXE_crashrig"))
+            .args(["export", "iso-mme"])
+            .arg(dir)
+            .arg("--out")
+            .arg(tmp.path().join("iso"))
+            .args(tn)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let one_error = |o: &Output, needles: &[&str]| {
+        assert!(!o.status.success());
+        let err = stderr(o);
+        let lines: Vec<&str> = err.lines().collect();
+        assert_eq!(lines.len(), 1, "{err}");
+        for n in needles {
+            assert!(
+                lines[0].starts_with("error: ") && lines[0].contains(n),
+                "`{n}` not in {err}"
+            );
+        }
+        assert!(!tmp.path().join("iso").exists(), "nothing may be written");
+    };
+    one_error(&export(&m, &[]), &["summary.json", "frame_rate_hz"]);
+    // With a frame rate: bad channel maps.
+    let m2 = tmp.path().join("m2");
+    let o = run(&base_args(&m2, &obs), &["--no-plots"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let map = tmp.path().join("codes.csv");
+    std::fs::write(&map, "marker,code\nhead,11HEAD0000H3\n").unwrap();
+    one_error(
+        &export(&m2, &["--channel-map", map.to_str().unwrap()]),
+        &["codes.csv:2:", "16 characters"],
+    );
+    std::fs::write(&map, "marker,code\nnobody,11HEAD0000H3????\n").unwrap();
+    one_error(
+        &export(&m2, &["--channel-map", map.to_str().unwrap()]),
+        &["codes.csv:2:", "`nobody`"],
+    );
+    one_error(&export(&m2, &["--test-number", "a/b"]), &["--test-number"]);
+}

@@ -30,7 +30,9 @@
 //! number of draws.
 
 use crate::Error;
+use crate::filter::{Cfc, CfcSpec};
 use crate::input::{Inward, Observation};
+use crate::kinematics::{self, KinRow, Kinematics, Run, RunAcc, Scratch};
 use crate::sequence::frame_number;
 use crashrig_camera::Camera;
 use crashrig_geometry::triangulate::{self, View};
@@ -89,7 +91,16 @@ pub struct Settings {
     /// Rows whose largest reprojection residual exceeds this (px) are flagged; `None`: the
     /// robust limit of the sequence, [`robust_reprojection_limit`].
     pub max_reprojection_px: Option<f64>,
+    /// CFC filter of the kinematics ([`crate::kinematics`]; needs a frame rate); `None`: no
+    /// kinematics.
+    pub cfc: Option<CfcSpec>,
+    /// σ of camera A's trigger offset against the inward cameras (ms, ≥ 0; needs a frame
+    /// rate): drawn once per replicate, A's pose interpolated to the shifted time. 0: none.
+    pub sync_sigma_ms: f64,
 }
+
+/// The largest `--sync-sigma-ms` accepted (ms): an offset of a second is not a trigger offset.
+pub const MAX_SYNC_SIGMA_MS: f64 = 1000.0;
 
 /// Modified-z limit of the reprojection check: a residual is an outlier when it exceeds the
 /// median of the sequence's residuals by more than this many robust σ (1.4826·MAD).
@@ -241,6 +252,65 @@ pub struct Measurement {
     /// The reprojection limit used for the flags (px; given or robust), `None` when no row
     /// has a position or the robust limit had too few residuals.
     pub reprojection_limit_px: Option<f64>,
+    /// The filtered kinematics (with [`Settings::cfc`]).
+    pub kinematics: Option<Kinematics>,
+    /// How much of the variance the trigger offset contributes (with
+    /// [`Settings::sync_sigma_ms`] > 0).
+    pub sync_share: Option<SyncShare>,
+}
+
+/// The share of the variance that camera A's trigger offset contributes: the measurement is
+/// repeated without the offset on the same random numbers (the offsets have their own
+/// streams), and each row's share is `1 − Σσ₀² / Σσ²` (traces over the three axes; clamped at
+/// 0 where Monte Carlo noise makes it negative).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SyncShare {
+    /// The offset's σ (ms).
+    pub sigma_ms: f64,
+    /// Position σ.
+    pub position: Option<ShareStats>,
+    /// Raw displacement σ.
+    pub displacement: Option<ShareStats>,
+    /// Raw velocity σ.
+    pub velocity: Option<ShareStats>,
+    /// Filtered displacement σ (with kinematics).
+    pub filtered_displacement: Option<ShareStats>,
+    /// Filtered velocity σ (with kinematics).
+    pub filtered_velocity: Option<ShareStats>,
+    /// Acceleration σ (with kinematics).
+    pub acceleration: Option<ShareStats>,
+}
+
+/// Median and largest share over the rows (fractions 0…1).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShareStats {
+    /// Median share.
+    pub median: f64,
+    /// Largest share.
+    pub max: f64,
+    /// Rows with the quantity.
+    pub rows: usize,
+}
+
+impl ShareStats {
+    /// The statistics of the per-row shares of `pairs` (σ with, σ without the offset).
+    fn of(pairs: impl Iterator<Item = (Option<Vec3>, Option<Vec3>)>) -> Option<ShareStats> {
+        let mut v: Vec<f64> = pairs
+            .filter_map(|(with, without)| {
+                let (w, o) = (with?.norm_squared(), without?.norm_squared());
+                (w > 0.0).then(|| (1.0 - o / w).max(0.0))
+            })
+            .collect();
+        if v.is_empty() {
+            return None;
+        }
+        let max = v.iter().copied().fold(0.0, f64::max);
+        Some(ShareStats {
+            median: median_sorted(&mut v),
+            max,
+            rows: v.len(),
+        })
+    }
 }
 
 impl Measurement {
@@ -297,6 +367,69 @@ struct LinkDraw {
     c_ab: Vec3,
     r_bc: Mat3,
     c_bc: Vec3,
+    /// A's trigger offset in this replicate (s; 0 without `sync_sigma_ms`).
+    sync_s: f64,
+}
+
+/// Camera A's nominal poses along the sequence, for the poses between frames (trigger offset):
+/// the centre is interpolated linearly, the rotation by slerp `R_k·Exp(s·Log(R_kᵀR_{k+1}))`;
+/// before the first and after the last pose the end interval is extended.
+#[derive(Debug, Clone)]
+struct ATrack {
+    times: Vec<f64>,
+    r: Vec<Mat3>,
+    c: Vec<Vec3>,
+    /// `Log(R_kᵀ·R_{k+1})`.
+    w: Vec<Vec3>,
+}
+
+impl ATrack {
+    /// The track of the epochs with a frame number (times `frame / hz`, increasing).
+    fn new(epochs: &[Epoch], hz: f64) -> Option<ATrack> {
+        let mut t = ATrack {
+            times: Vec::new(),
+            r: Vec::new(),
+            c: Vec::new(),
+            w: Vec::new(),
+        };
+        for e in epochs {
+            let Some(f) = frame_number(&e.name) else {
+                continue;
+            };
+            let time = f as f64 / hz;
+            if t.times.last().is_some_and(|&last| last >= time) {
+                continue;
+            }
+            t.times.push(time);
+            t.r.push(e.world_from_a.rotation().into_inner());
+            t.c.push(e.world_from_a.center());
+        }
+        if t.times.len() < 2 {
+            return None;
+        }
+        t.w =
+            t.r.windows(2)
+                .map(|p| {
+                    so3::log(&crashrig_geometry::Rot3::from_matrix_unchecked(
+                        p[0].transpose() * p[1],
+                    ))
+                })
+                .collect();
+        Some(t)
+    }
+
+    /// `world_from_A` (rotation, centre) at time `t` (s).
+    fn at(&self, t: f64) -> (Mat3, Vec3) {
+        let n = self.times.len();
+        let k = self
+            .times
+            .partition_point(|&x| x <= t)
+            .saturating_sub(1)
+            .min(n - 2);
+        let s = (t - self.times[k]) / (self.times[k + 1] - self.times[k]);
+        let r = self.r[k] * so3::exp(&(self.w[k] * s)).into_inner();
+        (r, self.c[k] + (self.c[k + 1] - self.c[k]) * s)
+    }
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -330,8 +463,21 @@ fn epoch_stream(e: usize, b: usize) -> u64 {
     ((e as u64 + 1) << 32) | b as u64
 }
 
-fn link_draws(link: &LinkPrep, seed: u64, block: usize, len: usize) -> Vec<LinkDraw> {
+/// Stream index of the trigger offsets of block `b` (far above every epoch stream, so the
+/// other draws are the same with and without an offset).
+fn sync_stream(b: usize) -> u64 {
+    u64::MAX - b as u64
+}
+
+fn link_draws(
+    link: &LinkPrep,
+    seed: u64,
+    block: usize,
+    len: usize,
+    sync_sigma_s: f64,
+) -> Vec<LinkDraw> {
     let mut rng = stream(seed, block as u64);
+    let mut sync_rng = (sync_sigma_s > 0.0).then(|| stream(seed, sync_stream(block)));
     (0..len)
         .map(|_| {
             let (r_ab, c_ab) = perturb(&link.r_ab, &link.c_ab, &link.l_ab, &mut rng);
@@ -339,11 +485,16 @@ fn link_draws(link: &LinkPrep, seed: u64, block: usize, len: usize) -> Vec<LinkD
                 Some((r, c, l)) => perturb(r, c, l, &mut rng),
                 None => (Mat3::identity(), Vec3::zeros()),
             };
+            let sync_s = sync_rng.as_mut().map_or(0.0, |r| {
+                let z: f64 = r.sample(StandardNormal);
+                sync_sigma_s * z
+            });
             LinkDraw {
                 r_ab,
                 c_ab,
                 r_bc,
                 c_bc,
+                sync_s,
             }
         })
         .collect()
@@ -368,22 +519,26 @@ fn intersect<'a>(views: impl Iterator<Item = (&'a Mat3, &'a Vec3, Vector2<f64>)>
     n.try_inverse().map(|inv| inv * rhs)
 }
 
-/// Positions of epoch `e`'s slots for the replicates of block `b`: `out[slot·len + r]`
-/// (NaN where the slot has no position or a draw is degenerate).
+/// Positions of an epoch's slots for the replicates `links` (the next ones of its stream
+/// `rng`): `out[slot·len + r]` (NaN where the slot has no position or a draw is degenerate).
 fn epoch_positions(
     ep: &EpochPrep,
-    e: usize,
-    b: usize,
-    seed: u64,
+    rng: &mut StreamRng,
     links: &[LinkDraw],
+    track: Option<&ATrack>,
     out: &mut Vec<Vec3>,
 ) {
     let len = links.len();
     out.clear();
     out.resize(ep.slots.len() * len, Vec3::repeat(f64::NAN));
-    let mut rng = stream(seed, epoch_stream(e, b));
     for (r, link) in links.iter().enumerate() {
-        let (r_wa, c_a) = perturb(&ep.r_wa, &ep.c_a, &ep.l_a, &mut rng);
+        let (r_wa, c_a) = match (track, ep.time_s) {
+            (Some(track), Some(t)) if link.sync_s != 0.0 => {
+                let (r0, c0) = track.at(t + link.sync_s);
+                perturb(&r0, &c0, &ep.l_a, rng)
+            }
+            _ => perturb(&ep.r_wa, &ep.c_a, &ep.l_a, rng),
+        };
         let r_wb = r_wa * link.r_ab;
         let c_b = c_a + r_wa * link.c_ab;
         let r_wc = r_wb * link.r_bc;
@@ -463,7 +618,32 @@ fn check_settings(s: &Settings) -> Result<(), Error> {
     {
         return bad("--frame-rate-hz", format!("{f} (a number > 0)"));
     }
-    Ok(())
+    if !(s.sync_sigma_ms.is_finite() && (0.0..=MAX_SYNC_SIGMA_MS).contains(&s.sync_sigma_ms)) {
+        return bad(
+            "--sync-sigma-ms",
+            format!(
+                "{} (a number from 0 to {MAX_SYNC_SIGMA_MS} ms)",
+                s.sync_sigma_ms
+            ),
+        );
+    }
+    if s.sync_sigma_ms > 0.0 && s.frame_rate_hz.is_none() {
+        return bad(
+            "--sync-sigma-ms",
+            "needs --frame-rate-hz (the offset shifts A's pose in time)".into(),
+        );
+    }
+    match (s.cfc, s.frame_rate_hz) {
+        (Some(spec), None) => bad(
+            "--cfc",
+            format!(
+                "CFC {} needs --frame-rate-hz (the filter's sampling rate)",
+                spec.class
+            ),
+        ),
+        (Some(spec), Some(hz)) => Cfc::new(spec.class, spec.standard, hz).map(|_| ()),
+        _ => Ok(()),
+    }
 }
 
 /// Prepares a view: the undistorted normalized observation and `σ·J⁻¹`.
@@ -520,6 +700,47 @@ pub fn measure(
     observations: &[Observation],
     settings: &Settings,
 ) -> Result<Measurement, Error> {
+    let mut m = measure_once(epochs, rig, observations, settings)?;
+    if settings.sync_sigma_ms > 0.0 {
+        let without = Settings {
+            sync_sigma_ms: 0.0,
+            ..settings.clone()
+        };
+        let m0 = measure_once(epochs, rig, observations, &without)?;
+        m.sync_share = Some(sync_share(&m, &m0, settings.sync_sigma_ms));
+    }
+    Ok(m)
+}
+
+fn sync_share(m: &Measurement, m0: &Measurement, sigma_ms: f64) -> SyncShare {
+    let rows = || m.rows.iter().zip(&m0.rows);
+    let kin = m.kinematics.as_ref().zip(m0.kinematics.as_ref());
+    let kin_share = |f: fn(&KinRow) -> Option<Vec3>| {
+        kin.and_then(|(k, k0)| {
+            ShareStats::of(k.rows.iter().zip(&k0.rows).map(|(a, b)| (f(a), f(b))))
+        })
+    };
+    SyncShare {
+        sigma_ms,
+        position: ShareStats::of(rows().map(|(a, b)| (a.sigma_mm, b.sigma_mm))),
+        displacement: ShareStats::of(
+            rows().map(|(a, b)| (a.displacement_sigma_mm, b.displacement_sigma_mm)),
+        ),
+        velocity: ShareStats::of(
+            rows().map(|(a, b)| (a.velocity_sigma_mm_s, b.velocity_sigma_mm_s)),
+        ),
+        filtered_displacement: kin_share(|k| k.displacement_sigma_mm),
+        filtered_velocity: kin_share(|k| k.velocity_sigma_m_s),
+        acceleration: kin_share(|k| k.acceleration_sigma_m_s2),
+    }
+}
+
+fn measure_once(
+    epochs: &[Epoch],
+    rig: &Rig,
+    observations: &[Observation],
+    settings: &Settings,
+) -> Result<Measurement, Error> {
     check_settings(settings)?;
     crate::input::check_in_image(observations, &rig.camera_b, rig.c.as_ref().map(|(_, c)| c))?;
     let groups = group_observations(epochs, rig, observations)?;
@@ -557,7 +778,34 @@ pub fn measure(
             .collect();
         robust_reprojection_limit(&all)
     });
-    let accs = run_monte_carlo(&preps, &link, settings, reference_epoch);
+    let track = match settings.frame_rate_hz {
+        Some(hz) if settings.sync_sigma_ms > 0.0 => ATrack::new(epochs, hz),
+        _ => None,
+    };
+    let filter = match (settings.cfc, settings.frame_rate_hz) {
+        (Some(spec), Some(hz)) => Some(Cfc::new(spec.class, spec.standard, hz)?),
+        _ => None,
+    };
+    let kin_runs = filter.as_ref().map(|_| {
+        let frames: Vec<u64> = measured.iter().map(|m| m.frame.unwrap_or(0)).collect();
+        let has = |e: usize, mk: usize| {
+            let d = |k: usize| preps[k].slot_of[mk].is_some_and(|s| preps[k].slots[s].drawable());
+            d(e) && d(reference_epoch)
+        };
+        kinematics::runs(groups.markers.len(), &frames, has)
+    });
+    let kin_work = filter
+        .as_ref()
+        .zip(kin_runs.as_deref())
+        .map(|(filter, runs)| KinWork { filter, runs });
+    let (accs, kin_accs) = run_monte_carlo(
+        &preps,
+        &link,
+        settings,
+        reference_epoch,
+        track.as_ref(),
+        kin_work.as_ref(),
+    );
     let rows = assemble(
         &preps,
         &accs,
@@ -565,6 +813,9 @@ pub fn measure(
         reference_epoch,
         reprojection_limit_px,
     );
+    let kinematics = kin_work
+        .as_ref()
+        .map(|k| assemble_kinematics(&preps, k, &kin_accs, reference_epoch, rows.len()));
     let m = Measurement {
         epochs: measured,
         markers: groups.markers,
@@ -580,6 +831,8 @@ pub fn measure(
             .collect(),
         samples: settings.samples,
         reprojection_limit_px,
+        kinematics,
+        sync_share: None,
     };
     crate::plausible::check_measurable(&m)?;
     crate::plausible::check_finite(&m)?;
@@ -772,94 +1025,219 @@ fn prep_epoch(
     })
 }
 
-/// The Monte Carlo: per-(epoch, slot) accumulators.
+/// The kinematic rows: the nominal runs filtered and differentiated, σ from the replicates.
+fn assemble_kinematics(
+    preps: &[EpochPrep],
+    kin: &KinWork<'_>,
+    accs: &[Vec<RunAcc>],
+    reference: usize,
+    n_rows: usize,
+) -> Kinematics {
+    // Row index of (epoch, slot): rows are epoch-major in slot order.
+    let mut offsets = Vec::with_capacity(preps.len());
+    let mut n = 0;
+    for p in preps {
+        offsets.push(n);
+        n += p.slots.len();
+    }
+    let mut rows = vec![KinRow::default(); n_rows];
+    let mut scratch = Scratch::default();
+    let mut with = 0;
+    for (runs, racc) in kin.runs.iter().zip(accs) {
+        for (run, acc) in runs.iter().zip(racc) {
+            let mk = run.marker;
+            let nominal = |e: usize| {
+                preps[e].slot_of[mk]
+                    .and_then(|s| preps[e].slots[s].nominal)
+                    .unwrap_or_else(|| Vec3::repeat(f64::NAN))
+            };
+            let xr = nominal(reference);
+            scratch.filter_and_differentiate(
+                kin.filter,
+                (run.start..run.start + run.len).map(|e| nominal(e) - xr),
+            );
+            for i in 0..run.len {
+                let e = run.start + i;
+                let Some(s) = preps[e].slot_of[mk] else {
+                    continue;
+                };
+                let [d, v, a] = &acc.m[i];
+                rows[offsets[e] + s] = KinRow {
+                    displacement_mm: Some(scratch.f[i]),
+                    displacement_sigma_mm: d.std_dev(),
+                    velocity_m_s: Some(scratch.v[i]),
+                    velocity_sigma_m_s: v.std_dev(),
+                    acceleration_m_s2: Some(scratch.a[i]),
+                    acceleration_sigma_m_s2: a.std_dev(),
+                };
+                with += 1;
+            }
+        }
+    }
+    Kinematics {
+        filter: *kin.filter,
+        rows,
+        rows_with_kinematics: with,
+        runs: kin.runs.iter().map(Vec::len).sum(),
+    }
+}
+
+/// Replicates per chunk: a block's replicates are drawn chunk by chunk, every epoch's stream
+/// continuing where the previous chunk stopped, so the scratch is O(epochs · slots · CHUNK).
+const CHUNK: usize = 32;
+
+/// The kinematics work of the Monte Carlo: the filter and every marker's runs.
+struct KinWork<'a> {
+    filter: &'a Cfc,
+    runs: &'a [Vec<Run>],
+}
+
+/// The Monte Carlo: per-(epoch, slot) accumulators and, with kinematics, per-(marker, run)
+/// accumulators of the filtered series.
+///
+/// Block by block, chunk by chunk: every epoch's positions of the chunk's replicates are drawn
+/// once (in parallel over epochs), then the rows' moments are fed (in parallel over runs of
+/// [`RUN`] epochs) and every marker's runs filtered and differentiated replicate by replicate
+/// (in parallel over markers). Each accumulator is fed by one task in replicate order, so the
+/// result does not depend on the thread count.
 fn run_monte_carlo(
     preps: &[EpochPrep],
     link: &LinkPrep,
     settings: &Settings,
     reference: usize,
-) -> Vec<Vec<Acc>> {
+    track: Option<&ATrack>,
+    kin: Option<&KinWork<'_>>,
+) -> (Vec<Vec<Acc>>, Vec<Vec<RunAcc>>) {
     let n_epochs = preps.len();
     let with_velocity = settings.frame_rate_hz.is_some();
-    let mut runs: Vec<(usize, Vec<Vec<Acc>>)> = (0..n_epochs)
-        .step_by(RUN)
-        .map(|s| {
-            let end = (s + RUN).min(n_epochs);
-            let accs = (s..end)
-                .map(|e| vec![Acc::default(); preps[e].slots.len()])
-                .collect();
-            (s, accs)
-        })
+    let mut accs: Vec<Vec<Acc>> = preps
+        .iter()
+        .map(|p| vec![Acc::default(); p.slots.len()])
         .collect();
+    let mut kin_accs: Vec<Vec<RunAcc>> = kin.map_or_else(Vec::new, |k| {
+        k.runs
+            .iter()
+            .map(|rs| rs.iter().map(|r| RunAcc::new(r.len)).collect())
+            .collect()
+    });
     let n_blocks = settings.samples.div_ceil(BLOCK);
     let seed = settings.seed;
-    let mut ref_pos: Vec<Vec3> = Vec::new();
+    let sync_s = settings.sync_sigma_ms / 1000.0;
+    let mut bufs: Vec<Vec<Vec3>> = vec![Vec::new(); n_epochs];
     for b in 0..n_blocks {
         let len = BLOCK.min(settings.samples - b * BLOCK);
-        let links = link_draws(link, seed, b, len);
-        epoch_positions(&preps[reference], reference, b, seed, &links, &mut ref_pos);
-        let ref_pos = &ref_pos;
-        let links = &links;
-        runs.par_iter_mut().for_each(|(start, accs)| {
-            let start = *start;
-            // Scratch of this task only: memory is O(threads · RUN · markers · BLOCK).
-            let mut bufs: Vec<Vec<Vec3>> = Vec::new();
-            let end = start + accs.len();
-            let lo = if with_velocity {
-                start.saturating_sub(1)
-            } else {
-                start
-            };
-            let hi = if with_velocity {
-                (end + 1).min(n_epochs)
-            } else {
-                end
-            };
-            bufs.resize(hi - lo, Vec::new());
-            for e in lo..hi {
-                epoch_positions(&preps[e], e, b, seed, links, &mut bufs[e - lo]);
-            }
+        let links = link_draws(link, seed, b, len, sync_s);
+        let mut rngs: Vec<StreamRng> = (0..n_epochs)
+            .map(|e| stream(seed, epoch_stream(e, b)))
+            .collect();
+        for c0 in (0..len).step_by(CHUNK) {
+            let chunk = &links[c0..(c0 + CHUNK).min(len)];
+            let m = chunk.len();
+            bufs.par_iter_mut()
+                .zip(rngs.par_iter_mut())
+                .enumerate()
+                .for_each(|(e, (buf, rng))| epoch_positions(&preps[e], rng, chunk, track, buf));
+            let bufs = &bufs;
             let pos = |e: usize, marker: usize, r: usize| -> Option<Vec3> {
                 let s = preps[e].slot_of[marker]?;
-                let x = bufs[e - lo][s * len + r];
+                let x = bufs[e][s * m + r];
                 finite(&x).then_some(x)
             };
-            let ref_slot = |marker: usize| preps[reference].slot_of[marker];
-            for e in start..end {
-                for (s, slot) in preps[e].slots.iter().enumerate() {
-                    if !slot.drawable() {
-                        continue;
+            accs.par_chunks_mut(RUN)
+                .enumerate()
+                .for_each(|(k, run_accs)| {
+                    for (i, accs_e) in run_accs.iter_mut().enumerate() {
+                        let e = k * RUN + i;
+                        feed_rows(preps, e, accs_e, reference, with_velocity, m, &pos);
                     }
-                    let acc = &mut accs[e - start][s];
-                    let m = slot.marker;
-                    let rs = ref_slot(m);
-                    let vpair = if with_velocity {
-                        velocity_pair(e, m, preps)
-                    } else {
-                        None
-                    };
-                    for r in 0..len {
-                        let Some(x) = pos(e, m, r) else { continue };
-                        acc.pos.push_vec(&x);
-                        if let Some(rs) = rs {
-                            let xr = ref_pos[rs * len + r];
-                            if finite(&xr) {
-                                acc.disp.push_vec(&(x - xr));
-                            }
+                });
+            if let Some(kin) = kin {
+                kin_accs
+                    .par_iter_mut()
+                    .zip(kin.runs.par_iter())
+                    .for_each_init(Scratch::default, |scratch, (racc, runs)| {
+                        for (run, acc) in runs.iter().zip(racc) {
+                            feed_run(kin.filter, run, acc, reference, m, &pos, scratch);
                         }
-                        if let Some((p, n)) = vpair
-                            && let (Some(xp), Some(xn)) = (pos(p, m, r), pos(n, m, r))
-                        {
-                            let dt =
-                                preps[n].time_s.unwrap_or(0.0) - preps[p].time_s.unwrap_or(0.0);
-                            acc.vel.push_vec(&((xn - xp) / dt));
-                        }
-                    }
-                }
+                    });
             }
-        });
+        }
     }
-    runs.into_iter().flat_map(|(_, accs)| accs).collect()
+    (accs, kin_accs)
+}
+
+/// Feeds the position, displacement and velocity moments of epoch `e`'s rows with the `m`
+/// replicates of a chunk.
+fn feed_rows(
+    preps: &[EpochPrep],
+    e: usize,
+    accs: &mut [Acc],
+    reference: usize,
+    with_velocity: bool,
+    m: usize,
+    pos: &(impl Fn(usize, usize, usize) -> Option<Vec3> + Sync),
+) {
+    for (s, slot) in preps[e].slots.iter().enumerate() {
+        if !slot.drawable() {
+            continue;
+        }
+        let acc = &mut accs[s];
+        let mk = slot.marker;
+        let vpair = if with_velocity {
+            velocity_pair(e, mk, preps)
+        } else {
+            None
+        };
+        for r in 0..m {
+            let Some(x) = pos(e, mk, r) else { continue };
+            acc.pos.push_vec(&x);
+            if let Some(xr) = pos(reference, mk, r) {
+                acc.disp.push_vec(&(x - xr));
+            }
+            if let Some((p, n)) = vpair
+                && let (Some(xp), Some(xn)) = (pos(p, mk, r), pos(n, mk, r))
+            {
+                let dt = preps[n].time_s.unwrap_or(0.0) - preps[p].time_s.unwrap_or(0.0);
+                acc.vel.push_vec(&((xn - xp) / dt));
+            }
+        }
+    }
+}
+
+/// Filters one run of one marker in each of the `m` replicates of a chunk and feeds its
+/// moments (a replicate with a failed intersection in the run is left out).
+fn feed_run(
+    filter: &Cfc,
+    run: &Run,
+    acc: &mut RunAcc,
+    reference: usize,
+    m: usize,
+    pos: &(impl Fn(usize, usize, usize) -> Option<Vec3> + Sync),
+    scratch: &mut Scratch,
+) {
+    let mut d = std::mem::take(&mut scratch.d);
+    for r in 0..m {
+        let Some(xr) = pos(reference, run.marker, r) else {
+            continue;
+        };
+        d.clear();
+        for e in run.start..run.start + run.len {
+            match pos(e, run.marker, r) {
+                Some(x) => d.push(x - xr),
+                None => break,
+            }
+        }
+        if d.len() < run.len {
+            continue;
+        }
+        scratch.filter_and_differentiate(filter, d.iter().copied());
+        for (i, m) in acc.m.iter_mut().enumerate() {
+            m[0].push(&scratch.f[i]);
+            m[1].push(&scratch.v[i]);
+            m[2].push(&scratch.a[i]);
+        }
+    }
+    scratch.d = d;
 }
 
 fn sigma_of(m: &Moments<3>) -> Option<Vec3> {

@@ -83,6 +83,8 @@
 //!     frame_rate_hz: Some(1000.0),
 //!     threshold_mm: 5.0,
 //!     max_reprojection_px: None,
+//!     cfc: None,
+//!     sync_sigma_ms: 0.0,
 //! };
 //! let m = measure(&epochs, &rig, &obs, &settings)?;
 //! assert_eq!(m.rows.len(), 3);
@@ -100,7 +102,10 @@
 
 pub mod engine;
 mod error;
+pub mod filter;
 pub mod input;
+pub mod isomme;
+pub mod kinematics;
 pub mod output;
 pub mod plausible;
 mod run;

@@ -44,6 +44,8 @@
 //!     frame_rate_hz: None,
 //!     threshold_mm: 5.0,
 //!     max_reprojection_px: None,
+//!     cfc: None,
+//!     sync_sigma_ms: 0.0,
 //! };
 //! let m = measure(&epochs, &rig, &obs, &settings)?;
 //! let csv = output::trajectories_csv(&m);
@@ -74,6 +76,9 @@ use std::path::Path;
 /// Header of `trajectories.csv` (fixed by the contract).
 pub const TRAJECTORIES_HEADER: &str =
     "epoch,marker,x_mm,y_mm,z_mm,sigma_x_mm,sigma_y_mm,sigma_z_mm,sigma_max_mm,n_views";
+
+/// Header of `kinematics.csv` (fixed by the contract).
+pub const KINEMATICS_HEADER: &str = "epoch,marker,time_s,dx_mm,dy_mm,dz_mm,sigma_dx_mm,sigma_dy_mm,sigma_dz_mm,vx_m_s,vy_m_s,vz_m_s,sigma_vx_m_s,sigma_vy_m_s,sigma_vz_m_s,ax_m_s2,ay_m_s2,az_m_s2,sigma_ax_m_s2,sigma_ay_m_s2,sigma_az_m_s2";
 
 /// Header of `displacements.csv`.
 pub const DISPLACEMENTS_HEADER: &str = "epoch,marker,time_s,dx_mm,dy_mm,dz_mm,sigma_dx_mm,sigma_dy_mm,sigma_dz_mm,sigma_dmax_mm,vx_mm_s,vy_mm_s,vz_mm_s,sigma_vx_mm_s,sigma_vy_mm_s,sigma_vz_mm_s,reprojection_px,flags";
@@ -143,6 +148,34 @@ pub fn displacements_csv(m: &Measurement) -> String {
         );
     }
     s
+}
+
+/// `kinematics.csv` of a measurement with kinematics ([`KINEMATICS_HEADER`], one line per row
+/// of `m`, blank where the row is not in a filtered run); `None` without kinematics.
+pub fn kinematics_csv(m: &Measurement) -> Option<String> {
+    let k = m.kinematics.as_ref()?;
+    let mut s = format!("{KINEMATICS_HEADER}\n");
+    for (r, kr) in m.rows.iter().zip(&k.rows) {
+        let ep = &m.epochs[r.epoch];
+        let t = ep.time_s.map(num).unwrap_or_default();
+        let cols = [
+            kr.displacement_mm,
+            kr.displacement_sigma_mm,
+            kr.velocity_m_s,
+            kr.velocity_sigma_m_s,
+            kr.acceleration_m_s2,
+            kr.acceleration_sigma_m_s2,
+        ]
+        .map(|v| opt3(v).join(","));
+        let _ = writeln!(
+            s,
+            "{},{},{t},{}",
+            csv_field(&ep.name),
+            csv_field(&m.markers[r.marker]),
+            cols.join(",")
+        );
+    }
+    Some(s)
 }
 
 /// File stems of the markers: characters other than ASCII letters, digits, `-` and `_` become
@@ -251,6 +284,199 @@ pub fn marker_plots(m: &Measurement) -> Result<Vec<MarkerPlot>, Error> {
     Ok(out)
 }
 
+/// One kinematics plot per marker with kinematics (`plots/<stem>_kinematics.png|svg`): filtered
+/// displacement (mm), velocity (m/s) and acceleration (m/s²) per axis against time, ±2σ bands;
+/// in marker order, drawn in parallel.
+///
+/// # Errors
+/// [`Error::Plot`] naming the marker.
+pub fn kinematics_plots(m: &Measurement) -> Result<Vec<MarkerPlot>, Error> {
+    let Some(k) = m.kinematics.as_ref() else {
+        return Ok(Vec::new());
+    };
+    let xs: Vec<f64> = m
+        .epochs
+        .iter()
+        .enumerate()
+        .map(|(i, e)| e.time_s.map_or(i as f64, |t| t * 1000.0))
+        .collect();
+    let stems = marker_stems(&m.markers);
+    let title_filter = format!("CFC {} ({})", k.filter.class(), k.filter.standard().name());
+    let per_marker: Vec<Result<Option<MarkerPlot>, Error>> = (0..m.markers.len())
+        .into_par_iter()
+        .map(|mk| {
+            let mut ys = vec![vec![f64::NAN; xs.len()]; 9];
+            let mut hw = vec![vec![f64::NAN; xs.len()]; 9];
+            let mut any = false;
+            for (r, kr) in m.rows.iter().zip(&k.rows).filter(|(r, _)| r.marker == mk) {
+                let q = [
+                    (kr.displacement_mm, kr.displacement_sigma_mm),
+                    (kr.velocity_m_s, kr.velocity_sigma_m_s),
+                    (kr.acceleration_m_s2, kr.acceleration_sigma_m_s2),
+                ];
+                for (j, (v, sd)) in q.iter().enumerate() {
+                    if let Some(v) = v {
+                        any = true;
+                        for c in 0..3 {
+                            ys[3 * j + c][r.epoch] = v[c];
+                            hw[3 * j + c][r.epoch] = sd.map_or(f64::NAN, |s| 2.0 * s[c]);
+                        }
+                    }
+                }
+            }
+            if !any {
+                return Ok(None);
+            }
+            let labels = [
+                "dx [mm]",
+                "dy [mm]",
+                "dz [mm]",
+                "vx [m/s]",
+                "vy [m/s]",
+                "vz [m/s]",
+                "ax [m/s²]",
+                "ay [m/s²]",
+                "az [m/s²]",
+            ];
+            let panels: Vec<BandPanel<'_>> = (0..9)
+                .map(|c| BandPanel {
+                    y_label: labels[c],
+                    ys: &ys[c],
+                    half_widths: &hw[c],
+                })
+                .collect();
+            let name = &m.markers[mk];
+            let title = format!("marker {name}: {title_filter}, ±2σ (world axes)");
+            let draw = |f| {
+                crashrig_plot::banded_panels(&xs, &panels, &title, "t [ms]", f).map_err(|source| {
+                    Error::Plot {
+                        marker: name.clone(),
+                        source,
+                    }
+                })
+            };
+            Ok(Some(MarkerPlot {
+                marker: name.clone(),
+                stem: format!("{}_kinematics", stems[mk]),
+                png: draw(Format::Png)?,
+                svg: draw(Format::Svg)?,
+            }))
+        })
+        .collect();
+    let mut out = Vec::new();
+    for p in per_marker {
+        out.extend(p?);
+    }
+    Ok(out)
+}
+
+/// The kinematics part of `summary.json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct KinematicsSummary {
+    /// Channel frequency class.
+    pub cfc: u32,
+    /// `j211` or `iso6487`.
+    pub standard: &'static str,
+    /// The variant in words (constant and end handling).
+    pub filter: String,
+    /// Unbroken runs filtered.
+    pub runs: usize,
+    /// Rows with kinematics.
+    pub rows_with_kinematics: usize,
+    /// Largest filtered-displacement σ (mm, any axis).
+    pub max_displacement_sigma_mm: Option<f64>,
+    /// Largest velocity σ (m/s).
+    pub max_velocity_sigma_m_s: Option<f64>,
+    /// Largest acceleration σ (m/s²).
+    pub max_acceleration_sigma_m_s2: Option<f64>,
+}
+
+/// One quantity's share of variance from the trigger offset (fractions).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ShareSummary {
+    /// Median over the rows.
+    pub median: f64,
+    /// Largest.
+    pub max: f64,
+}
+
+/// The trigger-offset part of `summary.json`: per quantity, the share of the variance that the
+/// offset contributes ([`crate::engine::SyncShare`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SyncSummary {
+    /// σ of the offset (ms).
+    pub sigma_ms: f64,
+    /// Per quantity (`position`, `displacement`, `velocity`, `filtered_displacement`,
+    /// `filtered_velocity`, `acceleration`): median and largest share over the rows.
+    pub variance_share: std::collections::BTreeMap<&'static str, ShareSummary>,
+}
+
+impl SyncSummary {
+    fn new(s: &crate::engine::SyncShare) -> SyncSummary {
+        let mut variance_share = std::collections::BTreeMap::new();
+        for (name, q) in [
+            ("position", s.position),
+            ("displacement", s.displacement),
+            ("velocity", s.velocity),
+            ("filtered_displacement", s.filtered_displacement),
+            ("filtered_velocity", s.filtered_velocity),
+            ("acceleration", s.acceleration),
+        ] {
+            if let Some(q) = q {
+                variance_share.insert(
+                    name,
+                    ShareSummary {
+                        median: q.median,
+                        max: q.max,
+                    },
+                );
+            }
+        }
+        SyncSummary {
+            sigma_ms: s.sigma_ms,
+            variance_share,
+        }
+    }
+
+    /// The report line: how much of each σ's variance the offset contributes.
+    pub fn line(&self) -> String {
+        let parts: Vec<String> = self
+            .variance_share
+            .iter()
+            .map(|(k, v)| format!("{k} {:.0} % (max {:.0} %)", 100.0 * v.median, 100.0 * v.max))
+            .collect();
+        format!(
+            "trigger offset σ {} ms: share of the variance (median over rows) — {}",
+            self.sigma_ms,
+            parts.join(", ")
+        )
+    }
+}
+
+fn kinematics_summary(m: &Measurement) -> Option<KinematicsSummary> {
+    let k = m.kinematics.as_ref()?;
+    let max = |f: fn(&crate::kinematics::KinRow) -> Option<Vec3>| {
+        k.rows
+            .iter()
+            .filter_map(|r| f(r).map(|v| v.max()))
+            .reduce(f64::max)
+    };
+    let std = k.filter.standard();
+    Some(KinematicsSummary {
+        cfc: k.filter.class(),
+        standard: std.name(),
+        filter: match std {
+            crate::filter::Standard::J211 => "SAE J211-1 Appendix C: 4-pole phaseless Butterworth (2-pole forward and backward), corner 2.0775·CFC, each pass started at rest on its first value".into(),
+            crate::filter::Standard::Iso6487 => "ISO 6487 Annex A: 4-pole phaseless Butterworth (2-pole forward and backward), corner 1.25·5/3·CFC, ends extended by point reflection over max(10 ms, 100 samples), ten-value start means".into(),
+        },
+        runs: k.runs,
+        rows_with_kinematics: k.rows_with_kinematics,
+        max_displacement_sigma_mm: max(|r| r.displacement_sigma_mm),
+        max_velocity_sigma_m_s: max(|r| r.velocity_sigma_m_s),
+        max_acceleration_sigma_m_s2: max(|r| r.acceleration_sigma_m_s2),
+    })
+}
+
 fn median(mut v: Vec<f64>) -> Option<f64> {
     if v.is_empty() {
         return None;
@@ -312,6 +538,12 @@ pub struct Summary {
     pub max_displacement_sigma_mm: Option<f64>,
     /// Median displacement σ_max (mm), reference epoch excluded.
     pub median_displacement_sigma_max_mm: Option<f64>,
+    /// The filter and the kinematics' σ (with `--cfc`; absent otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub kinematics: Option<KinematicsSummary>,
+    /// The trigger offset's share of the variance (with `--sync-sigma-ms`; absent otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sync_offset: Option<SyncSummary>,
 }
 
 impl Summary {
@@ -349,6 +581,8 @@ impl Summary {
             median_sigma_max_mm: median(smax),
             max_displacement_sigma_mm: dmax.iter().copied().reduce(f64::max),
             median_displacement_sigma_max_mm: median(dmax),
+            kinematics: kinematics_summary(m),
+            sync_offset: m.sync_share.as_ref().map(SyncSummary::new),
         }
     }
 }
@@ -420,7 +654,7 @@ pub(crate) fn check_out_dir(dir: &Path) -> Result<(), Error> {
 fn replaceable(name: &str) -> bool {
     matches!(
         name,
-        "trajectories.csv" | "displacements.csv" | "summary.json" | "plots/"
+        "trajectories.csv" | "displacements.csv" | "kinematics.csv" | "summary.json" | "plots/"
     )
 }
 

@@ -268,8 +268,14 @@ fn output_files(m: &Measurement, plots: bool) -> Result<Vec<(String, Vec<u8>)>, 
             output::displacements_csv(m).into_bytes(),
         ),
     ];
+    if let Some(k) = output::kinematics_csv(m) {
+        files.push(("kinematics.csv".to_string(), k.into_bytes()));
+    }
     if plots {
-        for p in output::marker_plots(m)? {
+        for p in output::marker_plots(m)?
+            .into_iter()
+            .chain(output::kinematics_plots(m)?)
+        {
             files.push((format!("plots/{}.png", p.stem), p.png));
             files.push((format!("plots/{}.svg", p.stem), p.svg));
         }

@@ -75,6 +75,8 @@ fn settings(samples: usize, seed: u64) -> Settings {
         frame_rate_hz: Some(FRAME_RATE),
         threshold_mm: 5.0,
         max_reprojection_px: None,
+        cfc: None,
+        sync_sigma_ms: 0.0,
     }
 }
 

@@ -84,6 +84,8 @@ pub fn run_measure(
             frame_rate_hz: s.frame_rate_hz,
             threshold_mm: s.threshold_mm,
             max_reprojection_px: s.max_reprojection_px,
+            cfc: None,
+            sync_sigma_ms: 0.0,
         },
         out: None,
     };

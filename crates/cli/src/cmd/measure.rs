@@ -2,6 +2,7 @@
 
 use crate::Global;
 use crashrig_geometry::Vec3;
+use crashrig_measure::filter::{CfcSpec, Standard};
 use crashrig_measure::input;
 use crashrig_measure::{ANoise, MeasureConfig, OutputDir, Settings};
 use std::path::PathBuf;
@@ -69,6 +70,22 @@ pub struct MeasureArgs {
     /// Skip the trajectory plots.
     #[arg(long)]
     pub no_plots: bool,
+    /// CFC filter class (60, 180, 600, 1000) of the kinematics: each marker's displacement
+    /// filtered in every replicate, velocity and acceleration from it (kinematics.csv; needs
+    /// --frame-rate-hz).
+    #[arg(long, value_name = "CLASS")]
+    pub cfc: Option<u32>,
+    /// The filter's standard: j211 (SAE J211-1, default) or iso6487 (ISO 6487).
+    #[arg(long, value_name = "STANDARD", requires = "cfc")]
+    pub cfc_standard: Option<String>,
+    /// σ of camera A's trigger offset against the inward cameras (ms; needs --frame-rate-hz).
+    #[arg(
+        long,
+        value_name = "MS",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    pub sync_sigma_ms: f64,
 }
 
 /// Runs the command: arguments → [`MeasureConfig`] → [`crashrig_measure::run`] → print.
@@ -101,6 +118,9 @@ pub fn run(a: MeasureArgs, g: &Global) -> anyhow::Result<()> {
             s.numbers.rows_flagged,
             a.out.display()
         );
+        if let Some(sync) = &s.numbers.sync_offset {
+            println!("{}", sync.line());
+        }
     }
     Ok(())
 }
@@ -165,6 +185,14 @@ fn config(a: &MeasureArgs, seed: Option<u64>) -> anyhow::Result<MeasureConfig> {
             frame_rate_hz: a.frame_rate_hz,
             threshold_mm: a.threshold_mm,
             max_reprojection_px: a.max_reprojection_px,
+            cfc: match a.cfc {
+                Some(class) => Some(CfcSpec {
+                    class,
+                    standard: Standard::parse(a.cfc_standard.as_deref().unwrap_or("j211"))?,
+                }),
+                None => None,
+            },
+            sync_sigma_ms: a.sync_sigma_ms,
         },
         out: Some(OutputDir {
             dir: a.out.clone(),
