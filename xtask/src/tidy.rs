@@ -33,6 +33,10 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
     ),
     ("crashrig-testkit", &["crashrig-geometry"]),
     (
+        "crashrig-covariance",
+        &["crashrig-geometry", "crashrig-camera", "crashrig-colmap"],
+    ),
+    (
         "crashrig-measure",
         &[
             "crashrig-geometry",
@@ -72,6 +76,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-study",
             "crashrig-measure",
             "crashrig-outdir",
+            "crashrig-covariance",
         ],
     ),
     (
