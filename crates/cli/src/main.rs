@@ -54,6 +54,8 @@ enum Command {
     Paper(cmd::paper::PaperArgs),
     /// The whole study on your own COLMAP project (study file), with results.json and a report.
     Study(cmd::study::StudyArgs),
+    /// Camera A's per-epoch pose covariance from the bundle (input of measure --a-covariance).
+    Covariance(cmd::covariance::CovarianceArgs),
 }
 
 /// The error line of a failed run: the context chain joined with ": ", skipping a cause whose
@@ -130,6 +132,7 @@ fn main() -> std::process::ExitCode {
         Command::Measure(a) => cmd::measure::run(a, &cli.global),
         Command::Paper(a) => cmd::paper::run(a, &cli.global),
         Command::Study(a) => cmd::study::run(a, &cli.global),
+        Command::Covariance(a) => cmd::covariance::run(a, &cli.global),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
