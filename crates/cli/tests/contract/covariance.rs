@@ -4,13 +4,13 @@
 use crate::common::{assert_clean_error, fixture, json_of, run};
 use std::path::Path;
 
-fn args<'a>(cp: &'a str, out: &'a str) -> Vec<String> {
+fn args_with(camera: &str, cp: &str, out: &str) -> Vec<String> {
     let model = fixture("covariance/mc/model");
     vec![
         "covariance".into(),
         model.to_string_lossy().into_owned(),
         "--camera".into(),
-        "cam_out/".into(),
+        camera.into(),
         "--control-points".into(),
         cp.into(),
         "--mm-per-unit".into(),
@@ -18,6 +18,10 @@ fn args<'a>(cp: &'a str, out: &'a str) -> Vec<String> {
         "--out".into(),
         out.into(),
     ]
+}
+
+fn args(cp: &str, out: &str) -> Vec<String> {
+    args_with("cam_out/", cp, out)
 }
 
 fn control() -> String {
@@ -49,8 +53,11 @@ fn covariance_writes_the_contract_document() {
         assert!(v.get(key).is_some(), "missing {key}");
     }
     assert_eq!(v["intrinsics"], "all");
-    assert_eq!(v["control_points"], 24);
-    assert_eq!(v["observations"], 482);
+    // 24 in the file, 16 of them seen by A (the others are outside every image).
+    assert_eq!(v["control_points"], 16);
+    // 482 in the model; one free point is seen by a single image and left out.
+    assert_eq!(v["observations"], 481);
+    assert_eq!(v["points_left_out"], 1);
     // σ̂₀ of a model adjusted from 0.5 px noise: within 10 % (redundancy ~700: 2.7 % per SE).
     let s0 = v["sigma0_px"].as_f64().unwrap();
     assert!((s0 - 0.5).abs() < 0.05, "{s0}");
@@ -86,6 +93,10 @@ fn covariance_writes_the_contract_document() {
 }
 
 fn expect_error(cp_text: Option<&str>, extra: &[&str], needles: &[&str]) {
+    expect_error_camera("cam_out/", cp_text, extra, needles);
+}
+
+fn expect_error_camera(camera: &str, cp_text: Option<&str>, extra: &[&str], needles: &[&str]) {
     let dir = tempfile::tempdir().unwrap();
     let cp = match cp_text {
         Some(t) => {
@@ -96,7 +107,7 @@ fn expect_error(cp_text: Option<&str>, extra: &[&str], needles: &[&str]) {
         None => control(),
     };
     let out = dir.path().join("out.json");
-    let mut a = args(&cp, out.to_str().unwrap());
+    let mut a = args_with(camera, &cp, out.to_str().unwrap());
     a.extend(extra.iter().map(|s| s.to_string()));
     let r = run(&a);
     assert_clean_error(&r, needles);
@@ -120,11 +131,7 @@ fn covariance_bad_input_is_one_error_line_and_writes_nothing() {
         &[],
         &["cp.csv:3", "sigma_mm"],
     );
-    expect_error(
-        None,
-        &["--camera", "nothing/"],
-        &["model", "nothing/", "no image"],
-    );
+    expect_error_camera("nothing/", None, &[], &["model", "nothing/", "no image"]);
     expect_error(None, &["--pixel-sigma-px", "-1"], &["--pixel-sigma-px"]);
     // Control points with a prior so loose that they fix nothing: a gauge freedom is left.
     let loose: String = std::iter::once("point3D_id,sigma_mm\n".to_string())
