@@ -15,7 +15,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let scene = lab_scene(&LabSettings {
         epochs: 140,
         points: 2000,
-        path_length: 4.0,
+        path_length: 10.0,
         noise_px: 0.3,
         seed: 24,
     });

@@ -59,9 +59,11 @@ impl Cross {
 pub(crate) fn reduced_information(p: &Problem, pixel_sigma: f64) -> Mat<f64> {
     let n = p.n_reduced;
     let wgt = 1.0 / (pixel_sigma * pixel_sigma);
-    let mut s = Mat::<f64>::zeros(n, n);
+    // Row-major n×n; only the upper triangle (row ≤ column) is accumulated, then mirrored.
+    let mut s = vec![0.0; n * n];
     let mut crosses: Vec<Cross> = Vec::new();
-    // Per observation: the columns of J restricted to the active parameters (index, [du, dv]).
+    // Per observation: the columns of J restricted to the active parameters (index, [du, dv]),
+    // in increasing index order (pose block first, then the camera's intrinsics).
     let mut active: Vec<(usize, [f64; 2])> = Vec::with_capacity(32);
     for pt in &p.points {
         crosses.clear();
@@ -87,10 +89,13 @@ pub(crate) fn reduced_information(p: &Problem, pixel_sigma: f64) -> Mat<f64> {
             for (j, &k) in cam.free.iter().enumerate() {
                 active.push((cam.offset + j, [pr.d_params[(0, k)], pr.d_params[(1, k)]]));
             }
-            // U: direct information of this observation.
+            // U: direct information of this observation (upper triangle).
             for &(a, ja) in &active {
+                let row = &mut s[a * n..(a + 1) * n];
                 for &(b, jb) in &active {
-                    s[(a, b)] += wgt * (ja[0] * jb[0] + ja[1] * jb[1]);
+                    if b >= a {
+                        row[b] += wgt * (ja[0] * jb[0] + ja[1] * jb[1]);
+                    }
                 }
             }
             if pt.kind == PointKind::Fixed {
@@ -115,30 +120,26 @@ pub(crate) fn reduced_information(p: &Problem, pixel_sigma: f64) -> Mat<f64> {
             v += Matrix3::identity() / (sigma * sigma);
         }
         let v_inv = pseudo_inverse(&v);
-        // S −= W_i V⁻¹ W_kᵀ over every pair of blocks of this point.
-        let t: Vec<Vec<[f64; 3]>> = crosses
-            .iter()
-            .map(|c| {
-                c.w.iter()
-                    .map(|row| {
-                        let r = v_inv * Vec3::from(*row);
-                        [r.x, r.y, r.z]
-                    })
-                    .collect()
-            })
-            .collect();
-        for (ci, c) in crosses.iter().enumerate() {
-            for (a, ta) in t[ci].iter().enumerate() {
-                for d in &crosses {
-                    for (b, wb) in d.w.iter().enumerate() {
-                        s[(c.offset + a, d.offset + b)] -=
-                            ta[0] * wb[0] + ta[1] * wb[1] + ta[2] * wb[2];
+        // S −= W_c V⁻¹ W_dᵀ over every pair of blocks of this point (upper triangle: blocks
+        // never overlap, so c.offset ≤ d.offset puts every entry on or above the diagonal).
+        for c in &crosses {
+            for (a, wa) in c.w.iter().enumerate() {
+                let t = v_inv * Vec3::from(*wa);
+                let row = &mut s[(c.offset + a) * n..(c.offset + a + 1) * n];
+                for d in crosses.iter().filter(|d| d.offset >= c.offset) {
+                    let start = if d.offset == c.offset { a } else { 0 };
+                    for (b, wb) in d.w.iter().enumerate().skip(start) {
+                        row[d.offset + b] -= t.x * wb[0] + t.y * wb[1] + t.z * wb[2];
                     }
                 }
             }
         }
     }
-    s
+    Mat::from_fn(
+        n,
+        n,
+        |i, j| if i <= j { s[i * n + j] } else { s[j * n + i] },
+    )
 }
 
 /// The inverse on the range of a symmetric positive semi-definite 3×3 block.
