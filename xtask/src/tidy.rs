@@ -44,6 +44,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-colmap",
             "crashrig-stats",
             "crashrig-plot",
+            "crashrig-outdir",
         ],
     ),
     (
@@ -59,6 +60,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-measure",
             "crashrig-stats",
             "crashrig-plot",
+            "crashrig-outdir",
         ],
     ),
     (

@@ -54,3 +54,5 @@ mod acceptance;
 
 #[path = "contract/covariance.rs"]
 mod covariance;
+#[path = "contract/pinned.rs"]
+mod pinned;
