@@ -54,5 +54,6 @@ mod acceptance;
 
 #[path = "contract/covariance.rs"]
 mod covariance;
+
 #[path = "contract/pinned.rs"]
 mod pinned;

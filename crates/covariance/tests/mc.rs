@@ -65,3 +65,28 @@ fn matches_the_re_solving_monte_carlo() {
     }
     eprintln!("worst variance deviation: {worst:.2} standard errors");
 }
+
+/// `measure --a-covariance` reads the document: every epoch's 6×6 (contract units) as written.
+#[test]
+fn measure_reads_the_document() {
+    let r = run(&CovarianceConfig {
+        model: dir().join("model"),
+        camera_a: "cam_out/".into(),
+        control_points: dir().join("control_points.csv"),
+        scale: Scale::MmPerUnit(1000.0),
+        pixel_sigma_px: None,
+        intrinsics: Intrinsics::Colmap,
+    })
+    .unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let path = tmp.path().join("a_cov.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&r.to_json()).unwrap()).unwrap();
+    let read = crashrig_measure::input::read_a_covariance(&path).unwrap();
+    assert_eq!(read.per_epoch_deg.len(), r.epochs.len());
+    for e in &r.epochs {
+        let got = read.for_epoch(&[e.name.as_str()]).unwrap();
+        let want = e.world_from_a.covariance_deg();
+        // serde_json's default float parser is within 1 ulp of the written shortest form.
+        assert!((got - want).abs().max() <= 1e-15 * want.abs().max(), "{}", e.name);
+    }
+}
