@@ -33,6 +33,10 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
     ),
     ("crashrig-testkit", &["crashrig-geometry"]),
     (
+        "crashrig-covariance",
+        &["crashrig-geometry", "crashrig-camera", "crashrig-colmap"],
+    ),
+    (
         "crashrig-measure",
         &[
             "crashrig-geometry",
@@ -74,6 +78,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-study",
             "crashrig-measure",
             "crashrig-outdir",
+            "crashrig-covariance",
         ],
     ),
     (

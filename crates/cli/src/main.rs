@@ -57,6 +57,8 @@ enum Command {
     /// Export a measure output to a crash lab's data system (ISO-MME).
     #[command(subcommand)]
     Export(cmd::export::ExportCommand),
+    /// Camera A's per-epoch pose covariance from the bundle (input of measure --a-covariance).
+    Covariance(cmd::covariance::CovarianceArgs),
 }
 
 /// The error line of a failed run: the context chain joined with ": ", skipping a cause whose
@@ -134,6 +136,7 @@ fn main() -> std::process::ExitCode {
         Command::Paper(a) => cmd::paper::run(a, &cli.global),
         Command::Study(a) => cmd::study::run(a, &cli.global),
         Command::Export(c) => cmd::export::run(c, &cli.global),
+        Command::Covariance(a) => cmd::covariance::run(a, &cli.global),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

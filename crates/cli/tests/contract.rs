@@ -52,6 +52,9 @@ mod sim;
 #[path = "contract/acceptance.rs"]
 mod acceptance;
 
+#[path = "contract/covariance.rs"]
+mod covariance;
+
 #[path = "contract/pinned.rs"]
 mod pinned;
 #[path = "contract/units.rs"]

@@ -88,4 +88,4 @@ pub use record::{
     CameraRecord, DataId, Frame, Image, Point2D, Point3D, RawPose, Rig, RigSensor, SensorId,
     SensorType, TrackElement,
 };
-pub use select::CameraSelector;
+pub use select::{CameraSelector, epoch_name};

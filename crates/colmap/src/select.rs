@@ -67,6 +67,17 @@ impl std::fmt::Display for CameraSelector {
     }
 }
 
+/// The epoch name of an epoch key: the key without its extension (the part after the last `.`
+/// of its last path component), if that leaves something (`000123.png` → `000123`). `measure`
+/// and `covariance` key camera A's epochs by it.
+pub fn epoch_name(key: &str) -> &str {
+    let last = key.rsplit('/').next().unwrap_or(key);
+    match last.rfind('.') {
+        Some(dot) if dot > 0 => &key[..key.len() - (last.len() - dot)],
+        _ => key,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

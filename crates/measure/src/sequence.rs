@@ -16,15 +16,8 @@ use std::collections::BTreeMap;
 
 pub use crashrig_colmap::CameraSelector;
 
-/// The epoch name of a key: the key without its extension (the part after the last `.` of its
-/// last path component), if that leaves something.
-pub fn epoch_name(key: &str) -> &str {
-    let last = key.rsplit('/').next().unwrap_or(key);
-    match last.rfind('.') {
-        Some(dot) if dot > 0 => &key[..key.len() - (last.len() - dot)],
-        _ => key,
-    }
-}
+/// The epoch name of a key (one definition, in `crashrig_colmap`, shared with `covariance`).
+pub use crashrig_colmap::epoch_name;
 
 /// The frame number of an epoch name: its last run of ASCII digits (`run3_000123` → 123).
 pub fn frame_number(name: &str) -> Option<u64> {

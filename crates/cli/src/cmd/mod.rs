@@ -4,6 +4,7 @@ pub mod bootstrap;
 pub mod calibrate;
 pub mod colmap;
 pub mod export;
+pub mod covariance;
 pub mod grid;
 pub mod measure;
 pub mod paper;

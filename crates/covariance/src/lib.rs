@@ -1,0 +1,455 @@
+//! Camera A's per-epoch pose covariance **from the bundle**: the input that `crashrig measure
+//! --a-covariance` and a study take, so that nobody has to type A's σ by hand.
+//!
+//! # Method
+//! 1. Every reprojection residual of the model (all registered images, all tracks, COLMAP's
+//!    camera models and pixel convention) is linearised at the model's estimate with exact
+//!    Jacobians ([`jacobian`]). Unknowns: one pose per frame (images of a COLMAP ≥ 3.12 frame
+//!    share their rig's pose; each image's `sensor_from_rig` is held at its model value; a
+//!    legacy model has one frame per image), the free intrinsics of each camera
+//!    ([`Intrinsics`]), and every 3-D point seen by at least two registered images.
+//! 2. The points are eliminated by the Schur complement one 3×3 block at a time (never a dense
+//!    point block): `S = U − Σⱼ Wⱼ Vⱼ⁻¹ Wⱼᵀ` over poses and intrinsics, dense (faer), memory
+//!    linear in the observations plus `S` itself.
+//! 3. The datum is the lab's control points: held fixed (`sigma_mm` 0) or with a prior
+//!    `N(model position, σ²)` per axis. Fewer than three non-collinear control points in any
+//!    connected part of the model, or any parameter left undetermined (a Jacobi-scaled Cholesky
+//!    pivot below 1e-11), is an [`Error`], never an infinite covariance.
+//! 4. Intrinsics are marginalised: A's pose covariance is the pose block of `S⁻¹`.
+//! 5. The pixel σ is given, or the a-posteriori `σ̂₀ = sqrt(Σ r² / (2·n_obs − n_params))`.
+//!
+//! Output: for every epoch of A (named as `measure` names them), `world_from_A` with its
+//! contract tangent covariance (centre in world axes, rotation about A's own axes), and the
+//! joint 6n×6n covariance of all epochs.
+//!
+//! # Example
+//! Four images in a ring look at a 3 m cube of points; the eight corners are fixed control
+//! points.
+//! ```
+//! use crashrig_colmap::CameraSelector;
+//! use crashrig_covariance::{ControlPoints, Intrinsics, Options, covariance, synthetic};
+//!
+//! let scene = synthetic::ring_scene(4, 1.0);
+//! let control = ControlPoints::from_ids("corners", &scene.control_ids, 0.0);
+//! let options = Options {
+//!     camera_a: CameraSelector::parse("cam_out/"),
+//!     mm_per_unit: 1000.0,
+//!     pixel_sigma_px: Some(0.5),
+//!     intrinsics: Intrinsics::All,
+//! };
+//! let r = covariance(&scene.model, &control, &options)?;
+//! assert_eq!(r.epochs.len(), 4);
+//! assert_eq!(r.epochs[0].name, "0000");
+//! let s = r.epochs[0].world_from_a.sigma_position();
+//! assert!(s.iter().all(|v| v.is_finite() && *v > 0.0 && *v < 100.0));
+//! # Ok::<(), crashrig_covariance::Error>(())
+//! ```
+
+mod control;
+mod error;
+mod gauge;
+pub mod jacobian;
+mod problem;
+mod solve;
+pub mod synthetic;
+
+pub use control::{ControlPoint, ControlPoints, MAX_CONTROL_POINTS, read_control_points};
+pub use error::Error;
+
+use crashrig_colmap::{CameraSelector, Reconstruction};
+use crashrig_geometry::{Mat3, Mat6, Rigid3, UncertainPose, so3};
+use nalgebra::DMatrix;
+use std::path::PathBuf;
+
+/// Which intrinsics are unknowns (and so marginalised).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Intrinsics {
+    /// Every parameter of every camera's model, principal point included (default).
+    All,
+    /// What COLMAP's bundle adjustment refines by default: focal length(s) and distortion.
+    Colmap,
+    /// None: the intrinsics are held constant.
+    Fixed,
+}
+
+impl Intrinsics {
+    /// The name used on the command line and in the output (`all`, `colmap`, `fixed`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Intrinsics::All => "all",
+            Intrinsics::Colmap => "colmap",
+            Intrinsics::Fixed => "fixed",
+        }
+    }
+
+    /// Parses `all`, `colmap` or `fixed`.
+    pub fn parse(text: &str) -> Option<Intrinsics> {
+        [Intrinsics::All, Intrinsics::Colmap, Intrinsics::Fixed]
+            .into_iter()
+            .find(|i| i.name() == text)
+    }
+}
+
+/// The model's scale.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Scale {
+    /// Millimetres per model unit.
+    MmPerUnit(f64),
+    /// Two point3D ids a known distance apart.
+    ScaleBar {
+        /// The two points.
+        points: [u64; 2],
+        /// Their distance in mm.
+        length_mm: f64,
+    },
+}
+
+/// What `crashrig covariance` needs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CovarianceConfig {
+    /// The COLMAP model directory.
+    pub model: PathBuf,
+    /// Camera A: an image-name prefix or a camera id.
+    pub camera_a: String,
+    /// The control-point CSV.
+    pub control_points: PathBuf,
+    /// Model units → mm.
+    pub scale: Scale,
+    /// The pixel σ; `None`: the a-posteriori σ̂₀.
+    pub pixel_sigma_px: Option<f64>,
+    /// Which intrinsics are unknowns.
+    pub intrinsics: Intrinsics,
+}
+
+/// The settings of [`covariance`] on a model already read.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Options {
+    /// Camera A's images.
+    pub camera_a: CameraSelector,
+    /// Model units → mm.
+    pub mm_per_unit: f64,
+    /// The pixel σ; `None`: the a-posteriori σ̂₀.
+    pub pixel_sigma_px: Option<f64>,
+    /// Which intrinsics are unknowns.
+    pub intrinsics: Intrinsics,
+}
+
+/// One epoch of A.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EpochCovariance {
+    /// The epoch name (`measure`'s: the key without its extension).
+    pub name: String,
+    /// The epoch key (the image name without A's prefix).
+    pub key: String,
+    /// The image name.
+    pub image: String,
+    /// `world_from_A` (mm) with its tangent covariance (mm, rad).
+    pub world_from_a: UncertainPose,
+}
+
+/// The result of [`covariance`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct CovarianceResult {
+    /// A's epochs in key order.
+    pub epochs: Vec<EpochCovariance>,
+    /// Joint covariance of all epochs in the contract's units (mm, deg), 6n×6n, epoch order
+    /// as [`CovarianceResult::epochs`].
+    pub joint_deg: DMatrix<f64>,
+    /// The a-posteriori σ̂₀ of the model's residuals (px).
+    pub sigma0_px: f64,
+    /// The pixel σ used (given, or σ̂₀).
+    pub pixel_sigma_px: f64,
+    /// Observations used.
+    pub observations: usize,
+    /// Unknowns: 6 per frame, the free intrinsics, 3 per eliminated free point.
+    pub parameters: usize,
+    /// Redundancy `2·observations − parameters`.
+    pub redundancy: i64,
+    /// Control points observed (used for the datum).
+    pub control_points: usize,
+    /// Which intrinsics were marginalised.
+    pub intrinsics: Intrinsics,
+    /// Model units → mm.
+    pub mm_per_unit: f64,
+    /// Frames (pose unknowns) in the system.
+    pub frames: usize,
+    /// Points of the model left out: seen by fewer than two registered images and not a
+    /// control point (they carry no information on the poses).
+    pub points_left_out: usize,
+    /// Things the user should know (one line each).
+    pub warnings: Vec<String>,
+}
+
+/// Reads the model and the control points of `config` and computes the covariance.
+///
+/// # Errors
+/// Any [`Error`]: unreadable files, bad control points, a datum that leaves a gauge freedom,
+/// a singular system.
+pub fn run(config: &CovarianceConfig) -> Result<CovarianceResult, Error> {
+    let model = Reconstruction::read(&config.model)?;
+    let control = read_control_points(&config.control_points)?;
+    let mm_per_unit = mm_per_unit(&model, &config.scale)?;
+    let options = Options {
+        camera_a: CameraSelector::parse(&config.camera_a),
+        mm_per_unit,
+        pixel_sigma_px: config.pixel_sigma_px,
+        intrinsics: config.intrinsics,
+    };
+    covariance(&model, &control, &options)
+}
+
+/// Model units → mm from a [`Scale`].
+///
+/// # Errors
+/// [`Error::Setting`]: a factor or length that is not a positive finite number, a scale point
+/// that is not in the model, two scale points at the same place.
+pub fn mm_per_unit(model: &Reconstruction, scale: &Scale) -> Result<f64, Error> {
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    match *scale {
+        Scale::MmPerUnit(f) if positive(f) => Ok(f),
+        Scale::MmPerUnit(f) => Err(Error::Setting {
+            name: "--mm-per-unit",
+            problem: format!("{f} is not a positive number"),
+        }),
+        Scale::ScaleBar { points, length_mm } => {
+            if !positive(length_mm) {
+                return Err(Error::Setting {
+                    name: "--scale-length-mm",
+                    problem: format!("{length_mm} is not a positive length (mm)"),
+                });
+            }
+            let xyz = |id: u64| {
+                model
+                    .point3d(id)
+                    .map(|p| nalgebra::Vector3::from(p.xyz))
+                    .ok_or_else(|| Error::Setting {
+                        name: "--scale-points",
+                        problem: format!(
+                            "point3D_id {id} is not a point of the model {}",
+                            model.dir().display()
+                        ),
+                    })
+            };
+            let d = (xyz(points[0])? - xyz(points[1])?).norm();
+            if !positive(d) {
+                return Err(Error::Setting {
+                    name: "--scale-points",
+                    problem: format!("points {} and {} coincide", points[0], points[1]),
+                });
+            }
+            Ok(length_mm / d)
+        }
+    }
+}
+
+/// The covariance of A's per-epoch poses on a model already read.
+///
+/// # Errors
+/// As [`run`].
+pub fn covariance(
+    model: &Reconstruction,
+    control: &ControlPoints,
+    options: &Options,
+) -> Result<CovarianceResult, Error> {
+    if !(options.mm_per_unit.is_finite() && options.mm_per_unit > 0.0) {
+        return Err(Error::Setting {
+            name: "--mm-per-unit",
+            problem: format!("{} is not a positive number", options.mm_per_unit),
+        });
+    }
+    if let Some(s) = options.pixel_sigma_px
+        && !(s.is_finite() && s > 0.0)
+    {
+        return Err(Error::Setting {
+            name: "--pixel-sigma-px",
+            problem: format!("{s} is not a positive number (px)"),
+        });
+    }
+    let p = problem::build(
+        model,
+        &options.camera_a,
+        control,
+        options.mm_per_unit,
+        options.intrinsics,
+    )?;
+    gauge::check(&p, &control.path)?;
+    let observations = p.obs.len();
+    let parameters = p.n_reduced + p.n_point_params();
+    let redundancy = 2 * observations as i64 - parameters as i64;
+    let sigma0_px = if redundancy > 0 {
+        (p.sum_sq / redundancy as f64).sqrt()
+    } else {
+        f64::NAN
+    };
+    let pixel_sigma_px = match options.pixel_sigma_px {
+        Some(s) => s,
+        None if redundancy <= 0 => {
+            return Err(Error::Singular {
+                model: model.dir().to_path_buf(),
+                problem: format!(
+                    "{observations} observations for {parameters} unknowns leave no redundancy \
+                     to estimate σ̂₀"
+                ),
+            });
+        }
+        None if !(sigma0_px.is_finite() && sigma0_px > 0.0) => {
+            return Err(Error::Setting {
+                name: "--pixel-sigma-px",
+                problem: "the model's residuals are all zero (σ̂₀ = 0): give the pixel σ".into(),
+            });
+        }
+        None => sigma0_px,
+    };
+    let s = solve::reduced_information(&p, pixel_sigma_px);
+    let cols: Vec<usize> = p
+        .a_epochs
+        .iter()
+        .flat_map(|e| {
+            let f = p.images[e.image].frame;
+            6 * f..6 * f + 6
+        })
+        .collect();
+    let x = solve::inverse_columns(&p, &s, &cols, model.dir())?;
+    let n = p.a_epochs.len();
+    // Frame tangent → A's tangent (mm, rad) per epoch.
+    let maps: Vec<Mat6> = p
+        .a_epochs
+        .iter()
+        .map(|e| a_from_frame_tangent(&p, e.image, options.mm_per_unit))
+        .collect();
+    let mut joint = DMatrix::<f64>::zeros(6 * n, 6 * n);
+    for (i, mi) in maps.iter().enumerate() {
+        for (j, mj) in maps.iter().enumerate() {
+            let block = Mat6::from_fn(|a, b| x[(cols[6 * i + a], 6 * j + b)]);
+            let out = mi * block * mj.transpose();
+            joint.view_mut((6 * i, 6 * j), (6, 6)).copy_from(&out);
+        }
+    }
+    let joint = (&joint + joint.transpose()) * 0.5;
+    let deg = 180.0 / std::f64::consts::PI;
+    let unit = |k: usize| if k % 6 >= 3 { deg } else { 1.0 };
+    let joint_deg = DMatrix::from_fn(6 * n, 6 * n, |a, b| joint[(a, b)] * unit(a) * unit(b));
+    if joint_deg.iter().any(|v| !v.is_finite()) || (0..6 * n).any(|k| joint[(k, k)] <= 0.0) {
+        return Err(Error::Singular {
+            model: model.dir().to_path_buf(),
+            problem: "the covariance is not finite and positive (numerically singular system)"
+                .into(),
+        });
+    }
+    let mut epochs = Vec::with_capacity(n);
+    for (i, e) in p.a_epochs.iter().enumerate() {
+        let im = &p.images[e.image];
+        let cam_from_world = im.sensor_from_rig * p.frames[im.frame].rig_from_world;
+        let mut world_from_a = cam_from_world.inverse();
+        world_from_a.translation.vector *= options.mm_per_unit;
+        let cov = Mat6::from_fn(|a, b| joint[(6 * i + a, 6 * i + b)]);
+        let world_from_a =
+            UncertainPose::new(world_from_a, cov).map_err(|problem| Error::Singular {
+                model: model.dir().to_path_buf(),
+                problem: format!("epoch {}: covariance {problem:?}", e.name),
+            })?;
+        epochs.push(EpochCovariance {
+            name: e.name.clone(),
+            key: e.key.clone(),
+            image: im.name.clone(),
+            world_from_a,
+        });
+    }
+    let mut warnings = Vec::new();
+    if p.rejected > 0 {
+        warnings.push(format!(
+            "{} observation(s) cannot be projected at the model's estimate (behind the camera \
+             or outside the lens model's domain) and were left out",
+            p.rejected
+        ));
+    }
+    Ok(CovarianceResult {
+        epochs,
+        joint_deg,
+        sigma0_px,
+        pixel_sigma_px,
+        observations,
+        parameters,
+        redundancy,
+        control_points: p.control.len(),
+        intrinsics: options.intrinsics,
+        mm_per_unit: options.mm_per_unit,
+        frames: p.frames.len(),
+        points_left_out: p.points_left_out,
+        warnings,
+    })
+}
+
+/// The 6×6 map from the frame's tangent (model units, rad) to `world_from_A`'s tangent (mm,
+/// rad) for one image: `δC_A = δC + R̄_world_from_rig·(c × δθ)·(−1)`, `δθ_A = R_A_from_rig·δθ`,
+/// with `c` A's centre in the rig's axes.
+fn a_from_frame_tangent(p: &problem::Problem, image: usize, mm_per_unit: f64) -> Mat6 {
+    let im = &p.images[image];
+    let s: &Rigid3 = &im.sensor_from_rig;
+    let r_s: Mat3 = s.rotation.to_rotation_matrix().into_inner();
+    let c = -(r_s.transpose() * s.translation.vector);
+    let r_wr: Mat3 = p.frames[im.frame]
+        .rig_from_world
+        .rotation
+        .inverse()
+        .to_rotation_matrix()
+        .into_inner();
+    let mut m = Mat6::zeros();
+    m.fixed_view_mut::<3, 3>(0, 0)
+        .copy_from(&(Mat3::identity() * mm_per_unit));
+    m.fixed_view_mut::<3, 3>(0, 3)
+        .copy_from(&(-(r_wr * so3::hat(&c)) * mm_per_unit));
+    m.fixed_view_mut::<3, 3>(3, 3).copy_from(&r_s);
+    m
+}
+
+impl CovarianceResult {
+    /// The JSON document of `crashrig covariance` (what `measure --a-covariance` reads).
+    pub fn to_json(&self) -> serde_json::Value {
+        use serde_json::{Map, Value, json};
+        let rows = |m: &Mat6| -> Value {
+            Value::Array(
+                (0..6)
+                    .map(|i| json!((0..6).map(|j| m[(i, j)]).collect::<Vec<f64>>()))
+                    .collect(),
+            )
+        };
+        let mut epochs = Map::new();
+        let mut summary = Vec::new();
+        for e in &self.epochs {
+            epochs.insert(e.name.clone(), rows(&e.world_from_a.covariance_deg()));
+            let sp = e.world_from_a.sigma_position();
+            let sr = e.world_from_a.sigma_rotation().map(f64::to_degrees);
+            let c = e.world_from_a.center();
+            summary.push(json!({
+                "name": e.name,
+                "image": e.image,
+                "position_mm": [c.x, c.y, c.z],
+                "sigma_position_mm": [sp.x, sp.y, sp.z],
+                "sigma_angles_deg": [sr.x, sr.y, sr.z],
+            }));
+        }
+        let n = self.joint_deg.nrows();
+        let joint: Vec<Vec<f64>> = (0..n)
+            .map(|i| (0..n).map(|j| self.joint_deg[(i, j)]).collect())
+            .collect();
+        json!({
+            "epochs": epochs,
+            "sigma0_px": if self.sigma0_px.is_finite() { json!(self.sigma0_px) } else { Value::Null },
+            "pixel_sigma_px": self.pixel_sigma_px,
+            "observations": self.observations,
+            "parameters": self.parameters,
+            "redundancy": self.redundancy,
+            "control_points": self.control_points,
+            "intrinsics": self.intrinsics.name(),
+            "mm_per_unit": self.mm_per_unit,
+            "frames": self.frames,
+            "points_left_out": self.points_left_out,
+            "epoch_sigmas": summary,
+            "joint": {
+                "epochs": self.epochs.iter().map(|e| e.name.clone()).collect::<Vec<_>>(),
+                "covariance_tangent": joint,
+            },
+        })
+    }
+}
