@@ -14,11 +14,15 @@
 //!    sample autocorrelations of that model at this n, demeaning included
 //!    ([`DriftModel`]: `E[γ̂_k] = s·A_k(ρ) + (1 − s)·B_k`, exact for Gaussian or not), and
 //!    the (ρ, s) whose `E[γ̂_k]/E[γ̂_0]` is nearest to `r_k` in least squares;
+//!    The drift model is taken only when its squared error is below white noise's by more
+//!    than [`DRIFT_PENALTY`]`/n` (otherwise s = 0);
 //! 3. the variance factor of the fitted model: `f = n·Var(x̄) / E[s²]`, both exact at this n
 //!    (`n·Var(x̄) = s·τ(ρ) + 1 − s`, τ the finite-n integrated autocorrelation time
 //!    [`ar1_tau`]; `E[s²] = (s·A₀ + (1 − s)·B₀)·n/(n − 1)`, the sample variance's own
 //!    downward bias under drift), clamped to `[1, n − 1]`;
-//! 4. `sem_covariance = D (Σ/n) D` with `D = diag(√f_j)`: the correlations of Σ are kept, the
+//!    times the small-sample factor `q = min(t_{ν,0.975}/z_{0.975}, 1.3)²` of the estimator's
+//!    degrees of freedom `ν = max(n/f − 1, 1)` ([`small_sample_factor`]);
+//! 4. `sem_covariance = D (Σ/n) D` with `D = diag(√(f_j·q_j))`: the correlations of Σ are kept, the
 //!    matrix stays positive semi-definite. The **effective n** of an axis is `n / f_j`; below
 //!    [`RELIABLE_EFFECTIVE_N`] = 10 the sequence is too short for the drift seen and the axis is
 //!    marked not reliable (its SE stays finite).
@@ -50,6 +54,14 @@ pub const MIN_EPOCHS: usize = 9;
 pub const RELIABLE_EFFECTIVE_N: f64 = 10.0;
 /// Largest lag of the fit (and the fit uses at most a third of the sequence).
 pub const MAX_LAG: usize = 20;
+/// The drift model is taken only when it fits the autocorrelations better than white noise
+/// by more than `DRIFT_PENALTY / n` in squared error (the sampling variance of one `r_k` under
+/// white noise is about `1/n`).
+pub const DRIFT_PENALTY: f64 = 1.0;
+/// Cap of the small-sample factor's ratio `t_{ν,0.975} / z_{0.975}` (at ν = 4: 1.41).
+pub const T_RATIO_CAP: f64 = 1.3;
+/// `Φ⁻¹(0.975)`.
+const Z_975: f64 = 1.959_963_984_540_054;
 /// Steps of the ρ grid (0, 0.01, …, 0.99).
 const RHO_STEPS: usize = 100;
 /// Step of the ρ grid.
@@ -62,8 +74,11 @@ const SHARE_STEPS: usize = 41;
 pub struct SemEstimate {
     /// Covariance of the mean link (tangent, mm and rad).
     pub covariance: Mat6,
-    /// Variance factor `f_j` of each tangent axis over `Σ/n` (1 where no drift is fitted).
+    /// Variance factor of each tangent axis over `Σ/n`: the drift model's `f_j` times the
+    /// small-sample factor `q_j` (1 for `covariance_over_n`).
     pub inflation: [f64; 6],
+    /// The small-sample factor `q_j` included in [`SemEstimate::inflation`].
+    pub small_sample_factor: [f64; 6],
     /// Effective number of epochs of each axis, `n / f_j`.
     pub effective_n: [f64; 6],
     /// False where the effective n is below [`RELIABLE_EFFECTIVE_N`].
@@ -74,7 +89,7 @@ pub struct SemEstimate {
     pub drift_rho: [f64; 6],
     /// Fitted share of the drift in each axis's variance (0 when not analysed).
     pub drift_share: [f64; 6],
-    /// Axes whose SE is widened (`f_j > 1`).
+    /// Axes where drift is fitted (`f_j > 1`).
     pub autocorrelated: [bool; 6],
     /// [`RULE`] or [`RULE_IID`].
     pub rule: &'static str,
@@ -119,6 +134,10 @@ pub struct DriftFit {
     /// Share of the drift in the variance.
     pub share: f64,
     /// `f = n·Var(x̄)/E[s²]` of the fitted model, clamped to `[1, n − 1]`.
+    pub model_factor: f64,
+    /// The small-sample factor `q = min(t_{ν,0.975}/z_{0.975}, 1.3)²`, `ν = max(n/f − 1, 1)`.
+    pub small_sample_factor: f64,
+    /// The variance factor applied, `f·q`.
     pub inflation: f64,
     /// `E[s²]/σ²` of the fitted model (≤ 1): how much the sample variance — and any spread
     /// taken about the sample's own centre — understates the epochs' σ under this drift.
@@ -171,7 +190,9 @@ impl DriftModel {
     /// and returns its variance factor (step 3). Non-finite input gives the white-noise model.
     pub fn fit_autocorrelations(&self, r: &[f64]) -> DriftFit {
         let l = self.lags.min(r.len());
+        let nf = self.n as f64;
         let mut best = (f64::INFINITY, 0usize, 0.0f64);
+        let mut white = f64::INFINITY;
         let mut m = vec![0.0; self.lags];
         if r[..l].iter().all(|v| v.is_finite()) {
             for i in 0..RHO_STEPS {
@@ -179,20 +200,31 @@ impl DriftModel {
                     let share = j as f64 / (SHARE_STEPS - 1) as f64;
                     self.expected_r(i, share, &mut m);
                     let sse: f64 = r[..l].iter().zip(&m).map(|(x, y)| (x - y) * (x - y)).sum();
+                    if i == 0 && j == 0 {
+                        white = sse;
+                    }
                     if sse < best.0 {
                         best = (sse, i, share);
                     }
                 }
             }
         }
-        let (_, i, share) = best;
-        let nf = self.n as f64;
+        // Drift only when it fits clearly better than white noise (step 2).
+        let (i, share) = if white - best.0 > DRIFT_PENALTY / nf {
+            (best.1, best.2)
+        } else {
+            (0, 0.0)
+        };
         let n_var_mean = share * self.tau[i] + 1.0 - share;
         let expected_s2 = (share * self.a[i][0] + (1.0 - share) * self.b[0]) * nf / (nf - 1.0);
+        let f = (n_var_mean / expected_s2).clamp(1.0, nf - 1.0);
+        let q = small_sample_factor((nf / f - 1.0).max(1.0));
         DriftFit {
             rho: i as f64 * RHO_STEP,
             share,
-            inflation: (n_var_mean / expected_s2).clamp(1.0, nf - 1.0),
+            model_factor: f,
+            small_sample_factor: q,
+            inflation: f * q,
             variance_ratio: expected_s2.min(1.0),
         }
     }
@@ -201,6 +233,15 @@ impl DriftModel {
     pub fn fit(&self, series: &[f64]) -> DriftFit {
         self.fit_autocorrelations(&autocorrelation(series, self.lags))
     }
+}
+
+/// `min(t_{ν,0.975}/z_{0.975}, T_RATIO_CAP)²`: the Student-t quantile of the estimator's
+/// degrees of freedom folded into the variance (ν = 59: 1.042; ν = 4: capped, 1.69).
+pub fn small_sample_factor(nu: f64) -> f64 {
+    // Upper tail of Student's t: P(T > t) = ½·I_{ν/(ν+t²)}(ν/2, ½) = 0.025.
+    let y = statrs::function::beta::inv_beta_reg(0.5 * nu, 0.5, 0.05);
+    let t = (nu * (1.0 - y) / y).sqrt();
+    (t / Z_975).min(T_RATIO_CAP).powi(2)
 }
 
 /// `(A_0..=A_L, τ)` of a unit AR(1) with coefficient `rho` over `n` epochs: with
@@ -238,6 +279,7 @@ pub fn sem_iid(covariance: &Mat6, n: usize) -> SemEstimate {
     SemEstimate {
         covariance: covariance / nf,
         inflation: [1.0; 6],
+        small_sample_factor: [1.0; 6],
         effective_n: [nf; 6],
         reliable: [nf >= RELIABLE_EFFECTIVE_N; 6],
         lag1: [0.0; 6],
@@ -267,8 +309,9 @@ pub fn sem_covariance(residuals: &[Vec6], covariance: &Mat6) -> SemEstimate {
         est.drift_rho[j] = fit.rho;
         est.drift_share[j] = fit.share;
         est.inflation[j] = fit.inflation;
-        est.autocorrelated[j] = fit.inflation > 1.0;
-        est.effective_n[j] = nf / fit.inflation;
+        est.small_sample_factor[j] = fit.small_sample_factor;
+        est.autocorrelated[j] = fit.model_factor > 1.0;
+        est.effective_n[j] = nf / fit.model_factor;
         est.reliable[j] = est.effective_n[j] >= RELIABLE_EFFECTIVE_N;
     }
     let d = Vec6::from_fn(|j, _| est.inflation[j].sqrt());
@@ -369,10 +412,12 @@ mod tests {
             let tau = ar1_tau(n, fit.rho);
             let want = (share * tau + 1.0 - share)
                 / ((share * (1.0 - tau / nf) + (1.0 - share) * (nf - 1.0) / nf) * nf / (nf - 1.0));
-            assert_abs_diff_eq!(fit.inflation / want, 1.0, epsilon = 1e-12);
+            assert_abs_diff_eq!(fit.model_factor / want, 1.0, epsilon = 1e-12);
+            let q = small_sample_factor(nf / want - 1.0);
+            assert_abs_diff_eq!(fit.inflation / (want * q), 1.0, epsilon = 1e-12);
             if share == 1.0 {
                 assert_abs_diff_eq!(
-                    fit.inflation / (tau * (nf - 1.0) / (nf - tau)),
+                    fit.model_factor / (tau * (nf - 1.0) / (nf - tau)),
                     1.0,
                     epsilon = 1e-12
                 );
@@ -381,9 +426,31 @@ mod tests {
         // White noise's expected autocorrelations: s = 0, f = 1.
         let white: Vec<f64> = (1..=m.lags()).map(|k| m.b[k] / m.b[0]).collect();
         let fit = m.fit_autocorrelations(&white);
-        assert_eq!((fit.share, fit.inflation), (0.0, 1.0));
+        assert_eq!((fit.share, fit.model_factor), (0.0, 1.0));
+        assert_abs_diff_eq!(fit.inflation, small_sample_factor(139.0), epsilon = 0.0);
         // Non-finite input: the white-noise model.
-        assert_eq!(m.fit_autocorrelations(&[f64::NAN; 20]).inflation, 1.0);
+        assert_eq!(m.fit_autocorrelations(&[f64::NAN; 20]).model_factor, 1.0);
+        // A fit barely better than white noise (by less than DRIFT_PENALTY/n) is not taken:
+        // white noise's autocorrelations plus 0.5/√(nL) on every lag improve the white
+        // model's squared error by at most 0.25/n.
+        let nudged: Vec<f64> = white
+            .iter()
+            .map(|w| w + 0.5 / (nf * m.lags() as f64).sqrt())
+            .collect();
+        assert_eq!(m.fit_autocorrelations(&nudged).model_factor, 1.0);
+    }
+
+    #[test]
+    fn small_sample_factor_matches_scipy() {
+        // scipy 1.17: (min(t.ppf(0.975, ν)/norm.ppf(0.975), 1.3))².
+        for (nu, want) in [
+            (59.0, 1.04230780284848),
+            (139.0, 1.0176424990322817),
+            (4.0, 1.69),
+            (1.0, 1.69),
+        ] {
+            assert_abs_diff_eq!(small_sample_factor(nu) / want, 1.0, epsilon = 1e-9);
+        }
     }
 
     #[test]
@@ -451,8 +518,18 @@ mod tests {
         assert!(s.autocorrelated[0] && !s.autocorrelated[1]);
         assert!(s.inflation[0] > 5.0, "{:?}", s.inflation);
         assert!(!s.reliable[0] && s.reliable[1]);
-        assert_abs_diff_eq!(s.effective_n[0], 40.0 / s.inflation[0], epsilon = 1e-12);
-        assert_abs_diff_eq!(s.covariance[(1, 1)], 1.0 / n as f64, epsilon = 1e-15);
+        assert_abs_diff_eq!(
+            s.effective_n[0],
+            40.0 * s.small_sample_factor[0] / s.inflation[0],
+            epsilon = 1e-12
+        );
+        // Axis 1: no drift, only the small-sample factor of ν = 39.
+        assert_abs_diff_eq!(s.inflation[1], small_sample_factor(39.0), epsilon = 0.0);
+        assert_abs_diff_eq!(
+            s.covariance[(1, 1)],
+            s.inflation[1] / n as f64,
+            epsilon = 1e-15
+        );
         assert_abs_diff_eq!(
             s.covariance[(0, 0)],
             s.inflation[0] / n as f64,
@@ -460,7 +537,7 @@ mod tests {
         );
         assert_abs_diff_eq!(
             s.covariance[(0, 1)],
-            0.3 * s.inflation[0].sqrt() / n as f64,
+            0.3 * (s.inflation[0] * s.inflation[1]).sqrt() / n as f64,
             epsilon = 1e-15
         );
         // Too short to fit: Σ/n, not reliable.

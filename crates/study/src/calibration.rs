@@ -587,6 +587,7 @@ impl CalibrationResult {
                 "lag1": c.sem.lag1,
                 "drift_rho": c.sem.drift_rho,
                 "drift_share": c.sem.drift_share,
+                "small_sample_factor": c.sem.small_sample_factor,
                 "autocorrelated": c.sem.autocorrelated,
                 "variance_inflation": c.sem.inflation,
             },

@@ -174,7 +174,7 @@ fn bools(v: &Value, key: &str) -> Vec<bool> {
 #[test]
 fn sim_clean_sequence_has_no_flag_and_its_sem_is_sigma_over_sqrt_n() {
     // I.i.d. link noise with the paper's σ: no epoch reaches t(140) = 5.05 (numpy agrees); the
-    // drift fit widens some axes a little (and θz by √7.9 on this draw: the price of covering
+    // drift fit widens some axes a little (and θz by √9.1 on this draw: the price of covering
     // slow drift, docs/CALIBRATE.md), every axis stays reliable (effective n ≥ 10).
     let (r, e) = sim("clean", &[]);
     let v = json_of(&r);
