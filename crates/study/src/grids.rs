@@ -206,39 +206,135 @@ pub struct HeatMapPng {
     pub svg: Vec<u8>,
 }
 
+/// One kind of heat map: what it shows and how it is coloured.
+#[derive(Debug, Clone)]
+pub struct MapSpec {
+    /// File stem (`sigma_max`, `ratio_mc_linear`, …).
+    pub stem: &'static str,
+    /// Title before ` at z = … mm`.
+    pub title: String,
+    /// Colour-bar label.
+    pub bar: String,
+    /// Threshold contour (mm), if any.
+    pub threshold: Option<f64>,
+    /// Colour range; `None`: the data range.
+    pub range: Option<(f64, f64)>,
+    /// The value of a point.
+    pub value: fn(&crashrig_mc::PointStats) -> f64,
+}
+
+/// How a family of maps is labelled (the two map families, `crashrig grid`'s and the
+/// study's layouts', differ only in these).
+#[derive(Debug, Clone, Copy)]
+pub struct MapStyle {
+    /// x-axis label.
+    pub x_label: &'static str,
+    /// Observers off the map's plane (more than 0.5 mm) are labelled with their z.
+    pub label_observer_z: bool,
+    /// The field-of-view footprints are traced over the grid padded to include the observers
+    /// (`true`) or over the padded grid alone.
+    pub footprints_include_observers: bool,
+}
+
+/// The study's layouts: σ_max and σx σy σz on one colour scale.
+pub const LAYOUT_STYLE: MapStyle = MapStyle {
+    x_label: "x [mm] (vehicle frame)",
+    label_observer_z: false,
+    footprints_include_observers: false,
+};
+
 /// Heat maps of σ_max and σx σy σz per z level, one colour scale (0 to 3× the threshold,
 /// larger values saturate) with the threshold contour and the observers marked.
 ///
 /// # Errors
 /// [`Error::Plot`] when a figure cannot be drawn.
 pub fn heat_maps(grid: &Grid, result: &GridResult) -> Result<Vec<HeatMapPng>, Error> {
-    let xs = grid.x.values();
-    let ys = grid.y.values();
-    let zs = grid.z.values();
-    let per_z = xs.len() * ys.len();
     let top = 3.0 * grid.threshold_mm;
     let bar = format!(
         "sigma [mm] (>= {top} saturated; white line: {} mm threshold)",
         grid.threshold_mm
     );
     type Pick = fn(&crashrig_mc::PointStats) -> f64;
-    let specs: [(&'static str, &str, Pick); 4] = [
-        ("sigma_max", "sigma_max", |p| p.sigma_max_mm),
-        ("sigma_x", "sigma_x", |p| p.sigma_mm.x),
-        ("sigma_y", "sigma_y", |p| p.sigma_mm.y),
-        ("sigma_z", "sigma_z", |p| p.sigma_mm.z),
+    let picks: [(&'static str, Pick); 4] = [
+        ("sigma_max", |p| p.sigma_max_mm),
+        ("sigma_x", |p| p.sigma_mm.x),
+        ("sigma_y", |p| p.sigma_mm.y),
+        ("sigma_z", |p| p.sigma_mm.z),
     ];
+    let specs: Vec<MapSpec> = picks
+        .into_iter()
+        .map(|(stem, value)| MapSpec {
+            stem,
+            title: format!("Monte Carlo {stem}"),
+            bar: bar.clone(),
+            threshold: Some(grid.threshold_mm),
+            range: Some((0.0, top)),
+            value,
+        })
+        .collect();
+    level_maps(grid, result, &specs, &LAYOUT_STYLE)
+}
+
+/// The maps `specs` per z level (PNG and SVG), and with fixed observers also the map of the
+/// number of cameras that see each point (`observers_seen`); fixed observers add their
+/// field-of-view footprints and hatch the not-measurable cells. A map without any finite
+/// value (all degenerate or not measurable) still renders, all hatched.
+///
+/// # Errors
+/// [`Error::Plot`] when a figure cannot be drawn.
+pub fn level_maps(
+    grid: &Grid,
+    result: &GridResult,
+    specs: &[MapSpec],
+    style: &MapStyle,
+) -> Result<Vec<HeatMapPng>, Error> {
+    let xs = grid.x.values();
+    let ys = grid.y.values();
+    let zs = grid.z.values();
+    let per_z = xs.len() * ys.len();
     let with_fixed = crate::fixed_maps::has_fixed(grid);
+    let seen_spec = MapSpec {
+        stem: "observers_seen",
+        title: "Cameras seeing the point".into(),
+        bar: "observers seeing the point [-]".into(),
+        threshold: None,
+        range: Some((0.0, (grid.observers.len() as f64).max(1.0))),
+        value: |p| p.observers_seen as f64,
+    };
+    let bound_observers: &[crashrig_mc::Observer] = if style.footprints_include_observers {
+        &grid.observers
+    } else {
+        &[]
+    };
     let mut out = Vec::new();
     for (iz, z) in zs.iter().enumerate() {
         let pts = &result.points[iz * per_z..(iz + 1) * per_z];
-        // Fixed observers: field-of-view footprints on this plane, hatched not-measurable
-        // cells, and a map of the number of cameras that see each point.
+        let labels: Vec<String> = grid
+            .observers
+            .iter()
+            .map(|o| {
+                if style.label_observer_z && (o.position_mm.z - z).abs() > 0.5 {
+                    format!("{} (z {:.0})", o.name, o.position_mm.z)
+                } else {
+                    o.name.clone()
+                }
+            })
+            .collect();
+        let markers: Vec<crashrig_plot::Marker> = grid
+            .observers
+            .iter()
+            .zip(&labels)
+            .map(|(o, l)| crashrig_plot::Marker {
+                x: o.position_mm.x,
+                y: o.position_mm.y,
+                label: l,
+            })
+            .collect();
         let fp = if with_fixed {
             crate::fixed_maps::footprints(
                 grid,
                 *z,
-                crashrig_mc::coverage::footprint_bounds(&xs, &ys, &[]),
+                crashrig_mc::coverage::footprint_bounds(&xs, &ys, bound_observers),
             )
         } else {
             Vec::new()
@@ -251,57 +347,39 @@ pub fn heat_maps(grid: &Grid, result: &GridResult) -> Result<Vec<HeatMapPng>, Er
         };
         let seen_labels: Vec<String> = pts.iter().map(|p| p.observers_seen.to_string()).collect();
         let seen_overlay = crate::fixed_maps::overlay(&outlines, &seen_labels);
-        let markers: Vec<crashrig_plot::Marker> = grid
-            .observers
-            .iter()
-            .map(|o| crashrig_plot::Marker {
-                x: o.position_mm.x,
-                y: o.position_mm.y,
-                label: &o.name,
-            })
-            .collect();
-        let n_obs = grid.observers.len() as f64;
-        let seen_bar = "observers seeing the point [-]".to_string();
-        let seen: (&'static str, &str, Pick) = ("observers_seen", "observers_seen", |p| {
-            p.observers_seen as f64
-        });
-        for (stem, title, pick) in specs.into_iter().chain(with_fixed.then_some(seen)) {
-            let is_seen = stem == "observers_seen";
-            let values: Vec<f64> = pts.iter().map(pick).collect();
-            let title = if is_seen {
-                format!("Cameras seeing the point at z = {z} mm")
-            } else {
-                format!("Monte Carlo {title} at z = {z} mm")
-            };
+        for spec in specs.iter().chain(with_fixed.then_some(&seen_spec)) {
+            let values: Vec<f64> = pts.iter().map(spec.value).collect();
+            let all_missing = values.iter().all(|v| !v.is_finite());
+            let title = format!("{} at z = {z} mm", spec.title);
             let map = crashrig_plot::HeatMap {
                 xs: &xs,
                 ys: &ys,
                 values: &values,
                 title: &title,
-                x_label: "x [mm] (vehicle frame)",
+                x_label: style.x_label,
                 y_label: "y [mm]",
-                colorbar_label: if is_seen { &seen_bar } else { &bar },
-                threshold: (!is_seen).then_some(grid.threshold_mm),
+                colorbar_label: &spec.bar,
+                threshold: spec.threshold,
                 markers: &markers,
-                value_range: Some(if is_seen {
-                    (0.0, n_obs.max(1.0))
-                } else {
-                    (0.0, top)
-                }),
+                value_range: spec.range.or(all_missing.then_some((0.0, 1.0))),
             };
-            let ov = if is_seen { &seen_overlay } else { &overlay };
+            let ov = if spec.stem == "observers_seen" {
+                &seen_overlay
+            } else {
+                &overlay
+            };
             let draw = |f| {
                 crashrig_plot::heatmap_with(&map, ov, f).map_err(|source| Error::Plot {
-                    what: format!("heat map {stem} at z = {z} mm"),
+                    what: format!("heat map {} at z = {z} mm", spec.stem),
                     source,
                 })
             };
             let png = draw(crashrig_plot::Format::Png)?;
             let svg = draw(crashrig_plot::Format::Svg)?;
             out.push(HeatMapPng {
-                stem,
+                stem: spec.stem,
                 z_mm: *z,
-                file: format!("{stem}_z{iz:02}_{z}mm.png"),
+                file: format!("{}_z{iz:02}_{z}mm.png", spec.stem),
                 png,
                 svg,
             });
