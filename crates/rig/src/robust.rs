@@ -106,10 +106,15 @@ pub fn modified_z_scores(values: &[f64], resolution: f64) -> Vec<f64> {
 pub struct OutlierReport {
     /// Modified z-score of each epoch on (x, y, z, ω, φ, κ).
     pub z_scores: Vec<[f64; 6]>,
-    /// True when any `|z|` exceeds [`OutlierReport::threshold`].
+    /// True when any `|z|` exceeds its parameter's threshold
+    /// ([`OutlierReport::thresholds`]).
     pub outlier: Vec<bool>,
-    /// The threshold `t(n)` used ([`outlier_threshold`]).
+    /// The threshold `t(n)` for independent epochs ([`outlier_threshold`]).
     pub threshold: f64,
+    /// The threshold applied to each parameter (x, y, z, ω, φ, κ): `t(n)/√q_j`, `q_j ≤ 1` the
+    /// factor by which drift makes the series' own spread understate σ (see the module doc);
+    /// `t(n)` where no drift is fitted.
+    pub thresholds: [f64; 6],
 }
 
 impl OutlierReport {
@@ -123,6 +128,17 @@ impl OutlierReport {
     }
 }
 
+/// `t(n)/√q_j` per series: `q_j = E[s²]/σ²` of the drift model fitted to the series
+/// ([`crate::sem::DriftModel`]); `t(n)` for series shorter than [`crate::sem::MIN_EPOCHS`].
+fn drift_thresholds(series: &[Vec<f64>; 6], threshold: f64) -> [f64; 6] {
+    let n = series[0].len();
+    if n < crate::sem::MIN_EPOCHS {
+        return [threshold; 6];
+    }
+    let model = crate::sem::DriftModel::new(n);
+    std::array::from_fn(|j| threshold / model.fit(&series[j]).variance_ratio.sqrt())
+}
+
 /// Flags outlier epochs with the rule of the module doc.
 ///
 /// # Errors
@@ -133,6 +149,7 @@ pub fn flag_outliers(links: &[Link]) -> Result<OutlierReport, Error> {
             z_scores: Vec::new(),
             outlier: Vec::new(),
             threshold: f64::INFINITY,
+            thresholds: [f64::INFINITY; 6],
         });
     }
     let series = parameter_series(links)?;
@@ -154,14 +171,16 @@ pub fn flag_outliers(links: &[Link]) -> Result<OutlierReport, Error> {
         .map(|i| std::array::from_fn(|j| z[j][i]))
         .collect();
     let threshold = outlier_threshold(links.len());
+    let thresholds = drift_thresholds(&series, threshold);
     let outlier = z_scores
         .iter()
-        .map(|zs| zs.iter().any(|v| v.abs() > threshold))
+        .map(|zs| zs.iter().zip(&thresholds).any(|(v, t)| v.abs() > *t))
         .collect();
     Ok(OutlierReport {
         z_scores,
         outlier,
         threshold,
+        thresholds,
     })
 }
 

@@ -1,52 +1,97 @@
-//! The uncertainty of the mean link when the epochs are autocorrelated.
+//! The uncertainty of the mean link when the epochs drift.
 //!
-//! The epochs of a sequence are often not independent: a rig that drifts slowly (temperature,
-//! a settling mount) gives positively autocorrelated links, and `Σ/n` (Σ the spread of one
-//! epoch's link) then understates the uncertainty of the mean. The rule used here,
-//! **`ar1_effective_n`**, works on the six tangent residual series of the links about their
-//! mean (centre in A's axes, mm; rotation `log(R̄ᵀ·R)` about B's axes, rad):
+//! The epochs of a sequence are often not independent: a rig on a moving car drifts slowly
+//! (temperature, a settling mount) **and** scatters from epoch to epoch, and `Σ/n` (Σ the
+//! spread of one epoch's link) then understates the uncertainty of the mean. The rule used
+//! here, **`ar1_noise_fit`** ([`RULE`]), models each of the six tangent residual series (centre
+//! in A's axes, mm; rotation `log(R̄ᵀ·R)` about B's axes, rad) as slow AR(1) drift mixed with
+//! epoch noise, `x_t = μ + √s·a_t + √(1 − s)·e_t` (a unit AR(1) with coefficient ρ, white
+//! noise e, drift share s of the variance), and fits (ρ, s) to the series' own sample
+//! autocorrelations:
 //!
-//! 1. per axis `j`, the lag-1 autocorrelation `r₁`; the axis is **autocorrelated** when
-//!    `r₁ > 2.394/√n` (the one-sided white-noise test of [`crate::drift`], family-wise 5 %
-//!    over the six axes);
-//! 2. for such an axis, `r₁` is corrected for its small-sample bias under AR(1) with unknown
-//!    mean (Marriott–Pope: `E[r₁] ≈ ρ − (1 + 3ρ)/n`), `ρ̃ = min((n·r₁ + 1)/(n − 3), 0.99)`;
-//! 3. `τ = 1 + 2 Σ_{k=1}^{n−1} (1 − k/n) ρ̃^k` is the factor by which autocorrelation inflates
-//!    `Var(x̄)` over `σ²/n`; the sample variance itself is biased low by `(n − τ)/(n − 1)`, so
-//!    the variance of the mean is `s²/n · f` with `f = τ (n − 1)/(n − τ)` (τ capped at `n/2`);
-//! 4. `sem_covariance = D (Σ/n) D` with `D = diag(√f_j)` (`f_j = 1` on the other axes): the
-//!    correlations of Σ are kept, the matrix stays positive semi-definite.
+//! 1. `r_k`, `k = 1..=L`, `L = min(20, ⌊n/3⌋)` lags (divisor n, about the sample mean);
+//! 2. for every (ρ, s) of a grid (ρ = 0, 0.01, …, 0.99; s = 0, 0.025, …, 1) the **expected**
+//!    sample autocorrelations of that model at this n, demeaning included
+//!    ([`DriftModel`]: `E[γ̂_k] = s·A_k(ρ) + (1 − s)·B_k`, exact for Gaussian or not), and
+//!    the (ρ, s) whose `E[γ̂_k]/E[γ̂_0]` is nearest to `r_k` in least squares;
+//!    The drift model is taken only when its squared error is below white noise's by more
+//!    than [`DRIFT_PENALTY`]`/n` (otherwise s = 0);
+//! 3. the variance factor of the fitted model: `f = n·Var(x̄) / E[s²]`, both exact at this n
+//!    (`n·Var(x̄) = s·τ(ρ) + 1 − s`, τ the finite-n integrated autocorrelation time
+//!    [`ar1_tau`]; `E[s²] = (s·A₀ + (1 − s)·B₀)·n/(n − 1)`, the sample variance's own
+//!    downward bias under drift), clamped to `[1, n − 1]`;
+//!    times the small-sample factor `q = min(t_{ν,0.975}/z_{0.975}, 1.3)²` of the estimator's
+//!    degrees of freedom `ν = max(n/f − 1, 1)` ([`small_sample_factor`]);
+//! 4. `sem_covariance = D (Σ/n) D` with `D = diag(√(f_j·q_j))`: the correlations of Σ are kept, the
+//!    matrix stays positive semi-definite. The **effective n** of an axis is `n / f_j`; below
+//!    [`RELIABLE_EFFECTIVE_N`] = 10 the sequence is too short for the drift seen and the axis is
+//!    marked not reliable (its SE stays finite).
 //!
-//! Without any autocorrelated axis the rule reduces to `Σ/n` and is named
-//! **`covariance_over_n`**. On AR(1) sequences of 140 epochs with ρ = 0.9, ±2 SE of this rule
-//! covers the truth on 90.4 % of axes, where ±2 σ/√n covers 33 % (`docs/CALIBRATE.md`,
-//! test `sem_rule_coverage_ar1_slow`).
+//! Why a fit of the drift model and not a lag-1 rule or a kernel estimator: the lag-1
+//! autocorrelation of drift mixed with noise is `s·ρ`, so an AR(1) rule from it
+//! (`ar1_effective_n`, the rule before this one) takes a ρ = 0.95 half-and-half mixture for
+//! ρ ≈ 0.47 and covers the truth in half of the sequences; kernel (Newey–West, Andrews),
+//! batch-means and Geyer estimators, even with fixed-b critical values, cannot see a
+//! correlation time longer than their bandwidth. The comparison of eleven estimators on 48
+//! cells (ρ × drift share × n) is the coverage table of `docs/CALIBRATE.md`
+//! (`fixtures/gen/sem_estimators.py`); the slow test `sem_rule_coverage_table_slow`
+//! recomputes this rule's row in Rust.
+//!
+//! Fewer than [`MIN_EPOCHS`] epochs (or a spread at numerical zero): `Σ/n`, rule
+//! **`covariance_over_n`** ([`RULE_IID`]).
 
 use crate::drift::autocorrelation;
 use crashrig_geometry::{Mat6, Vec6};
 
-/// `Φ⁻¹(1 − 0.05/6)`: the white-noise band of the lag-1 autocorrelation, as in [`crate::drift`].
-const WHITE_NOISE_Z: f64 = 2.393_979_8;
-/// Cap of the bias-corrected AR(1) coefficient: beyond it the sequence cannot tell its mean.
-const RHO_MAX: f64 = 0.99;
-
-/// Name of the rule when some axis is autocorrelated.
-pub const RULE_AR1: &str = "ar1_effective_n";
-/// Name of the rule when no axis is autocorrelated (or no analysis was possible).
+/// Name of the rule (drift model fitted to the autocorrelations).
+pub const RULE: &str = "ar1_noise_fit";
+/// Name of the rule when no analysis is possible (fewer than [`MIN_EPOCHS`] epochs, or a
+/// spread at numerical zero).
 pub const RULE_IID: &str = "covariance_over_n";
+/// Fewest epochs the drift model is fitted to (three lags for two parameters).
+pub const MIN_EPOCHS: usize = 9;
+/// Below this effective number of epochs an axis's SE is marked not reliable.
+pub const RELIABLE_EFFECTIVE_N: f64 = 10.0;
+/// Largest lag of the fit (and the fit uses at most a third of the sequence).
+pub const MAX_LAG: usize = 20;
+/// The drift model is taken only when it fits the autocorrelations better than white noise
+/// by more than `DRIFT_PENALTY / n` in squared error (the sampling variance of one `r_k` under
+/// white noise is about `1/n`).
+pub const DRIFT_PENALTY: f64 = 1.0;
+/// Cap of the small-sample factor's ratio `t_{ν,0.975} / z_{0.975}` (at ν = 4: 1.41).
+pub const T_RATIO_CAP: f64 = 1.3;
+/// `Φ⁻¹(0.975)`.
+const Z_975: f64 = 1.959_963_984_540_054;
+/// Steps of the ρ grid (0, 0.01, …, 0.99).
+const RHO_STEPS: usize = 100;
+/// Step of the ρ grid.
+const RHO_STEP: f64 = 0.01;
+/// Steps of the drift-share grid (0, 0.025, …, 1).
+const SHARE_STEPS: usize = 41;
 
 /// The uncertainty of the mean link and how it was obtained.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SemEstimate {
     /// Covariance of the mean link (tangent, mm and rad).
     pub covariance: Mat6,
-    /// Variance factor `f_j` of each tangent axis over `Σ/n` (1 where not autocorrelated).
+    /// Variance factor of each tangent axis over `Σ/n`: the drift model's `f_j` times the
+    /// small-sample factor `q_j` (1 for `covariance_over_n`).
     pub inflation: [f64; 6],
+    /// The small-sample factor `q_j` included in [`SemEstimate::inflation`].
+    pub small_sample_factor: [f64; 6],
+    /// Effective number of epochs of each axis, `n / f_j`.
+    pub effective_n: [f64; 6],
+    /// False where the effective n is below [`RELIABLE_EFFECTIVE_N`].
+    pub reliable: [bool; 6],
     /// Lag-1 autocorrelation of each tangent residual series (0 when not analysed).
     pub lag1: [f64; 6],
-    /// Axes found autocorrelated.
+    /// Fitted AR(1) coefficient of the drift of each axis (0 when not analysed).
+    pub drift_rho: [f64; 6],
+    /// Fitted share of the drift in each axis's variance (0 when not analysed).
+    pub drift_share: [f64; 6],
+    /// Axes where drift is fitted (`f_j > 1`).
     pub autocorrelated: [bool; 6],
-    /// [`RULE_AR1`] or [`RULE_IID`].
+    /// [`RULE`] or [`RULE_IID`].
     pub rule: &'static str,
 }
 
@@ -66,27 +111,180 @@ pub fn ar1_tau(n: usize, rho: f64) -> f64 {
     1.0 + 2.0 * sum
 }
 
-/// The variance factor `f` for one residual series (step 2–3 of the module doc), given its
-/// lag-1 autocorrelation `r1`.
-pub fn ar1_variance_factor(n: usize, r1: f64) -> f64 {
-    let nf = n as f64;
-    if n < 4 || !r1.is_finite() {
-        return 1.0;
-    }
-    let rho = ((nf * r1 + 1.0) / (nf - 3.0)).min(RHO_MAX);
-    if rho <= 0.0 {
-        return 1.0;
-    }
-    let tau = ar1_tau(n, rho).min(0.5 * nf);
-    (tau * (nf - 1.0) / (nf - tau)).max(1.0)
+/// The expected sample autocovariances of the drift model at one sequence length: for a unit
+/// AR(1) with coefficient ρ on the grid, `A_k(ρ) = E[γ̂_k]` (`γ̂_k = Σ_t (x_t − x̄)(x_{t+k} − x̄)/n`)
+/// and `τ(ρ) = n·Var(x̄)`; for unit white noise `B_0 = (n − 1)/n`, `B_k = −(n − k)/n²`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DriftModel {
+    n: usize,
+    lags: usize,
+    /// Row per grid ρ: `A_0..=A_L`.
+    a: Vec<Vec<f64>>,
+    /// `B_0..=B_L`.
+    b: Vec<f64>,
+    /// `τ(ρ)` per grid ρ.
+    tau: Vec<f64>,
 }
 
-/// `Σ/n` without autocorrelation analysis (for spreads at numerical zero, or n < 3).
+/// The fitted drift model of one series.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DriftFit {
+    /// AR(1) coefficient of the drift.
+    pub rho: f64,
+    /// Share of the drift in the variance.
+    pub share: f64,
+    /// `f = n·Var(x̄)/E[s²]` of the fitted model, clamped to `[1, n − 1]`.
+    pub model_factor: f64,
+    /// The small-sample factor `q = min(t_{ν,0.975}/z_{0.975}, 1.3)²`, `ν = max(n/f − 1, 1)`.
+    pub small_sample_factor: f64,
+    /// The variance factor applied, `f·q`.
+    pub inflation: f64,
+    /// `E[s²]/σ²` of the fitted model (≤ 1): how much the sample variance — and any spread
+    /// taken about the sample's own centre — understates the epochs' σ under this drift.
+    pub variance_ratio: f64,
+}
+
+impl DriftModel {
+    /// The model for sequences of `n` epochs (`n` ≥ [`MIN_EPOCHS`]), lags
+    /// `1..=min(MAX_LAG, n/3)`.
+    pub fn new(n: usize) -> Self {
+        let n = n.max(MIN_EPOCHS);
+        let lags = MAX_LAG.min(n / 3);
+        let nf = n as f64;
+        let a_tau = (0..RHO_STEPS)
+            .map(|i| unit_ar1_expected(n, lags, i as f64 * RHO_STEP))
+            .collect::<Vec<_>>();
+        let b = (0..=lags)
+            .map(|k| {
+                if k == 0 {
+                    (nf - 1.0) / nf
+                } else {
+                    -(nf - k as f64) / (nf * nf)
+                }
+            })
+            .collect();
+        Self {
+            n,
+            lags,
+            tau: a_tau.iter().map(|(_, t)| *t).collect(),
+            a: a_tau.into_iter().map(|(a, _)| a).collect(),
+            b,
+        }
+    }
+
+    /// Number of lags fitted.
+    pub fn lags(&self) -> usize {
+        self.lags
+    }
+
+    /// Expected sample autocorrelations `r_1..=r_L` of the model (ρ grid index, share).
+    fn expected_r(&self, rho_index: usize, share: f64, out: &mut [f64]) {
+        let a = &self.a[rho_index];
+        let den = share * a[0] + (1.0 - share) * self.b[0];
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = (share * a[k + 1] + (1.0 - share) * self.b[k + 1]) / den;
+        }
+    }
+
+    /// Fits the model to the sample autocorrelations `r_1..=r_L` (step 2 of the module doc)
+    /// and returns its variance factor (step 3). Non-finite input gives the white-noise model.
+    pub fn fit_autocorrelations(&self, r: &[f64]) -> DriftFit {
+        let l = self.lags.min(r.len());
+        let nf = self.n as f64;
+        let mut best = (f64::INFINITY, 0usize, 0.0f64);
+        let mut white = f64::INFINITY;
+        let mut m = vec![0.0; self.lags];
+        if r[..l].iter().all(|v| v.is_finite()) {
+            for i in 0..RHO_STEPS {
+                for j in 0..SHARE_STEPS {
+                    let share = j as f64 / (SHARE_STEPS - 1) as f64;
+                    self.expected_r(i, share, &mut m);
+                    let sse: f64 = r[..l].iter().zip(&m).map(|(x, y)| (x - y) * (x - y)).sum();
+                    if i == 0 && j == 0 {
+                        white = sse;
+                    }
+                    if sse < best.0 {
+                        best = (sse, i, share);
+                    }
+                }
+            }
+        }
+        // Drift only when it fits clearly better than white noise (step 2).
+        let (i, share) = if white - best.0 > DRIFT_PENALTY / nf {
+            (best.1, best.2)
+        } else {
+            (0, 0.0)
+        };
+        let n_var_mean = share * self.tau[i] + 1.0 - share;
+        let expected_s2 = (share * self.a[i][0] + (1.0 - share) * self.b[0]) * nf / (nf - 1.0);
+        let f = (n_var_mean / expected_s2).clamp(1.0, nf - 1.0);
+        let q = small_sample_factor((nf / f - 1.0).max(1.0));
+        DriftFit {
+            rho: i as f64 * RHO_STEP,
+            share,
+            model_factor: f,
+            small_sample_factor: q,
+            inflation: f * q,
+            variance_ratio: expected_s2.min(1.0),
+        }
+    }
+
+    /// Fits the model to a series (its own sample autocorrelations, lags `1..=L`).
+    pub fn fit(&self, series: &[f64]) -> DriftFit {
+        self.fit_autocorrelations(&autocorrelation(series, self.lags))
+    }
+}
+
+/// `min(t_{ν,0.975}/z_{0.975}, T_RATIO_CAP)²`: the Student-t quantile of the estimator's
+/// degrees of freedom folded into the variance (ν = 59: 1.042; ν = 4: capped, 1.69).
+pub fn small_sample_factor(nu: f64) -> f64 {
+    // Upper tail of Student's t: P(T > t) = ½·I_{ν/(ν+t²)}(ν/2, ½) = 0.025.
+    let y = statrs::function::beta::inv_beta_reg(0.5 * nu, 0.5, 0.05);
+    let t = (nu * (1.0 - y) / y).sqrt();
+    (t / Z_975).min(T_RATIO_CAP).powi(2)
+}
+
+/// `(A_0..=A_L, τ)` of a unit AR(1) with coefficient `rho` over `n` epochs: with
+/// `c_t = Cov(x_t, x̄) = (1/n) Σ_s ρ^|t−s|` and `V = Var(x̄) = mean c_t`,
+/// `A_k = (1/n) Σ_{t<n−k} (ρ^k − c_t − c_{t+k} + V)`; `τ = n·V`.
+fn unit_ar1_expected(n: usize, lags: usize, rho: f64) -> (Vec<f64>, f64) {
+    let nf = n as f64;
+    // Forward sums F_t = Σ_{s≤t} ρ^(t−s) and backward sums G_t = Σ_{s≥t} ρ^(s−t).
+    let mut f = vec![0.0; n];
+    let mut g = vec![0.0; n];
+    let mut acc = 0.0;
+    for t in 0..n {
+        acc = 1.0 + rho * acc;
+        f[t] = acc;
+    }
+    acc = 0.0;
+    for t in (0..n).rev() {
+        acc = 1.0 + rho * acc;
+        g[t] = acc;
+    }
+    let c: Vec<f64> = (0..n).map(|t| (f[t] + g[t] - 1.0) / nf).collect();
+    let v = c.iter().sum::<f64>() / nf;
+    let a = (0..=lags)
+        .map(|k| {
+            let rk = rho.powi(k as i32);
+            (0..n - k).map(|t| rk - c[t] - c[t + k] + v).sum::<f64>() / nf
+        })
+        .collect();
+    (a, nf * v)
+}
+
+/// `Σ/n` without autocorrelation analysis (for spreads at numerical zero, or short sequences).
 pub fn sem_iid(covariance: &Mat6, n: usize) -> SemEstimate {
+    let nf = n.max(1) as f64;
     SemEstimate {
-        covariance: covariance / n.max(1) as f64,
+        covariance: covariance / nf,
         inflation: [1.0; 6],
+        small_sample_factor: [1.0; 6],
+        effective_n: [nf; 6],
+        reliable: [nf >= RELIABLE_EFFECTIVE_N; 6],
         lag1: [0.0; 6],
+        drift_rho: [0.0; 6],
+        drift_share: [0.0; 6],
         autocorrelated: [false; 6],
         rule: RULE_IID,
     }
@@ -96,35 +294,30 @@ pub fn sem_iid(covariance: &Mat6, n: usize) -> SemEstimate {
 /// and their covariance Σ (n − 1), by the rule of the module doc.
 pub fn sem_covariance(residuals: &[Vec6], covariance: &Mat6) -> SemEstimate {
     let n = residuals.len();
-    if n < 3 {
+    if n < MIN_EPOCHS {
         return sem_iid(covariance, n);
     }
-    let band = WHITE_NOISE_Z / (n as f64).sqrt();
-    let mut lag1 = [0.0; 6];
-    let mut autocorrelated = [false; 6];
-    let mut inflation = [1.0; 6];
+    let model = DriftModel::new(n);
+    let nf = n as f64;
+    let mut est = sem_iid(covariance, n);
+    est.rule = RULE;
     for j in 0..6 {
         let series: Vec<f64> = residuals.iter().map(|r| r[j]).collect();
-        lag1[j] = autocorrelation(&series, 1).first().copied().unwrap_or(0.0);
-        if lag1[j] > band {
-            autocorrelated[j] = true;
-            inflation[j] = ar1_variance_factor(n, lag1[j]);
-        }
+        let r = autocorrelation(&series, model.lags());
+        let fit = model.fit_autocorrelations(&r);
+        est.lag1[j] = r.first().copied().unwrap_or(0.0);
+        est.drift_rho[j] = fit.rho;
+        est.drift_share[j] = fit.share;
+        est.inflation[j] = fit.inflation;
+        est.small_sample_factor[j] = fit.small_sample_factor;
+        est.autocorrelated[j] = fit.model_factor > 1.0;
+        est.effective_n[j] = nf / fit.model_factor;
+        est.reliable[j] = est.effective_n[j] >= RELIABLE_EFFECTIVE_N;
     }
-    let d = Vec6::from_fn(|j, _| inflation[j].sqrt());
-    let base = covariance / n as f64;
-    let cov = Mat6::from_fn(|i, j| d[i] * base[(i, j)] * d[j]);
-    SemEstimate {
-        covariance: cov,
-        inflation,
-        lag1,
-        rule: if autocorrelated.iter().any(|&a| a) {
-            RULE_AR1
-        } else {
-            RULE_IID
-        },
-        autocorrelated,
-    }
+    let d = Vec6::from_fn(|j, _| est.inflation[j].sqrt());
+    let base = covariance / nf;
+    est.covariance = Mat6::from_fn(|i, j| d[i] * base[(i, j)] * d[j]);
+    est
 }
 
 #[cfg(test)]
@@ -145,25 +338,163 @@ mod tests {
     }
 
     #[test]
-    fn ar1_variance_factor_cases() {
-        // r1 = 0.9·(137/140) − 1/140 ⇒ ρ̃ = 0.9 exactly.
-        let n = 140usize;
-        let r1 = (0.9 * (n as f64 - 3.0) - 1.0) / n as f64;
-        let tau = ar1_tau(n, 0.9);
-        assert_abs_diff_eq!(
-            ar1_variance_factor(n, r1),
-            tau * 139.0 / (140.0 - tau),
-            epsilon = 1e-12
-        );
-        assert_abs_diff_eq!(ar1_variance_factor(n, -0.3), 1.0, epsilon = 0.0);
-        assert_abs_diff_eq!(ar1_variance_factor(3, 0.9), 1.0, epsilon = 0.0);
-        // Capped: τ ≤ n/2 ⇒ f ≤ (n/2)(n − 1)/(n/2) = n − 1.
-        assert!(ar1_variance_factor(20, 0.999) <= 19.0 + 1e-12);
+    fn drift_model_known_answers() {
+        // White noise is the AR(1) with ρ = 0: A_k(0) = B_k = −(n − k)/n², A_0 = (n − 1)/n.
+        // For any ρ: E[Σ(x − x̄)²/n] = γ_0 − Var(x̄), so A_0(ρ) = 1 − τ(ρ)/n.
+        for n in [9usize, 60, 140] {
+            let m = DriftModel::new(n);
+            let nf = n as f64;
+            assert_eq!(m.lags(), 20.min(n / 3));
+            assert_abs_diff_eq!(m.a[0][0], (nf - 1.0) / nf, epsilon = 1e-15);
+            for k in 1..=m.lags() {
+                assert_abs_diff_eq!(m.a[0][k], -(nf - k as f64) / (nf * nf), epsilon = 1e-15);
+                assert_abs_diff_eq!(m.b[k], m.a[0][k], epsilon = 1e-15);
+            }
+            for i in [0usize, 50, 90, 95, 99] {
+                let tau = ar1_tau(n, i as f64 * 0.01);
+                assert_abs_diff_eq!(m.tau[i] / tau, 1.0, epsilon = 1e-12);
+                assert_abs_diff_eq!(m.a[i][0], 1.0 - tau / nf, epsilon = 1e-12);
+            }
+        }
     }
 
     #[test]
-    fn sem_covariance_scales_only_autocorrelated_axes() {
-        // Axis 0 a slow ramp (r1 ≈ 1), axis 1 alternating (r1 ≈ −1), others white-ish.
+    fn drift_model_matches_simulated_autocovariances() {
+        // 4000 stationary unit AR(1) series, ρ = 0.9, n = 60: the mean of γ̂_k (k = 0..3) lies
+        // within 4 Monte Carlo standard errors of A_k(0.9).
+        use rand::RngExt;
+        use rand_distr::StandardNormal;
+        let (n, reps, rho) = (60usize, 4000u64, 0.9);
+        let m = DriftModel::new(n);
+        let mut sums = [[0.0f64; 2]; 4];
+        for rep in 0..reps {
+            let mut rng = crashrig_stats::stream(31, rep);
+            let mut x = vec![0.0; n];
+            x[0] = rng.sample(StandardNormal);
+            for t in 1..n {
+                let e: f64 = rng.sample(StandardNormal);
+                x[t] = rho * x[t - 1] + (1.0f64 - rho * rho).sqrt() * e;
+            }
+            let mean = x.iter().sum::<f64>() / n as f64;
+            for (k, s) in sums.iter_mut().enumerate() {
+                let g = (0..n - k)
+                    .map(|t| (x[t] - mean) * (x[t + k] - mean))
+                    .sum::<f64>()
+                    / n as f64;
+                s[0] += g;
+                s[1] += g * g;
+            }
+        }
+        for (k, s) in sums.iter().enumerate() {
+            let mean = s[0] / reps as f64;
+            let se = ((s[1] / reps as f64 - mean * mean) / reps as f64).sqrt();
+            let want = m.a[90][k];
+            assert!(
+                (mean - want).abs() <= 4.0 * se,
+                "k = {k}: {mean} vs {want} ± {se}"
+            );
+        }
+    }
+
+    #[test]
+    fn fit_recovers_the_model_it_is_given() {
+        // Fed the model's own expected autocorrelations, the fit returns its (ρ, s) and the
+        // exact factor n·Var(x̄)/E[s²]; for pure AR(1) (s = 1) that is τ(n − 1)/(n − τ).
+        let n = 140usize;
+        let nf = n as f64;
+        let m = DriftModel::new(n);
+        let mut r = vec![0.0; m.lags()];
+        for (i, share) in [(90usize, 1.0), (95, 0.5), (50, 0.25)] {
+            m.expected_r(i, share, &mut r);
+            let fit = m.fit_autocorrelations(&r);
+            assert_abs_diff_eq!(fit.rho, i as f64 * 0.01, epsilon = 1e-12);
+            assert_abs_diff_eq!(fit.share, share, epsilon = 1e-12);
+            let tau = ar1_tau(n, fit.rho);
+            let want = (share * tau + 1.0 - share)
+                / ((share * (1.0 - tau / nf) + (1.0 - share) * (nf - 1.0) / nf) * nf / (nf - 1.0));
+            assert_abs_diff_eq!(fit.model_factor / want, 1.0, epsilon = 1e-12);
+            let q = small_sample_factor(nf / want - 1.0);
+            assert_abs_diff_eq!(fit.inflation / (want * q), 1.0, epsilon = 1e-12);
+            if share == 1.0 {
+                assert_abs_diff_eq!(
+                    fit.model_factor / (tau * (nf - 1.0) / (nf - tau)),
+                    1.0,
+                    epsilon = 1e-12
+                );
+            }
+        }
+        // White noise's expected autocorrelations: s = 0, f = 1.
+        let white: Vec<f64> = (1..=m.lags()).map(|k| m.b[k] / m.b[0]).collect();
+        let fit = m.fit_autocorrelations(&white);
+        assert_eq!((fit.share, fit.model_factor), (0.0, 1.0));
+        assert_abs_diff_eq!(fit.inflation, small_sample_factor(139.0), epsilon = 0.0);
+        // Non-finite input: the white-noise model.
+        assert_eq!(m.fit_autocorrelations(&[f64::NAN; 20]).model_factor, 1.0);
+        // A fit barely better than white noise (by less than DRIFT_PENALTY/n) is not taken:
+        // white noise's autocorrelations plus 0.5/√(nL) on every lag improve the white
+        // model's squared error by at most 0.25/n.
+        let nudged: Vec<f64> = white
+            .iter()
+            .map(|w| w + 0.5 / (nf * m.lags() as f64).sqrt())
+            .collect();
+        assert_eq!(m.fit_autocorrelations(&nudged).model_factor, 1.0);
+    }
+
+    #[test]
+    fn small_sample_factor_matches_scipy() {
+        // scipy 1.17: (min(t.ppf(0.975, ν)/norm.ppf(0.975), 1.3))².
+        for (nu, want) in [
+            (59.0, 1.04230780284848),
+            (139.0, 1.0176424990322817),
+            (4.0, 1.69),
+            (1.0, 1.69),
+        ] {
+            assert_abs_diff_eq!(small_sample_factor(nu) / want, 1.0, epsilon = 1e-9);
+        }
+    }
+
+    #[test]
+    fn ar1_variance_inflation_against_closed_form() {
+        // The true factor n·Var(x̄)/E[s²] of a unit AR(1), ρ = 0.5, n = 60, by Monte Carlo
+        // (20000 series), against τ(n − 1)/(n − τ) = 3.03: Var(x̄) within 4 of its standard
+        // errors (relative SE of a variance √(2/N) = 1 %), E[s²] within 4 of its own.
+        use rand::RngExt;
+        use rand_distr::StandardNormal;
+        let (n, reps, rho) = (60usize, 20_000u64, 0.5);
+        let nf = n as f64;
+        let (mut sm, mut smm, mut ss, mut sss) = (0.0, 0.0, 0.0, 0.0);
+        for rep in 0..reps {
+            let mut rng = crashrig_stats::stream(32, rep);
+            let mut x = vec![0.0; n];
+            x[0] = rng.sample(StandardNormal);
+            for t in 1..n {
+                let e: f64 = rng.sample(StandardNormal);
+                x[t] = rho * x[t - 1] + (1.0f64 - rho * rho).sqrt() * e;
+            }
+            let mean = x.iter().sum::<f64>() / nf;
+            let s2 = x.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (nf - 1.0);
+            sm += mean;
+            smm += mean * mean;
+            ss += s2;
+            sss += s2 * s2;
+        }
+        let r = reps as f64;
+        let var_mean = smm / r - (sm / r).powi(2);
+        let e_s2 = ss / r;
+        let se_s2 = ((sss / r - e_s2 * e_s2) / r).sqrt();
+        let tau = ar1_tau(n, rho);
+        assert!((var_mean * nf - tau).abs() <= 4.0 * tau * (2.0 / r).sqrt());
+        assert!((e_s2 - (nf - tau) / (nf - 1.0)).abs() <= 4.0 * se_s2);
+        // By hand: τ = (1 + ρ)/(1 − ρ) − 2ρ(1 − ρⁿ)/(n(1 − ρ)²) = 3 − 1/15, f = τ·59/(60 − τ).
+        assert_abs_diff_eq!(tau, 3.0 - 1.0 / 15.0, epsilon = 1e-12);
+        let f = tau * (nf - 1.0) / (nf - tau);
+        assert_abs_diff_eq!(f, 3.032_710, epsilon = 1e-6);
+    }
+
+    #[test]
+    fn sem_covariance_widens_a_drift_not_an_alternation() {
+        // Axis 0 a slow ramp (drift), axis 1 alternating (r1 ≈ −1), others deterministic
+        // quasi-noise.
         let n = 40;
         let residuals: Vec<Vec6> = (0..n)
             .map(|i| {
@@ -183,10 +514,22 @@ mod tests {
         cov[(0, 1)] = 0.3;
         cov[(1, 0)] = 0.3;
         let s = sem_covariance(&residuals, &cov);
+        assert_eq!(s.rule, RULE);
         assert!(s.autocorrelated[0] && !s.autocorrelated[1]);
-        assert_eq!(s.rule, RULE_AR1);
-        assert!(s.inflation[0] > 5.0);
-        assert_abs_diff_eq!(s.covariance[(1, 1)], 1.0 / n as f64, epsilon = 1e-15);
+        assert!(s.inflation[0] > 5.0, "{:?}", s.inflation);
+        assert!(!s.reliable[0] && s.reliable[1]);
+        assert_abs_diff_eq!(
+            s.effective_n[0],
+            40.0 * s.small_sample_factor[0] / s.inflation[0],
+            epsilon = 1e-12
+        );
+        // Axis 1: no drift, only the small-sample factor of ν = 39.
+        assert_abs_diff_eq!(s.inflation[1], small_sample_factor(39.0), epsilon = 0.0);
+        assert_abs_diff_eq!(
+            s.covariance[(1, 1)],
+            s.inflation[1] / n as f64,
+            epsilon = 1e-15
+        );
         assert_abs_diff_eq!(
             s.covariance[(0, 0)],
             s.inflation[0] / n as f64,
@@ -194,8 +537,12 @@ mod tests {
         );
         assert_abs_diff_eq!(
             s.covariance[(0, 1)],
-            0.3 * s.inflation[0].sqrt() / n as f64,
+            0.3 * (s.inflation[0] * s.inflation[1]).sqrt() / n as f64,
             epsilon = 1e-15
         );
+        // Too short to fit: Σ/n, not reliable.
+        let short = sem_covariance(&residuals[..8], &cov);
+        assert_eq!(short.rule, RULE_IID);
+        assert!(short.reliable.iter().all(|r| !r));
     }
 }

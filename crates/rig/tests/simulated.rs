@@ -106,6 +106,72 @@ fn outlier_rule_false_flag_rate_slow() {
     assert!(flagged <= 40, "{flagged} of 4000 clean sequences flagged");
 }
 
+/// Parameter vectors of a sequence whose noise is AR(1) with coefficient `rho` (per
+/// parameter, stationary, the paper's σ) or, with `t_dof` = Some(ν), i.i.d. Student t_ν
+/// scaled to the paper's σ.
+fn drifting_or_heavy_parameters(
+    seed: u64,
+    rep: u64,
+    rho: f64,
+    t_dof: Option<f64>,
+) -> Vec<[f64; 6]> {
+    let mut rng = crashrig_stats::stream(seed, rep);
+    let student = t_dof.map(|nu| {
+        (
+            rand_distr::StudentT::new(nu).unwrap(),
+            ((nu - 2.0) / nu).sqrt(),
+        )
+    });
+    let mut draw = |rng: &mut crashrig_stats::StreamRng| -> f64 {
+        match &student {
+            None => rng.sample(StandardNormal),
+            Some((t, scale)) => rng.sample(t) * scale,
+        }
+    };
+    let mut x: [f64; 6] = std::array::from_fn(|_| draw(&mut rng));
+    let innovation = (1.0 - rho * rho).sqrt();
+    (0..N)
+        .map(|i| {
+            if i > 0 {
+                for v in x.iter_mut() {
+                    *v = rho * *v + innovation * draw(&mut rng);
+                }
+            }
+            std::array::from_fn(|j| {
+                let nominal = if j < 3 { BASE[j] } else { ANGLES_DEG[j - 3] };
+                nominal + SIGMA[j] * x[j]
+            })
+        })
+        .collect()
+}
+
+fn flagged_of(seed: u64, reps: u64, rho: f64, t_dof: Option<f64>) -> usize {
+    (0..reps)
+        .filter(|&rep| {
+            let p = drifting_or_heavy_parameters(seed, rep, rho, t_dof);
+            let links: Vec<Rigid3> = p.iter().map(opk_pose).collect();
+            let l = links_of(&epochs_of(&links), 1.0).unwrap();
+            !flag_outliers(&l).unwrap().indices().is_empty()
+        })
+        .count()
+}
+
+#[test]
+#[ignore = "slow: 4000 drifting and 1000 heavy-tailed clean sequences"]
+fn outlier_rule_under_drift_and_heavy_tails_slow() {
+    // AR(1) ρ = 0.9 drift, no gross error: the rule promises ≤ 1 % of sequences flagged
+    // (nominal 0.5 % for independent Gaussian epochs); 4000 sequences, ≤ 40 bounds it at 1 %.
+    let drift = flagged_of(2028, 4000, 0.9, None);
+    // Student t₅ epochs (independent, heavy tails, no gross error): printed for the docs.
+    let heavy = flagged_of(2029, 1000, 0.0, Some(5.0));
+    eprintln!(
+        "outlier rule: AR(0.9) drift {drift} of 4000 sequences flagged ({:.2} %); t5 tails {heavy} of 1000 ({:.1} %)",
+        drift as f64 / 40.0,
+        heavy as f64 / 10.0
+    );
+    assert!(drift <= 40, "{drift} of 4000 drifting sequences flagged");
+}
+
 fn gross_errors_all_flagged(reps: u64) {
     // Three gross errors of 10 σ (random epoch, parameter and sign) per sequence.
     for rep in 0..reps {
@@ -204,34 +270,158 @@ fn coverage(seed: u64, reps: u64, rho: f64) -> (f64, f64) {
 
 #[test]
 fn sem_rule_coverage_ar1_fast() {
-    // 200 AR(1) sequences (ρ = 0.9) × 6 independent axes = 1200 intervals. Measured 90.4 %
-    // (slow test); the binomial SE at 88 % is 0.94 %, so ≥ 85 % holds with > 3 SE of margin.
+    // 200 AR(1) sequences (ρ = 0.9) × 6 independent axes = 1200 intervals, through
+    // `calibrate`. The slow table gives 91–95 % for ρ = 0.9, drift share 1 at n = 140 (in
+    // 6000 intervals); the binomial SE at 90 % over 1200 intervals is 0.87 %, so ≥ 87 % holds
+    // with > 3 SE of margin.
     let (rule, plain) = coverage(90, 200, 0.9);
-    assert!(rule >= 0.85, "±2 SE covers {rule:.3} (σ/√n: {plain:.3})");
-    // The paper's σ/√n covers about a third: the rule is what makes the difference.
+    assert!(rule >= 0.87, "±2 SE covers {rule:.3} (σ/√n: {plain:.3})");
+    // The paper's σ/√n covers about a third.
     assert!(plain < 0.5, "σ/√n covers {plain:.3}");
 }
 
 #[test]
-fn sem_rule_coverage_white_noise_fast() {
-    // Independent epochs: the rule stays at Σ/n (nominal 95.4 % for ±2 SE); 1200 intervals,
-    // binomial SE 0.6 %: ≥ 93 % is 4 SE below the nominal.
-    let (rule, plain) = coverage(91, 200, 0.0);
-    assert!(rule >= 0.93, "±2 SE covers {rule:.3}");
-    assert!(rule >= plain);
+fn sem_rule_white_noise_is_not_wildly_conservative_fast() {
+    // Independent epochs, through `calibrate`: the true SE is σ/√n. Over 200 sequences × 6
+    // axes (1200 intervals) ±2 SE covers 93–99.5 % (nominal ≥ 95.4 %; binomial SE at 96 % is
+    // 0.57 %), and the SE is on average at most 1.5 × the true SE (the slow table measures
+    // 1.13–1.27 at n = 140 on the white-noise cells).
+    let options = CalibrateOptions {
+        refine: None,
+        ..CalibrateOptions::default()
+    };
+    let (mut covered, mut total, mut ratio) = (0usize, 0usize, 0.0);
+    for rep in 0..200 {
+        let (truth, links) = ar1_links(91, rep, 0.0);
+        let c = calibrate(&epochs_of(&links), 1.0, &options).unwrap();
+        let e = c.link.tangent_of(&truth);
+        for j in 0..6 {
+            let se = c.link.covariance[(j, j)].sqrt();
+            let sigma = if j < 3 {
+                SIGMA[j]
+            } else {
+                SIGMA[j].to_radians()
+            };
+            ratio += se / (sigma / (N as f64).sqrt());
+            total += 1;
+            if e[j].abs() <= 2.0 * se {
+                covered += 1;
+            }
+        }
+    }
+    let (cov, ratio) = (covered as f64 / total as f64, ratio / total as f64);
+    assert!((0.93..=0.995).contains(&cov), "±2 SE covers {cov:.4}");
+    assert!(ratio <= 1.5, "mean SE / true SE = {ratio:.3}");
+}
+
+/// Residuals of one tangent axis: `√s·a_t + √(1 − s)·e_t`, a a stationary unit AR(1) (ρ), e
+/// unit white noise, s the drift share; six independent axes.
+fn mixture_residuals(seed: u64, rep: u64, n: usize, rho: f64, share: f64) -> Vec<Vec6> {
+    let mut rng = crashrig_stats::stream(seed, rep);
+    let mut g = || -> f64 { rng.sample(StandardNormal) };
+    let mut a = Vec6::from_fn(|_, _| g());
+    let innovation = (1.0 - rho * rho).sqrt();
+    (0..n)
+        .map(|i| {
+            if i > 0 {
+                a = a * rho + Vec6::from_fn(|_, _| g()) * innovation;
+            }
+            a * share.sqrt() + Vec6::from_fn(|_, _| g()) * (1.0 - share).sqrt()
+        })
+        .collect()
+}
+
+/// One cell of the coverage table: (coverage of ±2 SE, mean SE / true SE) over `reps`
+/// sequences × 6 axes, the SE from `crashrig_rig::sem::sem_covariance` on the residuals
+/// about their mean.
+fn coverage_cell(seed: u64, reps: u64, n: usize, rho: f64, share: f64) -> (f64, f64) {
+    use crashrig_rig::sem::{ar1_tau, sem_covariance};
+    let true_se = ((share * ar1_tau(n, rho) + 1.0 - share) / n as f64).sqrt();
+    let (mut covered, mut ratio) = (0usize, 0.0);
+    for rep in 0..reps {
+        let x = mixture_residuals(seed, rep, n, rho, share);
+        let mean = x.iter().sum::<Vec6>() / n as f64;
+        let r: Vec<Vec6> = x.iter().map(|v| v - mean).collect();
+        let cov = r
+            .iter()
+            .map(|v| v * v.transpose())
+            .sum::<crashrig_geometry::Mat6>()
+            / (n as f64 - 1.0);
+        let s = sem_covariance(&r, &cov);
+        for j in 0..6 {
+            let se = s.covariance[(j, j)].sqrt();
+            ratio += se / true_se;
+            if mean[j].abs() <= 2.0 * se {
+                covered += 1;
+            }
+        }
+    }
+    let total = (6 * reps) as f64;
+    (covered as f64 / total, ratio / total)
+}
+
+/// The cells where `ar1_noise_fit` does NOT reach the issue's 90 % (docs/CALIBRATE.md: numpy
+/// 79–88 %): strong drift (ρ ≥ 0.9) on short sequences, true effective n 1.7–16. They are held
+/// at ≥ 75 % so that a regression still fails; every other cell must meet the goal.
+const BELOW_GOAL: [(f64, f64, usize); 9] = [
+    (0.9, 0.25, 60),
+    (0.9, 0.5, 60),
+    (0.9, 1.0, 60),
+    (0.95, 0.25, 60),
+    (0.95, 0.25, 140),
+    (0.95, 0.5, 60),
+    (0.95, 0.5, 140),
+    (0.95, 1.0, 60),
+    (0.95, 1.0, 140),
+];
+
+/// The goal of issue 25 per cell: ≥ 90 % (≥ 75 % on [`BELOW_GOAL`]); on white noise (ρ = 0 or
+/// share 0) also ≤ 99.5 % and mean SE / true SE ≤ 1.5.
+fn cell_meets_goal(rho: f64, share: f64, n: usize, cov: f64, ratio: f64) -> bool {
+    let white = rho == 0.0 || share == 0.0;
+    let floor = if BELOW_GOAL.contains(&(rho, share, n)) {
+        0.75
+    } else {
+        0.90
+    };
+    cov >= floor && (!white || (cov <= 0.995 && ratio <= 1.5))
 }
 
 #[test]
-#[ignore = "slow: 2000 AR(1) sequences"]
-fn sem_rule_coverage_ar1_slow() {
-    // 12000 intervals: binomial SE ≈ 0.3 %.
+#[ignore = "slow: the 48-cell coverage table, 1000 sequences × 6 axes per cell"]
+fn sem_rule_coverage_table_slow() {
+    // 6000 intervals per cell: binomial SE ≈ 0.4 % at 90 %. Prints the table of
+    // docs/CALIBRATE.md (Rust column) and fails on any cell that misses the goal (or, on the
+    // nine cells known to miss it, falls below 75 %).
+    let mut missed = Vec::new();
+    let mut cell = 0;
     for rho in [0.0, 0.5, 0.9, 0.95] {
-        let (rule, plain) = coverage(92, 2000, rho);
-        eprintln!("rho = {rho}: ±2 SE covers {rule:.4} (sem rule), {plain:.4} (σ/√n)");
-        if rho == 0.9 {
-            assert!(rule >= 0.85, "ρ = 0.9: ±2 SE covers {rule:.3}");
+        for share in [0.0, 0.25, 0.5, 1.0] {
+            for n in [60usize, 140, 300] {
+                let (cov, ratio) = coverage_cell(2500 + cell, 1000, n, rho, share);
+                cell += 1;
+                eprintln!(
+                    "| {rho} | {share} | {n} | {:.1} % | {ratio:.2} |",
+                    100.0 * cov
+                );
+                if !cell_meets_goal(rho, share, n, cov, ratio) {
+                    missed.push(format!(
+                        "ρ {rho} share {share} n {n}: {cov:.4} ({ratio:.2})"
+                    ));
+                }
+            }
         }
     }
+    assert!(missed.is_empty(), "cells below the goal: {missed:#?}");
+}
+
+#[test]
+fn sem_rule_coverage_drift_mix_fast() {
+    // The issue's case: ρ = 0.95 drift mixed half-and-half with epoch noise, n = 140, where
+    // the former lag-1 rule covered 49.5 %. 150 sequences × 6 axes = 900 intervals; the slow
+    // table measures this cell (6000 intervals); ≥ 82 % is 3 binomial SE (1.3 %) below 86 %.
+    let (cov, ratio) = coverage_cell(7, 150, 140, 0.95, 0.5);
+    assert!(cov >= 0.82, "±2 SE covers {cov:.3} (SE/true {ratio:.2})");
 }
 
 #[test]

@@ -316,6 +316,11 @@ pub struct CalibrationResult {
     pub sem_rule: String,
     /// Number of epochs.
     pub n_epochs: usize,
+    /// Effective number of epochs per tangent axis (n over the variance factor of the rule).
+    pub effective_n: [f64; 6],
+    /// Per tangent axis: false where the effective n is below 10 (the sequence is too short
+    /// for the drift seen; the SE stays finite but cannot hold).
+    pub sem_reliable: [bool; 6],
     /// Warnings (unpaired images, autocorrelation, a skipped refinement, an accepted
     /// rig-constrained model), one line each; printed on stderr by the CLI.
     pub warnings: Vec<String>,
@@ -416,15 +421,25 @@ pub fn calibrate_with_progress(
             optimistic_list(d)
         ));
     }
-    if cal.sem.rule == crashrig_rig::sem::RULE_AR1 {
+    if cal.sem.autocorrelated.iter().any(|&a| a) {
         let axes: Vec<String> = (0..6)
             .filter(|&j| cal.sem.autocorrelated[j])
             .map(|j| format!("{} × {:.2}", TANGENT[j], cal.sem.inflation[j].sqrt()))
             .collect();
         warnings.push(format!(
-            "sem_covariance_tangent is widened for autocorrelation (rule {}; SE {})",
+            "sem_covariance_tangent is widened for drift (rule {}; SE {})",
             cal.sem.rule,
             axes.join(", ")
+        ));
+    }
+    for j in (0..6).filter(|&j| !cal.sem.reliable[j]) {
+        warnings.push(format!(
+            "axis {}: effective n {:.1} < {} (n = {}): the sequence is too short for the drift \
+             seen, so the SE of the mean on this axis is not reliable (sem_reliable = false)",
+            TANGENT[j],
+            cal.sem.effective_n[j],
+            crashrig_rig::sem::RELIABLE_EFFECTIVE_N,
+            cal.links.len()
         ));
     }
     let mut result = CalibrationResult {
@@ -432,6 +447,8 @@ pub fn calibrate_with_progress(
         epoch_covariance: cal.epoch_spread.covariance,
         sem_rule: cal.sem.rule.to_string(),
         n_epochs: cal.links.len(),
+        effective_n: cal.sem.effective_n,
+        sem_reliable: cal.sem.reliable,
         warnings,
         config: config.clone(),
         pairing: set,
@@ -600,15 +617,21 @@ impl CalibrationResult {
             "covariance_tangent": cov_deg(&self.epoch_covariance),
             "sem_covariance_tangent": cov_deg(&self.link.covariance),
             "sem_rule": self.sem_rule,
+            "effective_n": self.effective_n,
+            "sem_reliable": self.sem_reliable,
             "sem_detail": {
                 "order": TANGENT,
                 "lag1": c.sem.lag1,
+                "drift_rho": c.sem.drift_rho,
+                "drift_share": c.sem.drift_share,
+                "small_sample_factor": c.sem.small_sample_factor,
                 "autocorrelated": c.sem.autocorrelated,
                 "variance_inflation": c.sem.inflation,
             },
             "rig_constrained": c.rig_constrained,
             "outlier_rule": outlier_rule_description(c.links.len()),
             "outlier_threshold": c.outliers.threshold,
+            "outlier_thresholds": c.outliers.thresholds,
             "n_outliers": c.outliers.indices().len(),
             "without_outliers": c.without_outliers.as_ref().map(stats_json),
             "autocorrelation": drift,
@@ -684,18 +707,24 @@ impl CalibrationResult {
         );
         let _ = writeln!(
             o,
-            "  {:<10}{:>14}{:>18}{:>12}",
-            "axis", "σ one epoch", "SE of the mean", "SE × "
+            "  {:<10}{:>14}{:>18}{:>12}{:>12}",
+            "axis", "σ one epoch", "SE of the mean", "SE × ", "eff. n"
         );
         for (j, name) in TANGENT.iter().enumerate() {
             let d = if j < 3 { 3 } else { 4 };
             let _ = writeln!(
                 o,
-                "  {:<10}{:>14.d$}{:>18.d$}{:>12.2}",
+                "  {:<10}{:>14.d$}{:>18.d$}{:>12.2}{:>12.1}{}",
                 name,
                 sd(&self.epoch_covariance, j),
                 sd(&self.link.covariance, j),
                 c.sem.inflation[j].sqrt(),
+                self.effective_n[j],
+                if self.sem_reliable[j] {
+                    ""
+                } else {
+                    "  NOT RELIABLE (effective n < 10)"
+                },
                 d = d + 1
             );
         }

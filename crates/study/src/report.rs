@@ -556,6 +556,46 @@ fn verdict_rows(r: &StudyResult) -> Vec<Vec<String>> {
         .collect()
 }
 
+/// " SEM NOT RELIABLE on …" for the tangent axes whose effective n is below 10, else "".
+fn unreliable_sem_note(c: &crate::calibration::CalibrationResult) -> String {
+    const AXES: [&str; 6] = ["x", "y", "z", "θx", "θy", "θz"];
+    let bad: Vec<String> = (0..6)
+        .filter(|&j| !c.sem_reliable[j])
+        .map(|j| format!("{} (effective n {:.1})", AXES[j], c.effective_n[j]))
+        .collect();
+    if bad.is_empty() {
+        return String::new();
+    }
+    format!(
+        " SEM NOT RELIABLE on {}: the calibration sequence is too short for the drift seen (effective n < 10).",
+        bad.join(", ")
+    )
+}
+
+/// The assumption behind a layout whose observers take their σ from the same chain
+/// (`from = …`) but are drawn independently (`correlated = false`): stated in the verdict
+/// (issue 25 §5); `None` when no layout does that.
+fn independent_chain_observers_note(r: &StudyResult) -> Option<String> {
+    let names: Vec<&str> = r
+        .layouts
+        .iter()
+        .filter(|l| {
+            !l.layout.correlated
+                && l.layout
+                    .observers
+                    .iter()
+                    .filter(|o| o.fixed.is_none() && matches!(o.noise, ObserverNoise::From(_)))
+                    .count()
+                    >= 2
+        })
+        .map(|l| l.layout.name.as_str())
+        .collect();
+    (!names.is_empty()).then(|| format!(
+        "Assumption of {}: the observers take their σ from the same chain (outward camera → link → tie) but are drawn independently of each other, although they share the outward camera's and the link's errors. The shared error then shifts the two rays by different random amounts instead of moving the whole rig as one rigid body, so σ_max there is not the physical (rigid-body) figure and can differ from it in either direction point by point; read these layouts as observers with independent errors of this run's size. `[[layout]] correlated = true` draws them jointly when the observers stand at their chain cameras (docs/REFERENCE.md).",
+        names.join(", ")
+    ))
+}
+
 /// The paper's "what differs" item on fixed cameras: per layout and z level, the fraction
 /// below the threshold with cameras re-aimed at every point (`*_z0_paper`, `*_z300_paper`) and
 /// with the fixed cameras of `*_fixed_paper`, and the fraction measurable at all.
@@ -625,6 +665,9 @@ pub fn report_html(
         header: ["layout", "below threshold", "median σ_max [mm]", "worst region", "dominant input"].map(String::from).to_vec(),
         rows: verdict_rows(r),
     }));
+    if let Some(note) = independent_chain_observers_note(r) {
+        rep.push(Block::Paragraph(note));
+    }
 
     // Calibration.
     let c = &r.calibration;
@@ -642,8 +685,9 @@ pub fn report_html(
         "1. Rig calibration: the link A_from_B".into(),
     ));
     rep.push(Block::Paragraph(format!(
-        "{} epochs of {} (A = {:?}, B = {:?}); base = B's centre in A's frame, angles = ω φ κ of R_A_from_B. The chain uses the mean link with its SEM covariance (rule: {}).",
-        c.n_epochs, study.calibration.model.display(), study.calibration.camera_a, study.calibration.camera_b, c.sem_rule
+        "{} epochs of {} (A = {:?}, B = {:?}); base = B's centre in A's frame, angles = ω φ κ of R_A_from_B. The chain uses the mean link with its SEM covariance (rule: {}).{}",
+        c.n_epochs, study.calibration.model.display(), study.calibration.camera_a, study.calibration.camera_b, c.sem_rule,
+        unreliable_sem_note(c)
     )));
     let mut tc = Table {
         caption: "Calibrated link (this run)".into(),

@@ -288,15 +288,25 @@ fn calibrate_covariance_tangent_recomputed_from_epochs() {
     for j in 0..6 {
         assert_abs_diff_eq!(mean[j], 0.0, epsilon = 1e-9 * got[j][j].sqrt());
     }
-    // The bundled sequence is white noise: no axis is autocorrelated, so the uncertainty of
-    // the mean is covariance_tangent / n (1e-12 relative: one division).
-    assert_eq!(string(&v, "sem_rule"), "covariance_over_n");
+    // The uncertainty of the mean is covariance_tangent / n scaled by √(f_i f_j), f the
+    // rule's variance factors (1e-12 relative: a few roundings); f ≥ 1 and effective_n = n/f.
+    assert_eq!(string(&v, "sem_rule"), "ar1_noise_fit");
+    let f = numbers(
+        field(field(&v, "sem_detail"), "variance_inflation"),
+        "variance_inflation",
+        6,
+    );
+    let eff = numbers(field(&v, "effective_n"), "effective_n", 6);
+    for j in 0..6 {
+        assert!(f[j] >= 1.0 && f[j] <= n - 1.0, "f = {f:?}");
+        assert_abs_diff_eq!(eff[j], n / f[j], epsilon = 1e-9 * n);
+    }
     for i in 0..6 {
         for j in 0..6 {
             assert_abs_diff_eq!(
                 sem[i][j],
-                got[i][j] / n,
-                epsilon = 1e-12 * (got[i][i] * got[j][j]).sqrt() / n
+                got[i][j] / n * (f[i] * f[j]).sqrt(),
+                epsilon = 1e-12 * (got[i][i] * got[j][j] * f[i] * f[j]).sqrt() / n
             );
         }
     }
