@@ -3,8 +3,8 @@
 pub mod bootstrap;
 pub mod calibrate;
 pub mod colmap;
-pub mod export;
 pub mod covariance;
+pub mod export;
 pub mod grid;
 pub mod measure;
 pub mod paper;
