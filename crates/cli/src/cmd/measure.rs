@@ -92,6 +92,13 @@ pub struct MeasureArgs {
 pub fn run(a: MeasureArgs, g: &Global) -> anyhow::Result<()> {
     let config = config(&a, g.seed)?;
     let r = crashrig_measure::run(&config)?;
+    // Warnings after a successful run: a failed run prints its one `error:` line only.
+    if a.a_covariance.is_none() && a.sigma_a_position_mm.is_none() && a.sigma_a_angles_deg.is_none()
+    {
+        eprintln!(
+            "warning: no uncertainty given for camera A's pose (--sigma-a-position-mm, --sigma-a-angles-deg or --a-covariance): it is treated as exact"
+        );
+    }
     for w in &r.warnings {
         eprintln!("warning: {w}");
     }
@@ -155,17 +162,10 @@ fn config(a: &MeasureArgs, seed: Option<u64>) -> anyhow::Result<MeasureConfig> {
     let mm_per_unit = input::model_scale(a.mm_per_unit, a_cov.as_ref(), "--mm-per-unit")?;
     let a_noise = match &a.a_covariance {
         Some(p) => ANoise::File(p.clone()),
-        None => {
-            if a.sigma_a_position_mm.is_none() && a.sigma_a_angles_deg.is_none() {
-                eprintln!(
-                    "warning: no uncertainty given for camera A's pose (--sigma-a-position-mm, --sigma-a-angles-deg or --a-covariance): it is treated as exact"
-                );
-            }
-            ANoise::Sigmas {
-                position_mm: vec3(&a.sigma_a_position_mm, "--sigma-a-position-mm")?,
-                angles_deg: vec3(&a.sigma_a_angles_deg, "--sigma-a-angles-deg")?,
-            }
-        }
+        None => ANoise::Sigmas {
+            position_mm: vec3(&a.sigma_a_position_mm, "--sigma-a-position-mm")?,
+            angles_deg: vec3(&a.sigma_a_angles_deg, "--sigma-a-angles-deg")?,
+        },
     };
     Ok(MeasureConfig {
         model: a.model.clone(),
