@@ -87,6 +87,10 @@ fn measure_reads_the_document() {
         let got = read.for_epoch(&[e.name.as_str()]).unwrap();
         let want = e.world_from_a.covariance_deg();
         // serde_json's default float parser is within 1 ulp of the written shortest form.
-        assert!((got - want).abs().max() <= 1e-15 * want.abs().max(), "{}", e.name);
+        assert!(
+            (got - want).abs().max() <= 1e-15 * want.abs().max(),
+            "{}",
+            e.name
+        );
     }
 }
