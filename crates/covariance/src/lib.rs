@@ -61,6 +61,10 @@ use crashrig_geometry::{Mat3, Mat6, Rigid3, UncertainPose, so3};
 use nalgebra::DMatrix;
 use std::path::PathBuf;
 
+/// Most pose and intrinsic unknowns of the dense reduced system (checked before it is
+/// allocated: three n × n matrices of f64, about 1.5 GB at this bound; ~1 300 frames).
+pub const MAX_REDUCED_UNKNOWNS: usize = 8_000;
+
 /// Which intrinsics are unknowns (and so marginalised).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Intrinsics {
@@ -273,6 +277,19 @@ pub fn covariance(
         options.intrinsics,
     )?;
     gauge::check(&p, &control.path)?;
+    if p.n_reduced > MAX_REDUCED_UNKNOWNS {
+        return Err(Error::Setting {
+            name: "MODEL_DIR",
+            problem: format!(
+                "{} frames and {} free intrinsics make {} pose and intrinsic unknowns, more \
+                 than the {MAX_REDUCED_UNKNOWNS} that the dense reduced system holds (~{} GB)",
+                p.frames.len(),
+                p.n_reduced - 6 * p.frames.len(),
+                p.n_reduced,
+                3 * MAX_REDUCED_UNKNOWNS * MAX_REDUCED_UNKNOWNS * 8 / 1_000_000_000
+            ),
+        });
+    }
     let observations = p.obs.len();
     let parameters = p.n_reduced + p.n_point_params();
     let redundancy = 2 * observations as i64 - parameters as i64;

@@ -186,3 +186,40 @@ fn sigma0_estimates_the_pixel_noise() {
     let d = (&g.joint_deg - &r.joint_deg * k).abs().max();
     assert!(d < 1e-9 * g.joint_deg.abs().max());
 }
+
+#[test]
+fn collinear_control_points_and_an_unobserved_epoch_are_errors() {
+    let scene = ring_scene(4, 0.3);
+    // Ids 1, 25, 49: the same wall column in the three depth layers (x and z equal).
+    let line = ControlPoints::from_ids("line.csv", &[1, 25, 49], 0.0);
+    let e = covariance(&scene.model, &line, &options(Intrinsics::Fixed, Some(0.5)))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("line.csv: ") && e.contains("collinear"),
+        "{e}"
+    );
+    // An image of A with a pose but no observation.
+    let mut images = scene.model.images().to_vec();
+    let mut extra = images[0].clone();
+    extra.image_id = 99;
+    extra.name = "cam_out/9999.png".into();
+    extra.points2d.clear();
+    images.push(extra);
+    let model = Reconstruction::from_records(
+        scene.model.cameras().to_vec(),
+        Vec::new(),
+        Vec::new(),
+        images,
+        scene.model.points3d().to_vec(),
+    )
+    .unwrap();
+    let control = ControlPoints::from_ids("t", &scene.control_ids, 0.0);
+    let e = covariance(&model, &control, &options(Intrinsics::All, Some(0.5)))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("cam_out/9999.png") && e.contains("no observation"),
+        "{e}"
+    );
+}
