@@ -253,16 +253,16 @@ fn unit_ar1_expected(n: usize, lags: usize, rho: f64) -> (Vec<f64>, f64) {
     let mut f = vec![0.0; n];
     let mut g = vec![0.0; n];
     let mut acc = 0.0;
-    for t in 0..n {
+    for ft in f.iter_mut() {
         acc = 1.0 + rho * acc;
-        f[t] = acc;
+        *ft = acc;
     }
     acc = 0.0;
-    for t in (0..n).rev() {
+    for gt in g.iter_mut().rev() {
         acc = 1.0 + rho * acc;
-        g[t] = acc;
+        *gt = acc;
     }
-    let c: Vec<f64> = (0..n).map(|t| (f[t] + g[t] - 1.0) / nf).collect();
+    let c: Vec<f64> = f.iter().zip(&g).map(|(a, b)| (a + b - 1.0) / nf).collect();
     let v = c.iter().sum::<f64>() / nf;
     let a = (0..=lags)
         .map(|k| {
