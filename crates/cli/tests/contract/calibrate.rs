@@ -2,7 +2,7 @@
 
 use crate::common::{
     angle_diff_deg, arr3, assert_clean_error, boolean, field, fixture, json_of, matrix, num,
-    read_json, run, string, uint,
+    numbers, read_json, run, string, uint,
 };
 use approx::{assert_abs_diff_eq, assert_relative_eq};
 use crashrig_geometry::{Rot3, Vec3, opk::rotation_from_opk, so3};
