@@ -14,10 +14,12 @@
 //!   given on SO(3) (Karcher mean).
 //! - Covariances are ordered (x, y, z mm, ω, φ, κ rad).
 //! - Outliers: modified z-score `0.6745 (x − median)/MAD` on each parameter, flagged above a
-//!   threshold `t(n)` that holds the per-sequence false-flag rate at 0.5 % ([`robust`]).
+//!   threshold `t(n)` that holds the per-sequence false-flag rate at 0.5 %, raised per
+//!   parameter where it drifts ([`robust`]).
 //! - The spread of one epoch's link and the uncertainty of the mean link are 6×6 tangent
 //!   covariances ([`crashrig_geometry::UncertainPose`]: centre in A's axes, rotation
-//!   `log(R̄ᵀ·R)` about B's axes); the latter accounts for autocorrelation ([`sem`]).
+//!   `log(R̄ᵀ·R)` about B's axes); the latter accounts for slow drift mixed with epoch noise,
+//!   with an effective n per axis ([`sem`]).
 //! - A sequence whose links are all identical (a bundle adjusted with a rig constraint) is
 //!   refused ([`Error::RigConstrained`]) unless accepted explicitly.
 //!

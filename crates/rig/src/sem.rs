@@ -253,16 +253,16 @@ fn unit_ar1_expected(n: usize, lags: usize, rho: f64) -> (Vec<f64>, f64) {
     let mut f = vec![0.0; n];
     let mut g = vec![0.0; n];
     let mut acc = 0.0;
-    for t in 0..n {
+    for ft in f.iter_mut() {
         acc = 1.0 + rho * acc;
-        f[t] = acc;
+        *ft = acc;
     }
     acc = 0.0;
-    for t in (0..n).rev() {
+    for gt in g.iter_mut().rev() {
         acc = 1.0 + rho * acc;
-        g[t] = acc;
+        *gt = acc;
     }
-    let c: Vec<f64> = (0..n).map(|t| (f[t] + g[t] - 1.0) / nf).collect();
+    let c: Vec<f64> = f.iter().zip(&g).map(|(a, b)| (a + b - 1.0) / nf).collect();
     let v = c.iter().sum::<f64>() / nf;
     let a = (0..=lags)
         .map(|k| {
@@ -358,23 +358,30 @@ mod tests {
         }
     }
 
+    /// A stationary unit AR(1) series of `n` epochs (stream `rep` of `seed`).
+    fn unit_ar1(seed: u64, rep: u64, n: usize, rho: f64) -> Vec<f64> {
+        use rand::RngExt;
+        use rand_distr::StandardNormal;
+        let mut rng = crashrig_stats::stream(seed, rep);
+        let mut x = Vec::with_capacity(n);
+        let mut v: f64 = rng.sample(StandardNormal);
+        for _ in 0..n {
+            x.push(v);
+            let e: f64 = rng.sample(StandardNormal);
+            v = rho * v + (1.0f64 - rho * rho).sqrt() * e;
+        }
+        x
+    }
+
     #[test]
     fn drift_model_matches_simulated_autocovariances() {
         // 4000 stationary unit AR(1) series, ρ = 0.9, n = 60: the mean of γ̂_k (k = 0..3) lies
         // within 4 Monte Carlo standard errors of A_k(0.9).
-        use rand::RngExt;
-        use rand_distr::StandardNormal;
         let (n, reps, rho) = (60usize, 4000u64, 0.9);
         let m = DriftModel::new(n);
         let mut sums = [[0.0f64; 2]; 4];
         for rep in 0..reps {
-            let mut rng = crashrig_stats::stream(31, rep);
-            let mut x = vec![0.0; n];
-            x[0] = rng.sample(StandardNormal);
-            for t in 1..n {
-                let e: f64 = rng.sample(StandardNormal);
-                x[t] = rho * x[t - 1] + (1.0f64 - rho * rho).sqrt() * e;
-            }
+            let x = unit_ar1(31, rep, n, rho);
             let mean = x.iter().sum::<f64>() / n as f64;
             for (k, s) in sums.iter_mut().enumerate() {
                 let g = (0..n - k)
@@ -458,19 +465,11 @@ mod tests {
         // The true factor n·Var(x̄)/E[s²] of a unit AR(1), ρ = 0.5, n = 60, by Monte Carlo
         // (20000 series), against τ(n − 1)/(n − τ) = 3.03: Var(x̄) within 4 of its standard
         // errors (relative SE of a variance √(2/N) = 1 %), E[s²] within 4 of its own.
-        use rand::RngExt;
-        use rand_distr::StandardNormal;
         let (n, reps, rho) = (60usize, 20_000u64, 0.5);
         let nf = n as f64;
         let (mut sm, mut smm, mut ss, mut sss) = (0.0, 0.0, 0.0, 0.0);
         for rep in 0..reps {
-            let mut rng = crashrig_stats::stream(32, rep);
-            let mut x = vec![0.0; n];
-            x[0] = rng.sample(StandardNormal);
-            for t in 1..n {
-                let e: f64 = rng.sample(StandardNormal);
-                x[t] = rho * x[t - 1] + (1.0f64 - rho * rho).sqrt() * e;
-            }
+            let x = unit_ar1(32, rep, n, rho);
             let mean = x.iter().sum::<f64>() / nf;
             let s2 = x.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (nf - 1.0);
             sm += mean;

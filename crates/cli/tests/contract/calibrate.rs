@@ -289,17 +289,26 @@ fn calibrate_covariance_tangent_recomputed_from_epochs() {
         assert_abs_diff_eq!(mean[j], 0.0, epsilon = 1e-9 * got[j][j].sqrt());
     }
     // The uncertainty of the mean is covariance_tangent / n scaled by √(f_i f_j), f the
-    // rule's variance factors (1e-12 relative: a few roundings); f ≥ 1 and effective_n = n/f.
+    // rule's variance factors (1e-12 relative: a few roundings).
     assert_eq!(string(&v, "sem_rule"), "ar1_noise_fit");
     let f = numbers(
         field(field(&v, "sem_detail"), "variance_inflation"),
         "variance_inflation",
         6,
     );
+    // effective_n = n / (f / q), q the small-sample factor folded into f.
+    let q = numbers(
+        field(field(&v, "sem_detail"), "small_sample_factor"),
+        "small_sample_factor",
+        6,
+    );
     let eff = numbers(field(&v, "effective_n"), "effective_n", 6);
     for j in 0..6 {
-        assert!(f[j] >= 1.0 && f[j] <= n - 1.0, "f = {f:?}");
-        assert_abs_diff_eq!(eff[j], n / f[j], epsilon = 1e-9 * n);
+        assert!(
+            f[j] >= q[j] && q[j] >= 1.0 && f[j] <= (n - 1.0) * 1.69,
+            "f = {f:?}"
+        );
+        assert_abs_diff_eq!(eff[j], n * q[j] / f[j], epsilon = 1e-9 * n);
     }
     for i in 0..6 {
         for j in 0..6 {
