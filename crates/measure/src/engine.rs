@@ -1064,11 +1064,11 @@ fn assemble_kinematics(
                 let [d, v, a] = &acc.m[i];
                 rows[offsets[e] + s] = KinRow {
                     displacement_mm: Some(scratch.f[i]),
-                    displacement_sigma_mm: d.std_dev(),
+                    displacement_sigma_mm: d.std_dev(acc.n),
                     velocity_m_s: Some(scratch.v[i]),
-                    velocity_sigma_m_s: v.std_dev(),
+                    velocity_sigma_m_s: v.std_dev(acc.n),
                     acceleration_m_s2: Some(scratch.a[i]),
-                    acceleration_sigma_m_s2: a.std_dev(),
+                    acceleration_sigma_m_s2: a.std_dev(acc.n),
                 };
                 with += 1;
             }
@@ -1157,7 +1157,7 @@ fn run_monte_carlo(
                     .zip(kin.runs.par_iter())
                     .for_each_init(Scratch::default, |scratch, (racc, runs)| {
                         for (run, acc) in runs.iter().zip(racc) {
-                            feed_run(kin.filter, run, acc, reference, m, &pos, scratch);
+                            feed_run(kin.filter, run, acc, preps, bufs, reference, m, scratch);
                         }
                     });
             }
@@ -1205,36 +1205,46 @@ fn feed_rows(
 }
 
 /// Filters one run of one marker in each of the `m` replicates of a chunk and feeds its
-/// moments (a replicate with a failed intersection in the run is left out).
+/// moments (a replicate with a failed intersection in the run, or at the reference epoch, is
+/// left out). The chunk's positions are gathered run-major first (`bufs[e]` holds the chunk's
+/// replicates of a slot contiguously), then each replicate's series is filtered.
+#[allow(clippy::too_many_arguments)]
 fn feed_run(
     filter: &Cfc,
     run: &Run,
     acc: &mut RunAcc,
+    preps: &[EpochPrep],
+    bufs: &[Vec<Vec3>],
     reference: usize,
     m: usize,
-    pos: &(impl Fn(usize, usize, usize) -> Option<Vec3> + Sync),
     scratch: &mut Scratch,
 ) {
+    let slot = |e: usize| preps[e].slot_of[run.marker].expect("a run's epochs see its marker");
+    let rs = slot(reference);
+    let xr = &bufs[reference][rs * m..rs * m + m];
+    let len = run.len;
     let mut d = std::mem::take(&mut scratch.d);
+    d.clear();
+    d.resize(m * len, Vec3::zeros());
+    for i in 0..len {
+        let e = run.start + i;
+        let s = slot(e);
+        for (r, (x, xr)) in bufs[e][s * m..s * m + m].iter().zip(xr).enumerate() {
+            d[r * len + i] = x - xr;
+        }
+    }
     for r in 0..m {
-        let Some(xr) = pos(reference, run.marker, r) else {
-            continue;
-        };
-        d.clear();
-        for e in run.start..run.start + run.len {
-            match pos(e, run.marker, r) {
-                Some(x) => d.push(x - xr),
-                None => break,
-            }
-        }
-        if d.len() < run.len {
+        let series = &d[r * len..(r + 1) * len];
+        if !series.iter().all(finite) {
             continue;
         }
-        scratch.filter_and_differentiate(filter, d.iter().copied());
-        for (i, m) in acc.m.iter_mut().enumerate() {
-            m[0].push(&scratch.f[i]);
-            m[1].push(&scratch.v[i]);
-            m[2].push(&scratch.a[i]);
+        scratch.filter_and_differentiate(filter, series.iter().copied());
+        acc.n += 1;
+        let inv_n = 1.0 / acc.n as f64;
+        for (i, q) in acc.m.iter_mut().enumerate() {
+            q[0].push(&scratch.f[i], inv_n);
+            q[1].push(&scratch.v[i], inv_n);
+            q[2].push(&scratch.a[i], inv_n);
         }
     }
     scratch.d = d;

@@ -250,8 +250,64 @@ pub fn export(cfg: &ExportConfig) -> Result<Export, Error> {
             .map(|s| (r2 * s.component_mul(&s)).map(f64::sqrt) / 1000.0);
     }
 
-    let t = &cfg.test_number;
-    let first_time = first as f64 / hz;
+    let filtered = cfc.map(|c| {
+        format!(
+            "CFC {c} ({})",
+            standard.as_deref().unwrap_or("j211").to_uppercase()
+        )
+    });
+    let (files, channels) = test_files(&Test {
+        t: &cfg.test_number,
+        source,
+        hz,
+        first_time: first as f64 / hz,
+        cfc,
+        filtered: filtered.as_deref(),
+        filter_class,
+        markers: &markers,
+        codes: &codes,
+        series: &series,
+        span,
+    });
+    Ok(Export {
+        files,
+        channels,
+        source: source.into(),
+        filter_class,
+        warnings,
+    })
+}
+
+/// What [`test_files`] writes.
+struct Test<'a> {
+    t: &'a str,
+    source: &'a str,
+    hz: f64,
+    first_time: f64,
+    cfc: Option<u64>,
+    filtered: Option<&'a str>,
+    filter_class: char,
+    markers: &'a [String],
+    codes: &'a [String],
+    series: &'a [Series],
+    span: usize,
+}
+
+/// `T.mme`, `Channel/T.chn` and the channel files, with the channels' descriptions.
+fn test_files(x: &Test<'_>) -> (Vec<(String, Vec<u8>)>, Vec<ChannelInfo>) {
+    let Test {
+        t,
+        source,
+        hz,
+        first_time,
+        cfc,
+        filtered,
+        filter_class,
+        markers,
+        codes,
+        series,
+        span,
+    } = *x;
     let mut files = vec![(format!("{t}.mme"), mme_file(t, source).into_bytes())];
     let mut channels = Vec::new();
     let mut chn = String::new();
@@ -260,12 +316,6 @@ pub fn export(cfg: &ExportConfig) -> Result<Export, Error> {
         "Number of channels",
         &(6 * markers.len()).to_string(),
     );
-    let filtered = cfc.map(|c| {
-        format!(
-            "CFC {c} ({})",
-            standard.as_deref().unwrap_or("j211").to_uppercase()
-        )
-    });
     for (k, marker) in markers.iter().enumerate() {
         for (dim, what) in [("DS", "displacement"), ("1S", "sigma of displacement")] {
             for (axis, dir) in ['X', 'Y', 'Z'].into_iter().enumerate() {
@@ -289,7 +339,7 @@ pub fn export(cfg: &ExportConfig) -> Result<Export, Error> {
                     hz,
                     first_time,
                     cfc,
-                    filtered: filtered.as_deref(),
+                    filtered,
                     sigma: dim == "1S",
                     values: &values,
                 });
@@ -304,13 +354,7 @@ pub fn export(cfg: &ExportConfig) -> Result<Export, Error> {
         }
     }
     files.insert(1, (format!("Channel/{t}.chn"), chn.into_bytes()));
-    Ok(Export {
-        files,
-        channels,
-        source: source.into(),
-        filter_class,
-        warnings,
-    })
+    (files, channels)
 }
 
 fn check_test_number(t: &str) -> Result<(), Error> {

@@ -135,41 +135,42 @@ pub(crate) fn runs(
         .collect()
 }
 
-/// Streaming per-axis mean and variance (Welford; the diagonal of
-/// [`crashrig_stats::Moments`], with the same arithmetic per element, without the off-diagonal
-/// work that σ per axis does not need).
+/// Streaming per-axis mean and variance (Welford, as [`crashrig_stats::Moments`] per diagonal
+/// element, without the off-diagonal work that σ per axis does not need). The count lives in
+/// [`RunAcc`]: every epoch of a run takes the same replicates.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct AxisMoments {
-    n: u64,
     mean: Vec3,
     m2: Vec3,
 }
 
 impl AxisMoments {
+    /// Adds the `n`-th sample, `inv_n = 1/n`.
     #[inline]
-    pub fn push(&mut self, x: &Vec3) {
-        self.n += 1;
+    pub fn push(&mut self, x: &Vec3, inv_n: f64) {
         let delta = x - self.mean;
-        self.mean += delta / self.n as f64;
+        self.mean += delta * inv_n;
         self.m2 += delta.component_mul(&(x - self.mean));
     }
 
-    /// σ per axis (n − 1), `None` below two samples.
-    pub fn std_dev(&self) -> Option<Vec3> {
-        (self.n >= 2).then(|| (self.m2 / (self.n as f64 - 1.0)).map(f64::sqrt))
+    /// σ per axis (n − 1) after `n` samples, `None` below two.
+    pub fn std_dev(&self, n: u64) -> Option<Vec3> {
+        (n >= 2).then(|| (self.m2 / (n as f64 - 1.0)).map(f64::sqrt))
     }
 }
 
 /// Streaming moments of one run's filtered displacement, velocity and acceleration: per
-/// epoch of the run `[d, v, a]`.
+/// epoch of the run `[d, v, a]`, and the number of replicates taken.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct RunAcc {
+    pub n: u64,
     pub m: Vec<[AxisMoments; 3]>,
 }
 
 impl RunAcc {
     pub fn new(len: usize) -> RunAcc {
         RunAcc {
+            n: 0,
             m: vec![[AxisMoments::default(); 3]; len],
         }
     }
@@ -181,7 +182,7 @@ pub(crate) struct Scratch {
     axis: [Vec<f64>; 3],
     filtered_axis: [Vec<f64>; 3],
     work: Vec<f64>,
-    /// The displacement run of one replicate (filled by the caller).
+    /// The displacement runs of a chunk's replicates, replicate-major (filled by the caller).
     pub d: Vec<Vec3>,
     pub f: Vec<Vec3>,
     pub v: Vec<Vec3>,
@@ -255,13 +256,15 @@ mod tests {
         ];
         let mut a = AxisMoments::default();
         let mut full = crashrig_stats::Moments::<3>::new();
-        for x in &xs {
-            a.push(x);
+        for (k, x) in xs.iter().enumerate() {
+            a.push(x, 1.0 / (k + 1) as f64);
             full.push_vec(x);
         }
-        assert_eq!(a.std_dev(), Some(full.std_dev()));
+        let (got, want) = (a.std_dev(3).unwrap(), full.std_dev());
+        assert!((got - want).norm() < 1e-15 * want.norm(), "{got} {want}");
         // Known answer: x values 1, 3, −1 → mean 1, variance (0 + 4 + 4)/2 = 4.
-        assert_eq!(a.std_dev().unwrap().x, 2.0);
+        assert!((got.x - 2.0).abs() < 1e-15);
+        assert_eq!(a.std_dev(1), None);
     }
 
     #[test]

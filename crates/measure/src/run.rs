@@ -28,6 +28,8 @@
 //!         frame_rate_hz: None,
 //!         threshold_mm: 5.0,
 //!         max_reprojection_px: None,
+//!         cfc: None,
+//!         sync_sigma_ms: 0.0,
 //!     },
 //!     out: None,
 //! };
