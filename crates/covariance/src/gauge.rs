@@ -91,11 +91,11 @@ pub(crate) fn check(p: &Problem, control_path: &Path) -> Result<(), Error> {
             seen[root].insert(j);
         }
     }
-    for f in 0..nf {
+    for (f, seen_f) in seen.iter().enumerate().take(nf) {
         if dsu.find(f) != f {
             continue;
         }
-        let pts: Vec<Vec3> = seen[f].iter().map(|&j| p.points[j].xyz).collect();
+        let pts: Vec<Vec3> = seen_f.iter().map(|&j| p.points[j].xyz).collect();
         if !spans_plane(&pts) {
             return Err(err(format!(
                 "the part of the model with image `{}` sees {} control point(s){}; it needs 3 \

@@ -150,7 +150,7 @@ mod tests {
             // Central differences with h = 1e-6: truncation ~h²·|f'''| and rounding
             // ~1e-16·|f|/h, both below 1e-6 of the Jacobian's scale here.
             assert!(
-                (&jp - &p.d_pose).abs().max() < 1e-6 * scale,
+                (&jp - p.d_pose).abs().max() < 1e-6 * scale,
                 "{}: pose\n{jp}\n{}",
                 cam.model,
                 p.d_pose
@@ -161,7 +161,7 @@ mod tests {
                 1e-6,
             );
             assert!(
-                (&jx - &p.d_point).abs().max() < 1e-6 * scale,
+                (&jx - p.d_point).abs().max() < 1e-6 * scale,
                 "{}: point",
                 cam.model
             );

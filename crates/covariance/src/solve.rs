@@ -47,8 +47,8 @@ impl Cross {
         };
         let c = &mut crosses[idx];
         for (a, col) in rows.iter().enumerate() {
-            for k in 0..3 {
-                c.w[a][k] += wgt * (col[0] * jp[0][k] + col[1] * jp[1][k]);
+            for (k, w) in c.w[a].iter_mut().enumerate().take(3) {
+                *w += wgt * (col[0] * jp[0][k] + col[1] * jp[1][k]);
             }
         }
     }
@@ -203,6 +203,8 @@ pub(crate) fn inverse_columns(
 
 /// The first pivot of an unpivoted Cholesky that falls below [`SINGULAR_PIVOT`] (for the
 /// message when faer refuses the matrix).
+// `!(piv > limit)` also catches a NaN pivot.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 fn first_small_pivot(m: &Mat<f64>) -> Option<usize> {
     let n = m.nrows();
     let mut a = m.clone();
