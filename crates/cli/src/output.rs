@@ -143,3 +143,10 @@ mod tests {
         );
     }
 }
+
+/// Prints each of a library's warnings as one `warning: …` line on stderr.
+pub fn warn_all(warnings: &[String]) {
+    for w in warnings {
+        eprintln!("warning: {w}");
+    }
+}

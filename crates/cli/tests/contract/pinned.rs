@@ -18,39 +18,88 @@ fn runs() -> Vec<(&'static str, Vec<String>)> {
         (
             "measure",
             s(&[
-                "measure", "SEQ/model", "--camera-a", "cam_out/", "--camera-b", "2",
-                "--camera-c", "3", "--link", "SEQ/link.json", "--tie", "SEQ/tie.json",
-                "--observations", "SEQ/observations.csv", "--a-covariance",
-                "SEQ/a_covariance.json", "--mm-per-unit", "1000", "--pixel-sigma-px", "0.1",
-                "--frame-rate-hz", "1000", "--samples", "300", "--seed", "4", "--out", "OUT",
+                "measure",
+                "SEQ/model",
+                "--camera-a",
+                "cam_out/",
+                "--camera-b",
+                "2",
+                "--camera-c",
+                "3",
+                "--link",
+                "SEQ/link.json",
+                "--tie",
+                "SEQ/tie.json",
+                "--observations",
+                "SEQ/observations.csv",
+                "--a-covariance",
+                "SEQ/a_covariance.json",
+                "--mm-per-unit",
+                "1000",
+                "--pixel-sigma-px",
+                "0.1",
+                "--frame-rate-hz",
+                "1000",
+                "--samples",
+                "300",
+                "--seed",
+                "4",
+                "--out",
+                "OUT",
             ]),
         ),
         (
             "grid_fixed",
             s(&[
-                "grid", "fixtures/scenarios/fixed_three_cameras.toml", "--samples", "300",
-                "--seed", "2", "--out", "OUT",
+                "grid",
+                "fixtures/scenarios/fixed_three_cameras.toml",
+                "--samples",
+                "300",
+                "--seed",
+                "2",
+                "--out",
+                "OUT",
             ]),
         ),
         (
             "grid_correlated",
             s(&[
-                "--json", "grid", "fixtures/scenarios/three_cameras_correlated.toml",
-                "--samples", "300", "--seed", "2", "--no-plots", "--out", "OUT",
+                "--json",
+                "grid",
+                "fixtures/scenarios/three_cameras_correlated.toml",
+                "--samples",
+                "300",
+                "--seed",
+                "2",
+                "--no-plots",
+                "--out",
+                "OUT",
             ]),
         ),
         (
             "propagate",
             s(&[
-                "--json", "propagate", "fixtures/scenarios/paper_chain.toml", "--samples",
-                "2000", "--seed", "3",
+                "--json",
+                "propagate",
+                "fixtures/scenarios/paper_chain.toml",
+                "--samples",
+                "2000",
+                "--seed",
+                "3",
             ]),
         ),
         (
             "study",
             s(&[
-                "study", "fixtures/study/own/study.toml", "--samples", "100",
-                "--no-sensitivity", "--seed", "5", "--out", "OUT",
+                "study",
+                "fixtures/study/own/study.toml",
+                "--samples",
+                "100",
+                "--no-sensitivity",
+                "--seed",
+                "5",
+                "--out",
+                "OUT",
             ]),
         ),
     ]
@@ -113,7 +162,11 @@ fn pinned_outputs_are_byte_identical_to_main_before_the_move() {
             .env_remove("RAYON_NUM_THREADS")
             .output()
             .unwrap();
-        assert!(o.status.success(), "{run}: {}", String::from_utf8_lossy(&o.stderr));
+        assert!(
+            o.status.success(),
+            "{run}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
         if args.iter().any(|a| a == "OUT") {
             hash_dir(run, &out, Path::new(""), &mut got);
         } else {
