@@ -278,8 +278,8 @@ pub fn check_module_cycles(root: &Path) -> Result<Vec<String>> {
                         .collect();
                     let mut targets = vec![name];
                     // `use crate::{a, b::c}`
-                    if rest.starts_with('{') {
-                        targets = rest[1..]
+                    if let Some(list) = rest.strip_prefix('{') {
+                        targets = list
                             .split([',', '}'])
                             .map(|s| s.trim().split("::").next().unwrap_or("").to_string())
                             .collect();

@@ -75,6 +75,12 @@ pub struct MeasureArgs {
 pub fn run(a: MeasureArgs, g: &Global) -> anyhow::Result<()> {
     let config = config(&a, g.seed)?;
     let r = crashrig_measure::run(&config)?;
+    if a.a_covariance.is_none() && a.sigma_a_position_mm.is_none() && a.sigma_a_angles_deg.is_none()
+    {
+        eprintln!(
+            "warning: no uncertainty given for camera A's pose (--sigma-a-position-mm, --sigma-a-angles-deg or --a-covariance): it is treated as exact"
+        );
+    }
     crate::output::warn_all(&r.warnings);
     if g.json {
         return crate::output::print_json(&r.summary);
@@ -110,17 +116,10 @@ fn config(a: &MeasureArgs, seed: Option<u64>) -> anyhow::Result<MeasureConfig> {
     );
     let a_noise = match &a.a_covariance {
         Some(p) => ANoise::File(p.clone()),
-        None => {
-            if a.sigma_a_position_mm.is_none() && a.sigma_a_angles_deg.is_none() {
-                eprintln!(
-                    "warning: no uncertainty given for camera A's pose (--sigma-a-position-mm, --sigma-a-angles-deg or --a-covariance): it is treated as exact"
-                );
-            }
-            ANoise::Sigmas {
-                position_mm: vec3(&a.sigma_a_position_mm, "--sigma-a-position-mm")?,
-                angles_deg: vec3(&a.sigma_a_angles_deg, "--sigma-a-angles-deg")?,
-            }
-        }
+        None => ANoise::Sigmas {
+            position_mm: vec3(&a.sigma_a_position_mm, "--sigma-a-position-mm")?,
+            angles_deg: vec3(&a.sigma_a_angles_deg, "--sigma-a-angles-deg")?,
+        },
     };
     Ok(MeasureConfig {
         model: a.model.clone(),
