@@ -3,6 +3,7 @@
 //! Verbs: `ci`, `tidy`, `test [--slow]`, `paper [--out DIR]`, `interop`, `bench [--e2e]`,
 //! `fixtures`. Contributor-only work lives here; everything a user sees lives in `crashrig`.
 
+mod invariants;
 mod tidy;
 
 use anyhow::{Context, Result, bail};

@@ -101,6 +101,7 @@ pub fn check(root: &Path) -> Result<Vec<String>> {
     let mut problems = check_dag(root)?;
     problems.extend(check_module_docs(root)?);
     problems.extend(check_code_map(root)?);
+    problems.extend(crate::invariants::check(root)?);
     Ok(problems)
 }
 

@@ -88,6 +88,13 @@ pub fn write_all_or_none(dir: &Path, files: &[(String, Vec<u8>)]) -> anyhow::Res
     Ok(())
 }
 
+/// Prints each of a library's warnings as one `warning: …` line on stderr.
+pub fn warn_all(warnings: &[String]) {
+    for w in warnings {
+        eprintln!("warning: {w}");
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

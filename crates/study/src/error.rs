@@ -121,4 +121,10 @@ pub enum Error {
     /// The output directory cannot be used or written.
     #[error(transparent)]
     OutDir(#[from] crashrig_outdir::Error),
+    /// A scenario without cameras given to `propagate`.
+    #[error("{}: `camera`: the scenario has no camera", path.display())]
+    NoCamera {
+        /// The scenario file.
+        path: PathBuf,
+    },
 }

@@ -8,6 +8,7 @@
 //! - [`pipeline`]: [`run_study`] — calibration, tie, the chain outward → inward → tie, and one
 //!   grid study per layout, with a one-at-a-time sensitivity;
 //! - [`grid_run`]: [`run_grid`], the library entry of `crashrig grid`;
+//! - [`propagate_run`]: [`run_propagate`], the library entry of `crashrig propagate`;
 //! - [`grids`]: grid summaries, `grid.csv` and heat maps;
 //! - [`fixed_maps`]: layouts with fixed observers (`aim = "fixed"`): coverage and
 //!   field-of-view footprints;
@@ -38,6 +39,7 @@ pub mod grids;
 pub mod html;
 pub mod measure_step;
 pub mod pipeline;
+pub mod propagate_run;
 pub mod report;
 pub mod study_file;
 pub mod tie;
@@ -45,4 +47,5 @@ pub mod tie;
 pub use error::Error;
 pub use grid_run::{GridConfig, GridRun, run_grid};
 pub use pipeline::{Options, StudyResult, run_study};
+pub use propagate_run::{PropagateConfig, PropagateRun, run_propagate};
 pub use study_file::Study;

@@ -33,9 +33,7 @@ pub fn run(a: GridArgs, g: &Global) -> anyhow::Result<()> {
     let bar = crate::progress::Bar::new("crashrig grid");
     let r = crashrig_study::run_grid(&config, bar.reporter())?;
     bar.finish();
-    for w in &r.warnings {
-        eprintln!("warning: {w}");
-    }
+    crate::output::warn_all(&r.warnings);
     let s = &r.summary;
     if g.json {
         return crate::output::print_json(s);

@@ -99,51 +99,39 @@ pub fn run(a: MeasureArgs, g: &Global) -> anyhow::Result<()> {
             "warning: no uncertainty given for camera A's pose (--sigma-a-position-mm, --sigma-a-angles-deg or --a-covariance): it is treated as exact"
         );
     }
-    for w in &r.warnings {
-        eprintln!("warning: {w}");
-    }
-    for w in crashrig_measure::plausible::warnings(
+    crate::output::warn_all(&r.warnings);
+    crate::output::warn_all(&crashrig_measure::plausible::warnings(
         &r.measurement,
         a.frame_rate_hz,
         "--frame-rate-hz",
         "--mm-per-unit",
-    ) {
-        eprintln!("warning: {w}");
-    }
+    ));
     let s = &r.summary;
     if g.json {
-        crate::output::print_json(s)?;
-    } else {
-        println!(
-            "measured {} rows ({} epochs × {} markers seen), {} draws each; {:.1} % below {} mm; {} flagged; written to {}",
-            s.numbers.rows,
-            s.numbers.epochs,
-            s.numbers.markers,
-            s.numbers.samples_per_point,
-            100.0 * s.numbers.fraction_below_threshold,
-            s.numbers.threshold_mm,
-            s.numbers.rows_flagged,
-            a.out.display()
-        );
-        if let Some(sync) = &s.numbers.sync_offset {
-            println!("{}", sync.line());
-        }
+        return crate::output::print_json(s);
+    }
+    println!(
+        "measured {} rows ({} epochs × {} markers seen), {} draws each; {:.1} % below {} mm; {} flagged; written to {}",
+        s.numbers.rows,
+        s.numbers.epochs,
+        s.numbers.markers,
+        s.numbers.samples_per_point,
+        100.0 * s.numbers.fraction_below_threshold,
+        s.numbers.threshold_mm,
+        s.numbers.rows_flagged,
+        a.out.display()
+    );
+    if let Some(sync) = &s.numbers.sync_offset {
+        println!("{}", sync.line());
     }
     Ok(())
 }
 
 fn vec3(v: &Option<Vec<f64>>, name: &str) -> anyhow::Result<Vec3> {
-    match v {
-        None => Ok(Vec3::zeros()),
-        Some(v) => {
-            let x = Vec3::new(v[0], v[1], v[2]);
-            anyhow::ensure!(
-                x.iter().all(|c| c.is_finite() && *c >= 0.0),
-                "{name}: σ must be finite numbers ≥ 0"
-            );
-            Ok(x)
-        }
-    }
+    let x = v.as_deref().map_or(Vec3::zeros(), Vec3::from_row_slice);
+    let ok = x.iter().all(|c| c.is_finite() && *c >= 0.0);
+    anyhow::ensure!(ok, "{name}: σ must be finite numbers ≥ 0");
+    Ok(x)
 }
 
 /// The typed configuration of the arguments: checks the flags and reads the link and the tie.
