@@ -131,77 +131,14 @@ pub(crate) fn build(
     mm_per_unit: f64,
     mode: Intrinsics,
 ) -> Result<Problem, Error> {
-    let cam_err = |problem: String| Error::Camera {
-        model: model.dir().to_path_buf(),
-        selector: camera_a.to_string(),
-        problem,
-    };
-    // Control points: every id must be a point of the model.
-    let mut control_kind: HashMap<u64, PointKind> = HashMap::new();
-    for cp in &control.points {
-        if model.point3d(cp.point3d_id).is_none() {
-            return Err(Error::ControlCsv {
-                path: control.path.clone(),
-                line: cp.line,
-                problem: format!(
-                    "point3D_id {} is not a point of the model {}",
-                    cp.point3d_id,
-                    model.dir().display()
-                ),
-            });
-        }
-        let kind = if cp.sigma_mm > 0.0 {
-            PointKind::Prior(cp.sigma_mm / mm_per_unit)
-        } else {
-            PointKind::Fixed
-        };
-        control_kind.insert(cp.point3d_id, kind);
-    }
+    let control_kind = control_kinds(model, control, mm_per_unit)?;
 
-    // Registered images, grouped by frame.
-    let mut frames: Vec<FrameBlock> = Vec::new();
-    let mut frame_idx: HashMap<u32, usize> = HashMap::new();
-    let mut cameras: Vec<CameraBlock> = Vec::new();
-    let mut camera_idx: HashMap<u32, usize> = HashMap::new();
-    let mut images: Vec<ImageEntry> = Vec::new();
-    let mut image_idx: HashMap<u32, usize> = HashMap::new();
-    for img in model.images() {
-        let (Some(cam_from_world), Some(frame)) = (
-            model.image_cam_from_world(img.image_id),
-            model.image_frame(img.image_id),
-        ) else {
-            continue;
-        };
-        let Some(rig_from_world) = frame.rig_from_world.to_rigid() else {
-            continue;
-        };
-        let Some(cam_rec) = model.camera(img.camera_id) else {
-            continue;
-        };
-        let f = *frame_idx.entry(frame.frame_id).or_insert_with(|| {
-            frames.push(FrameBlock {
-                rig_from_world,
-                label: img.name.clone(),
-            });
-            frames.len() - 1
-        });
-        let c = *camera_idx.entry(img.camera_id).or_insert_with(|| {
-            cameras.push(CameraBlock {
-                camera_id: img.camera_id,
-                camera: cam_rec.camera.clone(),
-                free: free_params(&cam_rec.camera, mode),
-                offset: 0,
-            });
-            cameras.len() - 1
-        });
-        image_idx.insert(img.image_id, images.len());
-        images.push(ImageEntry {
-            name: img.name.clone(),
-            frame: f,
-            camera: c,
-            sensor_from_rig: cam_from_world * rig_from_world.inverse(),
-        });
-    }
+    let Registered {
+        frames,
+        cameras,
+        mut images,
+        image_idx,
+    } = registered(model, mode);
 
     // Observations per point, at the model's estimate.
     let mut points = Vec::new();
@@ -276,7 +213,141 @@ pub(crate) fn build(
         camera_used[images[o.image].camera] = true;
     }
 
-    // Camera A's epochs (measure's naming), each must be a registered image with observations.
+    let a_epochs = a_epochs(model, camera_a, &image_idx, &images, &frame_used)?;
+
+    // Renumber frames and cameras to the used ones.
+    let (frames, frame_map) = compact(frames, &frame_used);
+    let (mut cameras, camera_map) = compact(cameras, &camera_used);
+    for im in &mut images {
+        im.frame = frame_map[im.frame].unwrap_or(usize::MAX);
+        im.camera = camera_map[im.camera].unwrap_or(usize::MAX);
+    }
+    let mut offset = 6 * frames.len();
+    for c in &mut cameras {
+        c.offset = offset;
+        offset += c.free.len();
+    }
+    Ok(Problem {
+        frames,
+        cameras,
+        images,
+        points,
+        obs,
+        a_epochs,
+        n_reduced: offset,
+        sum_sq,
+        rejected,
+        points_left_out,
+        control: control_used,
+    })
+}
+
+/// The kind of every control point (fixed, or a prior σ in model units); every id must be a
+/// point of the model.
+fn control_kinds(
+    model: &Reconstruction,
+    control: &ControlPoints,
+    mm_per_unit: f64,
+) -> Result<HashMap<u64, PointKind>, Error> {
+    let mut control_kind: HashMap<u64, PointKind> = HashMap::new();
+    for cp in &control.points {
+        if model.point3d(cp.point3d_id).is_none() {
+            return Err(Error::ControlCsv {
+                path: control.path.clone(),
+                line: cp.line,
+                problem: format!(
+                    "point3D_id {} is not a point of the model {}",
+                    cp.point3d_id,
+                    model.dir().display()
+                ),
+            });
+        }
+        let kind = if cp.sigma_mm > 0.0 {
+            PointKind::Prior(cp.sigma_mm / mm_per_unit)
+        } else {
+            PointKind::Fixed
+        };
+        control_kind.insert(cp.point3d_id, kind);
+    }
+
+    Ok(control_kind)
+}
+
+/// The model's registered images, grouped by frame, with their cameras.
+struct Registered {
+    frames: Vec<FrameBlock>,
+    cameras: Vec<CameraBlock>,
+    images: Vec<ImageEntry>,
+    image_idx: HashMap<u32, usize>,
+}
+
+/// Registered images, grouped by frame (an image without pose, frame or camera is left out).
+fn registered(model: &Reconstruction, mode: Intrinsics) -> Registered {
+    let mut frames: Vec<FrameBlock> = Vec::new();
+    let mut frame_idx: HashMap<u32, usize> = HashMap::new();
+    let mut cameras: Vec<CameraBlock> = Vec::new();
+    let mut camera_idx: HashMap<u32, usize> = HashMap::new();
+    let mut images: Vec<ImageEntry> = Vec::new();
+    let mut image_idx: HashMap<u32, usize> = HashMap::new();
+    for img in model.images() {
+        let (Some(cam_from_world), Some(frame)) = (
+            model.image_cam_from_world(img.image_id),
+            model.image_frame(img.image_id),
+        ) else {
+            continue;
+        };
+        let Some(rig_from_world) = frame.rig_from_world.to_rigid() else {
+            continue;
+        };
+        let Some(cam_rec) = model.camera(img.camera_id) else {
+            continue;
+        };
+        let f = *frame_idx.entry(frame.frame_id).or_insert_with(|| {
+            frames.push(FrameBlock {
+                rig_from_world,
+                label: img.name.clone(),
+            });
+            frames.len() - 1
+        });
+        let c = *camera_idx.entry(img.camera_id).or_insert_with(|| {
+            cameras.push(CameraBlock {
+                camera_id: img.camera_id,
+                camera: cam_rec.camera.clone(),
+                free: free_params(&cam_rec.camera, mode),
+                offset: 0,
+            });
+            cameras.len() - 1
+        });
+        image_idx.insert(img.image_id, images.len());
+        images.push(ImageEntry {
+            name: img.name.clone(),
+            frame: f,
+            camera: c,
+            sensor_from_rig: cam_from_world * rig_from_world.inverse(),
+        });
+    }
+
+    Registered {
+        frames,
+        cameras,
+        images,
+        image_idx,
+    }
+}
+
+/// Camera A's epochs (measure's naming); each must be a registered image with observations.
+fn a_epochs(
+    model: &Reconstruction,
+    camera_a: &CameraSelector,
+    image_idx: &HashMap<u32, usize>,
+    images: &[ImageEntry],
+    frame_used: &[bool],
+) -> Result<Vec<AEpoch>, Error> {
+    let cam_err = |problem: String| Error::Camera {
+        model: model.dir().to_path_buf(),
+        selector: camera_a.to_string(),
+        problem,
+    };
     let mut by_key: BTreeMap<String, (String, Option<usize>)> = BTreeMap::new();
     let mut names: BTreeMap<String, String> = BTreeMap::new();
     for img in model.images().iter().filter(|i| camera_a.matches(i)) {
@@ -314,31 +385,7 @@ pub(crate) fn build(
         });
     }
 
-    // Renumber frames and cameras to the used ones.
-    let (frames, frame_map) = compact(frames, &frame_used);
-    let (mut cameras, camera_map) = compact(cameras, &camera_used);
-    for im in &mut images {
-        im.frame = frame_map[im.frame].unwrap_or(usize::MAX);
-        im.camera = camera_map[im.camera].unwrap_or(usize::MAX);
-    }
-    let mut offset = 6 * frames.len();
-    for c in &mut cameras {
-        c.offset = offset;
-        offset += c.free.len();
-    }
-    Ok(Problem {
-        frames,
-        cameras,
-        images,
-        points,
-        obs,
-        a_epochs,
-        n_reduced: offset,
-        sum_sq,
-        rejected,
-        points_left_out,
-        control: control_used,
-    })
+    Ok(a_epochs)
 }
 
 /// Keeps the used items; returns them and the old → new index map.

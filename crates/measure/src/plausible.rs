@@ -19,8 +19,7 @@
 use crate::Error;
 use crate::engine::Measurement;
 
-/// Largest number of Monte Carlo replicates per row (`--samples`, `[measure] samples`).
-pub const MAX_SAMPLES: usize = 10_000_000;
+pub use crate::engine::MAX_SAMPLES;
 /// A crash-test camera records at 500 Hz or more: a rate below this (Hz) is suspect (a rate
 /// typed in kHz).
 pub const MIN_FRAME_RATE_HZ: f64 = 100.0;

@@ -159,6 +159,11 @@ pub fn run(config: &MeasureConfig) -> Result<MeasureRun, Error> {
         c: c.map(|(_, tie, cam)| (tie, cam)),
     };
     let measurement = crate::measure(&epochs, &rig, &observations, &config.settings)
+        .and_then(|m| {
+            crate::plausible::check_measurable(&m)?;
+            crate::plausible::check_finite(&m)?;
+            Ok(m)
+        })
         .map_err(|e| e.in_files(&config.observations, &config.model))?;
     let warnings = measurement
         .skipped

@@ -1,10 +1,8 @@
 //! `crashrig measure`: marker trajectories with their uncertainty from a crash-test sequence.
 
 use crate::Global;
-use crashrig_geometry::Vec3;
-use crashrig_measure::filter::{CfcSpec, Standard};
 use crashrig_measure::input;
-use crashrig_measure::{ANoise, MeasureConfig, OutputDir, Settings};
+use crashrig_measure::{MeasureConfig, OutputDir, Settings};
 use std::path::PathBuf;
 
 /// Default seed of `measure` when `--seed` is not given.
@@ -39,15 +37,9 @@ pub struct MeasureArgs {
     /// Model units → mm (required unless `--a-covariance` states `mm_per_unit`).
     #[arg(long, value_name = "F", value_parser = crate::limits::parse_mm_per_unit)]
     pub mm_per_unit: Option<f64>,
-    /// σ of A's projection centre per epoch (world axes, mm).
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    pub sigma_a_position_mm: Option<Vec<f64>>,
-    /// σ of A's rotation per epoch about its own axes (tangent, degrees).
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    pub sigma_a_angles_deg: Option<Vec<f64>>,
-    /// A's pose covariance per epoch: JSON with `covariance_tangent` and/or `epochs`.
-    #[arg(long, value_name = "JSON", conflicts_with_all = ["sigma_a_position_mm", "sigma_a_angles_deg"])]
-    pub a_covariance: Option<PathBuf>,
+    /// Camera A's pose uncertainty per epoch.
+    #[command(flatten)]
+    pub a_noise: super::measure_options::ANoiseArgs,
     /// σ of each pixel coordinate of an observation (px).
     #[arg(long, value_name = "PX", default_value_t = 0.5)]
     pub pixel_sigma_px: f64,
@@ -70,22 +62,9 @@ pub struct MeasureArgs {
     /// Skip the trajectory plots.
     #[arg(long)]
     pub no_plots: bool,
-    /// CFC filter class (60, 180, 600, 1000) of the kinematics: each marker's displacement
-    /// filtered in every replicate, velocity and acceleration from it (kinematics.csv; needs
-    /// --frame-rate-hz).
-    #[arg(long, value_name = "CLASS")]
-    pub cfc: Option<u32>,
-    /// The filter's standard: j211 (SAE J211-1, default) or iso6487 (ISO 6487).
-    #[arg(long, value_name = "STANDARD", requires = "cfc")]
-    pub cfc_standard: Option<String>,
-    /// σ of camera A's trigger offset against the inward cameras (ms; needs --frame-rate-hz).
-    #[arg(
-        long,
-        value_name = "MS",
-        default_value_t = 0.0,
-        allow_negative_numbers = true
-    )]
-    pub sync_sigma_ms: f64,
+    /// Filtered kinematics and A's trigger offset.
+    #[command(flatten)]
+    pub kinematics: super::measure_options::KinematicsArgs,
 }
 
 /// Runs the command: arguments → [`MeasureConfig`] → [`crashrig_measure::run`] → print.
@@ -93,11 +72,8 @@ pub fn run(a: MeasureArgs, g: &Global) -> anyhow::Result<()> {
     let config = config(&a, g.seed)?;
     let r = crashrig_measure::run(&config)?;
     // Warnings after a successful run: a failed run prints its one `error:` line only.
-    if a.a_covariance.is_none() && a.sigma_a_position_mm.is_none() && a.sigma_a_angles_deg.is_none()
-    {
-        eprintln!(
-            "warning: no uncertainty given for camera A's pose (--sigma-a-position-mm, --sigma-a-angles-deg or --a-covariance): it is treated as exact"
-        );
+    if a.a_noise.is_empty() {
+        eprintln!("warning: {}", super::measure_options::A_EXACT_WARNING);
     }
     crate::output::warn_all(&r.warnings);
     crate::output::warn_all(&crashrig_measure::plausible::warnings(
@@ -127,13 +103,6 @@ pub fn run(a: MeasureArgs, g: &Global) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn vec3(v: &Option<Vec<f64>>, name: &str) -> anyhow::Result<Vec3> {
-    let x = v.as_deref().map_or(Vec3::zeros(), Vec3::from_row_slice);
-    let ok = x.iter().all(|c| c.is_finite() && *c >= 0.0);
-    anyhow::ensure!(ok, "{name}: σ must be finite numbers ≥ 0");
-    Ok(x)
-}
-
 /// The typed configuration of the arguments: checks the flags and reads the link and the tie.
 fn config(a: &MeasureArgs, seed: Option<u64>) -> anyhow::Result<MeasureConfig> {
     crashrig_measure::check_out(&a.out)?;
@@ -143,18 +112,13 @@ fn config(a: &MeasureArgs, seed: Option<u64>) -> anyhow::Result<MeasureConfig> {
     );
     // Units are never guessed: the flag, or the units the A covariance states.
     let a_cov = a
+        .a_noise
         .a_covariance
         .as_deref()
         .map(input::read_a_covariance)
         .transpose()?;
     let mm_per_unit = input::model_scale(a.mm_per_unit, a_cov.as_ref(), "--mm-per-unit")?;
-    let a_noise = match &a.a_covariance {
-        Some(p) => ANoise::File(p.clone()),
-        None => ANoise::Sigmas {
-            position_mm: vec3(&a.sigma_a_position_mm, "--sigma-a-position-mm")?,
-            angles_deg: vec3(&a.sigma_a_angles_deg, "--sigma-a-angles-deg")?,
-        },
-    };
+    let a_noise = a.a_noise.to_config()?;
     Ok(MeasureConfig {
         model: a.model.clone(),
         camera_a: a.camera_a.clone(),
@@ -173,14 +137,8 @@ fn config(a: &MeasureArgs, seed: Option<u64>) -> anyhow::Result<MeasureConfig> {
             frame_rate_hz: a.frame_rate_hz,
             threshold_mm: a.threshold_mm,
             max_reprojection_px: a.max_reprojection_px,
-            cfc: match a.cfc {
-                Some(class) => Some(CfcSpec {
-                    class,
-                    standard: Standard::parse(a.cfc_standard.as_deref().unwrap_or("j211"))?,
-                }),
-                None => None,
-            },
-            sync_sigma_ms: a.sync_sigma_ms,
+            cfc: a.kinematics.cfc_spec()?,
+            sync_sigma_ms: a.kinematics.sync_sigma_ms,
         },
         out: Some(OutputDir {
             dir: a.out.clone(),

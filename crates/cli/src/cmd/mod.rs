@@ -7,6 +7,7 @@ pub mod covariance;
 pub mod export;
 pub mod grid;
 pub mod measure;
+pub mod measure_options;
 pub mod paper;
 pub mod propagate;
 pub mod study;
