@@ -345,6 +345,20 @@ pub fn heatmap_with(
         y0 = y0.min(m.y);
         y1 = y1.max(m.y);
     }
+    // The context (a car outline) is drawn whole: the axes grow to include it.
+    for &(x, y) in overlay
+        .context
+        .iter()
+        .flat_map(|s| [s.0, s.1])
+        .filter(|p| p.0.is_finite() && p.1.is_finite())
+        .collect::<Vec<_>>()
+        .iter()
+    {
+        x0 = x0.min(x);
+        x1 = x1.max(x);
+        y0 = y0.min(y);
+        y1 = y1.max(y);
+    }
     let pad = 0.04 * (x1 - x0).max(y1 - y0);
     let (x0, x1, y0, y1) = (x0 - pad, x1 + pad, y0 - pad, y1 + pad);
     // Plot area 760 px wide; height by aspect ratio, clamped to a readable range.

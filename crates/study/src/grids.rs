@@ -256,10 +256,10 @@ pub fn nice_ceil(v: f64) -> f64 {
 }
 
 impl MapScale {
-    /// One scale for `results` (every layout of a study): the 98th percentile of the
-    /// worst-direction σ over all measurable points (a few extreme points saturate instead of
-    /// flattening the rest), at least 1.2 × the largest threshold so that the threshold is on
-    /// the bar, rounded up by [`nice_ceil`].
+    /// One scale for `results` (every layout of a study): the 90th percentile of the
+    /// worst-direction σ over all measurable points (the worst tenth saturates instead of
+    /// flattening the rest into one colour), at least 1.2 × the largest threshold so that the
+    /// threshold is on the bar, rounded up by [`nice_ceil`].
     pub fn shared<'a>(results: impl IntoIterator<Item = (&'a Grid, &'a GridResult)>) -> MapScale {
         let mut v = Vec::new();
         let mut threshold = 0.0f64;
@@ -273,13 +273,13 @@ impl MapScale {
             );
         }
         v.sort_by(f64::total_cmp);
-        let p98 = if v.is_empty() {
+        let p90 = if v.is_empty() {
             0.0
         } else {
-            v[((v.len() - 1) as f64 * 0.98).round() as usize]
+            v[((v.len() - 1) as f64 * 0.9).round() as usize]
         };
         MapScale {
-            top_mm: nice_ceil(p98.max(1.2 * threshold)),
+            top_mm: nice_ceil(p90.max(1.2 * threshold)),
         }
     }
 }
@@ -333,10 +333,7 @@ pub fn heat_maps(
     let zs = grid.z.values();
     let per_z = xs.len() * ys.len();
     let top = scale.top_mm;
-    let bar = format!(
-        "sigma [mm] (shared scale, >= {top} saturated; black mark: {} mm threshold)",
-        grid.threshold_mm
-    );
+    let bar = format!("sigma [mm] (shared scale; >= {top} saturated)");
     type Pick = fn(&crashrig_mc::PointStats) -> f64;
     let specs: [(&'static str, &str, Pick); 5] = [
         ("sigma_max", "sigma_max (largest of x, y, z)", |p| {
@@ -370,9 +367,9 @@ pub fn heat_maps(
         .min_by(|a, b| a.x.total_cmp(&b.x))
     {
         markers.push(crashrig_plot::Marker {
-            x: r.x - 60.0,
+            x: r.x - 120.0,
             y: r.y,
-            label: "A (outward)",
+            label: "A",
         });
     }
     let mut out = Vec::new();

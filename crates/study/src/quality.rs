@@ -203,12 +203,19 @@ pub fn verdict(c: &CalibrationResult) -> Verdict {
         None => lines.push("split-half: not possible (fewer than 4 epochs)".into()),
     }
     for r in &c.reprojection {
-        lines.push(format!(
-            "camera {} reprojection σ {} px per axis ({} observations)",
-            r.role,
-            fmt(r.sigma_px, 3),
-            r.residuals_px.len()
-        ));
+        lines.push(if r.residuals_px.is_empty() {
+            format!(
+                "camera {}: the model holds no observation of a 3-D point (no reprojection statistics)",
+                r.role
+            )
+        } else {
+            format!(
+                "camera {} reprojection σ {} px per axis ({} observations)",
+                r.role,
+                fmt(r.sigma_px, 3),
+                r.residuals_px.len()
+            )
+        });
     }
     let bad = c.split_half.as_ref().is_some_and(|s| !s.agree);
     let (answer, status) = if bad {

@@ -588,10 +588,28 @@ pub fn report_html(
 fn meta_html(study: &Study, r: &StudyResult, prov: &Provenance) -> String {
     let time = match prov.run_time_s {
         Some(t) => {
-            let steps: Vec<String> = prov
-                .step_times_s
+            // Summed per kind of step (calibration, tie, propagation, layouts, sensitivity,
+            // measure), in order of first appearance.
+            let mut kinds: Vec<(&str, f64, usize)> = Vec::new();
+            for (s, t) in &prov.step_times_s {
+                let k = s.split_whitespace().next().unwrap_or("");
+                match kinds.iter_mut().find(|e| e.0 == k) {
+                    Some(e) => {
+                        e.1 += t;
+                        e.2 += 1;
+                    }
+                    None => kinds.push((k, *t, 1)),
+                }
+            }
+            let steps: Vec<String> = kinds
                 .iter()
-                .map(|(s, t)| format!("{s} {t:.2} s"))
+                .map(|(k, t, n)| {
+                    if *n > 1 {
+                        format!("{k} {t:.2} s over {n} runs")
+                    } else {
+                        format!("{k} {t:.2} s")
+                    }
+                })
                 .collect();
             format!(
                 " The study ran in {t:.2} s{}.",
@@ -1146,7 +1164,7 @@ fn layouts_section(rep: &mut Report, r: &StudyResult, maps: &[Vec<HeatMapPng>]) 
     ));
     let scale = grids::MapScale::shared(r.layouts.iter().map(|l| (&l.grid, &l.result)));
     rep.push(Block::Paragraph(format!(
-        "Each grid point (vehicle frame: x forwards from the trunk opening, y left, z up) is observed by the layout's cameras aimed at it without roll, intersected by linear least squares (DLT) for every draw; σx σy σz are the sample standard deviations, σ_max the largest of them, and the worst-direction σ the square root of the largest eigenvalue of the point's 3×3 covariance (the σ along the direction in which the point is least certain; a 5 mm promise holds in every direction only when it is below 5 mm). Every σ map of this study shares one colour scale, 0 to {} mm, chosen from the data (98th percentile of the worst-direction σ over all layouts, at least 1.2× the threshold; larger values saturate); the threshold is the white contour on the map and the black mark on the colour bar. The maps show the interior cameras (red triangles), the outward camera A behind the rear-most one and a sketch of the car (grey, trunk opening at x = 0).",
+        "Each grid point (vehicle frame: x forwards from the trunk opening, y left, z up) is observed by the layout's cameras aimed at it without roll, intersected by linear least squares (DLT) for every draw; σx σy σz are the sample standard deviations, σ_max the largest of them, and the worst-direction σ the square root of the largest eigenvalue of the point's 3×3 covariance (the σ along the direction in which the point is least certain; a 5 mm promise holds in every direction only when it is below 5 mm). Every σ map of this study shares one colour scale, 0 to {} mm, chosen from the data (90th percentile of the worst-direction σ over all layouts, at least 1.2× the threshold; larger values saturate); the threshold is the white contour on the map and the black mark on the colour bar. The maps show the interior cameras (red triangles), the outward camera A (behind the rear-most interior camera, looking out of the trunk) and a sketch of the car (grey, trunk opening at x = 0; not a vehicle model).",
         scale.top_mm
     )));
     if r.layouts
