@@ -8,15 +8,12 @@
 //! - `fixed_pinhole`: fixed OPENCV cameras without distortion, 0.5 px (no refinement needed);
 //! - `fixed_distorted`: fixed OPENCV cameras with k1 k2 p1 p2, 0.5 px (chord-Newton
 //!   undistortion per view and draw);
-//! - `fixed_pinhole_legacy`, `fixed_distorted_legacy`: the same on the former scalar engine
-//!   (ChaCha8 + ziggurat, one draw at a time; `CRASHRIG_ISA=legacy`), the baseline of the
-//!   move onto the block engine.
 //!
 //! The fair comparison for a fixed camera is `aimed_pixel` (the same inputs: pose noise and
 //! pixel noise, 16 normals per draw); `aimed` draws 12 normals and no pixel noise.
 //!
 //! Run: `cargo bench -p crashrig-benches --bench fixed`.
-use crashrig_mc::{Engine, GridStudy, Scenario};
+use crashrig_mc::{GridStudy, Isa, Scenario};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use std::hint::black_box;
 use std::path::Path;
@@ -74,31 +71,22 @@ fn fixed_vs_aimed(c: &mut Criterion) {
         .expect("thread pool");
     let mut g = c.benchmark_group("grid_fixed_vs_aimed_1thread");
     g.sample_size(10);
-    for name in [
-        "aimed",
-        "aimed_pixel",
-        "fixed_pinhole",
-        "fixed_distorted",
-        "fixed_pinhole_legacy",
-        "fixed_distorted_legacy",
-    ] {
-        let (kind, engine) = match name.strip_suffix("_legacy") {
-            Some(kind) => (kind, Engine::Legacy),
-            None => (name, Engine::default()),
-        };
+    for kind in ["aimed", "aimed_pixel", "fixed_pinhole", "fixed_distorted"] {
         let s =
             Scenario::from_toml_str(&scenario(kind), Path::new("bench.toml")).expect("scenario");
         let study = GridStudy::new(&s, s.samples, s.seed).expect("study");
-        let r = study.run_with(s.samples, s.seed, engine).expect("run");
+        let r = study.run_with(s.samples, s.seed, Isa::Auto).expect("run");
         assert!(
             r.points.iter().all(|p| p.observers_seen == 2),
             "{kind}: not all seen"
         );
         let draws: u64 = r.points.iter().map(|p| p.count).sum();
         g.throughput(Throughput::Elements(draws));
-        g.bench_function(name, |b| {
+        g.bench_function(kind, |b| {
             b.iter(|| {
-                pool.install(|| black_box(study.run_with(s.samples, s.seed, engine).expect("run")))
+                pool.install(|| {
+                    black_box(study.run_with(s.samples, s.seed, Isa::Auto).expect("run"))
+                })
             })
         });
     }

@@ -5,10 +5,8 @@
 //! Throughput is reported per draw (`Throughput::Elements`), so criterion prints draws/s.
 //! Single-threaded numbers come from a 1-thread rayon pool; the 2-thread grid uses a 2-thread
 //! pool. See docs/performance.md for the numbers and the roofline note.
-use crashrig_benches::{
-    CHAIN, TWO_OBSERVERS, engine_name, engines, kernel_paths, one_point_kernel,
-};
-use crashrig_mc::{Chain, Engine, GridStudy, Isa, Scenario};
+use crashrig_benches::{CHAIN, TWO_OBSERVERS, kernel_paths, levels, one_point_kernel};
+use crashrig_mc::{Chain, GridStudy, Isa, Scenario};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use rand::RngExt;
 use rand_distr::StandardNormal;
@@ -32,19 +30,6 @@ fn normals(c: &mut Criterion) {
             let mut s = 0.0f64;
             for _ in 0..n {
                 s += rng.sample::<f64, _>(StandardNormal);
-            }
-            black_box(s)
-        })
-    });
-    g.bench_function("chacha8_fast_normal", |b| {
-        let mut rng = crashrig_stats::stream(1, 0);
-        let nd = crashrig_mc::FastNormal::new();
-        let mut buf = [0.0f64; 12];
-        b.iter(|| {
-            let mut s = 0.0f64;
-            for _ in 0..n / 12 {
-                nd.fill(&mut rng, &mut buf);
-                s += buf.iter().sum::<f64>();
             }
             black_box(s)
         })
@@ -91,18 +76,17 @@ fn kernel(c: &mut Criterion) {
     let mut g = c.benchmark_group("kernel");
     g.throughput(Throughput::Elements(n as u64));
     g.sample_size(10);
-    for engine in engines() {
-        g.bench_function(
-            format!("two_observers_1thread/{}", engine_name(engine)),
-            |b| b.iter(|| one.install(|| black_box(study.run_with(n, 7, engine).expect("run")))),
-        );
+    for isa in levels() {
+        g.bench_function(format!("two_observers_1thread/{}", isa.name()), |b| {
+            b.iter(|| one.install(|| black_box(study.run_with(n, 7, isa).expect("run"))))
+        });
     }
     g.finish();
 }
 
 fn paths(c: &mut Criterion) {
     // One grid point per kernel path (`crashrig_benches::kernel_paths`), one thread, every
-    // engine: the per-draw cost of each path.
+    // level: the per-draw cost of each path.
     let n = 16 * 4096;
     let one = pool(1);
     let mut g = c.benchmark_group("paths_1thread");
@@ -111,11 +95,32 @@ fn paths(c: &mut Criterion) {
     for (name, toml) in kernel_paths() {
         let sc = Scenario::from_toml_str(&toml, Path::new("bench.toml")).expect("scenario");
         let study = GridStudy::new(&sc, 0, 0).expect("study");
-        for engine in engines() {
-            g.bench_function(format!("{name}/{}", engine_name(engine)), |b| {
-                b.iter(|| one.install(|| black_box(study.run_with(n, 7, engine).expect("run"))))
+        for isa in levels() {
+            g.bench_function(format!("{name}/{}", isa.name()), |b| {
+                b.iter(|| one.install(|| black_box(study.run_with(n, 7, isa).expect("run"))))
             });
         }
+    }
+    g.finish();
+}
+
+fn paths_quick(c: &mut Criterion) {
+    // `paths_1thread` in seconds instead of minutes: the best level only, 4 chunks of draws
+    // per sample and 1 s of measurement per path (`cargo bench -p crashrig-benches --bench mc
+    // -- paths_quick`); for a before/after check of a change, not for the published table.
+    let n = 4 * 4096;
+    let one = pool(1);
+    let mut g = c.benchmark_group("paths_quick_1thread");
+    g.throughput(Throughput::Elements(n as u64));
+    g.sample_size(10);
+    g.warm_up_time(std::time::Duration::from_millis(300));
+    g.measurement_time(std::time::Duration::from_secs(1));
+    for (name, toml) in kernel_paths() {
+        let sc = Scenario::from_toml_str(&toml, Path::new("bench.toml")).expect("scenario");
+        let study = GridStudy::new(&sc, 0, 0).expect("study");
+        g.bench_function(name, |b| {
+            b.iter(|| one.install(|| black_box(study.run_with(n, 7, Isa::Auto).expect("run"))))
+        });
     }
     g.finish();
 }
@@ -130,12 +135,15 @@ fn grid(c: &mut Criterion) {
     g.sample_size(10);
     for threads in [1usize, 2] {
         let p = pool(threads);
-        for engine in [Engine::Legacy, Engine::Simd(Isa::Auto)] {
-            let id = format!("{}/threads", engine_name(engine));
-            g.bench_with_input(BenchmarkId::new(id, threads), &threads, |b, _| {
-                b.iter(|| p.install(|| black_box(study.run_with(samples, 3, engine).expect("run"))))
-            });
-        }
+        g.bench_with_input(
+            BenchmarkId::new("auto/threads", threads),
+            &threads,
+            |b, _| {
+                b.iter(|| {
+                    p.install(|| black_box(study.run_with(samples, 3, Isa::Auto).expect("run")))
+                })
+            },
+        );
     }
     g.finish();
 }
@@ -149,15 +157,14 @@ fn chain(c: &mut Criterion) {
     g.sample_size(10);
     for threads in [1usize, 2] {
         let p = pool(threads);
-        for engine in [Engine::Legacy, Engine::Simd(Isa::Auto)] {
-            let id = format!("{}/threads", engine_name(engine));
-            g.bench_with_input(BenchmarkId::new(id, threads), &threads, |b, _| {
-                b.iter(|| p.install(|| black_box(ch.monte_carlo_with(n, 3, engine))))
-            });
-        }
+        g.bench_with_input(
+            BenchmarkId::new("auto/threads", threads),
+            &threads,
+            |b, _| b.iter(|| p.install(|| black_box(ch.monte_carlo_with(n, 3, Isa::Auto)))),
+        );
     }
     g.finish();
 }
 
-criterion_group!(benches, normals, kernel, paths, grid, chain);
+criterion_group!(benches, normals, kernel, paths, paths_quick, grid, chain);
 criterion_main!(benches);

@@ -1,13 +1,13 @@
 //! Shared inputs of the Monte Carlo benchmarks: the criterion benches in `benches/benches/`
-//! and the CPU-time harness `examples/mc_cpu.rs` run the same scenarios and engines, defined
+//! and the CPU-time harness `examples/mc_cpu.rs` run the same scenarios and instruction-set levels, defined
 //! once here.
 //!
 //! ```
-//! let engines = crashrig_benches::engines();
-//! assert_eq!(crashrig_benches::engine_name(engines[0]), "legacy");
-//! assert_eq!(crashrig_benches::engine_of_name("legacy"), Some(engines[0]));
+//! let levels = crashrig_benches::levels();
+//! assert_eq!(levels[0].name(), "baseline");
+//! assert_eq!(crashrig_benches::level_of_name("baseline"), Some(levels[0]));
 //! ```
-use crashrig_mc::{Engine, Isa};
+use crashrig_mc::Isa;
 
 /// Two aimed observers with the σ of the paper's Tables 3–4 over a 17 × 13 grid (221 points).
 pub const TWO_OBSERVERS: &str = r#"
@@ -37,7 +37,7 @@ pub fn one_point_kernel() -> String {
 /// One grid point (1000, 300, 0) mm of each kernel path, by name: tangent and euler noise
 /// (diagonal factors), a full tangent covariance, pixel noise, three observers, and observers
 /// drawn jointly from a chain (`correlated`). The per-path benches
-/// (`benches/mc.rs`, group `paths_1thread`) run each on every engine.
+/// (`benches/mc.rs`, group `paths_1thread`) run each on every instruction-set level.
 pub fn kernel_paths() -> Vec<(&'static str, String)> {
     let one = one_point_kernel();
     let tangent = format!("rotation_noise = \"tangent\"\n{one}");
@@ -97,35 +97,19 @@ sigma_position_mm = [2.0, 2.0, 2.0]
 sigma_angles_deg = [0.02, 0.02, 0.02]
 "#;
 
-/// The legacy engine and every SIMD level this CPU has, slowest first.
-pub fn engines() -> Vec<Engine> {
-    std::iter::once(Engine::Legacy)
-        .chain(
-            Isa::LEVELS
-                .into_iter()
-                .filter(|l| l.is_available())
-                .map(Engine::Simd),
-        )
+/// Every instruction-set level this CPU has, slowest first.
+pub fn levels() -> Vec<Isa> {
+    Isa::LEVELS
+        .into_iter()
+        .filter(|l| l.is_available())
         .collect()
 }
 
-/// `legacy`, or the SIMD level's name (`baseline`, `v3`, `v4`, `auto`).
-pub fn engine_name(e: Engine) -> String {
-    match e {
-        Engine::Legacy => "legacy".to_string(),
-        Engine::Simd(isa) => isa.name().to_string(),
-    }
-}
-
-/// The engine named by [`engine_name`], if any.
-pub fn engine_of_name(name: &str) -> Option<Engine> {
+/// The level named `baseline`, `v3`, `v4` or `auto` ([`Isa::name`]), if any.
+pub fn level_of_name(name: &str) -> Option<Isa> {
     match name {
-        "legacy" => Some(Engine::Legacy),
-        "auto" => Some(Engine::Simd(Isa::Auto)),
-        _ => Isa::LEVELS
-            .into_iter()
-            .find(|l| l.name() == name)
-            .map(Engine::Simd),
+        "auto" => Some(Isa::Auto),
+        _ => Isa::LEVELS.into_iter().find(|l| l.name() == name),
     }
 }
 
@@ -148,7 +132,7 @@ mod tests {
             let sc = Scenario::from_toml_str(&toml, Path::new("bench.toml"))
                 .unwrap_or_else(|e| panic!("{name}: {e}"));
             let study = GridStudy::new(&sc, 0, 0).unwrap_or_else(|e| panic!("{name}: {e}"));
-            let r = study.run_with(200, 1, Engine::default()).unwrap();
+            let r = study.run_with(200, 1, Isa::Auto).unwrap();
             assert_eq!(r.points.len(), 1, "{name}");
             assert!(
                 r.points[0]

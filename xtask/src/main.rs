@@ -209,15 +209,15 @@ fn bench(e2e: bool) -> Result<()> {
                 secs[0] / secs[1]
             );
         }
-        // The issue-14 command, former engine (CRASHRIG_ISA=legacy) against the vectorised
-        // one, alternated twice in one run; then grid.csv must not depend on the threads.
+        // The issue-14 command, twice in one run (the former engine no longer ships: compare
+        // with an older binary side by side, docs/performance.md); then grid.csv must not
+        // depend on the threads.
         let scenario = "fixtures/scenarios/four_cameras_z0.toml";
         let draws = 221.0 * 200_000.0;
-        let grid = |engine: &str, threads: &str, dir: &str| -> Result<f64> {
+        let grid = |threads: &str, dir: &str| -> Result<f64> {
             let start = std::time::Instant::now();
             let mut g = Command::new(&bin);
             g.current_dir(&root)
-                .env("CRASHRIG_ISA", engine)
                 .args(["--threads", threads, "grid", scenario])
                 .args(["--samples", "200000", "--no-plots", "--out"])
                 .arg(out.join(dir));
@@ -225,16 +225,13 @@ fn bench(e2e: bool) -> Result<()> {
             Ok(start.elapsed().as_secs_f64())
         };
         for round in 0..2 {
-            let old = grid("legacy", "2", "legacy")?;
-            let new = grid("auto", "2", "simd_t2")?;
+            let new = grid("2", "simd_t2")?;
             println!(
-                "e2e: four_cameras_z0 --samples 200000, 2 threads, round {round}: legacy {old:.2} s ({:.1} M draws/s), simd {new:.2} s ({:.1} M draws/s), ratio {:.2}x",
-                draws / old / 1e6,
+                "e2e: four_cameras_z0 --samples 200000, 2 threads, round {round}: {new:.2} s ({:.1} M draws/s)",
                 draws / new / 1e6,
-                old / new
             );
         }
-        grid("auto", "1", "simd_t1")?;
+        grid("1", "simd_t1")?;
         let a = std::fs::read(out.join("simd_t1/grid.csv"))?;
         let b = std::fs::read(out.join("simd_t2/grid.csv"))?;
         if a != b {

@@ -40,6 +40,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-colmap",
             "crashrig-stats",
             "crashrig-plot",
+            "crashrig-outdir",
         ],
     ),
     (
@@ -55,6 +56,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-measure",
             "crashrig-stats",
             "crashrig-plot",
+            "crashrig-outdir",
         ],
     ),
     (

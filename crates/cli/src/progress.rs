@@ -62,11 +62,24 @@ impl Bar {
         self.is_shown().then_some(callback)
     }
 
+    /// The bar as the libraries' progress argument: `Some` when it is drawn, else `None`
+    /// (the library then counts nothing).
+    pub fn reporter(&self) -> Option<&dyn crashrig_stats::progress::Reporter> {
+        self.is_shown()
+            .then_some(self as &dyn crashrig_stats::progress::Reporter)
+    }
+
     /// Removes the bar.
     pub fn finish(&self) {
         if let Some(b) = &self.0 {
             b.finish_and_clear();
         }
+    }
+}
+
+impl crashrig_stats::progress::Reporter for Bar {
+    fn report(&self, stage: &str, done: usize, total: usize) {
+        self.set(stage, done as u64, total as u64);
     }
 }
 

@@ -51,3 +51,6 @@ mod sim;
 
 #[path = "contract/acceptance.rs"]
 mod acceptance;
+
+#[path = "contract/pinned.rs"]
+mod pinned;

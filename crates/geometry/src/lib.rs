@@ -67,6 +67,7 @@ pub mod opk;
 pub mod quat;
 #[cfg(feature = "json")]
 pub mod result_json;
+pub mod result_kind;
 pub mod se3;
 pub mod so3;
 pub mod tolerance;

@@ -31,27 +31,7 @@
 use crate::{Mat6, Rigid3, UncertainPose, Vec3, opk, quat};
 use serde_json::Value;
 
-/// Which kind of document a link was read from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ResultKind {
-    /// `crashrig calibrate --json`: the link's covariance is `sem_covariance_tangent`.
-    Calibrate,
-    /// `crashrig bootstrap --json`: the link's covariance is `covariance_tangent`.
-    Bootstrap,
-    /// Neither marker: a link written by hand (`base_mm`, `angles_deg` and a covariance).
-    Link,
-}
-
-impl ResultKind {
-    /// `"calibrate"`, `"bootstrap"` or `"link"`.
-    pub fn command(self) -> &'static str {
-        match self {
-            ResultKind::Calibrate => "calibrate",
-            ResultKind::Bootstrap => "bootstrap",
-            ResultKind::Link => "link",
-        }
-    }
-}
+pub use crate::result_kind::ResultKind;
 
 /// What is wrong with a result document: the key (if one is to blame) and the problem.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]

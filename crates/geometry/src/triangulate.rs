@@ -17,6 +17,19 @@ pub struct View {
     pub normalized: Vector2<f64>,
 }
 
+/// The two DLT rows of a view in normalized image coordinates `(x, y)`: `a = x·c₃ − c₁`,
+/// `b = y·c₃ − c₂`, with `cᵢ` the columns of `R_world_from_cam` (the rows of
+/// `R_cam_from_world`). The point `X` seen there from the centre `C` satisfies `a·(X − C) = 0`
+/// and `b·(X − C) = 0`. The one copy of the rows: [`dlt`], the Monte Carlo kernels of
+/// `crashrig-mc` and their first-order maps call it.
+#[inline(always)]
+pub fn dlt_rows(world_from_cam: &Mat3, x: f64, y: f64) -> [Vec3; 2] {
+    let c1 = world_from_cam.column(0).into_owned();
+    let c2 = world_from_cam.column(1).into_owned();
+    let c3 = world_from_cam.column(2).into_owned();
+    [c3 * x - c1, c3 * y - c2]
+}
+
 /// The two DLT rows `(a, b)` of a view: `a·X = b`.
 fn rows(view: &View) -> [(Vec3, f64); 2] {
     let r = view
@@ -25,11 +38,9 @@ fn rows(view: &View) -> [(Vec3, f64); 2] {
         .to_rotation_matrix()
         .into_inner();
     let t = view.cam_from_world.translation.vector;
-    let r1 = r.row(0).transpose();
-    let r2 = r.row(1).transpose();
-    let r3 = r.row(2).transpose();
     let (u, v) = (view.normalized.x, view.normalized.y);
-    [(r3 * u - r1, t.x - u * t.z), (r3 * v - r2, t.y - v * t.z)]
+    let [a, b] = dlt_rows(&r.transpose(), u, v);
+    [(a, t.x - u * t.z), (b, t.y - v * t.z)]
 }
 
 fn check_views(views: &[View]) -> Result<(), Error> {

@@ -1,5 +1,5 @@
 //! The vectorised draw loop of the grid study: blocks of [`LANES`] draws in
-//! structure-of-arrays form, compiled per instruction-set level by [`crate::simd`].
+//! structure-of-arrays form, compiled per instruction-set level by [`crate::kernel::simd`].
 //!
 //! Per block: the normals of every draw ([`fill_block`], Philox + Box–Muller), then per
 //! observer its pose perturbation `δ = L·ε` ([`NoiseFactor`]: a lower-triangular 6×6 factor,
@@ -18,7 +18,7 @@
 //! Each observer enters a draw through its [`Observation`]: a ray through its centre
 //! ([`ray_pass`]: aimed, no pixel noise), normalized coordinates with pixel noise
 //! ([`Normals3::add_view`]: aimed, `σ_px/f` per axis), or a fixed camera's lens (the true pixel
-//! plus pixel noise undistorted per lane by `crate::fixed::undistort_lanes`, then
+//! plus pixel noise undistorted per lane by `crate::view::undistort_lanes`, then
 //! [`Normals3::add_view`]). [`layout`] assigns the normal rows of any mix; [`run_prepared`] is
 //! the one kernel of every grid path (aimed studies enter through [`run_task`], studies with
 //! fixed observers through `crate::fixed::run`).
@@ -30,258 +30,18 @@
 
 #![allow(clippy::needless_range_loop)] // lane-indexed loops over parallel arrays are the point (they vectorise)
 
-use crate::accumulate::{Acc3, LaneSums};
-use crate::grid::{Aimed, Ctx};
+use crate::chain::Chain;
+use crate::chain::lanes::Composer;
+use crate::kernel::accumulate::{Acc3, LaneSums};
+use crate::kernel::lanes::{
+    NoiseFactor, Normals3, Trig, euler_dir, euler_rot, keep_max, tangent_dir, tangent_rot,
+};
+use crate::kernel::normal::{LANES, Lane, fill_block};
+use crate::kernel::simd::Width;
 use crate::kernel::{Normal3, SMALL_ANGLE_SQ, exp_e3, exp_matrix, opk_e3, rot_opk};
-use crate::normal::{LANES, Lane, fill_block};
-use crate::scenario::RotationNoise;
-use crate::simd::Width;
-use nalgebra::{Matrix3, Matrix6, Vector3};
-
-/// Lower-triangular factor `L` of a pose's 6×6 noise covariance (order x y z mm, then the
-/// three rotation components rad): `δ = L·ε`, ε standard normal.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct NoiseFactor {
-    l: [[f64; 6]; 6],
-    diagonal: bool,
-}
-
-impl NoiseFactor {
-    /// Independent per-axis σ (today's model): `L = diag(σ_position, σ_rotation)`.
-    pub(crate) fn from_sigma(position: &Vector3<f64>, rotation: &Vector3<f64>) -> Self {
-        let mut l = [[0.0; 6]; 6];
-        for i in 0..3 {
-            l[i][i] = position[i];
-            l[i + 3][i + 3] = rotation[i];
-        }
-        NoiseFactor { l, diagonal: true }
-    }
-
-    /// A general factor: the lower triangle of `l` (the strict upper triangle is ignored).
-    /// Uses the diagonal fast path when the strict lower triangle is zero.
-    pub(crate) fn from_lower(l: &Matrix6<f64>) -> Self {
-        let mut f = [[0.0; 6]; 6];
-        let mut diagonal = true;
-        for i in 0..6 {
-            for k in 0..=i {
-                f[i][k] = l[(i, k)];
-                diagonal &= k == i || f[i][k] == 0.0;
-            }
-        }
-        NoiseFactor { l: f, diagonal }
-    }
-
-    /// True when the factor is diagonal (independent components).
-    pub(crate) fn is_diagonal(&self) -> bool {
-        self.diagonal
-    }
-
-    /// The factor as a matrix.
-    pub(crate) fn matrix(&self) -> Matrix6<f64> {
-        Matrix6::from_fn(|i, k| self.l[i][k])
-    }
-
-    /// The same factor without the diagonal shortcut (tests: both paths agree bit for bit).
-    #[cfg(test)]
-    pub(crate) fn without_shortcut(mut self) -> Self {
-        self.diagonal = false;
-        self
-    }
-
-    /// `δ = L·ε` of lane `d` (the same operations as [`Self::apply`], so the same bits).
-    #[inline(always)]
-    fn delta_lane<const DIAGONAL: bool>(&self, e: &[Lane], d: usize) -> [f64; 6] {
-        std::array::from_fn(|i| {
-            let li = &self.l[i];
-            if DIAGONAL {
-                li[i] * e[i][d]
-            } else {
-                let mut s = li[0] * e[0][d];
-                for k in 1..=i {
-                    s += li[k] * e[k][d];
-                }
-                s
-            }
-        })
-    }
-
-    /// `δ = L·ε` per lane; `e` holds the six normal rows. Row `i` is `Σ_{k ≤ i} L_ik ε_k`
-    /// summed in k order (with a diagonal factor the other terms are zeros, so both forms give
-    /// the same bits for non-zero σ).
-    #[inline(always)]
-    pub(crate) fn apply(&self, e: &[Lane], out: &mut [Lane; 6]) {
-        if self.diagonal {
-            for i in 0..6 {
-                let li = self.l[i][i];
-                for d in 0..LANES {
-                    out[i][d] = li * e[i][d];
-                }
-            }
-        } else {
-            for i in 0..6 {
-                let li = &self.l[i];
-                for d in 0..LANES {
-                    let mut s = li[0] * e[0][d];
-                    for k in 1..=i {
-                        s += li[k] * e[k][d];
-                    }
-                    out[i][d] = s;
-                }
-            }
-        }
-    }
-}
-
-/// Per-lane 3×3 DLT normal equations (upper triangle) and right-hand side.
-#[derive(Debug, Clone)]
-pub(crate) struct Normals3 {
-    n: [Lane; 6],
-    r: [Lane; 3],
-}
-
-impl Normals3 {
-    fn new() -> Self {
-        Normals3 {
-            n: [[0.0; LANES]; 6],
-            r: [[0.0; LANES]; 3],
-        }
-    }
-
-    #[inline(always)]
-    fn clear(&mut self) {
-        for row in self.n.iter_mut().chain(self.r.iter_mut()) {
-            *row = [0.0; LANES];
-        }
-    }
-
-    /// Adds to lane `l` the ray through `c` with unit direction `d`: `I − ddᵀ`, `(I − ddᵀ)c`.
-    #[inline(always)]
-    fn add_ray_lane(&mut self, l: usize, d: [f64; 3], c: [f64; 3]) {
-        let [dx, dy, dz] = d;
-        let [cx, cy, cz] = c;
-        let dc = dx.mul_add(cx, dy.mul_add(cy, dz * cz));
-        self.n[0][l] += (-dx).mul_add(dx, 1.0);
-        self.n[1][l] = (-dx).mul_add(dy, self.n[1][l]);
-        self.n[2][l] = (-dx).mul_add(dz, self.n[2][l]);
-        self.n[3][l] += (-dy).mul_add(dy, 1.0);
-        self.n[4][l] = (-dy).mul_add(dz, self.n[4][l]);
-        self.n[5][l] += (-dz).mul_add(dz, 1.0);
-        self.r[0][l] += (-dx).mul_add(dc, cx);
-        self.r[1][l] += (-dy).mul_add(dc, cy);
-        self.r[2][l] += (-dz).mul_add(dc, cz);
-    }
-
-    /// Adds to lane `l` the two DLT rows of a view with rotation `rot` (`R_world_from_cam`,
-    /// row-major: `rot[3i + j]` = R_ij), centre `c` and normalized coordinates `(x, y)`:
-    /// `a = x·c₃ − c₁`, `b = y·c₃ − c₂` (cⱼ the columns of R).
-    #[inline(always)]
-    fn add_view_lane(&mut self, l: usize, rot: &[f64; 9], c: [f64; 3], x: f64, y: f64) {
-        let [cx, cy, cz] = c;
-        for (obs, col) in [(x, 0), (y, 1)] {
-            let a0 = obs * rot[2] - rot[col];
-            let a1 = obs * rot[5] - rot[3 + col];
-            let a2 = obs * rot[8] - rot[6 + col];
-            let ac = a0 * cx + a1 * cy + a2 * cz;
-            self.n[0][l] += a0 * a0;
-            self.n[1][l] += a0 * a1;
-            self.n[2][l] += a0 * a2;
-            self.n[3][l] += a1 * a1;
-            self.n[4][l] += a1 * a2;
-            self.n[5][l] += a2 * a2;
-            self.r[0][l] += a0 * ac;
-            self.r[1][l] += a1 * ac;
-            self.r[2][l] += a2 * ac;
-        }
-    }
-
-    /// Solves every lane ([`Self::solve`]) and adds the points to `sums` as deviations from
-    /// `shift` ([`LaneSums::add`]), in one pass: the same operations, so the same bits.
-    #[inline(always)]
-    fn solve_into(&self, sums: &mut LaneSums<LANES>, shift: &Vector3<f64>) {
-        for l in 0..LANES {
-            let x = self.solve_lane(l);
-            sums.add_lane(l, x, shift);
-        }
-        sums.count(LANES);
-    }
-
-    /// Solves every lane by cofactors (NaN for a singular lane).
-    #[inline(always)]
-    fn solve(&self, out: &mut [Lane; 3]) {
-        for l in 0..LANES {
-            let x = self.solve_lane(l);
-            for i in 0..3 {
-                out[i][l] = x[i];
-            }
-        }
-    }
-
-    /// Lane `l` solved by cofactors (NaN when singular).
-    #[inline(always)]
-    fn solve_lane(&self, l: usize) -> [f64; 3] {
-        {
-            let [a, b, c, d, e, f] = [
-                self.n[0][l],
-                self.n[1][l],
-                self.n[2][l],
-                self.n[3][l],
-                self.n[4][l],
-                self.n[5][l],
-            ];
-            let c00 = d.mul_add(f, -(e * e));
-            let c01 = c.mul_add(e, -(b * f));
-            let c02 = b.mul_add(e, -(c * d));
-            let c11 = a.mul_add(f, -(c * c));
-            let c12 = b.mul_add(c, -(a * e));
-            let c22 = a.mul_add(d, -(b * b));
-            let inv = 1.0 / a.mul_add(c00, b.mul_add(c01, c * c02));
-            let (r0, r1, r2) = (self.r[0][l], self.r[1][l], self.r[2][l]);
-            [
-                c00.mul_add(r0, c01.mul_add(r1, c02 * r2)) * inv,
-                c01.mul_add(r0, c11.mul_add(r1, c12 * r2)) * inv,
-                c02.mul_add(r0, c12.mul_add(r1, c22 * r2)) * inv,
-            ]
-        }
-    }
-}
-
-/// `(sin θ/θ, (1 − cos θ)/θ²)` for θ² = t, Taylor series (t < [`SMALL_ANGLE_SQ`]).
-#[inline(always)]
-fn sinc_cosc_series(t: f64) -> (f64, f64) {
-    const S: [f64; 3] = [-1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0];
-    const C: [f64; 4] = [0.5, -1.0 / 24.0, 1.0 / 720.0, -1.0 / 40320.0];
-    let s = t.mul_add(t.mul_add(t.mul_add(S[2], S[1]), S[0]), 1.0);
-    let c = t.mul_add(t.mul_add(t.mul_add(C[3], C[2]), C[1]), C[0]);
-    (s, c)
-}
-
-/// `(sin δ, cos δ)` for a small δ (δ² < [`SMALL_ANGLE_SQ`]), Taylor series.
-#[inline(always)]
-fn sin_cos_series(x: f64) -> (f64, f64) {
-    let t = x * x;
-    let (s, c) = sinc_cosc_series(t);
-    (x * s, 1.0 - t * c)
-}
-
-#[inline(always)]
-fn keep_max(m: &mut f64, t: f64) {
-    *m = if t > *m { t } else { *m };
-}
-
-/// Ray `R̄·Exp(w)·e₃` and θ² = |w|² (Taylor form of `Exp`).
-#[inline(always)]
-fn tangent_dir(r: &[f64; 9], w: [f64; 3]) -> ([f64; 3], f64) {
-    let [wx, wy, wz] = w;
-    let t = wx * wx + wy * wy + wz * wz;
-    let (s, c) = sinc_cosc_series(t);
-    // Exp(w)e₃ = e₃ + s (w × e₃) + c w × (w × e₃).
-    let v0 = s * wy + c * wx * wz;
-    let v1 = c * wy * wz - s * wx;
-    let v2 = 1.0 - c * (wx * wx + wy * wy);
-    let dir =
-        std::array::from_fn(|i| r[3 * i].mul_add(v0, r[3 * i + 1].mul_add(v1, r[3 * i + 2] * v2)));
-    (dir, t)
-}
+use crate::model::RotationNoise;
+use crate::view::{View, undistort_lanes};
+use nalgebra::{DMatrix, Matrix3, Matrix6, Vector3};
 
 /// [`ray_pass`] in separate passes over the block (δ, centres, rays, normal equations), for
 /// narrow registers ([`Width::Narrow`]): the same operations, so the same bits.
@@ -321,61 +81,6 @@ fn ray_stages<const TANGENT: bool>(
     }
 }
 
-/// Rotation `R̄·Exp(w)` (row-major) and θ² = |w|² (Taylor form of `Exp`).
-#[inline(always)]
-pub(crate) fn tangent_rot(r: &[f64; 9], w: [f64; 3]) -> ([f64; 9], f64) {
-    let [wx, wy, wz] = w;
-    let t = wx * wx + wy * wy + wz * wz;
-    let (s, c) = sinc_cosc_series(t);
-    // Exp(w) = I + s[w]× + c(wwᵀ − tI).
-    let e = [
-        1.0 + c * (wx * wx - t),
-        c * wx * wy - s * wz,
-        s * wy + c * wx * wz,
-        s * wz + c * wx * wy,
-        1.0 + c * (wy * wy - t),
-        c * wy * wz - s * wx,
-        c * wx * wz - s * wy,
-        s * wx + c * wy * wz,
-        1.0 + c * (wz * wz - t),
-    ];
-    let rot = std::array::from_fn(|k| {
-        let (i, j) = (k / 3, k % 3);
-        r[3 * i] * e[j] + r[3 * i + 1] * e[3 + j] + r[3 * i + 2] * e[6 + j]
-    });
-    (rot, t)
-}
-
-/// Sines and cosines of the nominal ω, φ, κ of an observer (or of a chain link).
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Trig {
-    pub(crate) s: [f64; 3],
-    pub(crate) c: [f64; 3],
-}
-
-/// `sin`, `cos` of `nominal + δ` per angle by the addition theorem (δ small).
-#[inline(always)]
-fn perturbed_trig(nom: &Trig, d: [f64; 3]) -> ([f64; 3], [f64; 3], f64) {
-    let mut s = [0.0; 3];
-    let mut c = [0.0; 3];
-    let mut t = 0.0;
-    for k in 0..3 {
-        let (sd, cd) = sin_cos_series(d[k]);
-        s[k] = nom.s[k] * cd + nom.c[k] * sd;
-        c[k] = nom.c[k] * cd - nom.s[k] * sd;
-        keep_max(&mut t, d[k] * d[k]);
-    }
-    (s, c, t)
-}
-
-/// Ray of `Rx(ω)Ry(φ)Rz(κ)` (third column) at the nominal angles plus `w`, and the largest
-/// squared offset.
-#[inline(always)]
-fn euler_dir(nom: &Trig, w: [f64; 3]) -> ([f64; 3], f64) {
-    let (s, c, t) = perturbed_trig(nom, w);
-    ([s[1], -(s[0] * c[1]), c[0] * c[1]], t)
-}
-
 /// One aimed observer with a ray observation, fused over the block: per lane its `δ` (from
 /// the normal rows `e`, or read from `delta` when drawn from the chain), the perturbed centre
 /// and ray, added to the normal equations. `δ` is kept in `delta` for the exact fix-up of a
@@ -401,26 +106,6 @@ fn ray_pass<const TANGENT: bool, const DIAGONAL: bool>(
         keep_max(&mut tmax[l], t);
         ne.add_ray_lane(l, dir, c);
     }
-}
-
-/// `Rx(ω)Ry(φ)Rz(κ)` (row-major) at the nominal angles plus `w`, and the largest squared
-/// offset.
-#[inline(always)]
-pub(crate) fn euler_rot(nom: &Trig, w: [f64; 3]) -> ([f64; 9], f64) {
-    let (s, c, t) = perturbed_trig(nom, w);
-    let (so, co, sp, cp, sk, ck) = (s[0], c[0], s[1], c[1], s[2], c[2]);
-    let m = [
-        cp * ck,
-        -(cp * sk),
-        sp,
-        co * sk + so * sp * ck,
-        co * ck - so * sp * sk,
-        -(so * cp),
-        so * sk - co * sp * ck,
-        so * ck + co * sp * sk,
-        co * cp,
-    ];
-    (m, t)
 }
 
 /// One observer with image coordinates (`x`, `y` per lane: pixel noise, or a fixed camera's
@@ -520,6 +205,40 @@ fn lane_delta<const DIAGONAL: bool>(
     }
 }
 
+/// One observer aimed at one grid point.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Aimed {
+    pub(crate) c: Vector3<f64>,
+    pub(crate) r: Matrix3<f64>,
+    pub(crate) opk: Vector3<f64>,
+    #[cfg(test)]
+    pub(crate) sp: Vector3<f64>,
+    #[cfg(test)]
+    pub(crate) sr: Vector3<f64>,
+    /// Rotation noise kind (a chain draw is always tangent).
+    pub(crate) kind: RotationNoise,
+    /// The pose noise as a factor `δ = L·ε` (diagonal fast path when independent).
+    pub(crate) noise: NoiseFactor,
+    /// The covariance in the observer's own frame (for the first-order map).
+    pub(crate) covariance: Matrix6<f64>,
+    /// Chain camera whose joint draw this observer takes (correlated mode).
+    pub(crate) source: Option<usize>,
+    /// Correlated mode: `Lᵀ·R̄`, mapping the chain camera's body-axis rotation error θ to this
+    /// observer's own axes, so that its world rotation is `Exp(R̄·θ)·L`.
+    pub(crate) chain_to_own: Matrix3<f64>,
+}
+
+/// Everything the per-draw kernel needs that is shared by all points.
+#[derive(Debug, Clone)]
+pub(crate) struct Ctx {
+    /// σ of the normalized image coordinates, if pixel noise is on.
+    pub(crate) pixel: Option<f64>,
+    /// The chain, when at least one observer is drawn jointly from it.
+    pub(crate) chain: Option<Chain>,
+    /// [`Chain::jacobians`] of that chain (for the first-order map of correlated observers).
+    pub(crate) chain_jacobians: Vec<DMatrix<f64>>,
+}
+
 /// How an observer's image observation enters a draw.
 #[derive(Debug, Clone, Copy)]
 pub(crate) enum Observation<'a> {
@@ -529,8 +248,8 @@ pub(crate) enum Observation<'a> {
     /// observers' `pixel_sigma_px / focal_px`): the two DLT rows.
     Normalized(f64),
     /// Through a real lens (a fixed camera): the true pixel plus `N(0, σ_px)` per axis,
-    /// undistorted per lane ([`crate::fixed::undistort_lanes`]), then the two DLT rows.
-    Lens(&'a crate::fixed::View<'a>),
+    /// undistorted per lane ([`crate::view::undistort_lanes`]), then the two DLT rows.
+    Lens(&'a View<'a>),
 }
 
 /// An observer ready for the block kernel.
@@ -579,7 +298,7 @@ pub(crate) struct ObserverSpec<'a> {
 /// number of rows.
 pub(crate) fn layout<'a>(
     specs: impl IntoIterator<Item = ObserverSpec<'a>>,
-    chain: Option<&crate::chain::Chain>,
+    chain: Option<&Chain>,
 ) -> (Vec<Prepared<'a>>, usize) {
     let mut row = chain.map_or(0, |c| 6 * c.len());
     let mut out: Vec<Prepared<'a>> = specs
@@ -643,11 +362,11 @@ struct Scratch {
     /// The normalized image coordinates of each observer with pixel noise.
     xy: Vec<[Lane; 2]>,
     /// The vectorised chain composition (observers drawn jointly from the chain).
-    composer: Option<crate::chain_block::Composer>,
+    composer: Option<Composer>,
 }
 
 /// `m` draws of one grid point (task `task` of the run keyed `key`) into `acc`. Must be
-/// called inside [`crate::simd::dispatch`].
+/// called inside [`crate::kernel::simd::dispatch`].
 #[inline(always)]
 pub(crate) fn run_task(
     obs: &[Aimed],
@@ -663,13 +382,13 @@ pub(crate) fn run_task(
 }
 
 /// `m` draws of prepared observers ([`layout`]) into `acc`: the kernel of every grid path.
-/// Must be called inside [`crate::simd::dispatch`], which gives the level's `width`.
+/// Must be called inside [`crate::kernel::simd::dispatch`], which gives the level's `width`.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn run_prepared(
     prep: &[Prepared<'_>],
     rows: usize,
-    chain: Option<&crate::chain::Chain>,
+    chain: Option<&Chain>,
     key: [u32; 2],
     task: u64,
     m: usize,
@@ -680,7 +399,7 @@ pub(crate) fn run_prepared(
         e: vec![[0.0; LANES]; rows.next_multiple_of(2)],
         delta: vec![[[0.0; LANES]; 6]; prep.len()],
         xy: vec![[[0.0; LANES]; 2]; prep.len()],
-        composer: chain.map(crate::chain_block::Composer::new),
+        composer: chain.map(Composer::new),
     };
     let mut ne = Normals3::new();
     let mut stage = StageScratch {
@@ -730,7 +449,7 @@ pub(crate) fn run_prepared(
                         py[l] = sn * ey[l];
                     }
                 }
-                Observation::Lens(v) => crate::fixed::undistort_lanes(v, ex, ey, px, py, b),
+                Observation::Lens(v) => undistort_lanes(v, ex, ey, px, py, b),
                 Observation::Ray => unreachable!("handled above"),
             }
             let (px, py) = (&*px, &*py);
@@ -777,11 +496,11 @@ pub(crate) fn run_prepared(
 }
 
 /// δ of the observers drawn jointly from the chain, per lane: the chain composed in lanes
-/// ([`crate::chain_block::Composer`], scalar formulas only for a lane beyond its series),
+/// ([`Composer`], scalar formulas only for a lane beyond its series),
 /// then each observer's centre error and its chain camera's body-axis error turned into the
 /// observer's axes (`R·Exp(Rᵀ R̄ θ)`: `w = chain_to_own·θ`).
 #[inline(always)]
-fn chain_deltas(chain: &crate::chain::Chain, prep: &[Prepared<'_>], s: &mut Scratch, b: usize) {
+fn chain_deltas(chain: &Chain, prep: &[Prepared<'_>], s: &mut Scratch, b: usize) {
     let Some(composer) = s.composer.as_mut() else {
         return;
     };
@@ -824,14 +543,7 @@ fn exact_lane(prep: &[Prepared<'_>], s: &Scratch, l: usize) -> Vector3<f64> {
         } else {
             rot_opk(&(p.opk + w))
         };
-        let (x, y) = (s.xy[j][0][l], s.xy[j][1][l]);
-        let (c1, c2, c3) = (
-            r.column(0).into_owned(),
-            r.column(1).into_owned(),
-            r.column(2).into_owned(),
-        );
-        n.add_row(&(c3 * x - c1), &c);
-        n.add_row(&(c3 * y - c2), &c);
+        n.add_view(&r, &c, s.xy[j][0][l], s.xy[j][1][l]);
     }
     n.solve()
 }

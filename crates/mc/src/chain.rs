@@ -1,13 +1,15 @@
 //! Propagation through the camera chain: Monte Carlo draws and first-order (linear) covariance.
 
-use crate::chain_block::{CamPlan, CamSums};
+use crate::error::Error;
+use crate::kernel::Isa;
 use crate::kernel::{exp_matrix, log_near_identity, rot_opk};
-use crate::scenario::{PoseSigma, RotationNoise, Scenario};
-use crate::simd::Engine;
-use crate::{CHUNK, Error, FastNormal};
+use crate::model::{PoseSigma, RotationNoise, Scenario};
+use crate::schedule::{CHUNK, Engine};
 use crashrig_geometry::{Rigid3, Rot3, UncertainPose, quat};
+#[cfg(test)]
+use crashrig_stats::Moments;
 use crashrig_stats::progress::{Counter, Progress};
-use crashrig_stats::{Moments, stream};
+use lanes::{CamPlan, CamSums};
 use nalgebra::{DMatrix, Matrix3, Matrix6, Vector3, Vector6};
 
 /// A world pose: projection centre and `R_world_from_cam`.
@@ -370,7 +372,7 @@ impl Chain {
             .iter()
             .map(|c| Link::new(c.parent, &c.pose, c.angles_rad, c.rotation_noise))
             .collect();
-        let order = crate::scenario::topological_order(&scenario.cameras)
+        let order = crate::model::topological_order(&scenario.cameras)
             .expect("a validated scenario has no cycle of parent links");
         assert!(
             links
@@ -463,16 +465,16 @@ impl Chain {
         }
     }
 
-    /// One joint draw of every camera: fills `eps` (6 normals per camera, drawn in
-    /// topological order) and `out`.
-    #[inline]
+    /// One joint draw of every camera (the legacy engine of the tests): fills `eps` (6 normals
+    /// per camera, drawn in topological order) and `out`.
+    #[cfg(test)]
     pub(crate) fn draw_into<R: rand::Rng>(
         &self,
         rng: &mut R,
         eps: &mut [f64],
         out: &mut [WorldPose],
     ) {
-        let nd = FastNormal::new();
+        let nd = crate::kernel::ziggurat::FastNormal::new();
         for &i in &self.order {
             nd.fill(rng, &mut eps[6 * i..6 * i + 6]);
         }
@@ -496,12 +498,12 @@ impl Chain {
                     noise: l.noise,
                     position: [l.position_mm.x, l.position_mm.y, l.position_mm.z],
                     rotation: std::array::from_fn(|k| l.rotation[(k / 3, k % 3)]),
-                    angles: crate::block::Trig {
+                    angles: crate::kernel::lanes::Trig {
                         s: std::array::from_fn(|k| l.angles_rad[k].sin()),
                         c: std::array::from_fn(|k| l.angles_rad[k].cos()),
                     },
                     // δ = L·ε (diagonal fast path when the covariance is diagonal).
-                    noise_factor: crate::block::NoiseFactor::from_lower(&l.factor),
+                    noise_factor: crate::kernel::lanes::NoiseFactor::from_lower(&l.factor),
                     nominal_c: [nom.position_mm.x, nom.position_mm.y, nom.position_mm.z],
                     nominal_r: std::array::from_fn(|k| nom.rotation[(k / 3, k % 3)]),
                     nominal_sin: std::array::from_fn(|k| a[k].sin()),
@@ -531,14 +533,15 @@ impl Chain {
     ///
     /// Draws are split in chunks of [`CHUNK`]; chunk `k` is Philox task `k` of `seed` and the
     /// chunks are merged in index order, so the result is bit-identical for any number of
-    /// threads (and any instruction-set level). `CRASHRIG_ISA=legacy` runs the former engine.
+    /// threads (and any instruction-set level).
     pub fn monte_carlo(&self, samples: usize, seed: u64) -> Vec<PoseMc> {
-        self.monte_carlo_with(samples, seed, Engine::from_env())
+        self.monte_carlo_with(samples, seed, Isa::Auto)
     }
 
-    /// [`Chain::monte_carlo`] with an explicit engine (benchmarks and tests).
-    pub fn monte_carlo_with(&self, samples: usize, seed: u64, engine: Engine) -> Vec<PoseMc> {
-        self.monte_carlo_engine(samples, seed, engine, None)
+    /// [`Chain::monte_carlo`] compiled for an explicit instruction-set level (benchmarks and
+    /// tests; every level gives the same bits).
+    pub fn monte_carlo_with(&self, samples: usize, seed: u64, isa: Isa) -> Vec<PoseMc> {
+        self.monte_carlo_engine(samples, seed, Engine::Simd(isa), None)
     }
 
     /// [`Chain::monte_carlo`] reporting `(chunks done, chunks)` of [`CHUNK`] draws to
@@ -549,10 +552,10 @@ impl Chain {
         seed: u64,
         progress: Option<Progress<'_>>,
     ) -> Vec<PoseMc> {
-        self.monte_carlo_engine(samples, seed, Engine::from_env(), progress)
+        self.monte_carlo_engine(samples, seed, Engine::Simd(Isa::Auto), progress)
     }
 
-    fn monte_carlo_engine(
+    pub(crate) fn monte_carlo_engine(
         &self,
         samples: usize,
         seed: u64,
@@ -562,6 +565,7 @@ impl Chain {
         let chunks = samples.div_ceil(CHUNK);
         let ticks = Counter::new(progress, chunks);
         let isa = match engine {
+            #[cfg(test)]
             Engine::Legacy => {
                 let r = self.monte_carlo_legacy(samples, seed, &ticks);
                 ticks.finish();
@@ -570,16 +574,16 @@ impl Chain {
             Engine::Simd(isa) => isa,
         };
         let n = self.len();
-        let key = crate::philox::key_of_seed(seed);
+        let key = crate::kernel::philox::key_of_seed(seed);
         let mut total = vec![CamSums::new(); n];
-        crate::ordered::map_fold_in_order(
+        crate::kernel::ordered::map_fold_in_order(
             chunks,
             |k| {
                 let m = CHUNK.min(samples - k * CHUNK);
-                let part = crate::simd::dispatch(
+                let part = crate::kernel::simd::dispatch(
                     isa,
                     #[inline(always)]
-                    |width| crate::chain_block::run_task(self, key, k as u64, m, width),
+                    |width| lanes::run_task(self, key, k as u64, m, width),
                 );
                 ticks.add(1);
                 part
@@ -617,14 +621,15 @@ impl Chain {
     }
 
     /// The former loop (ChaCha8 streams, ziggurat normals, Welford moments per draw).
+    #[cfg(test)]
     fn monte_carlo_legacy(&self, samples: usize, seed: u64, ticks: &Counter<'_>) -> Vec<PoseMc> {
         let n = self.len();
         let chunks = samples.div_ceil(CHUNK);
         let mut total = vec![(Moments::<6>::new(), Moments::<6>::new()); n];
-        crate::ordered::map_fold_in_order(
+        crate::kernel::ordered::map_fold_in_order(
             chunks,
             |k| {
-                let mut rng = stream(seed, k as u64);
+                let mut rng = crashrig_stats::stream(seed, k as u64);
                 let m = CHUNK.min(samples - k * CHUNK);
                 let mut acc = vec![(Moments::<6>::new(), Moments::<6>::new()); n];
                 let mut eps = vec![0.0; 6 * n];
@@ -776,5 +781,6 @@ impl Chain {
     }
 }
 
+pub(crate) mod lanes;
 #[cfg(test)]
 mod tests;

@@ -46,7 +46,9 @@
 //! # Ok::<(), crashrig_mc::Error>(())
 //! ```
 
-use crate::{Aim, Grid, GridResult, Observer, footprint_margin_px};
+use crate::model::{Aim, Grid, Observer};
+use crate::result::GridResult;
+use crate::view::footprint_margin_px;
 use nalgebra::Vector3;
 use serde::Serialize;
 

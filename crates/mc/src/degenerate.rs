@@ -23,8 +23,9 @@
 //! assert!(intersection_angle_deg(&b, &point) < MIN_INTERSECTION_ANGLE_DEG);
 //! ```
 
-use crate::Error;
-use crate::scenario::Grid;
+use crate::error::Error;
+use crate::model::{Aim, Grid};
+use crate::result::{GridResult, PointStats};
 use nalgebra::Vector3;
 
 /// Smallest intersection angle (degrees) at which a grid point is measurable: COLMAP's own
@@ -65,8 +66,8 @@ fn seeing_centres(grid: &Grid, point: &Vector3<f64>) -> Vec<Vector3<f64>> {
     grid.observers
         .iter()
         .filter(|o| match &o.aim {
-            crate::Aim::Point => true,
-            crate::Aim::Fixed(f) => crate::fixed::sight(f, &o.position_mm, point).is_some(),
+            Aim::Point => true,
+            Aim::Fixed(f) => crate::view::sight(f, &o.position_mm, point).is_some(),
         })
         .map(|o| o.position_mm)
         .collect()
@@ -111,13 +112,13 @@ pub fn check_layout(grid: &Grid) -> Result<(), Error> {
 
 /// Whether a point is degenerate: measurable (seen by two or more observers) with an
 /// intersection angle below [`MIN_INTERSECTION_ANGLE_DEG`].
-pub fn is_degenerate_point(p: &crate::PointStats, angle_deg: f64) -> bool {
+pub fn is_degenerate_point(p: &PointStats, angle_deg: f64) -> bool {
     p.is_measurable() && is_degenerate(angle_deg)
 }
 
 /// Blanks (NaN) the statistics of the degenerate points of `result` (so they stay out of
 /// colour scales, medians and maxima) and returns every point's intersection angle.
-pub fn mask_degenerate(result: &mut crate::GridResult, grid: &Grid) -> Vec<f64> {
+pub fn mask_degenerate(result: &mut GridResult, grid: &Grid) -> Vec<f64> {
     let angles = grid_angles_deg(grid);
     for (p, &a) in result.points.iter_mut().zip(&angles) {
         if is_degenerate_point(p, a) {

@@ -162,6 +162,7 @@ pub enum Error {
         source: crashrig_camera::Error,
     },
     /// `camera_from` names a COLMAP model that cannot be read.
+    #[cfg(feature = "scenario")]
     #[error("`{key}`: {source}")]
     ColmapModel {
         /// Key, e.g. `grid.observer[0].camera_from`.
@@ -208,9 +209,9 @@ impl Error {
             | Error::VerticalAim { key, .. }
             | Error::Covariance { key, .. }
             | Error::ObserverOffChain { key, .. } => Some(key),
-            Error::Camera { key, .. }
-            | Error::ColmapModel { key, .. }
-            | Error::NoSuchCamera { key, .. } => Some(key),
+            Error::Camera { key, .. } | Error::NoSuchCamera { key, .. } => Some(key),
+            #[cfg(feature = "scenario")]
+            Error::ColmapModel { key, .. } => Some(key),
             Error::Reference { key, .. } => key.as_deref(),
             Error::Cycle { .. } => Some("camera"),
             Error::TooFewObservers { .. } | Error::AllDegenerate { .. } => Some("grid.observer"),

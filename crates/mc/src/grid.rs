@@ -1,108 +1,23 @@
 //! The forward-intersection study over a grid: per point, observers aim at it, are perturbed
 //! and intersected; streaming statistics, linear propagation and adaptive stopping.
 
-use crate::accumulate::Acc3;
-use crate::block::NoiseFactor;
-use crate::chain::Chain;
+use crate::block::{Aimed, Ctx};
+use crate::chain::{Chain, WorldPose};
+use crate::error::Error;
+use crate::kernel::Isa;
+#[cfg(test)]
 use crate::kernel::Normal3;
+use crate::kernel::accumulate::Acc3;
+use crate::kernel::lanes::NoiseFactor;
 #[cfg(test)]
 use crate::kernel::{exp_matrix, rot_opk};
-use crate::scenario::{Grid, ObserverSigma, PoseSigma, RotationNoise, Scenario};
-use crate::simd::Engine;
-use crate::{CHUNK, Error};
+use crate::model::{Adaptive, Grid, ObserverSigma, PoseSigma, RotationNoise, Scenario};
+use crate::result::{GridResult, PointStats};
+use crate::schedule::{CHUNK, Engine, PointTicks, adaptive_draws, task_index};
 use crashrig_geometry::uncertain::psd_factor;
-use crashrig_stats::progress::{Counter, Progress};
-use crashrig_stats::{Moments, stream};
-use nalgebra::{DMatrix, Matrix3, Matrix6, SymmetricEigen, Vector3, Vector6};
+use crashrig_stats::progress::Progress;
+use nalgebra::{DMatrix, Matrix3, Matrix6, Vector3, Vector6};
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicUsize, Ordering};
-
-/// Statistics of the intersected points at one grid point.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PointStats {
-    /// The grid point (mm).
-    pub point: Vector3<f64>,
-    /// Draws used.
-    pub count: u64,
-    /// Mean intersected point (mm).
-    pub mean_mm: Vector3<f64>,
-    /// Sample covariance (mm², n − 1).
-    pub covariance: Matrix3<f64>,
-    /// σx, σy, σz (mm).
-    pub sigma_mm: Vector3<f64>,
-    /// max(σx, σy, σz) (mm).
-    pub sigma_max_mm: f64,
-    /// First-order covariance (mm²) of the same inputs (observers drawn jointly from the chain
-    /// through the chain's Jacobians, the others independent).
-    pub linear_covariance: Matrix3<f64>,
-    /// Observers that see the point (all of them when every observer is aimed); fewer than
-    /// two: not measurable, σ and covariances NaN, `count` 0 (fixed observers, `fixed.rs`).
-    pub observers_seen: usize,
-    /// Adaptive runs (`[grid.adaptive]`): whether the tolerance was met before
-    /// `max_samples`; `None` for a fixed number of draws.
-    pub converged: Option<bool>,
-}
-
-impl PointStats {
-    /// Semi-axes (mm) of the 1σ error ellipsoid, largest first (√ of the covariance
-    /// eigenvalues).
-    pub fn ellipsoid_semi_axes_mm(&self) -> Vector3<f64> {
-        let e = SymmetricEigen::new(self.covariance);
-        let mut v: Vec<f64> = e.eigenvalues.iter().map(|l| l.max(0.0).sqrt()).collect();
-        v.sort_by(|a, b| b.total_cmp(a));
-        Vector3::new(v[0], v[1], v[2])
-    }
-
-    /// Worst-direction σ (mm): √ of the largest eigenvalue of [`PointStats::covariance`], the
-    /// σ along the direction in which the point is least certain (never below
-    /// [`PointStats::sigma_max_mm`]: a 5 mm promise holds in every direction only when this is
-    /// below 5 mm). NaN when σ_max is NaN (not measurable, or blanked as degenerate).
-    pub fn sigma_worst_mm(&self) -> f64 {
-        if self.sigma_max_mm.is_finite() && self.covariance.iter().all(|v| v.is_finite()) {
-            self.ellipsoid_semi_axes_mm()[0]
-        } else {
-            f64::NAN
-        }
-    }
-
-    /// First-order σx, σy, σz (mm).
-    pub fn linear_sigma_mm(&self) -> Vector3<f64> {
-        Vector3::from_fn(|i, _| self.linear_covariance[(i, i)].sqrt())
-    }
-
-    /// First-order σ_max (mm).
-    pub fn linear_sigma_max_mm(&self) -> f64 {
-        self.linear_sigma_mm().max()
-    }
-}
-
-/// The result of a grid study.
-#[derive(Debug, Clone, PartialEq)]
-pub struct GridResult {
-    /// One entry per grid point, in [`Grid::points`] order.
-    pub points: Vec<PointStats>,
-    /// The noise each observer was given (σ of `sigma_from` cameras resolved from the chain's
-    /// Monte Carlo propagation; rotation σ in the observer's [`RotationNoise`] meaning): the
-    /// square roots of the diagonal of [`GridResult::observer_covariance`].
-    pub observer_sigma: Vec<PoseSigma>,
-    /// The full covariance of each observer's noise (mm, rad; tangent about the observer's
-    /// own axes, or ω φ κ for Euler noise).
-    pub observer_covariance: Vec<Matrix6<f64>>,
-    /// Whether observers from the same chain were drawn jointly.
-    pub correlated: bool,
-}
-
-impl GridResult {
-    /// Fraction of points with σ_max below `threshold_mm`.
-    pub fn fraction_below(&self, threshold_mm: f64) -> f64 {
-        let n = self.points.len().max(1) as f64;
-        self.points
-            .iter()
-            .filter(|p| p.sigma_max_mm < threshold_mm)
-            .count() as f64
-            / n
-    }
-}
 
 /// The resolved noise of one observer.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -121,39 +36,6 @@ impl ObserverNoise {
         }
     }
 }
-
-/// One observer aimed at one grid point.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Aimed {
-    pub(crate) c: Vector3<f64>,
-    pub(crate) r: Matrix3<f64>,
-    pub(crate) opk: Vector3<f64>,
-    pub(crate) sp: Vector3<f64>,
-    pub(crate) sr: Vector3<f64>,
-    /// Rotation noise kind (a chain draw is always tangent).
-    pub(crate) kind: RotationNoise,
-    /// The pose noise as a factor `δ = L·ε` (diagonal fast path when independent).
-    pub(crate) noise: NoiseFactor,
-    /// The covariance in the observer's own frame (for the first-order map).
-    pub(crate) covariance: Matrix6<f64>,
-    /// Chain camera whose joint draw this observer takes (correlated mode).
-    pub(crate) source: Option<usize>,
-    /// Correlated mode: `Lᵀ·R̄`, mapping the chain camera's body-axis rotation error θ to this
-    /// observer's own axes, so that its world rotation is `Exp(R̄·θ)·L`.
-    pub(crate) chain_to_own: Matrix3<f64>,
-}
-
-/// Everything the per-draw kernel needs that is shared by all points.
-#[derive(Debug, Clone)]
-pub(crate) struct Ctx {
-    /// σ of the normalized image coordinates, if pixel noise is on.
-    pub(crate) pixel: Option<f64>,
-    /// The chain, when at least one observer is drawn jointly from it.
-    pub(crate) chain: Option<Chain>,
-    /// [`Chain::jacobians`] of that chain (for the first-order map of correlated observers).
-    pub(crate) chain_jacobians: Vec<DMatrix<f64>>,
-}
-
 /// Prepared grid study: observers resolved, ready to run.
 #[derive(Debug, Clone)]
 pub struct GridStudy {
@@ -162,7 +44,7 @@ pub struct GridStudy {
     observer_noise: Vec<ObserverNoise>,
     correlated: bool,
     /// Nominal world poses of the chain (for correlated observers).
-    chain_nominal: Vec<crate::WorldPose>,
+    chain_nominal: Vec<WorldPose>,
     samples: usize,
     seed: u64,
 }
@@ -171,7 +53,7 @@ fn aim(
     grid: &Grid,
     noises: &[ObserverNoise],
     correlated: bool,
-    chain_nominal: &[crate::WorldPose],
+    chain_nominal: &[WorldPose],
     point: &Vector3<f64>,
 ) -> Result<Vec<Aimed>, Error> {
     grid.observers
@@ -202,7 +84,9 @@ fn aim(
                 c,
                 r,
                 opk: Vector3::new(a.omega, a.phi, a.kappa),
+                #[cfg(test)]
                 sp: sigma.position_mm,
+                #[cfg(test)]
                 sr: sigma.angles_rad,
                 // A chain draw is always a tangent (body-axis) rotation error.
                 kind: if source.is_some() {
@@ -297,7 +181,7 @@ impl GridStudy {
         let chain_nominal = chain.nominal().to_vec();
         // Normals per draw must fit the Philox slots of a draw (4 normals per slot).
         let normals = 8 * grid.observers.len() + if correlated { 6 * chain.len() } else { 0 };
-        if normals > 4 * crate::philox::MAX_SLOTS {
+        if normals > 4 * crate::kernel::philox::MAX_SLOTS {
             return Err(Error::Invalid {
                 key: "grid.observer".to_string(),
                 problem: "too many observers and cameras for the Monte Carlo engine (at most 2¹⁸ normals per draw)",
@@ -402,13 +286,13 @@ impl GridStudy {
     /// the Philox stream of `(seed, p·2²⁴ + k)` and chunks are merged in index order, so the
     /// result is bit-identical for any number of threads (and any instruction-set level).
     pub fn run(&self, samples: usize, seed: u64) -> Result<GridResult, Error> {
-        self.run_with(samples, seed, Engine::from_env())
+        self.run_with(samples, seed, Isa::Auto)
     }
 
-    /// [`GridStudy::run`] with an explicit engine (benchmarks and tests; the legacy engine
-    /// draws from the former ChaCha8 streams, so its numbers differ statistically only).
-    pub fn run_with(&self, samples: usize, seed: u64, engine: Engine) -> Result<GridResult, Error> {
-        self.run_engine(samples, seed, engine, None)
+    /// [`GridStudy::run`] compiled for an explicit instruction-set level (benchmarks and
+    /// tests; every level gives the same bits, only the speed differs).
+    pub fn run_with(&self, samples: usize, seed: u64, isa: Isa) -> Result<GridResult, Error> {
+        self.run_engine(samples, seed, Engine::Simd(isa), None)
     }
 
     /// [`GridStudy::run`] reporting `(points done, points)` to `progress` (a point counts when
@@ -422,10 +306,10 @@ impl GridStudy {
         seed: u64,
         progress: Option<Progress<'_>>,
     ) -> Result<GridResult, Error> {
-        self.run_engine(samples, seed, Engine::from_env(), progress)
+        self.run_engine(samples, seed, Engine::Simd(Isa::Auto), progress)
     }
 
-    fn run_engine(
+    pub(crate) fn run_engine(
         &self,
         samples: usize,
         seed: u64,
@@ -443,7 +327,7 @@ impl GridStudy {
         let aimed = self.aim_all(&points)?;
         // Task t = (point t / chunks, chunk t % chunks); each point's chunks merged in order.
         let mut sums: Vec<Acc3> = points.iter().map(|p| Acc3::new(*p)).collect();
-        crate::ordered::map_fold_in_order(
+        crate::kernel::ordered::map_fold_in_order(
             points.len() * chunks,
             |t| {
                 let (p, k) = (t / chunks, t % chunks);
@@ -478,11 +362,7 @@ impl GridStudy {
     /// coordinate and the σ of every axis are stable (`2·s/√h ≤ δ`, see
     /// [`crate::Adaptive`]; at least [`ADAPTIVE_MIN_BATCHES`] batches) or `max_samples` is
     /// reached. The reported mean and σ are those of all draws.
-    pub fn run_adaptive(
-        &self,
-        adaptive: &crate::scenario::Adaptive,
-        seed: u64,
-    ) -> Result<GridResult, Error> {
+    pub fn run_adaptive(&self, adaptive: &Adaptive, seed: u64) -> Result<GridResult, Error> {
         self.run_adaptive_with_progress(adaptive, seed, None)
     }
 
@@ -493,7 +373,7 @@ impl GridStudy {
     /// As [`GridStudy::run`].
     pub fn run_adaptive_with_progress(
         &self,
-        adaptive: &crate::scenario::Adaptive,
+        adaptive: &Adaptive,
         seed: u64,
         progress: Option<Progress<'_>>,
     ) -> Result<GridResult, Error> {
@@ -503,7 +383,7 @@ impl GridStudy {
             let r = self.run_fixed(
                 crate::fixed::Draws::Adaptive(adaptive),
                 seed,
-                Engine::from_env(),
+                Engine::Simd(Isa::Auto),
                 &ticks,
             );
             ticks.finish();
@@ -522,7 +402,7 @@ impl GridStudy {
                         task_index(p, b),
                         m,
                         acc,
-                        Engine::from_env(),
+                        Engine::Simd(Isa::Auto),
                     )
                 });
                 ticks.point_done();
@@ -541,7 +421,7 @@ impl GridStudy {
         self.grid
             .observers
             .iter()
-            .any(|o| o.aim != crate::scenario::Aim::Point)
+            .any(|o| o.aim != crate::model::Aim::Point)
     }
 
     fn run_fixed(
@@ -580,127 +460,11 @@ impl GridStudy {
     }
 }
 
-/// Progress of a grid run in grid points: a point counts when its last chunk of draws is done
-/// (`chunk_done`, runs split into `chunks` tasks per point) or when it is finished whole
-/// (`point_done`, adaptive runs); `finish` reports the total (points that drew nothing).
-/// Without a callback every call is a no-op and nothing is allocated.
-pub(crate) struct PointTicks<'a> {
-    counter: Counter<'a>,
-    /// Chunks still running per point (only with a callback and more than one chunk).
-    left: Vec<AtomicUsize>,
-}
-
-impl<'a> PointTicks<'a> {
-    pub(crate) fn new(progress: Option<Progress<'a>>, points: usize, chunks: usize) -> Self {
-        let counter = Counter::new(progress, points);
-        let left = if counter.is_reporting() && chunks > 1 {
-            (0..points).map(|_| AtomicUsize::new(chunks)).collect()
-        } else {
-            Vec::new()
-        };
-        Self { counter, left }
-    }
-
-    /// One chunk of point `p` is done.
-    pub(crate) fn chunk_done(&self, p: usize) {
-        if !self.counter.is_reporting() {
-            return;
-        }
-        match self.left.get(p) {
-            Some(left) => {
-                if left.fetch_sub(1, Ordering::Relaxed) == 1 {
-                    self.counter.add(1);
-                }
-            }
-            None => self.counter.add(1),
-        }
-    }
-
-    /// One point is done.
-    pub(crate) fn point_done(&self) {
-        self.counter.add(1);
-    }
-
-    /// The run is done.
-    pub(crate) fn finish(&self) {
-        self.counter.finish();
-    }
-}
-
 /// Smallest number of chain draws used to resolve `sigma_from` (σ to ≈ 0.2 %).
 pub const CHAIN_SAMPLES_MIN: usize = 100_000;
 
 /// Salt of the seed of the chain propagation that resolves `sigma_from`.
 const CHAIN_SEED_SALT: u64 = 0x5EED_C4A1_0000_0001;
-
-/// Smallest number of batches before the adaptive rule may stop (JCGM 101 §7.9.4 needs h ≥ 2;
-/// 4 keeps the standard deviation of the batch values from being met by chance).
-pub const ADAPTIVE_MIN_BATCHES: usize = 4;
-
-/// Adaptive draws at one point: batches of `adaptive.batch` draws (batch `b` drawn by
-/// `draw(b, m, acc)`) until, after at least [`ADAPTIVE_MIN_BATCHES`] batches,
-/// [`adaptive_stable`] holds, or until `max_samples`. Returns all the draws and whether the
-/// tolerance was met.
-pub(crate) fn adaptive_draws(
-    point: &Vector3<f64>,
-    adaptive: &crate::scenario::Adaptive,
-    mut draw: impl FnMut(usize, usize, &mut Acc3),
-) -> (Acc3, bool) {
-    let mut total = Acc3::new(*point);
-    // Per batch: the mean coordinate (x, y, z) and the σ (x, y, z).
-    let mut batches = Moments::<6>::new();
-    let mut b = 0usize;
-    loop {
-        let m = adaptive
-            .batch
-            .min(adaptive.max_samples.saturating_sub(b * adaptive.batch));
-        if m < 2 {
-            return (total, false);
-        }
-        let mut acc = Acc3::new(*point);
-        draw(b, m, &mut acc);
-        total.merge(&acc);
-        let (mean, s) = (acc.mean(), acc.std_dev());
-        batches.push(&[mean.x, mean.y, mean.z, s.x, s.y, s.z]);
-        b += 1;
-        if b >= ADAPTIVE_MIN_BATCHES && adaptive_stable(&batches, &total.std_dev(), adaptive) {
-            return (total, true);
-        }
-        if b * adaptive.batch >= adaptive.max_samples {
-            return (total, false);
-        }
-    }
-}
-
-/// The stopping test of JCGM 101 §7.9.4 (k) per axis: with `h` batches and `s` the standard
-/// deviation (n − 1) of a per-batch value, `2·s/√h ≤ δ` for the batch means (the estimate y)
-/// and for the batch σ (its standard uncertainty u(y)) of x, y and z; δ of each axis from
-/// `adaptive.tolerance` at `pooled_sigma` (σ of all the draws so far, §7.9.4 i–j). The
-/// coverage-interval endpoints are not tested (the grid keeps no quantiles).
-pub(crate) fn adaptive_stable(
-    batches: &Moments<6>,
-    pooled_sigma: &Vector3<f64>,
-    adaptive: &crate::scenario::Adaptive,
-) -> bool {
-    let h = batches.count() as f64;
-    if h < 2.0 {
-        return false;
-    }
-    let s = batches.std_dev();
-    (0..3).all(|axis| {
-        let delta = adaptive.tolerance.delta_mm(pooled_sigma[axis]);
-        let mean_ok = 2.0 * s[axis] / h.sqrt() <= delta;
-        let sigma_ok = 2.0 * s[axis + 3] / h.sqrt() <= delta;
-        mean_ok && sigma_ok
-    })
-}
-
-/// The task number of chunk (or adaptive batch) `chunk` of grid point `point`: `p·2²⁴ + k`,
-/// the stream of its draws (aimed and fixed paths).
-#[inline]
-pub(crate) fn task_index(point: usize, chunk: usize) -> u64 {
-    ((point as u64) << 24) | chunk as u64
-}
 
 /// `m` draws of one grid point (task `task` of the run seeded `seed`) into `acc`.
 #[allow(clippy::too_many_arguments)]
@@ -715,29 +479,19 @@ pub(crate) fn run_chunk(
 ) {
     match engine {
         Engine::Simd(isa) => {
-            let key = crate::philox::key_of_seed(seed);
-            crate::simd::dispatch(
+            let key = crate::kernel::philox::key_of_seed(seed);
+            crate::kernel::simd::dispatch(
                 isa,
                 #[inline(always)]
                 |width| crate::block::run_task(obs, ctx, key, task, m, acc, width),
             );
         }
+        #[cfg(test)]
         Engine::Legacy => {
-            let mut rng = stream(seed, task);
-            crate::legacy::run_chunk(obs, ctx, &mut rng, m, acc);
+            let mut rng = crashrig_stats::stream(seed, task);
+            legacy::run_chunk(obs, ctx, &mut rng, m, acc);
         }
     }
-}
-
-/// The two DLT rows of a view with rotation `r` (world_from_cam), centre `c`, observation
-/// `(x, y)` in normalized coordinates.
-#[inline(always)]
-pub(crate) fn add_view(n: &mut Normal3, r: &Matrix3<f64>, c: &Vector3<f64>, x: f64, y: f64) {
-    let c1 = r.column(0).into_owned();
-    let c2 = r.column(1).into_owned();
-    let c3 = r.column(2).into_owned();
-    n.add_row(&(c3 * x - c1), c);
-    n.add_row(&(c3 * y - c2), c);
 }
 
 /// Inputs per observer of the intersection Jacobian behind the first-order map: δC (3, mm),
@@ -757,7 +511,7 @@ pub(crate) fn intersect_perturbed(obs: &[Aimed], delta: &[f64]) -> Vector3<f64> 
             RotationNoise::Tangent => o.r * exp_matrix(&w),
             RotationNoise::Euler => rot_opk(&(o.opk + w)),
         };
-        add_view(&mut n, &r, &c, d[6], d[7]);
+        n.add_view(&r, &c, d[6], d[7]);
     }
     n.solve()
 }
@@ -847,5 +601,7 @@ pub(crate) fn linear_covariance(obs: &[Aimed], ctx: &Ctx, point: &Vector3<f64>) 
     Matrix3::from_fn(|r, cc| c[(r, cc)])
 }
 
+#[cfg(test)]
+mod legacy;
 #[cfg(test)]
 mod tests;

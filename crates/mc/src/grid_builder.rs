@@ -1,10 +1,11 @@
 //! [`GridBuilder`]: a grid study from typed values, without a scenario file.
 
 use crate::chain::{CameraId, Chain};
-use crate::scenario::{
+use crate::error::Error;
+use crate::grid::GridStudy;
+use crate::model::{
     Adaptive, Aim, Axis, FixedCamera, Grid, Observer, ObserverSigma, PixelNoise, RotationNoise,
 };
-use crate::{Error, GridStudy};
 use nalgebra::{Matrix6, Vector3};
 
 /// Builds a [`GridStudy`] without a scenario file: the grid axes, the observers (each with a
@@ -150,7 +151,7 @@ impl GridBuilder {
     pub fn build(self, samples: usize, seed: u64) -> Result<GridStudy, Error> {
         let chain = self
             .chain
-            .unwrap_or_else(|| crate::ChainBuilder::new().build());
+            .unwrap_or_else(|| crate::chain::ChainBuilder::new().build());
         for (i, o) in self.grid.observers.iter().enumerate() {
             match o.sigma {
                 ObserverSigma::From(c) if c >= chain.len() => {
@@ -172,7 +173,7 @@ impl GridBuilder {
         }
         let positions: Vec<Vector3<f64>> = chain.nominal().iter().map(|p| p.position_mm).collect();
         let names: Vec<String> = chain.names().to_vec();
-        crate::scenario::check_grid(&self.grid, &positions, &names)?;
+        crate::model::check_grid(&self.grid, &positions, &names)?;
         GridStudy::assemble(self.grid, chain, self.rotation_noise, samples, seed)
     }
 }

@@ -20,11 +20,21 @@
 //!   sums of deviations from the grid point, which vectorise and need no per-draw division).
 //! - Normals: Philox4x32-10 counter-based bits (key = seed, counter = (task, draw, slot)) into
 //!   a vectorised Box–Muller transform, 64 draws per block, compiled for the CPU's best
-//!   instruction set at run time ([`Isa`], `CRASHRIG_ISA`). The former ChaCha8 + ziggurat
-//!   engine ([`FastNormal`]) remains as [`Engine::Legacy`], the benchmarks' baseline.
+//!   instruction set at run time ([`Isa::Auto`]; `run_with` / `monte_carlo_with` take an
+//!   explicit [`Isa`], a typed argument — no environment variable is read).
 //! - Determinism: work is cut into fixed chunks of [`CHUNK`] draws (tasks), each with its own
 //!   counter range, merged in index order: the same seed gives bit-identical results on any
 //!   number of threads and on every instruction-set level.
+//!
+//! # Layers and features
+//! The crate reads bottom-up (`docs/ARCHITECTURE.md`): a `kernel` layer (instruction-set
+//! dispatch, Philox, normals, the lane forms of the pose noise, rotations and DLT rows, streaming
+//! sums) that imports nothing above it; the engine's vocabulary (`model`: [`Camera`], [`Grid`],
+//! [`Observer`], …); the chain and grid engines; and, behind the default feature `scenario`,
+//! the TOML scenario reader ([`Scenario::from_path`]), [`reference`] and the COLMAP model reader
+//! of `camera_from`. With `default-features = false` the engine builds without toml,
+//! serde_json, the COLMAP reader and SQLite: build chains and grids with [`ChainBuilder`] and
+//! [`GridBuilder`].
 //!
 //! # Entry points
 //! - [`ChainBuilder`] → [`Chain`]: world poses and links as
@@ -193,10 +203,8 @@
 //! ```
 #![deny(missing_docs)]
 
-mod accumulate;
 mod block;
 mod chain;
-mod chain_block;
 pub mod coverage;
 pub mod degenerate;
 mod error;
@@ -204,45 +212,46 @@ mod fixed;
 mod grid;
 mod grid_builder;
 mod kernel;
-mod legacy;
 pub mod limits;
-mod normal;
-mod ordered;
-mod philox;
+mod model;
+#[cfg(feature = "scenario")]
 pub mod reference;
+mod result;
+#[cfg(feature = "scenario")]
 mod scenario;
-mod simd;
+mod schedule;
+mod view;
 
 pub use chain::{CameraId, Chain, ChainBuilder, PoseLinear, PoseMc, WorldPose};
+pub use crashrig_geometry::result_kind::ResultKind;
 pub use error::Error;
-pub use fixed::{UNDISTORT_RESIDUAL_PX, footprint_margin_px};
-pub use grid::{
-    ADAPTIVE_MIN_BATCHES, CHAIN_SAMPLES_MIN, GridResult, GridStudy, INPUTS_PER_OBSERVER, PointStats,
-};
+pub use grid::{CHAIN_SAMPLES_MIN, GridStudy, INPUTS_PER_OBSERVER};
 pub use grid_builder::GridBuilder;
-pub use normal::FastNormal;
-pub use reference::{ResultKind, link_from_result_json};
-pub use scenario::{
-    Adaptive, Aim, AimKeys, Axis, CORRELATED_POSITION_TOLERANCE_MM, Camera, FixedCamera, Grid,
-    LensKeys, MAX_NDIG, Observer, ObserverSigma, PixelNoise, PoseSigma, RotationNoise, Scenario,
-    Tolerance, aim_from_keys, ndig_tolerance,
+pub use kernel::Isa;
+pub use model::{
+    Adaptive, Aim, Axis, CORRELATED_POSITION_TOLERANCE_MM, Camera, FixedCamera, Grid, MAX_NDIG,
+    MIN_OBSERVER_DISTANCE_MM, Observer, ObserverSigma, PixelNoise, PoseSigma, RotationNoise,
+    Scenario, Tolerance, ndig_tolerance,
 };
-pub use simd::{Engine, Isa};
+#[cfg(feature = "scenario")]
+pub use reference::link_from_result_json;
+pub use result::{GridResult, PointStats};
+#[cfg(feature = "scenario")]
+pub use scenario::{AimKeys, LensKeys, aim_from_keys};
+pub use schedule::ADAPTIVE_MIN_BATCHES;
+pub use view::{UNDISTORT_RESIDUAL_PX, footprint_margin_px};
 
 /// Draws per work chunk (and per RNG stream). Fixed, so results do not depend on the thread
 /// count.
-pub const CHUNK: usize = 4096;
-
-/// Smallest distance (mm) between an observer and a grid point.
-pub const MIN_OBSERVER_DISTANCE_MM: f64 = 1e-6;
+pub const CHUNK: usize = schedule::CHUNK;
 
 /// Hooks for the benchmarks (`benches/`) and external tests: the engine's building blocks
 /// with an explicit instruction-set level. Not a stable interface.
 #[doc(hidden)]
 pub mod bench {
-    use crate::normal::{LANES, fill_block};
-    use crate::philox::key_of_seed;
-    use crate::simd::{Isa, dispatch};
+    use crate::kernel::normal::{LANES, fill_block};
+    use crate::kernel::philox::key_of_seed;
+    use crate::kernel::simd::{Isa, dispatch};
 
     /// Draws per block of the vectorised kernels.
     pub const BLOCK: usize = LANES;

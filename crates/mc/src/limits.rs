@@ -6,8 +6,12 @@
 //! it checks array lengths, finiteness, magnitudes and counts of every key it knows, wherever
 //! the key sits, so new tables that reuse the key names are covered too.
 
+// Without the scenario reader the document walk below is not compiled and its helpers are unused.
+#![cfg_attr(not(feature = "scenario"), allow(dead_code))]
+
 use crate::Error;
 use std::path::Path;
+#[cfg(feature = "scenario")]
 use toml::de::{DeTable, DeValue};
 
 /// Largest number of Monte Carlo draws (`samples`, `--samples`; per grid point for `grid`).
@@ -189,6 +193,7 @@ pub(crate) fn deep_nesting(text: &str) -> Option<(usize, usize)> {
 }
 
 /// A number of the document: its value as f64 and, for an integer, as i128.
+#[cfg(feature = "scenario")]
 fn number(v: &DeValue<'_>) -> Option<(f64, Option<i128>)> {
     match v {
         DeValue::Integer(i) => {
@@ -227,6 +232,7 @@ fn count_bound(leaf: &str) -> Option<u128> {
     }
 }
 
+#[cfg(feature = "scenario")]
 struct Walk<'a> {
     text: &'a str,
     path: &'a Path,
@@ -237,6 +243,7 @@ struct Walk<'a> {
     grid_offset: Option<usize>,
 }
 
+#[cfg(feature = "scenario")]
 impl Walk<'_> {
     fn err(&self, offset: usize, key: &str, problem: String) -> Error {
         located(self.path, self.text, offset, fail(key, problem))
@@ -357,6 +364,7 @@ impl Walk<'_> {
 
 /// Checks the bounds of a scenario document (see the module docs); errors are located at the
 /// offending value's line.
+#[cfg(feature = "scenario")]
 pub(crate) fn check_document(text: &str, path: &Path) -> Result<(), Error> {
     let Ok(doc) = DeTable::parse(text) else {
         return Ok(()); // syntax errors are reported by the typed parse
@@ -393,6 +401,7 @@ pub(crate) fn check_document(text: &str, path: &Path) -> Result<(), Error> {
 /// an error with a key gets that key's line, a gimbal-lock error the line of its camera's
 /// `name`. Errors that already name the file, and files that cannot be read again, are returned
 /// as they are, wrapped with the path and line 1 when nothing better is known.
+#[cfg(feature = "scenario")]
 pub fn locate(e: Error, path: &Path) -> Error {
     if matches!(
         e,
@@ -405,9 +414,7 @@ pub fn locate(e: Error, path: &Path) -> Error {
     };
     let line = match &e {
         Error::GimbalLock { name } => camera_name_line(&text, name),
-        other => other
-            .key()
-            .and_then(|k| crate::scenario::key_line(&text, k)),
+        other => other.key().and_then(|k| key_line(&text, k)),
     };
     Error::Located {
         path: path.to_path_buf(),
@@ -417,6 +424,7 @@ pub fn locate(e: Error, path: &Path) -> Error {
 }
 
 /// Line of `name = "<name>"` inside a `[[camera]]` table.
+#[cfg(feature = "scenario")]
 fn camera_name_line(text: &str, name: &str) -> Option<usize> {
     let doc = DeTable::parse(text).ok()?;
     let cams = doc.get_ref().get("camera")?;
@@ -455,6 +463,75 @@ pub fn check_samples(samples: usize) -> Result<(), Error> {
         ));
     }
     Ok(())
+}
+
+/// 1-based line of a dotted scenario key such as `camera[1].position_mm`,
+/// `grid.observer[0].sigma_from`, `grid.x_mm` or `seed`: the line `name = …` inside the table the
+/// key's prefix names (the table's header line when the key names the table itself). Inline
+/// tables and dotted keys are not searched (`None`).
+pub(crate) fn key_line(text: &str, key: &str) -> Option<usize> {
+    let headers: std::collections::HashSet<&str> = text.lines().filter_map(header_of).collect();
+    let (base, index) = split_index(key);
+    if headers.contains(base) {
+        // The key names a table (or one element of an array of tables): its header line.
+        return nth_header_line(text, base, index.unwrap_or(0));
+    }
+    let Some(dot) = key.rfind('.') else {
+        // A top-level key: `key = …` before the first header.
+        return text
+            .lines()
+            .take_while(|l| header_of(l).is_none())
+            .position(|l| is_assignment_of(l, key))
+            .map(|i| i + 1);
+    };
+    let (table_key, leaf) = (&key[..dot], &key[dot + 1..]);
+    let (table, index) = split_index(table_key);
+    let start = nth_header_line(text, table, index.unwrap_or(0))?;
+    let found = text
+        .lines()
+        .enumerate()
+        .skip(start)
+        .take_while(|(_, l)| header_of(l).is_none())
+        .find(|(_, l)| is_assignment_of(l, leaf))
+        .map(|(i, _)| i + 1);
+    // An absent key (a default, or a value checked against another table) points at its table.
+    found.or(Some(start))
+}
+
+/// `("grid.observer", Some(1))` for `grid.observer[1]`, `("camera", None)` for `camera`.
+fn split_index(key: &str) -> (&str, Option<usize>) {
+    match key.strip_suffix(']').and_then(|k| k.rsplit_once('[')) {
+        Some((base, i)) => (base, i.parse().ok()),
+        None => (key, None),
+    }
+}
+
+/// 1-based line of the `n`-th (0-based) header of table `name`.
+fn nth_header_line(text: &str, name: &str, n: usize) -> Option<usize> {
+    text.lines()
+        .enumerate()
+        .filter(|(_, l)| header_of(l) == Some(name))
+        .nth(n)
+        .map(|(i, _)| i + 1)
+}
+
+/// Whether `line` assigns `name` (`name = …`).
+fn is_assignment_of(line: &str, name: &str) -> bool {
+    line.split_once('=')
+        .is_some_and(|(lhs, _)| lhs.trim() == name)
+}
+
+/// `camera` for `[[camera]]`, `grid` for `[grid]` (comments after the header allowed).
+fn header_of(line: &str) -> Option<&str> {
+    let l = line.split('#').next().unwrap_or("").trim();
+    if !l.starts_with('[') {
+        return None;
+    }
+    let inner = l
+        .strip_prefix("[[")
+        .and_then(|r| r.strip_suffix("]]"))
+        .or_else(|| l.strip_prefix('[').and_then(|r| r.strip_suffix(']')))?;
+    Some(inner.trim())
 }
 
 #[cfg(test)]

@@ -8,7 +8,7 @@
 //! `covariance_tangent`, the spread of its replicates; a link written by hand (neither marker)
 //! gives `sem_covariance_tangent` if present, else `covariance_tangent`.
 
-use crate::Error;
+use crate::error::Error;
 use crashrig_geometry::UncertainPose;
 pub use crashrig_geometry::result_json::ResultKind;
 use serde_json::Value;

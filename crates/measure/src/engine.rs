@@ -514,14 +514,90 @@ pub fn measure(
     settings: &Settings,
 ) -> Result<Measurement, Error> {
     check_settings(settings)?;
+    let groups = group_observations(epochs, rig, observations)?;
+    let (measured, reference_epoch) = measured_epochs(epochs, &groups, settings)?;
+    let marker_idx: HashMap<&str, usize> = groups
+        .markers
+        .iter()
+        .enumerate()
+        .map(|(i, m)| (m.as_str(), i))
+        .collect();
+
+    // Link preparation.
+    let link = LinkPrep {
+        r_ab: rig.a_from_b.rotation().into_inner(),
+        c_ab: rig.a_from_b.center(),
+        l_ab: rig.a_from_b.factor(),
+        c: rig
+            .c
+            .as_ref()
+            .map(|(p, _)| (p.rotation().into_inner(), p.center(), p.factor())),
+    };
+
+    // Per-epoch preparation (nominal intersections).
+    let mut preps: Vec<EpochPrep> = Vec::with_capacity(groups.by_epoch.len());
+    for (k, (&e, by_marker)) in groups.by_epoch.iter().enumerate() {
+        let mut prep = prep_epoch(&epochs[e], rig, by_marker, &marker_idx, settings)?;
+        prep.time_s = measured[k].time_s;
+        preps.push(prep);
+    }
+
+    let reprojection_limit_px = settings.max_reprojection_px.or_else(|| {
+        let all: Vec<f64> = preps
+            .iter()
+            .flat_map(|p| p.slots.iter().filter_map(|s| s.reprojection_px))
+            .collect();
+        robust_reprojection_limit(&all)
+    });
+    let accs = run_monte_carlo(&preps, &link, settings, reference_epoch);
+    let rows = assemble(
+        &preps,
+        &accs,
+        settings,
+        reference_epoch,
+        reprojection_limit_px,
+    );
+    Ok(Measurement {
+        epochs: measured,
+        markers: groups.markers,
+        rows,
+        reference_epoch,
+        skipped: groups
+            .skipped
+            .into_iter()
+            .map(|(epoch, observations)| SkippedEpoch {
+                epoch: epoch.to_string(),
+                observations,
+            })
+            .collect(),
+        samples: settings.samples,
+        reprojection_limit_px,
+    })
+}
+
+/// One epoch's observations: marker → camera → observation.
+type ByMarker<'a> = BTreeMap<&'a str, BTreeMap<Inward, &'a Observation>>;
+
+/// The observations grouped by posed epoch (index into the epochs), the skipped epochs with
+/// their observation counts, and the markers in order.
+struct Groups<'a> {
+    by_epoch: BTreeMap<usize, ByMarker<'a>>,
+    skipped: BTreeMap<&'a str, usize>,
+    markers: Vec<String>,
+}
+
+/// Groups the observations by epoch, marker and camera.
+fn group_observations<'a>(
+    epochs: &[Epoch],
+    rig: &Rig,
+    observations: &'a [Observation],
+) -> Result<Groups<'a>, Error> {
     let mut lookup: HashMap<&str, usize> = HashMap::new();
     for (i, e) in epochs.iter().enumerate() {
         lookup.insert(e.key.as_str(), i);
         lookup.insert(e.name.as_str(), i);
     }
-    // Group the observations: epoch → marker → camera → observation.
-    let mut grouped: BTreeMap<usize, BTreeMap<&str, BTreeMap<Inward, &Observation>>> =
-        BTreeMap::new();
+    let mut by_epoch: BTreeMap<usize, ByMarker<'a>> = BTreeMap::new();
     let mut skipped: BTreeMap<&str, usize> = BTreeMap::new();
     let mut markers: BTreeSet<&str> = BTreeSet::new();
     for obs in observations {
@@ -534,7 +610,7 @@ pub fn measure(
         match lookup.get(obs.epoch.as_str()) {
             Some(&e) => {
                 markers.insert(obs.marker.as_str());
-                grouped
+                by_epoch
                     .entry(e)
                     .or_default()
                     .entry(obs.marker.as_str())
@@ -544,22 +620,28 @@ pub fn measure(
             None => *skipped.entry(obs.epoch.as_str()).or_default() += 1,
         }
     }
-    if grouped.is_empty() {
+    if by_epoch.is_empty() {
         return Err(Error::Input(format!(
             "no observation belongs to an epoch with a pose of camera A ({} epochs skipped)",
             skipped.len()
         )));
     }
-    let markers: Vec<String> = markers.into_iter().map(String::from).collect();
-    let marker_idx: HashMap<&str, usize> = markers
-        .iter()
-        .enumerate()
-        .map(|(i, m)| (m.as_str(), i))
-        .collect();
+    Ok(Groups {
+        by_epoch,
+        skipped,
+        markers: markers.into_iter().map(String::from).collect(),
+    })
+}
 
-    // Epochs, times, reference.
+/// The measured epochs in sequence order with their times (with a frame rate), and the index
+/// of the reference epoch.
+fn measured_epochs(
+    epochs: &[Epoch],
+    groups: &Groups<'_>,
+    settings: &Settings,
+) -> Result<(Vec<MeasuredEpoch>, usize), Error> {
     let mut measured: Vec<MeasuredEpoch> = Vec::new();
-    for &e in grouped.keys() {
+    for &e in groups.by_epoch.keys() {
         let ep = &epochs[e];
         let frame = frame_number(&ep.name);
         let time_s = match settings.frame_rate_hz {
@@ -599,119 +681,83 @@ pub fn measure(
                 problem: format!("`{r}` is not a measured epoch"),
             })?,
     };
+    Ok((measured, reference_epoch))
+}
 
-    // Link preparation.
-    let link = LinkPrep {
-        r_ab: rig.a_from_b.rotation().into_inner(),
-        c_ab: rig.a_from_b.center(),
-        l_ab: rig.a_from_b.factor(),
-        c: rig
-            .c
-            .as_ref()
-            .map(|(p, _)| (p.rotation().into_inner(), p.center(), p.factor())),
-    };
+/// One epoch prepared for the draws: its views, the nominal intersections and their
+/// reprojection residuals (`time_s` is left to the caller).
+fn prep_epoch(
+    ep: &Epoch,
+    rig: &Rig,
+    by_marker: &ByMarker<'_>,
+    marker_idx: &HashMap<&str, usize>,
+    settings: &Settings,
+) -> Result<EpochPrep, Error> {
     let cameras: Vec<&Camera> = std::iter::once(&rig.camera_b)
         .chain(rig.c.as_ref().map(|(_, c)| c))
         .collect();
-
-    // Per-epoch preparation (nominal intersections).
-    let mut preps: Vec<EpochPrep> = Vec::with_capacity(grouped.len());
-    for (k, (&e, by_marker)) in grouped.iter().enumerate() {
-        let ep = &epochs[e];
-        let world_from_b = ep.world_from_a.b_from_a * rig.a_from_b.b_from_a;
-        let world_from_c = rig.c.as_ref().map(|(p, _)| world_from_b * p.b_from_a);
-        let cam_from_world = [
-            Some(world_from_b.inverse()),
-            world_from_c.map(|w| w.inverse()),
-        ];
-        let mut slots = Vec::with_capacity(by_marker.len());
-        let mut slot_of = vec![None; markers.len()];
-        for (&marker, by_cam) in by_marker {
-            let mut views = Vec::with_capacity(by_cam.len());
-            for (&cam, &obs) in by_cam {
-                let ci = usize::from(cam == Inward::C);
-                views.push(prep_view(cameras[ci], ci, obs, settings.pixel_sigma_px)?);
-            }
-            let n_views = views.len();
-            let mut nominal = None;
-            let mut degenerate = false;
-            let mut reprojection_px = None;
-            if n_views >= 2 {
-                let dlt_views: Vec<View> = views
-                    .iter()
-                    .map(|v| View {
-                        cam_from_world: cam_from_world[v.cam].expect("camera present"),
-                        normalized: v.n0,
-                    })
-                    .collect();
-                match triangulate::dlt(&dlt_views) {
-                    Ok(x) => {
-                        nominal = Some(x);
-                        let mut worst = 0.0_f64;
-                        for (&cam, &obs) in by_cam {
-                            let ci = usize::from(cam == Inward::C);
-                            let p = cam_from_world[ci].expect("camera present")
-                                * nalgebra::Point3::from(x);
-                            let res = match cameras[ci].img_from_cam(&p.coords) {
-                                Ok(px) => (px - obs.pixel).norm(),
-                                Err(_) => f64::INFINITY,
-                            };
-                            worst = worst.max(res);
-                        }
-                        reprojection_px = Some(worst);
-                    }
-                    Err(_) => degenerate = true,
-                }
-            }
-            slot_of[marker_idx[marker]] = Some(slots.len());
-            slots.push(Slot {
-                marker: marker_idx[marker],
-                n_views,
-                views,
-                nominal,
-                reprojection_px,
-                degenerate,
-            });
+    let world_from_b = ep.world_from_a.b_from_a * rig.a_from_b.b_from_a;
+    let world_from_c = rig.c.as_ref().map(|(p, _)| world_from_b * p.b_from_a);
+    let cam_from_world = [
+        Some(world_from_b.inverse()),
+        world_from_c.map(|w| w.inverse()),
+    ];
+    let mut slots = Vec::with_capacity(by_marker.len());
+    let mut slot_of = vec![None; marker_idx.len()];
+    for (&marker, by_cam) in by_marker {
+        let mut views = Vec::with_capacity(by_cam.len());
+        for (&cam, &obs) in by_cam {
+            let ci = usize::from(cam == Inward::C);
+            views.push(prep_view(cameras[ci], ci, obs, settings.pixel_sigma_px)?);
         }
-        preps.push(EpochPrep {
-            r_wa: ep.world_from_a.rotation().into_inner(),
-            c_a: ep.world_from_a.center(),
-            l_a: ep.world_from_a.factor(),
-            slots,
-            slot_of,
-            time_s: measured[k].time_s,
+        let n_views = views.len();
+        let mut nominal = None;
+        let mut degenerate = false;
+        let mut reprojection_px = None;
+        if n_views >= 2 {
+            let dlt_views: Vec<View> = views
+                .iter()
+                .map(|v| View {
+                    cam_from_world: cam_from_world[v.cam].expect("camera present"),
+                    normalized: v.n0,
+                })
+                .collect();
+            match triangulate::dlt(&dlt_views) {
+                Ok(x) => {
+                    nominal = Some(x);
+                    let mut worst = 0.0_f64;
+                    for (&cam, &obs) in by_cam {
+                        let ci = usize::from(cam == Inward::C);
+                        let p =
+                            cam_from_world[ci].expect("camera present") * nalgebra::Point3::from(x);
+                        let res = match cameras[ci].img_from_cam(&p.coords) {
+                            Ok(px) => (px - obs.pixel).norm(),
+                            Err(_) => f64::INFINITY,
+                        };
+                        worst = worst.max(res);
+                    }
+                    reprojection_px = Some(worst);
+                }
+                Err(_) => degenerate = true,
+            }
+        }
+        slot_of[marker_idx[marker]] = Some(slots.len());
+        slots.push(Slot {
+            marker: marker_idx[marker],
+            n_views,
+            views,
+            nominal,
+            reprojection_px,
+            degenerate,
         });
     }
-
-    let reprojection_limit_px = settings.max_reprojection_px.or_else(|| {
-        let all: Vec<f64> = preps
-            .iter()
-            .flat_map(|p| p.slots.iter().filter_map(|s| s.reprojection_px))
-            .collect();
-        robust_reprojection_limit(&all)
-    });
-    let accs = run_monte_carlo(&preps, &link, settings, reference_epoch);
-    let rows = assemble(
-        &preps,
-        &accs,
-        settings,
-        reference_epoch,
-        reprojection_limit_px,
-    );
-    Ok(Measurement {
-        epochs: measured,
-        markers,
-        rows,
-        reference_epoch,
-        skipped: skipped
-            .into_iter()
-            .map(|(epoch, observations)| SkippedEpoch {
-                epoch: epoch.to_string(),
-                observations,
-            })
-            .collect(),
-        samples: settings.samples,
-        reprojection_limit_px,
+    Ok(EpochPrep {
+        r_wa: ep.world_from_a.rotation().into_inner(),
+        c_a: ep.world_from_a.center(),
+        l_a: ep.world_from_a.factor(),
+        slots,
+        slot_of,
+        time_s: None,
     })
 }
 

@@ -76,6 +76,17 @@ pub enum Error {
     /// number, frame numbers that do not increase): a problem of the model's image names.
     #[error("{0}")]
     Sequence(String),
+    /// The output directory cannot be used (`problem` says why).
+    #[error("{}: {problem}", path.display())]
+    OutDir {
+        /// The directory.
+        path: PathBuf,
+        /// What is wrong.
+        problem: String,
+    },
+    /// Writing the output directory failed.
+    #[error(transparent)]
+    Write(#[from] crashrig_outdir::Error),
     /// An error of the engine placed in the file it is about ([`Error::in_files`]).
     #[error("{}: {source}", path.display())]
     Located {

@@ -18,6 +18,8 @@
 //!   independent of the number of draws.
 //!
 //! # Entry points
+//! - [`run`]: the library entry of `crashrig measure` and of the study's `[measure]` step:
+//!   [`MeasureConfig`] (typed) → [`MeasureRun`], writing the output directory when asked.
 //! - [`sequence::a_sequence`], [`sequence::inward_camera`]: A's poses and B/C intrinsics from a
 //!   [`crashrig_colmap::Reconstruction`].
 //! - [`input::read_observations`], [`input::load_link`], [`input::read_a_covariance`]: the
@@ -98,7 +100,9 @@ pub mod engine;
 mod error;
 pub mod input;
 pub mod output;
+mod run;
 pub mod sequence;
 
 pub use engine::{Epoch, Measurement, Rig, Row, Settings, measure};
 pub use error::Error;
+pub use run::{ANoise, MeasureConfig, MeasureRun, OutputDir, check_out, run};

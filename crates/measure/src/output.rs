@@ -69,6 +69,7 @@ use crashrig_plot::{BandPanel, Format};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::fmt::Write as _;
+use std::path::Path;
 
 /// Header of `trajectories.csv` (fixed by the contract).
 pub const TRAJECTORIES_HEADER: &str =
@@ -350,6 +351,91 @@ impl Summary {
             median_displacement_sigma_max_mm: median(dmax),
         }
     }
+}
+
+/// An epoch of the observations without a pose of camera A (skipped).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Skipped {
+    /// The epoch as the observations name it.
+    pub epoch: String,
+    /// Its observations.
+    pub observations: usize,
+}
+
+/// `summary.json` of `crashrig measure` (and its `--json` output): the measurement's numbers
+/// ([`Summary`]), then the skipped epochs, names, files and timing.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SummaryDocument {
+    /// The numbers (flattened into the document).
+    #[serde(flatten)]
+    pub numbers: Summary,
+    /// Epochs of the observations without a pose of camera A.
+    pub skipped_epochs: Vec<Skipped>,
+    /// Measured epochs in sequence order.
+    pub epoch_names: Vec<String>,
+    /// Markers in order.
+    pub marker_names: Vec<String>,
+    /// Files written, relative to the output directory (empty when nothing was written).
+    pub files: Vec<String>,
+    /// Wall-clock time of the run (s).
+    pub elapsed_s: f64,
+}
+
+/// Pretty JSON with a final newline (the form of every JSON file `crashrig` writes).
+pub(crate) fn json_pretty(v: &impl Serialize) -> Result<Vec<u8>, Error> {
+    let mut json = serde_json::to_vec_pretty(v)
+        .map_err(|e| Error::Input(format!("serializing summary.json: {e}")))?;
+    json.push(b'\n');
+    Ok(json)
+}
+
+/// A directory `measure` may replace: absent, empty, or a previous `measure` output (it holds
+/// `trajectories.csv` and `summary.json`). Anything else is refused before any work is done.
+pub(crate) fn check_out_dir(dir: &Path) -> Result<(), Error> {
+    let bad = |problem: String| Error::OutDir {
+        path: dir.to_path_buf(),
+        problem,
+    };
+    if !dir.exists() {
+        return Ok(());
+    }
+    if !dir.is_dir() {
+        return Err(bad("exists and is not a directory".into()));
+    }
+    let mut entries = std::fs::read_dir(dir).map_err(|e| bad(format!("cannot list: {e}")))?;
+    if entries.next().is_none() {
+        return Ok(());
+    }
+    if !(dir.join("trajectories.csv").is_file() && dir.join("summary.json").is_file()) {
+        return Err(bad(
+            "exists and is not empty and not a previous `measure` output; choose another --out"
+                .into(),
+        ));
+    }
+    Ok(())
+}
+
+/// Top-level entries of an existing output directory that `measure` writes (directories end
+/// with `/`).
+fn replaceable(name: &str) -> bool {
+    matches!(
+        name,
+        "trajectories.csv" | "displacements.csv" | "summary.json" | "plots/"
+    )
+}
+
+/// Writes `files` (paths relative to `dir`) as one unit through `crashrig-outdir`: into a
+/// staging directory beside `dir`, swapped in whole (a previous output is replaced, never
+/// mixed; SIGINT/SIGTERM remove the staging directory). This is the only function that writes
+/// the output directory.
+pub(crate) fn write_dir(dir: &Path, files: &[(String, Vec<u8>)]) -> Result<(), Error> {
+    check_out_dir(dir)?;
+    let mut staged = crashrig_outdir::Staged::new(dir, replaceable)?;
+    for (name, bytes) in files {
+        staged.write(name, bytes)?;
+    }
+    staged.commit()?;
+    Ok(())
 }
 
 #[cfg(test)]

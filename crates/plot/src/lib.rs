@@ -494,10 +494,12 @@ fn draw_heatmap<DB: DrawingBackend>(
     cb.draw_series((0..steps).map(|i| {
         let a = lo + (hi - lo) * i as f64 / steps as f64;
         let b = lo + (hi - lo) * (i + 1) as f64 / steps as f64;
-        Rectangle::new(
-            [(0.0, a), (1.0, b)],
-            colour(colour_position(0.5 * (a + b), lo, hi, integer)).filled(),
-        )
+        let t = if integer {
+            colour_position(0.5 * (a + b), lo, hi, true)
+        } else {
+            (i as f64 + 0.5) / steps as f64
+        };
+        Rectangle::new([(0.0, a), (1.0, b)], colour(t).filled())
     }))
     .map_err(&e)?;
     if integer {

@@ -25,6 +25,20 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 /// A progress callback: `(done, total)` units of work, `done ≤ total`.
 pub type Progress<'a> = &'a (dyn Fn(usize, usize) + Sync);
 
+/// Progress of a library entry with named stages (`crashrig_study::run_grid`, …): the one
+/// optional argument through which a front end watches a long call. The entry turns it into a
+/// [`Progress`] per stage ([`Reporter::stage`]); results never depend on it.
+pub trait Reporter: Sync {
+    /// `done` of `total` units of `stage` are finished (`done ≤ total`; parallel work may
+    /// report slightly out of order).
+    fn report(&self, stage: &str, done: usize, total: usize);
+}
+
+/// A `(done, total)` callback of `stage` reporting to `reporter`.
+pub fn stage<'a>(reporter: &'a dyn Reporter, stage: &'a str) -> impl Fn(usize, usize) + Sync + 'a {
+    move |done, total| reporter.report(stage, done, total)
+}
+
 /// Counts finished units of work and reports them to an optional [`Progress`].
 pub struct Counter<'a> {
     report: Option<Progress<'a>>,

@@ -83,4 +83,42 @@ pub enum Error {
         #[source]
         source: crashrig_plot::Error,
     },
+    /// A scenario file (of `grid` or `propagate`) cannot be used: the Monte Carlo library's
+    /// error, which names the file and line itself unless `path` is given.
+    #[error("{}{source}", path.as_ref().map(|p| format!("{}: ", p.display())).unwrap_or_default())]
+    Scenario {
+        /// The file, when the error does not name it.
+        path: Option<PathBuf>,
+        /// The error.
+        #[source]
+        source: crashrig_mc::Error,
+    },
+    /// A setting of a command out of its range.
+    #[error("{name} {problem}")]
+    Setting {
+        /// The setting as the command line spells it (`--samples`).
+        name: &'static str,
+        /// What is wrong.
+        problem: String,
+    },
+    /// A grid result that cannot be reported (a non-finite σ at a measurable point).
+    #[error("{}: {problem}", path.display())]
+    Grid {
+        /// The scenario file.
+        path: PathBuf,
+        /// What is wrong.
+        problem: String,
+    },
+    /// A CSV document could not be formatted.
+    #[error("formatting {what}: {source}")]
+    Csv {
+        /// Which document.
+        what: &'static str,
+        /// The CSV writer's error.
+        #[source]
+        source: csv::Error,
+    },
+    /// The output directory cannot be used or written.
+    #[error(transparent)]
+    OutDir(#[from] crashrig_outdir::Error),
 }

@@ -316,6 +316,48 @@ pub fn car_outline(grid: &Grid) -> Vec<crashrig_plot::Segment> {
 /// Legend of [`car_outline`] on the maps.
 pub const CAR_LABEL: &str = "car (sketch)";
 
+/// One kind of heat map: what it shows and how it is coloured.
+#[derive(Debug, Clone)]
+pub struct MapSpec {
+    /// File stem (`sigma_max`, `ratio_mc_linear`, …).
+    pub stem: &'static str,
+    /// Title before ` at z = … mm`.
+    pub title: String,
+    /// Colour-bar label.
+    pub bar: String,
+    /// Threshold contour (mm), if any.
+    pub threshold: Option<f64>,
+    /// Colour range; `None`: the data range.
+    pub range: Option<(f64, f64)>,
+    /// The value of a point.
+    pub value: fn(&crashrig_mc::PointStats) -> f64,
+}
+
+/// How a family of maps is labelled (the two map families, `crashrig grid`'s and the
+/// study's layouts', differ only in these).
+#[derive(Debug, Clone, Copy)]
+pub struct MapStyle {
+    /// x-axis label.
+    pub x_label: &'static str,
+    /// Observers off the map's plane (more than 0.5 mm) are labelled with their z.
+    pub label_observer_z: bool,
+    /// The field-of-view footprints are traced over the grid padded to include the observers
+    /// (`true`) or over the padded grid alone.
+    pub footprints_include_observers: bool,
+    /// The study's plan views: the car sketch ([`car_outline`]), the outward camera A behind
+    /// the rear-most observer, and an integer colour bar on the count map.
+    pub sketch: bool,
+}
+
+/// The study's layouts: σ_max, the worst-direction σ and σx σy σz on the study's shared
+/// colour scale, with the car sketch.
+pub const LAYOUT_STYLE: MapStyle = MapStyle {
+    x_label: "x [mm] (vehicle frame, forwards from the trunk opening)",
+    label_observer_z: false,
+    footprints_include_observers: false,
+    sketch: true,
+};
+
 /// Heat maps per z level of σ_max, the worst-direction σ, σx σy σz and (fixed observers) the
 /// number of cameras seeing each point: one colour scale for every σ map (`scale`, shared by
 /// the study's layouts) with the threshold contour and its mark on the bar, the schematic car,
@@ -328,14 +370,10 @@ pub fn heat_maps(
     result: &GridResult,
     scale: &MapScale,
 ) -> Result<Vec<HeatMapPng>, Error> {
-    let xs = grid.x.values();
-    let ys = grid.y.values();
-    let zs = grid.z.values();
-    let per_z = xs.len() * ys.len();
     let top = scale.top_mm;
     let bar = format!("sigma [mm] (shared scale; >= {top} saturated)");
     type Pick = fn(&crashrig_mc::PointStats) -> f64;
-    let specs: [(&'static str, &str, Pick); 5] = [
+    let picks: [(&'static str, &str, Pick); 5] = [
         ("sigma_max", "sigma_max (largest of x, y, z)", |p| {
             p.sigma_max_mm
         }),
@@ -348,40 +386,98 @@ pub fn heat_maps(
         ("sigma_y", "sigma_y", |p| p.sigma_mm.y),
         ("sigma_z", "sigma_z", |p| p.sigma_mm.z),
     ];
-    let with_fixed = crate::fixed_maps::has_fixed(grid);
-    let car = car_outline(grid);
-    let mut markers: Vec<crashrig_plot::Marker> = grid
-        .observers
-        .iter()
-        .map(|o| crashrig_plot::Marker {
-            x: o.position_mm.x,
-            y: o.position_mm.y,
-            label: &o.name,
+    let specs: Vec<MapSpec> = picks
+        .into_iter()
+        .map(|(stem, title, value)| MapSpec {
+            stem,
+            title: format!("Monte Carlo {title}"),
+            bar: bar.clone(),
+            threshold: Some(grid.threshold_mm),
+            range: Some((0.0, top)),
+            value,
         })
         .collect();
-    // The outward camera A: behind the rear-most interior camera, looking out of the trunk.
-    if let Some(r) = grid
+    level_maps(grid, result, &specs, &LAYOUT_STYLE)
+}
+
+/// The maps `specs` per z level (PNG and SVG), and with fixed observers also the map of the
+/// number of cameras that see each point (`observers_seen`); fixed observers add their
+/// field-of-view footprints and hatch the not-measurable cells. A map without any finite
+/// value (all degenerate or not measurable) still renders, all hatched.
+///
+/// # Errors
+/// [`Error::Plot`] when a figure cannot be drawn.
+pub fn level_maps(
+    grid: &Grid,
+    result: &GridResult,
+    specs: &[MapSpec],
+    style: &MapStyle,
+) -> Result<Vec<HeatMapPng>, Error> {
+    let xs = grid.x.values();
+    let ys = grid.y.values();
+    let zs = grid.z.values();
+    let per_z = xs.len() * ys.len();
+    let with_fixed = crate::fixed_maps::has_fixed(grid);
+    let seen_spec = MapSpec {
+        stem: "observers_seen",
+        title: "Cameras seeing the point".into(),
+        bar: "observers seeing the point [-]".into(),
+        threshold: None,
+        range: Some((0.0, (grid.observers.len() as f64).max(1.0))),
+        value: |p| p.observers_seen as f64,
+    };
+    let bound_observers: &[crashrig_mc::Observer] = if style.footprints_include_observers {
+        &grid.observers
+    } else {
+        &[]
+    };
+    let car = if style.sketch {
+        car_outline(grid)
+    } else {
+        Vec::new()
+    };
+    let rear = grid
         .observers
         .iter()
         .map(|o| o.position_mm)
-        .min_by(|a, b| a.x.total_cmp(&b.x))
-    {
-        markers.push(crashrig_plot::Marker {
-            x: r.x - 120.0,
-            y: r.y,
-            label: "A",
-        });
-    }
+        .min_by(|a, b| a.x.total_cmp(&b.x));
     let mut out = Vec::new();
     for (iz, z) in zs.iter().enumerate() {
         let pts = &result.points[iz * per_z..(iz + 1) * per_z];
-        // Fixed observers: field-of-view footprints on this plane, hatched not-measurable
-        // cells, and a map of the number of cameras that see each point.
+        let labels: Vec<String> = grid
+            .observers
+            .iter()
+            .map(|o| {
+                if style.label_observer_z && (o.position_mm.z - z).abs() > 0.5 {
+                    format!("{} (z {:.0})", o.name, o.position_mm.z)
+                } else {
+                    o.name.clone()
+                }
+            })
+            .collect();
+        let mut markers: Vec<crashrig_plot::Marker> = grid
+            .observers
+            .iter()
+            .zip(&labels)
+            .map(|(o, l)| crashrig_plot::Marker {
+                x: o.position_mm.x,
+                y: o.position_mm.y,
+                label: l,
+            })
+            .collect();
+        // The outward camera A: behind the rear-most interior camera, looking out of the trunk.
+        if let Some(r) = rear.filter(|_| style.sketch) {
+            markers.push(crashrig_plot::Marker {
+                x: r.x - 120.0,
+                y: r.y,
+                label: "A",
+            });
+        }
         let fp = if with_fixed {
             crate::fixed_maps::footprints(
                 grid,
                 *z,
-                crashrig_mc::coverage::footprint_bounds(&xs, &ys, &[]),
+                crashrig_mc::coverage::footprint_bounds(&xs, &ys, bound_observers),
             )
         } else {
             Vec::new()
@@ -392,55 +488,52 @@ pub fn heat_maps(
         } else {
             crashrig_plot::Overlay::default()
         };
-        overlay.context = &car;
-        overlay.context_label = Some(CAR_LABEL);
         let seen_labels: Vec<String> = pts.iter().map(|p| p.observers_seen.to_string()).collect();
         let mut seen_overlay = crate::fixed_maps::overlay(&outlines, &seen_labels);
-        seen_overlay.context = &car;
-        seen_overlay.context_label = Some(CAR_LABEL);
-        seen_overlay.integer_bar = true;
-        let n_obs = grid.observers.len() as f64;
-        let seen_bar = "cameras seeing the point [count]".to_string();
-        let seen: (&'static str, &str, Pick) = ("observers_seen", "observers_seen", |p| {
-            p.observers_seen as f64
-        });
-        for (stem, title, pick) in specs.into_iter().chain(with_fixed.then_some(seen)) {
-            let is_seen = stem == "observers_seen";
-            let values: Vec<f64> = pts.iter().map(pick).collect();
-            let title = if is_seen {
-                format!("Cameras seeing the point at z = {z} mm")
-            } else {
-                format!("Monte Carlo {title} at z = {z} mm")
-            };
+        if style.sketch {
+            for o in [&mut overlay, &mut seen_overlay] {
+                o.context = &car;
+                o.context_label = Some(CAR_LABEL);
+            }
+            seen_overlay.integer_bar = true;
+        }
+        for spec in specs.iter().chain(with_fixed.then_some(&seen_spec)) {
+            let values: Vec<f64> = pts.iter().map(spec.value).collect();
+            let all_missing = values.iter().all(|v| !v.is_finite());
+            let title = format!("{} at z = {z} mm", spec.title);
             let map = crashrig_plot::HeatMap {
                 xs: &xs,
                 ys: &ys,
                 values: &values,
                 title: &title,
-                x_label: "x [mm] (vehicle frame, forwards from the trunk opening)",
-                y_label: "y [mm] (left)",
-                colorbar_label: if is_seen { &seen_bar } else { &bar },
-                threshold: (!is_seen).then_some(grid.threshold_mm),
-                markers: &markers,
-                value_range: Some(if is_seen {
-                    (0.0, n_obs.max(1.0))
+                x_label: style.x_label,
+                y_label: if style.sketch {
+                    "y [mm] (left)"
                 } else {
-                    (0.0, top)
-                }),
+                    "y [mm]"
+                },
+                colorbar_label: &spec.bar,
+                threshold: spec.threshold,
+                markers: &markers,
+                value_range: spec.range.or(all_missing.then_some((0.0, 1.0))),
             };
-            let ov = if is_seen { &seen_overlay } else { &overlay };
+            let ov = if spec.stem == "observers_seen" {
+                &seen_overlay
+            } else {
+                &overlay
+            };
             let draw = |f| {
                 crashrig_plot::heatmap_with(&map, ov, f).map_err(|source| Error::Plot {
-                    what: format!("heat map {stem} at z = {z} mm"),
+                    what: format!("heat map {} at z = {z} mm", spec.stem),
                     source,
                 })
             };
             let png = draw(crashrig_plot::Format::Png)?;
             let svg = draw(crashrig_plot::Format::Svg)?;
             out.push(HeatMapPng {
-                stem,
+                stem: spec.stem,
                 z_mm: *z,
-                file: format!("{stem}_z{iz:02}_{z}mm.png"),
+                file: format!("{}_z{iz:02}_{z}mm.png", spec.stem),
                 png,
                 svg,
             });

@@ -7,6 +7,7 @@
 //! - [`tie`]: database + model → correspondences → bootstrap → the tie link with its covariance;
 //! - [`pipeline`]: [`run_study`] — calibration, tie, the chain outward → inward → tie, and one
 //!   grid study per layout, with a one-at-a-time sensitivity;
+//! - [`grid_run`]: [`run_grid`], the library entry of `crashrig grid`;
 //! - [`grids`]: grid summaries, `grid.csv` and heat maps;
 //! - [`fixed_maps`]: layouts with fixed observers (`aim = "fixed"`): coverage and
 //!   field-of-view footprints;
@@ -34,6 +35,7 @@ pub mod epochs;
 mod error;
 pub mod fixed_maps;
 mod fixed_observer;
+pub mod grid_run;
 pub mod grids;
 pub mod html;
 pub mod measure_step;
@@ -44,5 +46,6 @@ pub mod study_file;
 pub mod tie;
 
 pub use error::Error;
+pub use grid_run::{GridConfig, GridRun, run_grid};
 pub use pipeline::{Options, StudyResult, run_study};
 pub use study_file::Study;

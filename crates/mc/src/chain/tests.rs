@@ -234,13 +234,13 @@ fn chain_every_isa_gives_identical_results() {
         for scale in [1.0, 60.0] {
             let chain = Chain::new(&paper_chain(noise, scale));
             let n = CHUNK + 70;
-            let base = chain.monte_carlo_with(n, 4, Engine::Simd(crate::Isa::Baseline));
+            let base = chain.monte_carlo_with(n, 4, crate::Isa::Baseline);
             for isa in crate::Isa::LEVELS {
                 if !isa.is_available() {
                     eprintln!("{}: not available on this CPU, not compared", isa.name());
                     continue;
                 }
-                let got = chain.monte_carlo_with(n, 4, Engine::Simd(isa));
+                let got = chain.monte_carlo_with(n, 4, isa);
                 assert_eq!(got, base, "{noise} ×{scale}: {} differs", isa.name());
             }
         }
@@ -258,8 +258,8 @@ fn chain_legacy_and_simd_agree_statistically_including_fallback_lanes() {
     for noise in ["tangent", "euler"] {
         for scale in [1.0, 60.0] {
             let chain = Chain::new(&paper_chain(noise, scale));
-            let a = chain.monte_carlo_with(n, 8, Engine::Legacy);
-            let b = chain.monte_carlo_with(n, 8, Engine::default());
+            let a = chain.monte_carlo_engine(n, 8, crate::schedule::Engine::Legacy, None);
+            let b = chain.monte_carlo(n, 8);
             for (x, y) in a.iter().zip(&b) {
                 for (u, v) in [
                     (x.position_sigma_mm, y.position_sigma_mm),

@@ -3,8 +3,11 @@
 //! determinism, not-measurable layouts and every documented scenario error.
 
 use super::*;
-use crate::simd::Width;
+use crate::kernel::normal::LANES;
+use crate::kernel::simd::Width;
+use crate::view::*;
 use crate::{GridStudy, Scenario};
+use crashrig_camera::{Camera as Lens, ModelId};
 use std::path::Path;
 
 const MIXED: &str = r#"
@@ -183,7 +186,7 @@ fn fixed_undistort_matches_camera_crate() {
 #[test]
 fn fixed_visibility_at_image_border() {
     let lens = Lens::new(ModelId::Pinhole, 100, 50, vec![100.0, 100.0, 50.0, 25.0]).unwrap();
-    let cam = crate::scenario::FixedCamera {
+    let cam = crate::model::FixedCamera {
         rotation: Matrix3::identity(), // looking along world +z
         angles_rad: Vector3::zeros(),
         lens,
@@ -538,7 +541,7 @@ fn fixed_fast_lens_and_rows_match_reference_forms() {
         let (mut a, mut b) = (Normal3::default(), Normal3::default());
         add_rows_tangent(&mut a, &v, &d, x);
         let (r, c) = perturbed_pose(&v, &d);
-        add_rows(&mut b, &r, &c, x);
+        b.add_view(&r, &c, x.x, x.y);
         // Both exact; add a third row set so the 3×3 system is regular and compare solutions.
         for n in [&mut a, &mut b] {
             n.add_row(&Vector3::new(0.0, 0.0, 1.0), &Vector3::new(0.0, 0.0, 7.0));
@@ -720,21 +723,21 @@ pixel_sigma_px = 0.5
 sigma_from = "cam2"
 "#;
 
-/// The statement of `simd.rs` for the fixed path: every instruction-set level gives the same
+/// The statement of `kernel/simd.rs` for the fixed path: every instruction-set level gives the same
 /// bits (each available level forced and compared with the baseline, a partial final block).
 #[test]
 fn fixed_every_isa_gives_identical_grids() {
-    use crate::{Engine, Isa};
+    use crate::Isa;
     let n = crate::CHUNK + 70;
     for (name, study) in fixed_kernel_paths() {
-        let base = study.run_with(n, 9, Engine::Simd(Isa::Baseline)).unwrap();
+        let base = study.run_with(n, 9, Isa::Baseline).unwrap();
         assert!(base.points.iter().any(|p| p.is_measurable()), "{name}");
         for isa in Isa::LEVELS {
             if !isa.is_available() {
                 eprintln!("{}: not available on this CPU, not compared", isa.name());
                 continue;
             }
-            let got = study.run_with(n, 9, Engine::Simd(isa)).unwrap();
+            let got = study.run_with(n, 9, isa).unwrap();
             assert_eq!(got, base, "{name}: {} differs from baseline", isa.name());
         }
     }
@@ -744,12 +747,13 @@ fn fixed_every_isa_gives_identical_grids() {
 /// with the same distribution: σ within 4 standard errors of a difference of two σ estimates.
 #[test]
 fn fixed_block_and_legacy_engines_agree_statistically() {
-    use crate::Engine;
     let n = 20_000;
     let se = (2.0f64).sqrt() / (2.0 * (n as f64 - 1.0)).sqrt();
     for (name, study) in fixed_kernel_paths() {
-        let a = study.run_with(n, 5, Engine::Legacy).unwrap();
-        let b = study.run_with(n, 5, Engine::default()).unwrap();
+        let a = study
+            .run_engine(n, 5, crate::schedule::Engine::Legacy, None)
+            .unwrap();
+        let b = study.run(n, 5).unwrap();
         for (pa, pb) in a.points.iter().zip(&b.points) {
             assert_eq!(pa.observers_seen, pb.observers_seen);
             if !pa.is_measurable() {
@@ -785,8 +789,8 @@ fn fixed_undistort_lanes_matches_camera_crate_with_fix_up() {
     };
     let vs = views(&setup, &Vector3::new(1200.0, -200.0, 0.0)).unwrap();
     let mut rows = vec![[0.0; LANES]; 2];
-    crate::normal::fill_block(
-        crate::philox::key_of_seed(3),
+    crate::kernel::normal::fill_block(
+        crate::kernel::philox::key_of_seed(3),
         0,
         0,
         &mut rows,
@@ -872,8 +876,8 @@ fn fixed_undistort_lanes_need_no_fix_up_at_half_a_pixel() {
         assert_eq!(v.sigma_px, 0.5);
         let mut rows = vec![[0.0; LANES]; 2];
         for block in 0..64u64 {
-            crate::normal::fill_block(
-                crate::philox::key_of_seed(5),
+            crate::kernel::normal::fill_block(
+                crate::kernel::philox::key_of_seed(5),
                 1,
                 64 * block,
                 &mut rows,

@@ -4,7 +4,9 @@
 
 use super::*;
 use crate::Scenario;
+use crate::schedule::{ADAPTIVE_MIN_BATCHES, adaptive_stable};
 use approx::assert_abs_diff_eq;
+use crashrig_stats::Moments;
 use std::path::Path;
 
 fn scenario(extra_grid: &str, obs: &str, cameras: &str, noise: &str) -> Scenario {
@@ -359,20 +361,18 @@ fn kernel_paths() -> Vec<(&'static str, GridStudy)> {
 
 #[test]
 fn every_isa_gives_identical_grids() {
-    // The statement of `simd.rs`: every instruction-set level gives the same bits. Each
+    // The statement of `kernel/simd.rs`: every instruction-set level gives the same bits. Each
     // available level is forced and compared with the baseline (SSE2 on x86-64), on every
     // kernel path, with a partial final block.
     let n = crate::CHUNK + 70;
     for (name, study) in kernel_paths() {
-        let base = study
-            .run_with(n, 9, Engine::Simd(crate::Isa::Baseline))
-            .unwrap();
+        let base = study.run_with(n, 9, crate::Isa::Baseline).unwrap();
         for isa in crate::Isa::LEVELS {
             if !isa.is_available() {
                 eprintln!("{}: not available on this CPU, not compared", isa.name());
                 continue;
             }
-            let got = study.run_with(n, 9, Engine::Simd(isa)).unwrap();
+            let got = study.run_with(n, 9, isa).unwrap();
             assert_eq!(got, base, "{name}: {} differs from baseline", isa.name());
         }
     }
@@ -385,15 +385,13 @@ fn wide_and_narrow_loop_shapes_give_identical_grids() {
     // Forced narrow on the best level of this CPU; aimed, pixel and chain-drawn paths. (On a
     // CPU without AVX-512 both runs are narrow; `fill_block_is_identical_for_both_widths`
     // still compares the two shapes of the generator there.)
-    use crate::simd::FORCE_NARROW;
+    use crate::kernel::simd::FORCE_NARROW;
     use std::sync::atomic::Ordering::Relaxed;
     let n = crate::CHUNK + 70;
     for (name, study) in kernel_paths() {
-        let auto = study
-            .run_with(n, 9, Engine::Simd(crate::Isa::Auto))
-            .unwrap();
+        let auto = study.run_with(n, 9, crate::Isa::Auto).unwrap();
         FORCE_NARROW.store(true, Relaxed);
-        let narrow = study.run_with(n, 9, Engine::Simd(crate::Isa::Auto));
+        let narrow = study.run_with(n, 9, crate::Isa::Auto);
         FORCE_NARROW.store(false, Relaxed);
         assert_eq!(auto, narrow.unwrap(), "{name}: the loop shapes differ");
     }
@@ -406,8 +404,10 @@ fn legacy_and_simd_engines_agree_statistically() {
     let n = 40_000;
     let se = (2.0f64).sqrt() / (2.0 * (n as f64 - 1.0)).sqrt();
     for (name, study) in kernel_paths() {
-        let a = study.run_with(n, 5, Engine::Legacy).unwrap();
-        let b = study.run_with(n, 5, Engine::default()).unwrap();
+        let a = study
+            .run_engine(n, 5, crate::schedule::Engine::Legacy, None)
+            .unwrap();
+        let b = study.run(n, 5).unwrap();
         for (pa, pb) in a.points.iter().zip(&b.points) {
             for k in 0..3 {
                 let s = pa.sigma_mm[k];
@@ -421,7 +421,15 @@ fn legacy_and_simd_engines_agree_statistically() {
 /// The draws of one chunk with the given observers (test access to the kernel).
 fn chunk(obs: &[Aimed], ctx: &Ctx, m: usize) -> Acc3 {
     let mut acc = Acc3::new(Vector3::new(0.0, 1000.0, 0.0));
-    run_chunk(obs, ctx, 77, 3, m, &mut acc, Engine::default());
+    run_chunk(
+        obs,
+        ctx,
+        77,
+        3,
+        m,
+        &mut acc,
+        crate::schedule::Engine::Simd(crate::Isa::Auto),
+    );
     acc
 }
 
@@ -487,7 +495,7 @@ fn full_factor_nominal_matches_linear_propagation() {
     let obs: Vec<Aimed> = aimed
         .iter()
         .map(|a| Aimed {
-            noise: crate::block::NoiseFactor::from_lower(&l),
+            noise: crate::kernel::lanes::NoiseFactor::from_lower(&l),
             ..*a
         })
         .collect();
@@ -503,7 +511,7 @@ fn full_factor_nominal_matches_linear_propagation() {
             k,
             crate::CHUNK,
             &mut part,
-            Engine::default(),
+            crate::schedule::Engine::Simd(crate::Isa::Auto),
         );
         acc.merge(&part);
     }
@@ -543,7 +551,7 @@ fn full_factor_nominal_matches_linear_propagation() {
 /// JCGM 101 §7.9.2: δ = ½·10^l with u = c·10^l, c an ndig-digit integer.
 #[test]
 fn ndig_tolerance_known_answers() {
-    use crate::scenario::ndig_tolerance;
+    use crate::model::ndig_tolerance;
     // The standard's example: u = 0.01234 mm, ndig = 2 → 12 × 10⁻³ → δ = 0.0005 mm.
     let cases = [
         (0.01234, 2, 0.0005),

@@ -6,42 +6,12 @@
 //! users' reference: `docs/FIXED_CAMERAS.md`).
 
 use super::{RawObserver, finite3};
-use crate::Error;
+use crate::error::Error;
+use crate::model::{Aim, FixedCamera};
 use crashrig_camera::{Camera as Lens, ModelId};
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Vector3;
 use serde::Deserialize;
 use std::path::Path;
-
-/// How an observer points its camera.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Aim {
-    /// The paper's re-aiming (`aim = "point"`, the default): the optical axis passes through
-    /// every grid point, which is observed at the principal point.
-    Point,
-    /// A camera fixed in place (`aim = "fixed"`) with a real lens.
-    Fixed(Box<FixedCamera>),
-}
-
-/// A fixed observer's orientation, lens and pixel noise.
-#[derive(Debug, Clone, PartialEq)]
-pub struct FixedCamera {
-    /// `R_world_from_cam` (columns: the camera's x right, y down, z forward in world axes).
-    pub rotation: Matrix3<f64>,
-    /// ω, φ, κ (rad) of `rotation` (`Rx(ω)·Ry(φ)·Rz(κ)`), the base of `euler` noise.
-    pub angles_rad: Vector3<f64>,
-    /// The lens: a COLMAP camera model with COLMAP's parameter order and pixel convention
-    /// (the centre of the upper-left pixel is (0.5, 0.5)).
-    pub lens: Lens,
-    /// σ of each measured image coordinate (px).
-    pub pixel_sigma_px: f64,
-}
-
-impl FixedCamera {
-    /// The camera-frame coordinates of a world point (`R_world_from_camᵀ (X − C)`).
-    pub fn cam_from_world(&self, center: &Vector3<f64>, x: &Vector3<f64>) -> Vector3<f64> {
-        self.rotation.transpose() * (x - center)
-    }
-}
 
 /// The inline table `camera = { model, width, height, params }` as written (validated by
 /// [`aim_from_keys`]).

@@ -35,7 +35,7 @@ impl Acc3 {
     }
 
     /// Adds one point.
-    #[inline(always)]
+    #[cfg(test)]
     pub(crate) fn push(&mut self, x: &Vector3<f64>) {
         let d = x - self.shift;
         self.n += 1;

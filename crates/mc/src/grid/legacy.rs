@@ -1,14 +1,14 @@
 //! The former Monte Carlo loops (ChaCha8 streams, ziggurat normals, one draw or one
-//! 64-draw block at a time, compiled for the target's baseline), kept as the baseline of the
-//! benchmarks: `Engine::Legacy` runs them side by side with the vectorised engine in one
-//! process. Not used by default.
+//! 64-draw block at a time), compiled into the tests only: `Engine::Legacy` runs them as an
+//! independent statistical cross-check of the vectorised engine (different random numbers,
+//! the same distribution). Not part of the library.
 
-use crate::FastNormal;
-use crate::accumulate::Acc3;
+use crate::block::{Aimed, Ctx};
 use crate::chain::WorldPose;
-use crate::grid::{Aimed, Ctx, add_view};
+use crate::kernel::accumulate::Acc3;
+use crate::kernel::ziggurat::FastNormal;
 use crate::kernel::{Normal3, SMALL_ANGLE_SQ, exp_e3, exp_matrix, opk_e3, rot_opk};
-use crate::scenario::RotationNoise;
+use crate::model::RotationNoise;
 use nalgebra::Vector3;
 
 /// `m` draws of one grid point into `acc`.
@@ -86,7 +86,7 @@ pub(crate) fn run_chunk<R: rand::Rng>(
                         Rot::Tangent(w) => o.r * exp_matrix(&w),
                         Rot::Euler(da) => rot_opk(&(o.opk + da)),
                     };
-                    add_view(&mut n, &r, &c, x, y);
+                    n.add_view(&r, &c, x, y);
                 }
             }
         }
@@ -131,7 +131,7 @@ fn run_two_observers<R: rand::Rng>(
     let mut xs = [[0.0f64; LANES]; 3];
     let mut tmax = [0.0f64; LANES];
     let shift = acc.shift();
-    let mut lanes = crate::accumulate::LaneSums::<LANES>::default();
+    let mut lanes = crate::kernel::accumulate::LaneSums::<LANES>::default();
     let mut done = 0;
     while done < m {
         let b = LANES.min(m - done);

@@ -1,7 +1,7 @@
 //! Runtime instruction-set dispatch of the Monte Carlo kernels, with `pulp` (safe API, no
 //! `unsafe` here).
 //!
-//! The kernels are plain loops over lane arrays ([`crate::normal::LANES`] draws per block),
+//! The kernels are plain loops over lane arrays ([`super::normal::LANES`] draws per block),
 //! marked `#[inline(always)]` down to the arithmetic. [`dispatch`] runs such a kernel inside
 //! a function compiled for the chosen level (pulp's `Simd::vectorize`, a
 //! `#[target_feature]` function), so the compiler vectorises the inlined loops with that
@@ -25,9 +25,10 @@
 //! available level and compare the results exactly.
 //!
 //! # Choosing the level
-//! [`Isa::Auto`] (the default) takes the best level the CPU has, unless the environment
-//! variable `CRASHRIG_ISA` is `baseline`, `v3` or `v4` (read once per process; a level the
-//! CPU lacks falls back to the best available one). Tests and benchmarks pass an explicit
+//! The level is an explicit, typed argument: [`Isa::Auto`] (what the library's entry points
+//! use) takes the best level the CPU has; an explicit level the CPU lacks falls back to the
+//! best available one. No environment variable is read — the results are the same bits on
+//! every level, so the choice only changes the speed. Tests and benchmarks pass an explicit
 //! [`Isa`].
 
 use std::sync::OnceLock;
@@ -35,7 +36,7 @@ use std::sync::OnceLock;
 /// Instruction-set level of the Monte Carlo kernels.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Isa {
-    /// The best level of this CPU (or `CRASHRIG_ISA`).
+    /// The best level of this CPU.
     Auto,
     /// The target's baseline (SSE2 on x86-64; NEON on aarch64, where it is the baseline).
     Baseline,
@@ -66,18 +67,7 @@ impl Isa {
     /// levels).
     pub fn resolve(self) -> Isa {
         match self {
-            Isa::Auto => *AUTO.get_or_init(|| {
-                let wanted = match std::env::var("CRASHRIG_ISA").as_deref() {
-                    Ok("baseline") => Some(Isa::Baseline),
-                    Ok("v3") => Some(Isa::X86V3),
-                    Ok("v4") => Some(Isa::X86V4),
-                    _ => None,
-                };
-                match wanted {
-                    Some(l) if l.is_available() => l,
-                    _ => best(),
-                }
-            }),
+            Isa::Auto => *AUTO.get_or_init(best),
             l if l.is_available() => l,
             _ => best(),
         }
@@ -90,33 +80,6 @@ impl Isa {
             Isa::Baseline => "baseline",
             Isa::X86V3 => "v3",
             Isa::X86V4 => "v4",
-        }
-    }
-}
-
-/// Which Monte Carlo engine runs the draws.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Engine {
-    /// The vectorised engine (Philox normals, blocks of 64 draws) at an instruction-set level.
-    Simd(Isa),
-    /// The former engine (ChaCha8 + ziggurat normals, baseline instructions): the benchmark
-    /// baseline. Statistically equivalent, different random numbers.
-    Legacy,
-}
-
-impl Default for Engine {
-    fn default() -> Self {
-        Engine::Simd(Isa::Auto)
-    }
-}
-
-impl Engine {
-    /// The default engine, or the legacy one when `CRASHRIG_ISA=legacy` (so whole commands
-    /// can be timed against the former engine with the same binary).
-    pub fn from_env() -> Self {
-        match std::env::var("CRASHRIG_ISA").as_deref() {
-            Ok("legacy") => Engine::Legacy,
-            _ => Engine::default(),
         }
     }
 }

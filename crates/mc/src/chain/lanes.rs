@@ -17,12 +17,12 @@
 
 #![allow(clippy::needless_range_loop)] // lane-indexed loops over parallel arrays are the point (they vectorise)
 
-use crate::block::{NoiseFactor, Trig, euler_rot, tangent_rot};
 use crate::chain::Chain;
 use crate::kernel::SMALL_ANGLE_SQ;
-use crate::normal::{LANES, Lane, fill_block};
-use crate::scenario::RotationNoise;
-use crate::simd::Width;
+use crate::kernel::lanes::{NoiseFactor, Trig, euler_rot, tangent_rot};
+use crate::kernel::normal::{LANES, Lane, fill_block};
+use crate::kernel::simd::Width;
+use crate::model::RotationNoise;
 use nalgebra::{Matrix6, Vector3, Vector6};
 
 /// cos φ below which a lane goes to the scalar angle extraction (far above the geometry
@@ -221,7 +221,7 @@ struct PoseLanes {
 }
 
 /// `m` joint draws (task `task` of the run keyed `key`), returning per-camera sums. Must be
-/// called inside [`crate::simd::dispatch`].
+/// called inside [`crate::kernel::simd::dispatch`].
 #[inline(always)]
 pub(crate) fn run_task(
     chain: &Chain,

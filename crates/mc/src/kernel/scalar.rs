@@ -117,6 +117,15 @@ impl Normal3 {
         self.r[2] += a.z * ac;
     }
 
+    /// Adds the two DLT rows ([`crashrig_geometry::triangulate::dlt_rows`]) of a view with
+    /// rotation `r` (`R_world_from_cam`), centre `c` and normalized observation `(x, y)`.
+    #[inline(always)]
+    pub(crate) fn add_view(&mut self, r: &Matrix3<f64>, c: &Vector3<f64>, x: f64, y: f64) {
+        let [a, b] = crashrig_geometry::triangulate::dlt_rows(r, x, y);
+        self.add_row(&a, c);
+        self.add_row(&b, c);
+    }
+
     /// Adds a ray through `c` with unit direction `d` (both rows of a principal-point view):
     /// `I − ddᵀ` and `(I − ddᵀ)c`.
     #[inline(always)]

@@ -1,0 +1,287 @@
+//! The library entry of `crashrig measure`: a typed [`MeasureConfig`] → [`run`] → a typed
+//! [`MeasureRun`] (and, with [`MeasureConfig::out`], the output directory written
+//! all-or-nothing). The command and the study's `[measure]` step both call it.
+//!
+//! # Example
+//! The bundled synthetic sequence (`fixtures/measure/sequence`), measured without writing:
+//! ```
+//! use crashrig_geometry::Vec3;
+//! use crashrig_measure::{ANoise, MeasureConfig, Settings, input, run};
+//! use std::path::Path;
+//!
+//! let f = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/measure/sequence");
+//! let config = MeasureConfig {
+//!     model: f.join("model"),
+//!     camera_a: "cam_out/".into(),
+//!     camera_b: "2".into(),
+//!     camera_c: Some("3".into()),
+//!     a_from_b: input::load_link(&f.join("link.json"))?,
+//!     b_from_c: Some(input::load_link(&f.join("tie.json"))?),
+//!     observations: f.join("observations.csv"),
+//!     mm_per_unit: 1000.0,
+//!     a_noise: ANoise::Sigmas { position_mm: Vec3::repeat(0.5), angles_deg: Vec3::zeros() },
+//!     settings: Settings {
+//!         samples: 100,
+//!         seed: 1,
+//!         pixel_sigma_px: 0.1,
+//!         reference_epoch: None,
+//!         frame_rate_hz: None,
+//!         threshold_mm: 5.0,
+//!         max_reprojection_px: None,
+//!     },
+//!     out: None,
+//! };
+//! let r = run(&config)?;
+//! assert_eq!(r.summary.numbers.rows, r.measurement.rows.len());
+//! assert_eq!(r.summary.numbers.cameras, ["B", "C"]);
+//! // Nothing written: no files listed.
+//! assert!(r.summary.files.is_empty());
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+use crate::Error;
+use crate::engine::{Epoch, Measurement, Rig, Settings};
+use crate::input::{self, CameraNames};
+use crate::output::{self, Skipped, SummaryDocument};
+use crate::sequence::{self, APose, CameraSelector};
+use crashrig_geometry::{UncertainPose, Vec3};
+use std::path::{Path, PathBuf};
+
+/// Camera A's per-epoch pose uncertainty.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ANoise {
+    /// The same σ for every epoch: projection centre (world axes, mm) and rotation about A's
+    /// own axes (degrees). Zeros: A's pose is exact.
+    Sigmas {
+        /// σ of the centre (mm).
+        position_mm: Vec3,
+        /// σ of the rotation (degrees).
+        angles_deg: Vec3,
+    },
+    /// A JSON file with `covariance_tangent` and/or `epochs` ([`input::read_a_covariance`]).
+    File(PathBuf),
+}
+
+/// Where and how [`run`] writes the output directory.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OutputDir {
+    /// The directory (absent, empty, or a previous `measure` output; replaced whole).
+    pub dir: PathBuf,
+    /// Draw the per-marker trajectory plots (`plots/<marker>.png|svg`).
+    pub plots: bool,
+}
+
+/// Everything a measurement needs, typed: the files of the sequence, the rig's links as
+/// uncertain poses, and the settings.
+#[derive(Debug, Clone)]
+pub struct MeasureConfig {
+    /// COLMAP model of the sequence (camera A registered against the lab per epoch).
+    pub model: PathBuf,
+    /// Camera A: image-name prefix or camera id; its images are the epochs.
+    pub camera_a: String,
+    /// Inward camera B: camera id or image-name prefix (intrinsics).
+    pub camera_b: String,
+    /// Tied-in camera C: camera id or image-name prefix; needs [`MeasureConfig::b_from_c`].
+    pub camera_c: Option<String>,
+    /// The calibrated link `A_from_B` with the uncertainty of the mean link (mm, rad).
+    pub a_from_b: UncertainPose,
+    /// The tie `B_from_C` with its uncertainty; needs [`MeasureConfig::camera_c`].
+    pub b_from_c: Option<UncertainPose>,
+    /// Marker observations CSV `epoch,camera,marker,u_px,v_px`.
+    pub observations: PathBuf,
+    /// Model units → mm.
+    pub mm_per_unit: f64,
+    /// Camera A's per-epoch uncertainty.
+    pub a_noise: ANoise,
+    /// Replicates, seed, pixel σ, reference epoch, frame rate, thresholds.
+    pub settings: Settings,
+    /// The output directory; `None`: compute only.
+    pub out: Option<OutputDir>,
+}
+
+/// The result of [`run`].
+#[derive(Debug, Clone)]
+pub struct MeasureRun {
+    /// The rows, epochs and markers (typed).
+    pub measurement: Measurement,
+    /// `summary.json` (its numbers, skipped epochs, names, the files written, the time).
+    pub summary: SummaryDocument,
+    /// Warnings for the user (epochs of the observations without a pose of camera A), one
+    /// sentence each without the `warning:` prefix.
+    pub warnings: Vec<String>,
+}
+
+/// Reads the sequence, measures it and, with [`MeasureConfig::out`], writes `trajectories.csv`,
+/// `displacements.csv`, the plots and `summary.json` as one unit through `crashrig-outdir`
+/// (a previous output is replaced, never mixed).
+///
+/// # Errors
+/// Every [`Error`] of the inputs (each names its file), of the settings, of the engine
+/// (placed in its file by [`Error::in_files`]), and of the output directory
+/// ([`Error::OutDir`], checked before any work).
+pub fn run(config: &MeasureConfig) -> Result<MeasureRun, Error> {
+    let started = std::time::Instant::now();
+    if let Some(out) = &config.out {
+        output::check_out_dir(&out.dir)?;
+    }
+    if config.camera_c.is_some() != config.b_from_c.is_some() {
+        return Err(Error::Input(
+            "camera C and the tie B_from_C go together (give both, or neither)".into(),
+        ));
+    }
+    let model = crashrig_colmap::Reconstruction::read(&config.model)?;
+    let seq = sequence::a_sequence(
+        &model,
+        &CameraSelector::parse(&config.camera_a),
+        config.mm_per_unit,
+    )?;
+    let (b_id, camera_b) =
+        sequence::inward_camera(&model, &CameraSelector::parse(&config.camera_b), 'B')?;
+    let c = match (&config.camera_c, &config.b_from_c) {
+        (Some(sel), Some(tie)) => {
+            let (id, cam) = sequence::inward_camera(&model, &CameraSelector::parse(sel), 'C')?;
+            Some((id, *tie, cam))
+        }
+        _ => None,
+    };
+    let names = CameraNames {
+        b_id: Some(b_id),
+        c_id: c.as_ref().map(|(id, _, _)| *id),
+        has_c: c.is_some(),
+    };
+    let observations = input::read_observations(&config.observations, &names)?;
+    let epochs = a_epochs(&seq.poses, &config.a_noise)?;
+    let rig = Rig {
+        a_from_b: config.a_from_b,
+        camera_b,
+        c: c.map(|(_, tie, cam)| (tie, cam)),
+    };
+    let measurement = crate::measure(&epochs, &rig, &observations, &config.settings)
+        .map_err(|e| e.in_files(&config.observations, &config.model))?;
+    let warnings = measurement
+        .skipped
+        .iter()
+        .map(|s| {
+            format!(
+                "epoch `{}` has no pose of camera A ({}) in {}: its {} observation(s) are skipped",
+                s.epoch,
+                config.camera_a,
+                config.model.display(),
+                s.observations
+            )
+        })
+        .collect();
+    let mut summary = summary_document(&measurement, config);
+    if let Some(out) = &config.out {
+        let mut files = output_files(&measurement, out.plots)?;
+        summary.files = files.iter().map(|(n, _)| n.clone()).collect();
+        summary.files.push("summary.json".into());
+        summary.elapsed_s = started.elapsed().as_secs_f64();
+        files.push(("summary.json".into(), output::json_pretty(&summary)?));
+        output::write_dir(&out.dir, &files)?;
+    }
+    Ok(MeasureRun {
+        measurement,
+        summary,
+        warnings,
+    })
+}
+
+/// The epochs of A's sequence with their uncertain poses.
+fn a_epochs(poses: &[APose], noise: &ANoise) -> Result<Vec<Epoch>, Error> {
+    let a_cov = match noise {
+        ANoise::File(p) => Some(input::read_a_covariance(p)?),
+        ANoise::Sigmas { .. } => None,
+    };
+    let mut epochs = Vec::with_capacity(poses.len());
+    for p in poses {
+        let world_from_a = match (&a_cov, noise) {
+            (Some(cov), _) => {
+                let m = cov
+                    .for_epoch(&[&p.key, &p.name])
+                    .ok_or_else(|| Error::Json {
+                        path: cov.path.clone(),
+                        key: "epochs".into(),
+                        problem: format!(
+                            "no covariance for epoch `{}` and no default covariance_tangent",
+                            p.name
+                        ),
+                    })?;
+                UncertainPose::from_covariance_deg(p.world_from_a, m)
+                    .map_err(|e| Error::Input(format!("{}: {e}", cov.path.display())))?
+            }
+            (
+                None,
+                ANoise::Sigmas {
+                    position_mm,
+                    angles_deg,
+                },
+            ) => UncertainPose::from_sigmas(
+                p.world_from_a,
+                *position_mm,
+                angles_deg.map(f64::to_radians),
+            ),
+            (None, ANoise::File(_)) => unreachable!("read above"),
+        };
+        epochs.push(Epoch {
+            key: p.key.clone(),
+            name: p.name.clone(),
+            world_from_a,
+        });
+    }
+    Ok(epochs)
+}
+
+/// `summary.json` without the files and the time (filled in by [`run`] when it writes).
+fn summary_document(m: &Measurement, config: &MeasureConfig) -> SummaryDocument {
+    SummaryDocument {
+        numbers: output::Summary::new(
+            m,
+            &config.settings,
+            config.mm_per_unit,
+            config.b_from_c.is_some(),
+        ),
+        skipped_epochs: m
+            .skipped
+            .iter()
+            .map(|s| Skipped {
+                epoch: s.epoch.clone(),
+                observations: s.observations,
+            })
+            .collect(),
+        epoch_names: m.epochs.iter().map(|e| e.name.clone()).collect(),
+        marker_names: m.markers.clone(),
+        files: Vec::new(),
+        elapsed_s: 0.0,
+    }
+}
+
+/// The CSV files and (with `plots`) the plots of `m`: path relative to the directory, bytes.
+fn output_files(m: &Measurement, plots: bool) -> Result<Vec<(String, Vec<u8>)>, Error> {
+    let mut files = vec![
+        (
+            "trajectories.csv".to_string(),
+            output::trajectories_csv(m).into_bytes(),
+        ),
+        (
+            "displacements.csv".to_string(),
+            output::displacements_csv(m).into_bytes(),
+        ),
+    ];
+    if plots {
+        for p in output::marker_plots(m)? {
+            files.push((format!("plots/{}.png", p.stem), p.png));
+            files.push((format!("plots/{}.svg", p.stem), p.svg));
+        }
+    }
+    Ok(files)
+}
+
+/// Whether `path` is usable as [`OutputDir::dir`] ([`output::check_out_dir`]); for front ends
+/// that check before reading their own inputs.
+///
+/// # Errors
+/// [`Error::OutDir`].
+pub fn check_out(path: &Path) -> Result<(), Error> {
+    output::check_out_dir(path)
+}

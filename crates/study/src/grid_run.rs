@@ -1,0 +1,673 @@
+//! The library entry of `crashrig grid`: a typed [`GridConfig`] → [`run_grid`] → a typed
+//! [`GridRun`], with `grid.csv`, `grid_detail.csv`, the heat maps and `summary.json` written
+//! as one unit. The maps are drawn by [`crate::grids::level_maps`], the code the study's
+//! layouts draw with ([`GRID_STYLE`] vs [`crate::grids::LAYOUT_STYLE`] names what differs).
+//!
+//! # Example
+//! ```no_run
+//! use crashrig_study::grid_run::{GridConfig, run_grid};
+//! let config = GridConfig {
+//!     scenario: "fixtures/scenarios/three_cameras_z0.toml".into(),
+//!     out: "grid_out".into(),
+//!     samples: Some(2000),
+//!     seed: Some(1),
+//!     plots: true,
+//! };
+//! let run = run_grid(&config, None)?;
+//! println!("{:.1} % below {} mm", 100.0 * run.summary.fraction_below_threshold, run.summary.threshold_mm);
+//! # Ok::<(), crashrig_study::Error>(())
+//! ```
+
+use crate::Error;
+use crate::grids::{MapSpec, MapStyle};
+use crashrig_mc::{Grid, GridResult, GridStudy, PointStats, Scenario};
+use crashrig_stats::progress::{self, Reporter};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// What `crashrig grid` runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GridConfig {
+    /// The scenario file (TOML).
+    pub scenario: PathBuf,
+    /// The output directory (absent, empty or a previous `grid` output; replaced whole).
+    pub out: PathBuf,
+    /// Draws per point (default: the scenario's `samples`).
+    pub samples: Option<usize>,
+    /// Seed (default: the scenario's).
+    pub seed: Option<u64>,
+    /// Draw the heat maps.
+    pub plots: bool,
+}
+
+/// The result of [`run_grid`].
+#[derive(Debug, Clone)]
+pub struct GridRun {
+    /// The grid that ran.
+    pub grid: Grid,
+    /// Per-point statistics (degenerate points blanked).
+    pub result: GridResult,
+    /// `summary.json`.
+    pub summary: GridDocument,
+    /// Files written (summary.json included).
+    pub files: usize,
+    /// Warnings for the user, one sentence each without the `warning:` prefix.
+    pub warnings: Vec<String>,
+}
+
+/// The maps of `crashrig grid`.
+pub const GRID_STYLE: MapStyle = MapStyle {
+    x_label: "x [mm]",
+    label_observer_z: true,
+    footprints_include_observers: true,
+    sketch: false,
+};
+
+/// Minimum, median and maximum of the finite values.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Spread {
+    /// Minimum.
+    pub min: f64,
+    /// Median.
+    pub median: f64,
+    /// Maximum.
+    pub max: f64,
+}
+
+/// `summary.json` → `linear`: the first-order counterpart.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LinearSummary {
+    /// Fraction of points with linear σ_max below the threshold.
+    pub fraction_below_threshold: f64,
+    /// Largest linear σ_max (mm).
+    pub max_sigma_mm: f64,
+    /// Median linear σ_max (mm).
+    pub median_sigma_max_mm: f64,
+    /// Monte Carlo σ_max over linear σ_max.
+    pub ratio_mc_over_linear_sigma_max: Spread,
+}
+
+/// `summary.json` → `adaptive`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AdaptiveSummary {
+    /// δ in mm (`tolerance_mm`), or null with `ndig`.
+    pub tolerance_mm: Option<f64>,
+    /// Significant digits of σ that set δ (`ndig`), or null with `tolerance_mm`.
+    pub ndig: Option<u32>,
+    /// Draws per batch.
+    pub batch: usize,
+    /// Upper bound of draws per point.
+    pub max_samples: usize,
+    /// Fewest draws of a point.
+    pub draws_min: u64,
+    /// Most draws of a point.
+    pub draws_max: u64,
+    /// All draws.
+    pub draws_total: u64,
+    /// Points that stopped at `max_samples` without meeting the tolerance.
+    pub unconverged_points: usize,
+}
+
+/// `summary.json` → `correlation`: the same grid with independent observers.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CorrelationSummary {
+    /// Fraction below the threshold with independent observers.
+    pub independent_fraction_below_threshold: f64,
+    /// Median σ_max with independent observers (mm).
+    pub independent_median_sigma_max_mm: f64,
+    /// Correlated minus independent σ_max (mm).
+    pub change_sigma_max_mm: Spread,
+    /// Correlated over independent σ_max.
+    pub ratio_correlated_over_independent: Spread,
+}
+
+/// `summary.json` of `crashrig grid` (and its `--json` output); docs/SCENARIO.md.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GridDocument {
+    /// Grid points.
+    pub points: usize,
+    /// Draws per point.
+    pub samples_per_point: u64,
+    /// Threshold on σ_max (mm).
+    pub threshold_mm: f64,
+    /// Fraction of points with σ_max below the threshold.
+    pub fraction_below_threshold: f64,
+    /// Largest σ_max (mm).
+    pub max_sigma_mm: f64,
+    /// Median σ_max (mm).
+    pub median_sigma_max_mm: f64,
+    /// Wall-clock time of the Monte Carlo (s).
+    pub elapsed_s: f64,
+    /// Draws per second.
+    pub samples_per_second: f64,
+    /// Fraction of points seen by at least two observers (1 when every observer is aimed).
+    pub fraction_measurable: f64,
+    /// Per observer: aim and fraction of the grid it sees (only with fixed observers).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub observer_coverage: Option<Vec<crashrig_mc::coverage::Coverage>>,
+    /// Seed.
+    pub seed: u64,
+    /// Worker threads.
+    pub threads: usize,
+    /// `tangent` or `euler`.
+    pub rotation_noise: &'static str,
+    /// Observers.
+    pub observers: usize,
+    /// Pixel σ (px), if the scenario gives pixel noise.
+    pub pixel_sigma_px: Option<f64>,
+    /// Focal length (px) of the pixel noise.
+    pub focal_px: Option<f64>,
+    /// Whether the observers share chain draws.
+    pub correlated: bool,
+    /// All draws.
+    pub total_draws: u64,
+    /// First-order counterpart.
+    pub linear: LinearSummary,
+    /// Adaptive run numbers.
+    pub adaptive: Option<AdaptiveSummary>,
+    /// Correlated vs independent observers.
+    pub correlation: Option<CorrelationSummary>,
+    /// Points whose intersection angle is below `min_intersection_angle_deg`: no σ, left out
+    /// of medians, maxima and colour scales, counted as not below the threshold.
+    pub degenerate_points: usize,
+    /// The degenerate limit (degrees).
+    pub min_intersection_angle_deg: f64,
+    /// Files written.
+    pub files: Vec<String>,
+}
+
+/// Reads a scenario; every error names the file (TOML errors also the line).
+///
+/// # Errors
+/// [`Error::Scenario`].
+pub fn load_scenario(path: &Path) -> Result<Scenario, Error> {
+    Scenario::from_path(path).map_err(|e| match e {
+        crashrig_mc::Error::Io { .. }
+        | crashrig_mc::Error::Toml { .. }
+        | crashrig_mc::Error::Located { .. } => Error::Scenario {
+            path: None,
+            source: e,
+        },
+        other => Error::Scenario {
+            path: Some(path.to_path_buf()),
+            source: other,
+        },
+    })
+}
+
+/// The `samples` to use: the option, else the scenario's; at least 2, at most
+/// [`crashrig_mc::limits::MAX_SAMPLES`].
+///
+/// # Errors
+/// [`Error::Setting`] naming `--samples`.
+pub fn resolve_samples(option: Option<usize>, scenario: &Scenario) -> Result<usize, Error> {
+    let n = option.unwrap_or(scenario.samples);
+    let bad = |problem| {
+        Err(Error::Setting {
+            name: "--samples",
+            problem,
+        })
+    };
+    if n < 2 {
+        return bad(format!("must be at least 2, got {n}"));
+    }
+    let max = crashrig_mc::limits::MAX_SAMPLES;
+    if n > max {
+        return bad(format!("{n} exceeds the limit of {max} (docs/LIMITS.md)"));
+    }
+    Ok(n)
+}
+
+/// Whether a top-level entry of an existing output directory is something `grid` writes (so
+/// an old result may be replaced as a whole): its CSV, JSON and heat-map files, and the `.tmp*`
+/// files an interrupted older version could leave.
+pub fn replaceable(name: &str) -> bool {
+    [".csv", ".json", ".png", ".svg"]
+        .iter()
+        .any(|ext| name.ends_with(ext))
+        || name.starts_with(".tmp")
+}
+
+/// The files written so far (names, in order) and the staging directory they go to; the whole
+/// directory replaces the output at the end, so a failed or interrupted run leaves the old
+/// result.
+struct Pending {
+    staged: crashrig_outdir::Staged,
+    names: Vec<String>,
+}
+
+impl Pending {
+    fn write(&mut self, name: &str, bytes: &[u8]) -> Result<(), Error> {
+        self.staged.write(name, bytes)?;
+        self.names.push(name.to_string());
+        Ok(())
+    }
+}
+
+/// Runs the grid study of `config.scenario` and writes its output directory; `progress`
+/// watches the Monte Carlo stages.
+///
+/// # Errors
+/// [`Error::Scenario`] (the file, with the line where known), [`Error::Setting`],
+/// [`Error::OutDir`] (checked before any work), [`Error::Grid`] for a non-finite σ, and
+/// [`Error::Plot`].
+pub fn run_grid(config: &GridConfig, progress: Option<&dyn Reporter>) -> Result<GridRun, Error> {
+    let scenario = load_scenario(&config.scenario)?;
+    let samples = resolve_samples(config.samples, &scenario)?;
+    let seed = config.seed.unwrap_or(scenario.seed);
+    let ctx = |e: crashrig_mc::Error| Error::Scenario {
+        path: None,
+        source: crashrig_mc::limits::locate(e, &config.scenario),
+    };
+    let study = GridStudy::new(&scenario, samples, seed).map_err(ctx)?;
+    let grid = study.grid().clone();
+    if grid.adaptive.is_none() {
+        // --samples may exceed what the scenario's own bound check saw.
+        crashrig_mc::limits::check_grid_draws(grid.points().len(), samples).map_err(|e| {
+            Error::Setting {
+                name: "--samples",
+                problem: format!("{samples}: {e}"),
+            }
+        })?;
+    }
+    // Fails before any work when the output holds files `grid` does not write.
+    let mut files = Pending {
+        staged: crashrig_outdir::Staged::new(&config.out, replaceable)?,
+        names: Vec::new(),
+    };
+    let start = std::time::Instant::now();
+    let run = |s: &GridStudy, stage: &str| {
+        let hook = progress.map(|r| progress::stage(r, stage));
+        let hook = hook.as_ref().map(|h| h as &(dyn Fn(usize, usize) + Sync));
+        match &grid.adaptive {
+            Some(ad) => s.run_adaptive_with_progress(ad, seed, hook),
+            None => s.run_with_progress(samples, seed, hook),
+        }
+        .map_err(ctx)
+    };
+    let mut result = run(&study, "grid points")?;
+    // Degenerate points (lines of sight nearly parallel): no σ, not in medians or colours.
+    let angles = mask_degenerate(&mut result, &grid, &config.scenario)?;
+    let elapsed_s = start.elapsed().as_secs_f64();
+    let correlation = if result.correlated {
+        let mut ind = run(&study.independent(), "grid points, independent observers")?;
+        mask_degenerate(&mut ind, &grid, &config.scenario)?;
+        Some(correlation_summary(&result, &ind, grid.threshold_mm))
+    } else {
+        None
+    };
+    let mut warnings = Vec::new();
+    if result.points.iter().all(|p| !p.is_measurable()) {
+        warnings.push(format!(
+            "{}: no grid point is seen by two or more observers; every point is not measurable",
+            config.scenario.display()
+        ));
+    }
+    let with_fixed = crashrig_mc::coverage::has_fixed(&grid);
+    files.write("grid.csv", &main_csv(&result, &angles, with_fixed)?)?;
+    files.write("grid_detail.csv", &detail_csv(&result, &angles)?)?;
+    if config.plots {
+        for h in crate::grids::level_maps(&grid, &result, &grid_specs(&grid), &GRID_STYLE)? {
+            files.write(&h.file, &h.png)?;
+            files.write(&h.file.replace(".png", ".svg"), &h.svg)?;
+        }
+    }
+    let unconverged = result
+        .points
+        .iter()
+        .filter(|p| p.converged == Some(false))
+        .count();
+    if unconverged > 0 {
+        warnings.push(format!(
+            "{}: {unconverged} of {} grid points stopped at max_samples without meeting the adaptive tolerance (grid.csv column `converged`)",
+            config.scenario.display(),
+            result.points.len()
+        ));
+    }
+    let mut summary = document(&scenario, &grid, &result, &angles, samples, seed, elapsed_s);
+    summary.correlation = correlation;
+    summary.files = files
+        .names
+        .iter()
+        .cloned()
+        .chain(std::iter::once("summary.json".to_string()))
+        .collect();
+    let json = serde_json::to_vec_pretty(&summary).map_err(|e| Error::Grid {
+        path: config.scenario.clone(),
+        problem: format!("formatting summary.json: {e}"),
+    })?;
+    files.write("summary.json", &json)?;
+    let n = files.names.len();
+    files.staged.commit()?;
+    Ok(GridRun {
+        grid,
+        result,
+        summary,
+        files: n,
+        warnings,
+    })
+}
+
+/// The maps of `crashrig grid`: Monte Carlo and first-order σ_max on one saturated scale
+/// (0 to 3× the threshold, so the region below the threshold stays readable next to the
+/// degenerate zones) and their ratio on the data range.
+fn grid_specs(grid: &Grid) -> [MapSpec; 3] {
+    let top = 3.0 * grid.threshold_mm;
+    let sat = Some((0.0, top));
+    [
+        MapSpec {
+            stem: "sigma_max",
+            title: "Monte Carlo sigma_max".into(),
+            bar: format!("sigma_max [mm] (>= {top} saturated)"),
+            threshold: Some(grid.threshold_mm),
+            range: sat,
+            value: |p| p.sigma_max_mm,
+        },
+        MapSpec {
+            stem: "linear_sigma_max",
+            title: "First-order sigma_max".into(),
+            bar: format!("linear sigma_max [mm] (>= {top} saturated)"),
+            threshold: Some(grid.threshold_mm),
+            range: sat,
+            value: |p| p.linear_sigma_max_mm(),
+        },
+        MapSpec {
+            stem: "ratio_mc_linear",
+            title: "sigma_max Monte Carlo / first order".into(),
+            bar: "ratio [-]".into(),
+            threshold: None,
+            range: None,
+            value: |p| p.sigma_max_mm / p.linear_sigma_max_mm(),
+        },
+    ]
+}
+
+fn correlation_summary(
+    result: &GridResult,
+    ind: &GridResult,
+    threshold_mm: f64,
+) -> CorrelationSummary {
+    let pairs = || result.points.iter().zip(&ind.points);
+    let change: Vec<f64> = pairs()
+        .map(|(c, i)| c.sigma_max_mm - i.sigma_max_mm)
+        .collect();
+    let ratio: Vec<f64> = pairs()
+        .map(|(c, i)| c.sigma_max_mm / i.sigma_max_mm)
+        .collect();
+    let ism: Vec<f64> = ind.points.iter().map(|p| p.sigma_max_mm).collect();
+    CorrelationSummary {
+        independent_fraction_below_threshold: ind.fraction_below(threshold_mm),
+        independent_median_sigma_max_mm: median(&ism),
+        change_sigma_max_mm: spread(&change),
+        ratio_correlated_over_independent: spread(&ratio),
+    }
+}
+
+/// `summary.json` without `correlation` and `files`.
+fn document(
+    scenario: &Scenario,
+    grid: &Grid,
+    result: &GridResult,
+    angles: &[f64],
+    samples: usize,
+    seed: u64,
+    elapsed_s: f64,
+) -> GridDocument {
+    let sm: Vec<f64> = result.points.iter().map(|p| p.sigma_max_mm).collect();
+    let lsm: Vec<f64> = result
+        .points
+        .iter()
+        .map(|p| p.linear_sigma_max_mm())
+        .collect();
+    let ratio: Vec<f64> = sm.iter().zip(&lsm).map(|(m, l)| m / l).collect();
+    let counts: Vec<u64> = result.points.iter().map(|p| p.count).collect();
+    let total_draws: u64 = counts.iter().sum();
+    let unconverged = result
+        .points
+        .iter()
+        .filter(|p| p.converged == Some(false))
+        .count();
+    let with_fixed = crashrig_mc::coverage::has_fixed(grid);
+    GridDocument {
+        points: result.points.len(),
+        // Not-measurable points draw nothing; the draws per point are those asked for.
+        samples_per_point: match grid.adaptive {
+            None => samples as u64,
+            Some(_) => counts.iter().copied().max().unwrap_or(0),
+        },
+        threshold_mm: grid.threshold_mm,
+        fraction_below_threshold: result.fraction_below(grid.threshold_mm),
+        max_sigma_mm: sm.iter().copied().fold(f64::NAN, f64::max),
+        median_sigma_max_mm: median(&sm),
+        elapsed_s,
+        samples_per_second: total_draws as f64 / elapsed_s,
+        fraction_measurable: result.fraction_measurable(),
+        observer_coverage: with_fixed.then(|| crashrig_mc::coverage::coverage(grid, result)),
+        seed,
+        threads: rayon::current_num_threads(),
+        rotation_noise: match scenario.rotation_noise {
+            crashrig_mc::RotationNoise::Tangent => "tangent",
+            crashrig_mc::RotationNoise::Euler => "euler",
+        },
+        observers: grid.observers.len(),
+        pixel_sigma_px: grid.pixel.map(|p| p.sigma_px),
+        focal_px: grid.pixel.map(|p| p.focal_px),
+        correlated: result.correlated,
+        total_draws,
+        linear: LinearSummary {
+            fraction_below_threshold: lsm.iter().filter(|s| **s < grid.threshold_mm).count() as f64
+                / lsm.len().max(1) as f64,
+            max_sigma_mm: lsm.iter().copied().fold(f64::NAN, f64::max),
+            median_sigma_max_mm: median(&lsm),
+            ratio_mc_over_linear_sigma_max: spread(&ratio),
+        },
+        adaptive: grid.adaptive.map(|ad| AdaptiveSummary {
+            tolerance_mm: match ad.tolerance {
+                crashrig_mc::Tolerance::AbsoluteMm(t) => Some(t),
+                crashrig_mc::Tolerance::SignificantDigits(_) => None,
+            },
+            ndig: match ad.tolerance {
+                crashrig_mc::Tolerance::AbsoluteMm(_) => None,
+                crashrig_mc::Tolerance::SignificantDigits(n) => Some(n),
+            },
+            batch: ad.batch,
+            max_samples: ad.max_samples,
+            draws_min: counts.iter().copied().min().unwrap_or(0),
+            draws_max: counts.iter().copied().max().unwrap_or(0),
+            draws_total: total_draws,
+            unconverged_points: unconverged,
+        }),
+        correlation: None,
+        degenerate_points: result
+            .points
+            .iter()
+            .zip(angles)
+            .filter(|(p, a)| crashrig_mc::degenerate::is_degenerate_point(p, **a))
+            .count(),
+        min_intersection_angle_deg: crashrig_mc::degenerate::MIN_INTERSECTION_ANGLE_DEG,
+        files: Vec::new(),
+    }
+}
+
+/// Median of the finite values (degenerate and not-measurable points are NaN and left out).
+fn median(v: &[f64]) -> f64 {
+    let finite: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    crashrig_stats::summary::quantile(&finite, 0.5).unwrap_or(f64::NAN)
+}
+
+fn spread(v: &[f64]) -> Spread {
+    let finite: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    Spread {
+        min: finite.iter().copied().fold(f64::INFINITY, f64::min),
+        median: median(&finite),
+        max: finite.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+    }
+}
+
+/// Blanks (NaN) the statistics of degenerate points and returns every point's intersection
+/// angle; a non-finite σ at any other measurable point is an error naming the scenario and
+/// the point.
+fn mask_degenerate(r: &mut GridResult, grid: &Grid, scenario: &Path) -> Result<Vec<f64>, Error> {
+    let angles = crashrig_mc::degenerate::mask_degenerate(r, grid);
+    for (p, &angle) in r.points.iter().zip(&angles) {
+        if p.is_measurable()
+            && !crashrig_mc::degenerate::is_degenerate(angle)
+            && !(p.sigma_max_mm.is_finite() && p.linear_sigma_max_mm().is_finite())
+        {
+            return Err(Error::Grid {
+                path: scenario.to_path_buf(),
+                problem: format!(
+                    "grid point ({}, {}, {}) mm: the intersection σ is not finite (intersection angle {:.3}°); check the observers' σ and positions",
+                    p.point.x, p.point.y, p.point.z, angle
+                ),
+            });
+        }
+    }
+    Ok(angles)
+}
+
+fn csv_bytes(
+    rows: impl Fn(&mut csv::Writer<&mut Vec<u8>>) -> csv::Result<()>,
+) -> Result<Vec<u8>, Error> {
+    let mut buf = Vec::new();
+    {
+        let mut w = csv::Writer::from_writer(&mut buf);
+        rows(&mut w).map_err(csv_error)?;
+        w.flush().map_err(|e| csv_error(e.into()))?;
+    }
+    Ok(buf)
+}
+
+/// A CSV cell: empty for a blanked (NaN: degenerate) value or a not-measurable point (fewer
+/// than two observers see it).
+fn cell(p: &PointStats, v: f64) -> String {
+    if v.is_nan() || !p.is_measurable() {
+        String::new()
+    } else {
+        v.to_string()
+    }
+}
+
+/// `grid.csv`: the contract's seven columns; when any point is degenerate, the columns
+/// `intersection_angle_deg` and `degenerate` follow (the plain header stays exactly the
+/// contract's for layouts without degenerate points); with fixed observers the column
+/// `observers_seen` is appended and the σ cells of not-measurable points are empty.
+fn main_csv(r: &GridResult, angles: &[f64], with_seen: bool) -> Result<Vec<u8>, Error> {
+    let degenerate = crashrig_mc::degenerate::is_degenerate_point;
+    let flagged = r.points.iter().zip(angles).any(|(p, a)| degenerate(p, *a));
+    csv_bytes(|w| {
+        let mut header = vec![
+            "x_mm",
+            "y_mm",
+            "z_mm",
+            "sigma_x_mm",
+            "sigma_y_mm",
+            "sigma_z_mm",
+            "sigma_max_mm",
+        ];
+        if flagged {
+            header.extend(["intersection_angle_deg", "degenerate"]);
+        }
+        if with_seen {
+            header.push("observers_seen");
+        }
+        // Adaptive runs: the draws each point took and whether it met the tolerance.
+        let adaptive = r.points.iter().any(|p| p.converged.is_some());
+        if adaptive {
+            header.extend(["draws", "converged"]);
+        }
+        w.write_record(&header)?;
+        for (p, &angle) in r.points.iter().zip(angles) {
+            let mut rec: Vec<String> = [p.point.x, p.point.y, p.point.z]
+                .map(|v| v.to_string())
+                .to_vec();
+            rec.extend(
+                [p.sigma_mm.x, p.sigma_mm.y, p.sigma_mm.z, p.sigma_max_mm].map(|v| cell(p, v)),
+            );
+            if flagged {
+                rec.push(angle.to_string());
+                rec.push(degenerate(p, angle).to_string());
+            }
+            if with_seen {
+                rec.push(p.observers_seen.to_string());
+            }
+            if adaptive {
+                rec.push(p.count.to_string());
+                rec.push(p.converged.map_or_else(String::new, |c| c.to_string()));
+            }
+            w.write_record(&rec)?;
+        }
+        Ok(())
+    })
+}
+
+fn detail_csv(r: &GridResult, angles: &[f64]) -> Result<Vec<u8>, Error> {
+    csv_bytes(|w| {
+        w.write_record([
+            "x_mm",
+            "y_mm",
+            "z_mm",
+            "draws",
+            "mean_x_mm",
+            "mean_y_mm",
+            "mean_z_mm",
+            "cov_xx_mm2",
+            "cov_xy_mm2",
+            "cov_xz_mm2",
+            "cov_yy_mm2",
+            "cov_yz_mm2",
+            "cov_zz_mm2",
+            "ellipsoid_a_mm",
+            "ellipsoid_b_mm",
+            "ellipsoid_c_mm",
+            "linear_sigma_x_mm",
+            "linear_sigma_y_mm",
+            "linear_sigma_z_mm",
+            "linear_sigma_max_mm",
+            "ratio_mc_over_linear",
+            "intersection_angle_deg",
+        ])?;
+        for (p, angle) in r.points.iter().zip(angles) {
+            let c = p.covariance;
+            let e = p.ellipsoid_semi_axes_mm();
+            let l = p.linear_sigma_mm();
+            let mut rec: Vec<String> = [p.point.x, p.point.y, p.point.z]
+                .iter()
+                .map(|v| v.to_string())
+                .collect();
+            rec.push(p.count.to_string());
+            rec.extend(
+                [
+                    p.mean_mm.x,
+                    p.mean_mm.y,
+                    p.mean_mm.z,
+                    c[(0, 0)],
+                    c[(0, 1)],
+                    c[(0, 2)],
+                    c[(1, 1)],
+                    c[(1, 2)],
+                    c[(2, 2)],
+                    e.x,
+                    e.y,
+                    e.z,
+                    l.x,
+                    l.y,
+                    l.z,
+                    p.linear_sigma_max_mm(),
+                    p.sigma_max_mm / p.linear_sigma_max_mm(),
+                ]
+                .map(|v| cell(p, v)),
+            );
+            rec.push(angle.to_string());
+            w.write_record(&rec)?;
+        }
+        Ok(())
+    })
+}
+
+fn csv_error(e: csv::Error) -> Error {
+    Error::Csv {
+        what: "grid CSV",
+        source: e,
+    }
+}
