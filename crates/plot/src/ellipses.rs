@@ -109,7 +109,7 @@ pub fn ellipses(p: &EllipsePlot<'_>, format: Format) -> Result<Vec<u8>, Error> {
         y0 = y0.min(y);
         y1 = y1.max(y);
     }
-    if shapes.is_empty() || !(x1 > x0) {
+    if shapes.is_empty() || x1 <= x0 {
         return Err(Error::BadInput {
             figure: FIG,
             field: "ellipses",

@@ -777,7 +777,7 @@ fn dominant_verdict(r: &StudyResult) -> Verdict {
             l.layout.name, d.input, l.summary.median_sigma_max_mm, d.median_sigma_max_mm
         ));
     }
-    count.sort_by(|a, b| b.1.cmp(&a.1));
+    count.sort_by_key(|c| std::cmp::Reverse(c.1));
     let answer = match count.first() {
         None => {
             "Not computed (no sensitivity runs: --no-sensitivity, or nothing measurable).".into()

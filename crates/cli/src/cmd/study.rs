@@ -172,14 +172,16 @@ pub fn execute(
     Ok(result.to_json())
 }
 
+/// (steps done, when the last step finished, (step, seconds) of every finished step).
+type StepState = (u64, std::time::Instant, Vec<(String, f64)>);
+
 /// The study's steps with their times: each finished step is recorded and, when stderr is not
 /// a terminal (logs, CI, pipes: no progress bar), printed as one line
 /// `crashrig study: [3/12] layout cabin: 0.84 s (total 2.10 s)`.
 struct StepLog {
     print: bool,
     start: std::time::Instant,
-    /// (steps done, when the last step finished, (step, seconds) of every finished step).
-    state: std::sync::Mutex<(u64, std::time::Instant, Vec<(String, f64)>)>,
+    state: std::sync::Mutex<StepState>,
 }
 
 impl StepLog {
