@@ -21,8 +21,10 @@ verbs:
   interop            COLMAP interop round trips against pycolmap (needs a Python with pycolmap; PYTHON=...)
   bench [--e2e]      criterion benchmarks; --e2e adds whole-command timings
   fixtures           regenerate the Python-generated fixtures (needs pycolmap + opencv; PYTHON=...)
-  report-check [DIR] open DIR/report.html (default out/paper) in headless Chromium: every figure must
-                     load; writes DIR/report-screenshot.png (needs Debian's `chromium`)
+  report-check [DIR] [--docs]
+                     the browser test on DIR/report.html (default out/paper) in headless Chromium:
+                     figures, contents, sizes, text >= 9 px; screenshots report-1400.png and
+                     report-800.png into DIR (--docs: into docs/img/) (needs Debian's `chromium`)
 ";
 
 fn main() -> Result<()> {
@@ -48,7 +50,7 @@ fn main() -> Result<()> {
         "interop" => interop(),
         "bench" => bench(rest.iter().any(|a| a == "--e2e")),
         "fixtures" => fixtures(),
-        "report-check" => report_check(rest.first().map(PathBuf::from)),
+        "report-check" => report_check(rest),
         "help" | "--help" | "-h" => {
             print!("{HELP}");
             Ok(())
@@ -116,12 +118,16 @@ fn test(slow: bool) -> Result<()> {
     run(t)
 }
 
+/// `crashrig paper` in release mode. Cargo's own build output is shown (a fresh clone compiles
+/// for minutes: the user sees it progress), then the study prints one line per step.
 fn paper(rest: &[String]) -> Result<()> {
+    eprintln!(
+        "xtask paper: building crashrig in release mode (a fresh clone: a few minutes), then running the study"
+    );
     let mut c = cargo();
     c.args([
         "run",
         "--release",
-        "--quiet",
         "--package",
         "crashrig-cli",
         "--bin",
@@ -255,71 +261,39 @@ fn fixtures() -> Result<()> {
     Ok(())
 }
 
-/// Opens the report in headless Chromium, checks that every `<img>` decoded (the report's inline
-/// script writes `data-images="ok:N"` or `"broken:K/N"` on `<body>` once loaded) and saves a
-/// screenshot next to it.
-fn report_check(dir: Option<PathBuf>) -> Result<()> {
-    let dir = dir.unwrap_or_else(|| project_root().join("out/paper"));
-    let report = dir
-        .join("report.html")
-        .canonicalize()
-        .with_context(|| format!("{}/report.html", dir.display()))?;
-    let url = format!("file://{}", report.display());
-    let chromium = std::env::var("CHROMIUM").unwrap_or_else(|_| "chromium".to_string());
-    let profile = std::env::temp_dir().join(format!("crashrig-chromium-{}", std::process::id()));
-    let base = |c: &mut Command| {
-        c.args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--disable-quic",
-            "--no-first-run",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
-            "--virtual-time-budget=5000",
-        ]);
-        c.arg(format!("--user-data-dir={}", profile.display()));
+/// The browser test (`crates/cli/tests/browser.rs`) on `DIR/report.html` (default
+/// `out/paper`): headless Chromium, every figure decoded, the table of contents, figure sizes, no
+/// text below 9 px, load time and size; screenshots at 1400 and 800 px into DIR, or with
+/// `--docs` into `docs/img/` (the README's figure).
+fn report_check(rest: &[String]) -> Result<()> {
+    let docs = rest.iter().any(|a| a == "--docs");
+    let dir = rest
+        .iter()
+        .find(|a| !a.starts_with("--"))
+        .map_or_else(|| project_root().join("out/paper"), PathBuf::from);
+    let dir = dir.canonicalize().with_context(|| {
+        format!(
+            "{}: no report here (run `cargo xtask paper`)",
+            dir.display()
+        )
+    })?;
+    let shots = if docs {
+        project_root().join("docs/img")
+    } else {
+        dir.clone()
     };
-    let mut dump = Command::new(&chromium);
-    base(&mut dump);
-    dump.arg("--dump-dom").arg(&url);
-    let out = dump
-        .output()
-        .with_context(|| format!("cannot start {chromium} (apt-get install chromium)"))?;
-    let dom = String::from_utf8_lossy(&out.stdout);
-    let marker = dom
-        .split("data-images=\"")
-        .nth(1)
-        .and_then(|s| s.split('"').next())
-        .map(str::to_string)
-        .unwrap_or_default();
-    let wide_min: i64 = dom
-        .split("data-wide-min-px=\"")
-        .nth(1)
-        .and_then(|s| s.split('"').next())
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(-1);
-    let shot = dir.join("report-screenshot.png");
-    let mut sc = Command::new(&chromium);
-    base(&mut sc);
-    sc.arg(format!("--screenshot={}", shot.display()))
-        .arg("--window-size=1200,9000")
-        .arg(&url);
-    let _ = sc.output();
-    let _ = std::fs::remove_dir_all(&profile);
-    if !marker.starts_with("ok:") {
-        bail!(
-            "report images did not all render: data-images={marker:?} (see {})",
-            shot.display()
-        );
-    }
-    if (0..900).contains(&wide_min) {
-        bail!("report heat maps render only {wide_min} px wide (at least 900 expected)");
-    }
-    println!(
-        "report-check: {marker} images rendered; narrowest heat map {wide_min} px; screenshot {}",
-        shot.display()
-    );
-    Ok(())
+    let mut t = cargo();
+    t.args([
+        "test",
+        "--package",
+        "crashrig-cli",
+        "--test",
+        "browser",
+        "--",
+        "--nocapture",
+    ])
+    .env("CRASHRIG_REPORT_DIR", &dir)
+    .env("CRASHRIG_SCREENSHOT_DIR", &shots)
+    .env("CI", "true");
+    run(t)
 }

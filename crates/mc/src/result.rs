@@ -40,6 +40,17 @@ impl PointStats {
         Vector3::new(v[0], v[1], v[2])
     }
 
+    /// Worst-direction σ (mm): √ of the largest eigenvalue of [`PointStats::covariance`], the
+    /// σ along the direction in which the point is least certain (never below
+    /// [`PointStats::sigma_max_mm`]: a 5 mm promise holds in every direction only when this is
+    /// below 5 mm). NaN when σ_max is NaN (not measurable, or blanked as degenerate).
+    pub fn sigma_worst_mm(&self) -> f64 {
+        if self.sigma_max_mm.is_finite() && self.covariance.iter().all(|v| v.is_finite()) {
+            self.ellipsoid_semi_axes_mm()[0]
+        } else {
+            f64::NAN
+        }
+    }
     /// First-order σx, σy, σz (mm).
     pub fn linear_sigma_mm(&self) -> Vector3<f64> {
         Vector3::from_fn(|i, _| self.linear_covariance[(i, i)].sqrt())

@@ -18,6 +18,10 @@
 //! - [`histogram`]: a histogram of values with vertical lines (e.g. mean ± 1σ).
 //! - [`series`]: a line series `ys` against `xs`.
 //! - [`banded_panels`] with [`BandPanel`]: stacked line panels with shaded bands (e.g. ±3σ).
+//! - [`ellipses`] with [`EllipsePlot`]: magnified 1σ error ellipses with axes, ticks and a
+//!   scale key.
+//! - [`Overlay`]: hatched missing cells, outlines, cell labels, context lines (a car outline)
+//!   and an integer colour bar for counts.
 //! - [`Format`]: PNG or SVG; [`Format::from_path`] picks it from a file extension.
 //!
 //! # Example
@@ -48,10 +52,12 @@
 #![deny(missing_docs)]
 
 mod contour;
+mod ellipses;
 mod error;
 mod overlay;
 
 pub use contour::contour_segments;
+pub use ellipses::{Ellipse, EllipsePlot, ellipse_axes, ellipses};
 pub use error::Error;
 pub use overlay::{Outline, Overlay, Segment};
 
@@ -305,6 +311,10 @@ pub fn heatmap_with(
         });
     }
     let range = match map.value_range {
+        // Counts: one band per integer, centred on it.
+        Some((lo, hi)) if overlay.integer_bar && lo.is_finite() && hi.is_finite() && hi >= lo => {
+            (lo.round() - 0.5, hi.round().max(lo.round() + 1.0) + 0.5)
+        }
         Some((lo, hi)) if lo.is_finite() && hi.is_finite() && hi > lo => (lo, hi),
         Some(_) => {
             return Err(Error::BadInput {
@@ -334,6 +344,20 @@ pub fn heatmap_with(
         x1 = x1.max(m.x);
         y0 = y0.min(m.y);
         y1 = y1.max(m.y);
+    }
+    // The context (a car outline) is drawn whole: the axes grow to include it.
+    for &(x, y) in overlay
+        .context
+        .iter()
+        .flat_map(|s| [s.0, s.1])
+        .filter(|p| p.0.is_finite() && p.1.is_finite())
+        .collect::<Vec<_>>()
+        .iter()
+    {
+        x0 = x0.min(x);
+        x1 = x1.max(x);
+        y0 = y0.min(y);
+        y1 = y1.max(y);
     }
     let pad = 0.04 * (x1 - x0).max(y1 - y0);
     let (x0, x1, y0, y1) = (x0 - pad, x1 + pad, y0 - pad, y1 + pad);
@@ -403,7 +427,7 @@ fn draw_heatmap<DB: DrawingBackend>(
         .draw_series(map.values.iter().enumerate().map(|(k, &v)| {
             let (ix, iy) = (k % nx, k / nx);
             let fill = if v.is_finite() {
-                colour((v - lo) / (hi - lo)).filled()
+                colour(colour_position(v, lo, hi, g.overlay.integer_bar)).filled()
             } else if g.overlay.missing_label.is_some() {
                 overlay::MISSING.filled()
             } else {
@@ -427,6 +451,7 @@ fn draw_heatmap<DB: DrawingBackend>(
             )
             .map_err(&e)?;
     }
+    overlay::draw_context(g, &mut chart, &e)?;
     overlay::draw_outlines(g, &mut chart, &e)?;
     for m in map
         .markers
@@ -451,24 +476,49 @@ fn draw_heatmap<DB: DrawingBackend>(
         .right_y_label_area_size(70)
         .build_cartesian_2d(0.0..1.0, lo..hi)
         .map_err(&e)?;
-    cb.configure_mesh()
-        .disable_mesh()
+    let integer = g.overlay.integer_bar;
+    // Counts: one tick per integer (bands between the half-integers).
+    let counts = (hi - lo).round().max(1.0) as usize;
+    let mut mesh = cb.configure_mesh();
+    mesh.disable_mesh()
         .disable_x_axis()
         .y_desc(map.colorbar_label)
         .label_style((FONT, 14))
-        .axis_desc_style((FONT, 16))
-        .draw()
-        .map_err(&e)?;
-    let steps = 128;
+        .axis_desc_style((FONT, 16));
+    if integer {
+        // No fractional ticks: each band is labelled with its count below.
+        mesh.y_labels(0);
+    }
+    mesh.draw().map_err(&e)?;
+    let steps = if integer { counts } else { 128 };
     cb.draw_series((0..steps).map(|i| {
         let a = lo + (hi - lo) * i as f64 / steps as f64;
         let b = lo + (hi - lo) * (i + 1) as f64 / steps as f64;
-        Rectangle::new(
-            [(0.0, a), (1.0, b)],
-            colour((i as f64 + 0.5) / steps as f64).filled(),
-        )
+        let t = if integer {
+            colour_position(0.5 * (a + b), lo, hi, true)
+        } else {
+            (i as f64 + 0.5) / steps as f64
+        };
+        Rectangle::new([(0.0, a), (1.0, b)], colour(t).filled())
     }))
     .map_err(&e)?;
+    if integer {
+        cb.draw_series((0..steps).map(|i| {
+            let c = lo + 0.5 + i as f64;
+            let ink = if colour_position(c, lo, hi, true) > 0.6 {
+                BLACK
+            } else {
+                WHITE
+            };
+            EmptyElement::at((0.5, c))
+                + Text::new(
+                    format!("{c:.0}"),
+                    (-5, -8),
+                    (FONT, 15).into_font().color(&ink),
+                )
+        }))
+        .map_err(&e)?;
+    }
     if let Some(t) = map.threshold.filter(|t| *t >= lo && *t <= hi) {
         cb.draw_series(std::iter::once(PathElement::new(
             vec![(0.0, t), (1.0, t)],
@@ -478,6 +528,20 @@ fn draw_heatmap<DB: DrawingBackend>(
     }
     overlay::draw_legend(g, &bar, &e)?;
     Ok(())
+}
+
+/// Position in [0, 1] of `v` on the colour scale `lo..hi`; counts (`integer`) take the colour
+/// of their integer's band, evenly spread from the first to the last colour.
+fn colour_position(v: f64, lo: f64, hi: f64, integer: bool) -> f64 {
+    if integer {
+        let bands = (hi - lo).round().max(1.0);
+        if bands <= 1.0 {
+            return 0.5;
+        }
+        ((v - lo - 0.5).round() / (bands - 1.0)).clamp(0.0, 1.0)
+    } else {
+        (v - lo) / (hi - lo)
+    }
 }
 
 /// Renders a histogram of `values` with vertical dashed-looking marker lines at `lines`
@@ -698,7 +762,29 @@ pub fn banded_panels(
     x_label: &str,
     format: Format,
 ) -> Result<Vec<u8>, Error> {
+    banded_panels_marked(xs, panels, &[], title, x_label, format)
+}
+
+/// [`banded_panels`] with some x positions marked in every panel (a red ring and cross, e.g.
+/// the epochs flagged as outliers): `marked` is empty or one flag per x.
+///
+/// Errors: those of [`banded_panels`], and `marked` neither empty nor `xs.len()` long.
+pub fn banded_panels_marked(
+    xs: &[f64],
+    panels: &[BandPanel<'_>],
+    marked: &[bool],
+    title: &str,
+    x_label: &str,
+    format: Format,
+) -> Result<Vec<u8>, Error> {
     const FIG: &str = "banded_panels";
+    if !marked.is_empty() && marked.len() != xs.len() {
+        return Err(Error::BadInput {
+            figure: FIG,
+            field: "marked",
+            problem: "length is neither 0 nor xs.len()",
+        });
+    }
     if panels.is_empty() {
         return Err(Error::BadInput {
             figure: FIG,
@@ -741,14 +827,16 @@ pub fn banded_panels(
         FIG,
         (900, height),
         format,
-        |root| draw_bands(xs, panels, &ranges, xr, title, x_label, root),
-        |root| draw_bands(xs, panels, &ranges, xr, title, x_label, root),
+        |root| draw_bands(xs, panels, marked, &ranges, xr, title, x_label, root),
+        |root| draw_bands(xs, panels, marked, &ranges, xr, title, x_label, root),
     )
 }
 
+#[allow(clippy::too_many_arguments)] // one private drawer shared by the PNG and SVG backends
 fn draw_bands<DB: DrawingBackend>(
     xs: &[f64],
     panels: &[BandPanel<'_>],
+    marked: &[bool],
     ranges: &[(f64, f64)],
     xr: (f64, f64),
     title: &str,
@@ -802,6 +890,18 @@ fn draw_bands<DB: DrawingBackend>(
                 .draw_series(pts.iter().map(|&q| Circle::new(q, 2, BLUE.filled())))
                 .map_err(&e)?;
         }
+        let flagged = xs
+            .iter()
+            .zip(p.ys)
+            .zip(marked)
+            .filter(|((x, y), m)| **m && x.is_finite() && y.is_finite());
+        chart
+            .draw_series(flagged.map(|((&x, &y), _)| {
+                EmptyElement::at((x, y))
+                    + Circle::new((0, 0), 7, RED.stroke_width(2))
+                    + Cross::new((0, 0), 5, RED.stroke_width(2))
+            }))
+            .map_err(&e)?;
     }
     Ok(())
 }

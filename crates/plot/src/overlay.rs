@@ -42,6 +42,35 @@ pub struct Overlay<'a> {
     pub outlines: &'a [Outline<'a>],
     /// A text per cell, row-major like `values` (e.g. the number of cameras); empty = none.
     pub cell_labels: &'a [String],
+    /// Context drawn in dark grey under the markers (e.g. the car's outline), in axis units.
+    pub context: &'a [Segment],
+    /// Legend entry of [`Overlay::context`] under the colour bar (e.g. "car outline").
+    pub context_label: Option<&'a str>,
+    /// The values are counts: the colour bar has one band and one integer tick per count
+    /// (from the rounded low to the rounded high end of the range), no fractional labels.
+    pub integer_bar: bool,
+}
+
+/// Colour of the context lines.
+const CONTEXT: RGBColor = RGBColor(60, 60, 60);
+
+/// The context lines (the car's outline), clipped to the plot bounds.
+pub(crate) fn draw_context<DB: DrawingBackend, E>(
+    g: &HeatGeom<'_>,
+    chart: &mut Chart<'_, DB>,
+    e: &impl Fn(DrawingAreaErrorKind<DB::ErrorType>) -> E,
+) -> Result<(), E> {
+    let (x0, x1, y0, y1) = g.bounds;
+    let clip = |p: (f64, f64)| (p.0.clamp(x0, x1), p.1.clamp(y0, y1));
+    chart
+        .draw_series(
+            g.overlay
+                .context
+                .iter()
+                .map(|&(a, b)| PathElement::new(vec![clip(a), clip(b)], CONTEXT.stroke_width(3))),
+        )
+        .map_err(e)?;
+    Ok(())
 }
 
 pub(crate) fn check(figure: &'static str, map: &HeatMap<'_>, o: &Overlay<'_>) -> Result<(), Error> {
@@ -143,10 +172,24 @@ pub(crate) fn draw_legend<DB: DrawingBackend, E>(
     bar: &DrawingArea<DB, Shift>,
     e: &impl Fn(DrawingAreaErrorKind<DB::ErrorType>) -> E,
 ) -> Result<(), E> {
+    let (_, h) = bar.dim_in_pixel();
+    if let Some(label) = g.overlay.context_label {
+        let y = h as i32 - 20;
+        bar.draw(&PathElement::new(
+            vec![(8, y + 8), (24, y + 8)],
+            CONTEXT.stroke_width(3),
+        ))
+        .map_err(e)?;
+        bar.draw(&Text::new(
+            label.to_string(),
+            (30, y + 1),
+            (FONT, 13).into_font().color(&BLACK),
+        ))
+        .map_err(e)?;
+    }
     let Some(label) = g.overlay.missing_label else {
         return Ok(());
     };
-    let (_, h) = bar.dim_in_pixel();
     let y = h as i32 - 40;
     bar.draw(&Rectangle::new([(8, y), (24, y + 16)], MISSING.filled()))
         .map_err(e)?;
@@ -205,16 +248,21 @@ mod tests {
             segments: &segs,
         }];
         let labels: Vec<String> = (0..12).map(|i| format!("n{i}")).collect();
+        let car = [((0.0, -120.0), (320.0, -120.0))];
         let overlay = Overlay {
             missing_label: Some("not measurable"),
             outlines: &outlines,
             cell_labels: &labels,
+            context: &car,
+            context_label: Some("car outline"),
+            integer_bar: false,
         };
         let m = map(&values, &[]);
         let svg = String::from_utf8(heatmap_with(&m, &overlay, Format::Svg).unwrap()).unwrap();
         assert!(svg.contains("not measurable"));
         assert!(svg.contains("rear FOV"));
         assert!(svg.contains("n11"));
+        assert!(svg.contains("car outline") && svg.contains("#3C3C3C"));
         // The hatched fill is used in the map (and the legend) only with the overlay.
         let fill = "#DEDEDE";
         assert!(svg.contains(fill), "no hatched-cell fill");
@@ -239,5 +287,45 @@ mod tests {
                 ..
             })
         ));
+    }
+}
+
+#[cfg(test)]
+mod integer_bar_tests {
+    use super::*;
+    use crate::{Format, heatmap_with};
+
+    /// A count map's colour bar has integer ticks only (0, 1, 2, 3), never "0.5" or "2.0".
+    #[test]
+    fn integer_bar_has_integer_ticks_only() {
+        let values = [0.0, 1.0, 2.0, 3.0, 2.0, 1.0];
+        let map = HeatMap {
+            xs: &[0.0, 100.0, 200.0],
+            ys: &[0.0, 100.0],
+            values: &values,
+            title: "cameras seeing the point",
+            x_label: "x [mm]",
+            y_label: "y [mm]",
+            colorbar_label: "cameras [-]",
+            threshold: None,
+            markers: &[],
+            value_range: Some((0.0, 3.0)),
+        };
+        let overlay = Overlay {
+            integer_bar: true,
+            ..Overlay::default()
+        };
+        let svg = String::from_utf8(heatmap_with(&map, &overlay, Format::Svg).unwrap()).unwrap();
+        let texts: Vec<&str> = svg
+            .split("<text")
+            .skip(1)
+            .filter_map(|t| Some(t.split('>').nth(1)?.split('<').next()?.trim()))
+            .collect();
+        // The colour bar's texts follow its label: one per count, no fractional tick.
+        let bar = texts
+            .iter()
+            .position(|t| *t == "cameras [-]")
+            .expect("colour bar label");
+        assert_eq!(texts[bar + 1..], ["0", "1", "2", "3"], "{texts:?}");
     }
 }

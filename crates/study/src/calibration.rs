@@ -332,6 +332,11 @@ pub struct CalibrationResult {
     pub scale: ResolvedScale,
     /// Everything the rig crate computed (statistics, outliers, drift, refinement).
     pub calibration: Calibration,
+    /// Reprojection residuals of camera A's and camera B's observations in the model
+    /// ([`crate::quality::reprojection`]), A first.
+    pub reprojection: Vec<crate::quality::Reprojection>,
+    /// The split-half check of the link ([`crate::quality::split_half`]; `None` below 4 epochs).
+    pub split_half: Option<crate::quality::SplitHalf>,
 }
 
 /// Calibrates as `crashrig calibrate` does (see the module doc).
@@ -379,6 +384,7 @@ pub fn calibrate_with_progress(
         refine: config.refine.then(RefineOptions::default),
         accept_rig_constrained: config.accept_rig_constrained,
     };
+    let split_half = crate::quality::split_half(&set.epochs, scale.mm_per_unit(), &options);
     let run = |o: &CalibrateOptions| {
         crashrig_rig::calibrate_with_progress(&set.epochs, scale.mm_per_unit(), o, progress)
     };
@@ -442,7 +448,13 @@ pub fn calibrate_with_progress(
             cal.links.len()
         ));
     }
+    let reprojection = vec![
+        crate::quality::reprojection(&model, &config.camera_a, 'A'),
+        crate::quality::reprojection(&model, &config.camera_b, 'B'),
+    ];
     let mut result = CalibrationResult {
+        reprojection,
+        split_half,
         link: cal.link,
         epoch_covariance: cal.epoch_spread.covariance,
         sem_rule: cal.sem.rule.to_string(),

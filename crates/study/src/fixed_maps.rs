@@ -67,5 +67,6 @@ pub fn overlay<'a>(outlines: &'a [Outline<'a>], labels: &'a [String]) -> Overlay
         missing_label: Some(NOT_MEASURABLE),
         outlines,
         cell_labels: labels,
+        ..Overlay::default()
     }
 }

@@ -60,6 +60,7 @@ pub const GRID_STYLE: MapStyle = MapStyle {
     x_label: "x [mm]",
     label_observer_z: true,
     footprints_include_observers: true,
+    sketch: false,
 };
 
 /// Minimum, median and maximum of the finite values.

@@ -59,6 +59,14 @@ pub struct GridSummary {
     pub median_sigma_max_mm: f64,
     /// Median σx, σy, σz (mm).
     pub median_sigma_mm: [f64; 3],
+    /// Fraction of points whose worst-direction σ (√ of the largest eigenvalue of the point's
+    /// covariance, [`crashrig_mc::PointStats::sigma_worst_mm`]) is below the threshold: the
+    /// threshold met in every direction, not only along x, y and z.
+    pub fraction_worst_below_threshold: f64,
+    /// Median worst-direction σ (mm).
+    pub median_sigma_worst_mm: f64,
+    /// Largest worst-direction σ (mm).
+    pub max_sigma_worst_mm: f64,
     /// First-order (linear) counterpart: fraction below the threshold.
     pub linear_fraction_below_threshold: f64,
     /// First-order median σ_max (mm).
@@ -96,6 +104,7 @@ impl GridSummary {
             )
         };
         let n = result.points.len().max(1) as f64;
+        let worst: Vec<f64> = result.points.iter().map(|p| p.sigma_worst_mm()).collect();
         let (imax, max) =
             sm.iter()
                 .copied()
@@ -126,6 +135,13 @@ impl GridSummary {
             max_sigma_mm: max,
             median_sigma_max_mm: median(&sm),
             median_sigma_mm: [axis(0), axis(1), axis(2)],
+            fraction_worst_below_threshold: worst.iter().filter(|s| **s < t).count() as f64 / n,
+            median_sigma_worst_mm: median(&worst),
+            max_sigma_worst_mm: worst
+                .iter()
+                .copied()
+                .filter(|v| v.is_finite())
+                .fold(f64::NAN, f64::max),
             linear_fraction_below_threshold: lsm.iter().filter(|s| **s < t).count() as f64 / n,
             linear_median_sigma_max_mm: median(&lsm),
             degenerate_points: result
@@ -174,19 +190,31 @@ pub fn grid_csv(result: &GridResult) -> String {
 }
 
 /// A layout's `grid.csv`: [`grid_csv`], plus the column `observers_seen` (as `crashrig grid`
-/// writes it) when the layout has fixed observers; a point seen by fewer than two has blank σ.
+/// writes it) when the layout has fixed observers (a point seen by fewer than two has blank σ),
+/// then, always last, `sigma_worst_mm` (worst-direction σ, blank where σ_max is blank).
 pub fn layout_csv(grid: &Grid, result: &GridResult) -> String {
     let base = grid_csv(result);
-    if !crate::fixed_maps::has_fixed(grid) {
-        return base;
-    }
-    let mut s = String::with_capacity(base.len() + 4 * result.points.len());
+    let seen = crate::fixed_maps::has_fixed(grid);
+    let mut s = String::with_capacity(base.len() + 24 * result.points.len());
     for (i, line) in base.lines().enumerate() {
         s.push_str(line);
         if i == 0 {
-            s.push_str(",observers_seen\n");
+            s.push_str(if seen {
+                ",observers_seen,sigma_worst_mm\n"
+            } else {
+                ",sigma_worst_mm\n"
+            });
+            continue;
+        }
+        let p = &result.points[i - 1];
+        if seen {
+            s.push_str(&format!(",{}", p.observers_seen));
+        }
+        let w = p.sigma_worst_mm();
+        if w.is_nan() {
+            s.push_str(",\n");
         } else {
-            s.push_str(&format!(",{}\n", result.points[i - 1].observers_seen));
+            s.push_str(&format!(",{w}\n"));
         }
     }
     s
@@ -194,7 +222,7 @@ pub fn layout_csv(grid: &Grid, result: &GridResult) -> String {
 
 /// One heat map of a layout: file stem, z index and its PNG.
 pub struct HeatMapPng {
-    /// `sigma_max`, `sigma_x`, `sigma_y` or `sigma_z`.
+    /// `sigma_max`, `sigma_worst`, `sigma_x`, `sigma_y`, `sigma_z` or `observers_seen`.
     pub stem: &'static str,
     /// The z level (mm).
     pub z_mm: f64,
@@ -205,6 +233,88 @@ pub struct HeatMapPng {
     /// The same map as SVG.
     pub svg: Vec<u8>,
 }
+
+/// The colour scale shared by every σ map of a study (so that compared layouts read alike):
+/// 0 to `top_mm`, chosen from the data.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MapScale {
+    /// Upper end of the colour bar (mm); larger values saturate.
+    pub top_mm: f64,
+}
+
+/// The smallest of 1, 2, 2.5, 5 × 10ᵏ at or above `v` (> 0).
+pub fn nice_ceil(v: f64) -> f64 {
+    if !(v.is_finite() && v > 0.0) {
+        return 1.0;
+    }
+    let p = 10f64.powf(v.log10().floor());
+    [1.0, 2.0, 2.5, 5.0, 10.0]
+        .iter()
+        .map(|m| m * p)
+        .find(|c| *c >= v * (1.0 - 1e-12))
+        .unwrap_or(10.0 * p)
+}
+
+impl MapScale {
+    /// One scale for `results` (every layout of a study): the 90th percentile of the
+    /// worst-direction σ over all measurable points (the worst tenth saturates instead of
+    /// flattening the rest into one colour), at least 1.2 × the largest threshold so that the
+    /// threshold is on the bar, rounded up by [`nice_ceil`].
+    pub fn shared<'a>(results: impl IntoIterator<Item = (&'a Grid, &'a GridResult)>) -> MapScale {
+        let mut v = Vec::new();
+        let mut threshold = 0.0f64;
+        for (g, r) in results {
+            threshold = threshold.max(g.threshold_mm);
+            v.extend(
+                r.points
+                    .iter()
+                    .map(|p| p.sigma_worst_mm())
+                    .filter(|s| s.is_finite()),
+            );
+        }
+        v.sort_by(f64::total_cmp);
+        let p90 = if v.is_empty() {
+            0.0
+        } else {
+            v[((v.len() - 1) as f64 * 0.9).round() as usize]
+        };
+        MapScale {
+            top_mm: nice_ceil(p90.max(1.2 * threshold)),
+        }
+    }
+}
+
+/// The schematic car of the plan views (vehicle frame, mm): from the trunk opening at x = 0 to
+/// 300 mm beyond the front-most grid point or camera, 150 mm wider than the grid and cameras
+/// on each side, with chamfered front corners. A sketch for orientation, not a vehicle model.
+pub fn car_outline(grid: &Grid) -> Vec<crashrig_plot::Segment> {
+    let pts = grid.points();
+    let xs = pts
+        .iter()
+        .map(|p| p.x)
+        .chain(grid.observers.iter().map(|o| o.position_mm.x));
+    let front = xs.fold(0.0f64, f64::max) + 300.0;
+    let half = pts
+        .iter()
+        .map(|p| p.y.abs())
+        .chain(grid.observers.iter().map(|o| o.position_mm.y.abs()))
+        .fold(0.0f64, f64::max)
+        + 150.0;
+    let c = 0.25 * half;
+    let poly = [
+        (0.0, -half),
+        (front - c, -half),
+        (front, -half + c),
+        (front, half - c),
+        (front - c, half),
+        (0.0, half),
+        (0.0, -half),
+    ];
+    poly.windows(2).map(|w| (w[0], w[1])).collect()
+}
+
+/// Legend of [`car_outline`] on the maps.
+pub const CAR_LABEL: &str = "car (sketch)";
 
 /// One kind of heat map: what it shows and how it is coloured.
 #[derive(Debug, Clone)]
@@ -234,38 +344,53 @@ pub struct MapStyle {
     /// The field-of-view footprints are traced over the grid padded to include the observers
     /// (`true`) or over the padded grid alone.
     pub footprints_include_observers: bool,
+    /// The study's plan views: the car sketch ([`car_outline`]), the outward camera A behind
+    /// the rear-most observer, and an integer colour bar on the count map.
+    pub sketch: bool,
 }
 
-/// The study's layouts: σ_max and σx σy σz on one colour scale.
+/// The study's layouts: σ_max, the worst-direction σ and σx σy σz on the study's shared
+/// colour scale, with the car sketch.
 pub const LAYOUT_STYLE: MapStyle = MapStyle {
-    x_label: "x [mm] (vehicle frame)",
+    x_label: "x [mm] (vehicle frame, forwards from the trunk opening)",
     label_observer_z: false,
     footprints_include_observers: false,
+    sketch: true,
 };
 
-/// Heat maps of σ_max and σx σy σz per z level, one colour scale (0 to 3× the threshold,
-/// larger values saturate) with the threshold contour and the observers marked.
+/// Heat maps per z level of σ_max, the worst-direction σ, σx σy σz and (fixed observers) the
+/// number of cameras seeing each point: one colour scale for every σ map (`scale`, shared by
+/// the study's layouts) with the threshold contour and its mark on the bar, the schematic car,
+/// the interior cameras and the outward camera A marked; the count map has an integer legend.
 ///
 /// # Errors
 /// [`Error::Plot`] when a figure cannot be drawn.
-pub fn heat_maps(grid: &Grid, result: &GridResult) -> Result<Vec<HeatMapPng>, Error> {
-    let top = 3.0 * grid.threshold_mm;
-    let bar = format!(
-        "sigma [mm] (>= {top} saturated; white line: {} mm threshold)",
-        grid.threshold_mm
-    );
+pub fn heat_maps(
+    grid: &Grid,
+    result: &GridResult,
+    scale: &MapScale,
+) -> Result<Vec<HeatMapPng>, Error> {
+    let top = scale.top_mm;
+    let bar = format!("sigma [mm] (shared scale; >= {top} saturated)");
     type Pick = fn(&crashrig_mc::PointStats) -> f64;
-    let picks: [(&'static str, Pick); 4] = [
-        ("sigma_max", |p| p.sigma_max_mm),
-        ("sigma_x", |p| p.sigma_mm.x),
-        ("sigma_y", |p| p.sigma_mm.y),
-        ("sigma_z", |p| p.sigma_mm.z),
+    let picks: [(&'static str, &str, Pick); 5] = [
+        ("sigma_max", "sigma_max (largest of x, y, z)", |p| {
+            p.sigma_max_mm
+        }),
+        (
+            "sigma_worst",
+            "worst-direction sigma (largest eigen-axis)",
+            |p| p.sigma_worst_mm(),
+        ),
+        ("sigma_x", "sigma_x", |p| p.sigma_mm.x),
+        ("sigma_y", "sigma_y", |p| p.sigma_mm.y),
+        ("sigma_z", "sigma_z", |p| p.sigma_mm.z),
     ];
     let specs: Vec<MapSpec> = picks
         .into_iter()
-        .map(|(stem, value)| MapSpec {
+        .map(|(stem, title, value)| MapSpec {
             stem,
-            title: format!("Monte Carlo {stem}"),
+            title: format!("Monte Carlo {title}"),
             bar: bar.clone(),
             threshold: Some(grid.threshold_mm),
             range: Some((0.0, top)),
@@ -306,6 +431,16 @@ pub fn level_maps(
     } else {
         &[]
     };
+    let car = if style.sketch {
+        car_outline(grid)
+    } else {
+        Vec::new()
+    };
+    let rear = grid
+        .observers
+        .iter()
+        .map(|o| o.position_mm)
+        .min_by(|a, b| a.x.total_cmp(&b.x));
     let mut out = Vec::new();
     for (iz, z) in zs.iter().enumerate() {
         let pts = &result.points[iz * per_z..(iz + 1) * per_z];
@@ -320,7 +455,7 @@ pub fn level_maps(
                 }
             })
             .collect();
-        let markers: Vec<crashrig_plot::Marker> = grid
+        let mut markers: Vec<crashrig_plot::Marker> = grid
             .observers
             .iter()
             .zip(&labels)
@@ -330,6 +465,14 @@ pub fn level_maps(
                 label: l,
             })
             .collect();
+        // The outward camera A: behind the rear-most interior camera, looking out of the trunk.
+        if let Some(r) = rear.filter(|_| style.sketch) {
+            markers.push(crashrig_plot::Marker {
+                x: r.x - 120.0,
+                y: r.y,
+                label: "A",
+            });
+        }
         let fp = if with_fixed {
             crate::fixed_maps::footprints(
                 grid,
@@ -340,13 +483,20 @@ pub fn level_maps(
             Vec::new()
         };
         let outlines = crate::fixed_maps::outlines(&fp);
-        let overlay = if with_fixed {
+        let mut overlay = if with_fixed {
             crate::fixed_maps::overlay(&outlines, &[])
         } else {
             crashrig_plot::Overlay::default()
         };
         let seen_labels: Vec<String> = pts.iter().map(|p| p.observers_seen.to_string()).collect();
-        let seen_overlay = crate::fixed_maps::overlay(&outlines, &seen_labels);
+        let mut seen_overlay = crate::fixed_maps::overlay(&outlines, &seen_labels);
+        if style.sketch {
+            for o in [&mut overlay, &mut seen_overlay] {
+                o.context = &car;
+                o.context_label = Some(CAR_LABEL);
+            }
+            seen_overlay.integer_bar = true;
+        }
         for spec in specs.iter().chain(with_fixed.then_some(&seen_spec)) {
             let values: Vec<f64> = pts.iter().map(spec.value).collect();
             let all_missing = values.iter().all(|v| !v.is_finite());
@@ -357,7 +507,11 @@ pub fn level_maps(
                 values: &values,
                 title: &title,
                 x_label: style.x_label,
-                y_label: "y [mm]",
+                y_label: if style.sketch {
+                    "y [mm] (left)"
+                } else {
+                    "y [mm]"
+                },
                 colorbar_label: &spec.bar,
                 threshold: spec.threshold,
                 markers: &markers,
@@ -396,4 +550,24 @@ pub(crate) fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<(), Error> {
     })?;
     let path = dir.join(name);
     std::fs::write(&path, bytes).map_err(|source| Error::Write { path, source })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nice_ceil_known_values() {
+        for (v, c) in [
+            (0.7, 1.0),
+            (1.0, 1.0),
+            (1.01, 2.0),
+            (2.2, 2.5),
+            (3.0, 5.0),
+            (6.0, 10.0),
+            (12.0, 20.0),
+        ] {
+            assert_eq!(nice_ceil(v), c, "nice_ceil({v})");
+        }
+    }
 }

@@ -13,6 +13,8 @@
 //! - [`fixed_maps`]: layouts with fixed observers (`aim = "fixed"`): coverage and
 //!   field-of-view footprints;
 //! - [`measure_step`]: `[measure]` — a test sequence measured with the study's own link;
+//! - [`quality`]: calibration quality — reprojection residuals per camera and the split-half
+//!   check of the link;
 //! - [`report`]: `results.json`, every step's files and the self-contained `report.html`.
 //!
 //! # Example
@@ -40,6 +42,7 @@ pub mod html;
 pub mod measure_step;
 pub mod pipeline;
 pub mod propagate_run;
+pub mod quality;
 pub mod report;
 pub mod study_file;
 pub mod tie;

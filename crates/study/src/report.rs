@@ -4,7 +4,7 @@
 
 use crate::Error;
 use crate::grids::{self, HeatMapPng};
-use crate::html::{Block, Report, Table, escape};
+use crate::html::{Block, Report, Status, Table, Verdict, escape};
 use crate::measure_step::MeasureResult;
 use crate::pipeline::{LayoutResult, StudyResult, phi_deg};
 use crate::study_file::{ChainCamera, ObserverNoise, Study, StudyScale, TieMethod, TieResample};
@@ -19,6 +19,11 @@ pub struct Provenance {
     pub command: String,
     /// The output directory as the user named it.
     pub out_dir: String,
+    /// Wall-clock time of the study's computation (s), stated in `report.html` (never in
+    /// `results.json`, which stays reproducible byte for byte).
+    pub run_time_s: Option<f64>,
+    /// (step, seconds) of every step, in order.
+    pub step_times_s: Vec<(String, f64)>,
 }
 
 /// The paper's published values (Kaminski et al.), for `reference = "kaminski2023"`.
@@ -81,6 +86,7 @@ pub fn write_outputs(
         )?;
     }
     let mut maps = Vec::new();
+    let scale = grids::MapScale::shared(r.layouts.iter().map(|l| (&l.grid, &l.result)));
     for (l, lj) in r
         .layouts
         .iter()
@@ -93,7 +99,7 @@ pub fn write_outputs(
             grids::layout_csv(&l.grid, &l.result).as_bytes(),
         )?;
         grids::write(&d, "summary.json", &json_pretty(lj))?;
-        let m = grids::heat_maps(&l.grid, &l.result)?;
+        let m = grids::heat_maps(&l.grid, &l.result, &scale)?;
         for h in &m {
             grids::write(&d, &h.file, &h.png)?;
             grids::write(&d, &h.file.replace(".png", ".svg"), &h.svg)?;
@@ -152,7 +158,7 @@ fn measure_report(rep: &mut Report, study: &Study, m: &MeasureResult, plots: &[M
     let Some(sec) = &study.measure else { return };
     let ms = &m.measurement;
     let s = &m.summary;
-    rep.push(Block::Heading("5. The measured test sequence".into()));
+    rep.push(Block::Heading("The measured test sequence".into()));
     rep.push(Block::Paragraph(format!(
         "{} epochs × {} markers of {} (observations {}), measured with this study's calibrated link A_from_B{} — the same typed values the chain uses — camera A's per-epoch pose uncertainty and {} px pixel noise; {} Monte Carlo replicates per row (seed {}). The link and tie errors are one draw per replicate for the whole sequence (systematic during the test), A's pose error one per epoch, pixel noise one per observation; so the displacements from the reference epoch {:?} cancel most of the systematic part. Files: measure/trajectories.csv, measure/displacements.csv, measure/plots/.",
         s.epochs,
@@ -210,11 +216,19 @@ fn measure_report(rep: &mut Report, study: &Study, m: &MeasureResult, plots: &[M
                 .filter_map(|r| r.displacement_sigma_mm.map(|v| v.max()))
                 .collect();
             let (mp, md) = (grids::median(&pos), grids::median(&disp));
+            // A marker measured in no epoch has no median: "—", never NaN.
+            let cell = |v: f64| {
+                if v.is_finite() {
+                    format!("{v:.3}")
+                } else {
+                    "—".into()
+                }
+            };
             vec![
                 name.clone(),
                 rows.len().to_string(),
-                format!("{mp:.3}"),
-                format!("{md:.3}"),
+                cell(mp),
+                cell(md),
                 if mp > 0.0 && md.is_finite() {
                     format!("{:.2}", md / mp)
                 } else {
@@ -410,88 +424,6 @@ fn plan_sketch(l: &LayoutResult) -> String {
     s
 }
 
-/// 1σ error ellipses (magnified) in plan (x–y) and side (x–z) view at a subsample of points.
-fn ellipses(l: &LayoutResult) -> String {
-    let g = &l.grid;
-    let (xs, ys) = (g.x.values(), g.y.values());
-    let step_x = (xs.len() / 6).max(1);
-    let step_y = (ys.len() / 5).max(1);
-    let spacing = if xs.len() > 1 {
-        (xs[1] - xs[0]).abs()
-    } else {
-        100.0
-    };
-    // Magnify so that an ellipse of the threshold's size spans half a cell... of the subsample.
-    let mag = 0.5 * spacing * step_x as f64 / g.threshold_mm;
-    let per_z = xs.len() * ys.len();
-    let pts = &l.result.points[..per_z.min(l.result.points.len())];
-    let sub: Vec<_> = pts
-        .iter()
-        .enumerate()
-        .filter(|(i, p)| {
-            (i % xs.len()) % step_x == 0
-                && (i / xs.len()) % step_y == 0
-                && p.sigma_max_mm.is_finite()
-        })
-        .map(|(_, p)| p)
-        .collect();
-    if sub.is_empty() {
-        return "<p>No measurable point: no error ellipses.</p>".to_string();
-    }
-    let mut out = String::new();
-    for (view, a, b, label) in [
-        ("plan view (x–y)", 0usize, 1usize, "y"),
-        ("side view (x–z)", 0, 2, "z"),
-    ] {
-        let us: Vec<f64> = sub.iter().map(|p| p.point[a]).collect();
-        let vs: Vec<f64> = sub
-            .iter()
-            .map(|p| if b == 2 { p.point[1] } else { p.point[b] })
-            .collect();
-        let (u0, u1) = (
-            us.iter().copied().fold(f64::INFINITY, f64::min) - spacing * step_x as f64,
-            us.iter().copied().fold(f64::NEG_INFINITY, f64::max) + spacing * step_x as f64,
-        );
-        let (v0, v1) = (
-            vs.iter().copied().fold(f64::INFINITY, f64::min) - spacing * step_x as f64,
-            vs.iter().copied().fold(f64::NEG_INFINITY, f64::max) + spacing * step_x as f64,
-        );
-        let w = 440.0;
-        let k = w / (u1 - u0);
-        let h = (v1 - v0) * k;
-        let _ = write!(
-            out,
-            "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w:.0}\" height=\"{:.0}\" style=\"border:1px solid #ccc;margin:4px\"><text x=\"4\" y=\"{:.0}\" font-size=\"11\">{view}: 1σ ellipses ×{mag:.0}; rows = y of the subsample, ellipse axes x and {label}</text>",
-            h + 16.0,
-            h + 12.0
-        );
-        for p in &sub {
-            let c = &p.covariance;
-            let (saa, sbb, sab) = (c[(a, a)], c[(b, b)], c[(a, b)]);
-            let tr = 0.5 * (saa + sbb);
-            let det = (0.25 * (saa - sbb).powi(2) + sab * sab).sqrt();
-            let (l1, l2) = ((tr + det).max(0.0).sqrt(), (tr - det).max(0.0).sqrt());
-            let ang = 0.5 * (2.0 * sab).atan2(saa - sbb);
-            let (u, v) = (p.point[a], if b == 2 { p.point[1] } else { p.point[b] });
-            let bad = grids::not_below(p.sigma_max_mm, g.threshold_mm);
-            let _ = write!(
-                out,
-                "<ellipse cx=\"{:.1}\" cy=\"{:.1}\" rx=\"{:.2}\" ry=\"{:.2}\" transform=\"rotate({:.1} {:.1} {:.1})\" fill=\"none\" stroke=\"{}\"/>",
-                (u - u0) * k,
-                (v1 - v) * k,
-                (l1 * mag * k).min(200.0),
-                (l2 * mag * k).min(200.0),
-                -ang.to_degrees(),
-                (u - u0) * k,
-                (v1 - v) * k,
-                if bad { "#d22" } else { "#06c" }
-            );
-        }
-        out.push_str("</svg>");
-    }
-    out
-}
-
 /// The "aim" cell of an observer: re-aimed, or fixed with its lens, pixel σ and coverage.
 fn aim_cell(o: &crashrig_mc::Observer, l: &LayoutResult) -> String {
     match &o.aim {
@@ -530,6 +462,8 @@ fn verdict_rows(r: &StudyResult) -> Vec<Vec<String>> {
                 return vec![
                     l.layout.name.clone(),
                     "0.0 % (no point is seen by two cameras)".to_string(),
+                    "0.0 %".to_string(),
+                    "—".to_string(),
                     "—".to_string(),
                     "the whole grid is not measurable".to_string(),
                     "—".to_string(),
@@ -551,7 +485,15 @@ fn verdict_rows(r: &StudyResult) -> Vec<Vec<String>> {
                 Some(f) => format!("{:.1} % (measurable at all: {:.1} %)", 100.0 * s.fraction_below_threshold, 100.0 * f.fraction_measurable),
                 None => format!("{:.1} %", 100.0 * s.fraction_below_threshold),
             };
-            vec![l.layout.name.clone(), below, format!("{:.2}", s.median_sigma_max_mm), worst, dominant]
+            vec![
+                l.layout.name.clone(),
+                below,
+                format!("{:.1} %", 100.0 * s.fraction_worst_below_threshold),
+                format!("{:.2}", s.median_sigma_max_mm),
+                format!("{:.2}", s.median_sigma_worst_mm),
+                worst,
+                dominant,
+            ]
         })
         .collect()
 }
@@ -637,7 +579,8 @@ fn fixed_vs_aimed(r: &StudyResult) -> String {
     )
 }
 
-/// The report page.
+/// The report page: the verdicts and the table of contents first (a few screens), then one
+/// collapsible section per step with the details.
 pub fn report_html(
     study: &Study,
     r: &StudyResult,
@@ -655,20 +598,247 @@ pub fn report_html(
         },
         ..Default::default()
     };
-    rep.push(Block::Paragraph(format!(
-        "Study file {}; seed {}; {} Monte Carlo draws per grid point, {} draws of the chain. Produced by `{}` with crashrig {}.",
-        study.path.display(), r.seed, r.samples, r.chain_samples, prov.command, env!("CARGO_PKG_VERSION")
-    )));
+    rep.push(Block::Raw(meta_html(study, r, prov)));
+    verdicts(&mut rep, r);
+    rep.push(Block::Toc);
     rep.push(Block::Heading("Verdict per layout".into()));
     rep.push(Block::Table(Table {
-        caption: "Fraction of the grid with σ_max below the threshold, where the worst region is, and which input dominates (one at a time: the input whose halved σ lowers the median σ_max most)".into(),
-        header: ["layout", "below threshold", "median σ_max [mm]", "worst region", "dominant input"].map(String::from).to_vec(),
+        caption: "Fraction of the grid with σ_max below the threshold (per axis) and with the worst-direction σ below it (every direction), where the worst region is, and which input dominates (one at a time: the input whose halved σ lowers the median σ_max most)".into(),
+        header: ["layout", "below threshold (σ_max)", "below threshold in every direction", "median σ_max [mm]", "median worst-direction σ [mm]", "worst region", "dominant input"].map(String::from).to_vec(),
         rows: verdict_rows(r),
     }));
     if let Some(note) = independent_chain_observers_note(r) {
         rep.push(Block::Paragraph(note));
     }
+    calibration_section(&mut rep, study, r, paper);
+    crate::quality::report_section(&mut rep, study, &r.calibration);
+    tie_section(&mut rep, study, r);
+    chain_section(&mut rep, r, paper);
+    layouts_section(&mut rep, r, maps);
+    if let Some(m) = &r.measure {
+        measure_report(&mut rep, study, m, measure_plots);
+    }
+    not_included(&mut rep, study, r);
+    provenance_section(&mut rep, study, r, prov);
+    if paper {
+        paper_differences(&mut rep, study, r);
+    }
+    rep.to_html()
+}
 
+/// The line under the title: study file, seed, draws, the command, crashrig's version and the
+/// run time with the time of each step (the report states them; `results.json` does not).
+fn meta_html(study: &Study, r: &StudyResult, prov: &Provenance) -> String {
+    let time = match prov.run_time_s {
+        Some(t) => {
+            // Summed per kind of step (calibration, tie, propagation, layouts, sensitivity,
+            // measure), in order of first appearance.
+            let mut kinds: Vec<(&str, f64, usize)> = Vec::new();
+            for (s, t) in &prov.step_times_s {
+                let k = s.split_whitespace().next().unwrap_or("");
+                match kinds.iter_mut().find(|e| e.0 == k) {
+                    Some(e) => {
+                        e.1 += t;
+                        e.2 += 1;
+                    }
+                    None => kinds.push((k, *t, 1)),
+                }
+            }
+            let steps: Vec<String> = kinds
+                .iter()
+                .map(|(k, t, n)| {
+                    if *n > 1 {
+                        format!("{k} {t:.2} s over {n} runs")
+                    } else {
+                        format!("{k} {t:.2} s")
+                    }
+                })
+                .collect();
+            format!(
+                " The study ran in {t:.2} s{}.",
+                if steps.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({})", steps.join(", "))
+                }
+            )
+        }
+        None => " Run time: not measured (the library was called directly).".into(),
+    };
+    format!(
+        "<p class=\"meta\">Study file {}; seed {}; {} Monte Carlo draws per grid point, {} draws of the chain. Produced by <code>{}</code> with crashrig {}.{}</p>",
+        escape(&study.path.display().to_string()),
+        r.seed,
+        r.samples,
+        r.chain_samples,
+        escape(&prov.command),
+        env!("CARGO_PKG_VERSION"),
+        escape(&time)
+    )
+}
+
+/// The verdict boxes: is the threshold reached (in every direction), where not, what
+/// dominates, and can the calibration be trusted.
+fn verdicts(rep: &mut Report, r: &StudyResult) {
+    rep.push(Block::Raw("<div class=\"verdicts\">".into()));
+    rep.push(Block::Verdict(reached_verdict(r)));
+    rep.push(Block::Verdict(where_verdict(r)));
+    rep.push(Block::Verdict(dominant_verdict(r)));
+    rep.push(Block::Verdict(crate::quality::verdict(&r.calibration)));
+    rep.push(Block::Raw("</div>".into()));
+}
+
+/// The thresholds of the layouts, as text ("5 mm", or "3 / 5 mm" when they differ).
+fn thresholds(r: &StudyResult) -> String {
+    let mut t: Vec<f64> = r.layouts.iter().map(|l| l.summary.threshold_mm).collect();
+    t.sort_by(f64::total_cmp);
+    t.dedup();
+    let t: Vec<String> = t.iter().map(|v| format!("{v}")).collect();
+    format!("{} mm", t.join(" / "))
+}
+
+fn reached_verdict(r: &StudyResult) -> Verdict {
+    let n = r.layouts.len();
+    let full: Vec<&str> = r
+        .layouts
+        .iter()
+        .filter(|l| l.summary.fraction_worst_below_threshold >= 1.0)
+        .map(|l| l.layout.name.as_str())
+        .collect();
+    let lines = r
+        .layouts
+        .iter()
+        .map(|l| {
+            let s = &l.summary;
+            if !s.max_sigma_mm.is_finite() {
+                return format!("{}: no point is seen by two cameras", l.layout.name);
+            }
+            format!(
+                "{}: {:.1} % of the points in every direction ({:.1} % per axis); median worst-direction σ {:.2} mm, largest {:.2} mm",
+                l.layout.name,
+                100.0 * s.fraction_worst_below_threshold,
+                100.0 * s.fraction_below_threshold,
+                s.median_sigma_worst_mm,
+                s.max_sigma_worst_mm
+            )
+        })
+        .collect();
+    let (answer, status) = if n == 0 {
+        ("No layout in this study.".to_string(), Status::Info)
+    } else if full.len() == n {
+        (
+            "Yes: at every grid point of every layout, in every direction.".to_string(),
+            Status::Pass,
+        )
+    } else if full.is_empty() {
+        (
+            format!("No: no layout reaches it at every point in every direction (0 of {n})."),
+            Status::Fail,
+        )
+    } else {
+        (
+            format!(
+                "In {} of {n} layouts everywhere, in every direction: {}.",
+                full.len(),
+                full.join(", ")
+            ),
+            Status::Fail,
+        )
+    };
+    Verdict {
+        question: format!("Is σ < {} reached, in every direction?", thresholds(r)),
+        answer,
+        lines,
+        status,
+    }
+}
+
+fn where_verdict(r: &StudyResult) -> Verdict {
+    let mut lines = Vec::new();
+    for l in &r.layouts {
+        let s = &l.summary;
+        if !s.max_sigma_mm.is_finite() {
+            lines.push(format!(
+                "{}: the whole grid is not measurable",
+                l.layout.name
+            ));
+            continue;
+        }
+        let worst_dir = l
+            .result
+            .points
+            .iter()
+            .filter(|p| grids::not_below(p.sigma_worst_mm(), s.threshold_mm))
+            .count();
+        if worst_dir == 0 {
+            continue;
+        }
+        lines.push(match s.worst.above_threshold_box_mm {
+            Some(b) => format!(
+                "{}: {} points at or above {} mm (worst direction; {} per axis) within x {:.0}…{:.0}, y {:.0}…{:.0} mm; largest σ_max {:.2} mm at ({:.0}, {:.0}, {:.0})",
+                l.layout.name, worst_dir, s.threshold_mm, s.worst.points_above_threshold, b[0][0], b[0][1], b[1][0], b[1][1], s.max_sigma_mm, s.worst.max_point_mm[0], s.worst.max_point_mm[1], s.worst.max_point_mm[2]
+            ),
+            None => format!(
+                "{}: {} points at or above {} mm in their worst direction only (per axis all below); largest worst-direction σ {:.2} mm",
+                l.layout.name, worst_dir, s.threshold_mm, s.max_sigma_worst_mm
+            ),
+        });
+    }
+    let (answer, status) = if lines.is_empty() {
+        (
+            "Nowhere: every point of every layout is below it.".to_string(),
+            Status::Pass,
+        )
+    } else {
+        (format!("In {} layout(s):", lines.len()), Status::Fail)
+    };
+    Verdict {
+        question: "Where is it not reached?".into(),
+        answer,
+        lines,
+        status,
+    }
+}
+
+fn dominant_verdict(r: &StudyResult) -> Verdict {
+    let mut count: Vec<(String, usize)> = Vec::new();
+    let mut lines = Vec::new();
+    for l in &r.layouts {
+        let Some(d) = l
+            .sensitivity
+            .iter()
+            .min_by(|a, b| a.median_sigma_max_mm.total_cmp(&b.median_sigma_max_mm))
+        else {
+            continue;
+        };
+        match count.iter_mut().find(|(n, _)| *n == d.input) {
+            Some(c) => c.1 += 1,
+            None => count.push((d.input.clone(), 1)),
+        }
+        lines.push(format!(
+            "{}: {} (median σ_max {:.2} → {:.2} mm with its σ halved)",
+            l.layout.name, d.input, l.summary.median_sigma_max_mm, d.median_sigma_max_mm
+        ));
+    }
+    count.sort_by_key(|c| std::cmp::Reverse(c.1));
+    let answer = match count.first() {
+        None => {
+            "Not computed (no sensitivity runs: --no-sensitivity, or nothing measurable).".into()
+        }
+        Some((input, k)) => format!(
+            "Mostly {input} ({k} of {} layouts): halving its σ helps most.",
+            lines.len()
+        ),
+    };
+    Verdict {
+        question: "What dominates the uncertainty?".into(),
+        answer,
+        lines,
+        status: Status::Info,
+    }
+}
+
+fn calibration_section(rep: &mut Report, study: &Study, r: &StudyResult, paper: bool) {
     // Calibration.
     let c = &r.calibration;
     let link = &c.link;
@@ -681,9 +851,7 @@ pub fn report_html(
         link.covariance[(1, 1)].sqrt(),
         link.covariance[(2, 2)].sqrt(),
     ];
-    rep.push(Block::Heading(
-        "1. Rig calibration: the link A_from_B".into(),
-    ));
+    rep.push(Block::Heading("Rig calibration: the link A_from_B".into()));
     rep.push(Block::Paragraph(format!(
         "{} epochs of {} (A = {:?}, B = {:?}); base = B's centre in A's frame, angles = ω φ κ of R_A_from_B. The chain uses the mean link with its SEM covariance (rule: {}).{}",
         c.n_epochs, study.calibration.model.display(), study.calibration.camera_a, study.calibration.camera_b, c.sem_rule,
@@ -751,7 +919,9 @@ pub fn report_html(
             c.warnings.iter().map(|w| format!("warning: {w}")).collect(),
         ));
     }
+}
 
+fn tie_section(rep: &mut Report, study: &Study, r: &StudyResult) {
     // Tie.
     if let (Some(tie), Some(ts)) = (&r.tie, &study.tie) {
         let l = &tie.link;
@@ -765,7 +935,7 @@ pub fn report_html(
         let o =
             crashrig_geometry::opk::opk_from_rotation(&l.b_from_a.rotation.to_rotation_matrix());
         rep.push(Block::Heading(
-            "2. The tie: bootstrap of the third camera".into(),
+            "The tie: bootstrap of the third camera".into(),
         ));
         rep.push(Block::Paragraph(format!(
             "{} replicates ({} orientation) of {:?} relative to {:?} from {} and {}; resampled: {}. The chain uses the link with the covariance of the replicates.",
@@ -805,14 +975,21 @@ pub fn report_html(
             ],
         }));
     }
+}
 
+fn chain_section(rep: &mut Report, r: &StudyResult, paper: bool) {
     // Chain.
     rep.push(Block::Heading(
-        "3. Propagation through the chain (world poses)".into(),
+        "Propagation through the chain (world poses)".into(),
     ));
     rep.push(Block::Paragraph(format!(
-        "{} Monte Carlo draws of the outward camera's world pose, the calibrated link and the tie, composed; first-order propagation beside it. Position σ in world axes; rotation σ both as the tangent σ (small rotations about the camera's own axes — what the grid uses) and as σ of ω φ κ (display only).",
-        r.chain_samples
+        "{} Monte Carlo draws of the outward camera's world pose and {}, composed; first-order propagation beside it. Position σ in world axes; rotation σ both as the tangent σ (small rotations about the camera's own axes — what the grid uses) and as σ of ω φ κ (display only).",
+        r.chain_samples,
+        if r.tie.is_some() {
+            "the calibrated link and the tie"
+        } else {
+            "the calibrated link (this study has no tie)"
+        }
     )));
     let mut t3 = Table {
         caption: "World pose σ of every camera of the chain".into(),
@@ -868,124 +1045,9 @@ pub fn report_html(
             f3(cp.mc.tangent_sigma_rad.map(f64::to_degrees).into(), 4)
         )));
     }
+}
 
-    // Layouts.
-    rep.push(Block::Heading(
-        "4. Forward intersection over the interior, per layout".into(),
-    ));
-    rep.push(Block::Paragraph("Each grid point (vehicle frame: x forwards from the trunk opening, y left, z up) is observed by the layout's cameras aimed at it without roll, intersected by linear least squares (DLT) for every draw; σx σy σz are the sample standard deviations, σ_max the largest. Heat maps share one colour scale from 0 to 3× the threshold; the white contour is the threshold; observers are marked.".into()));
-    if r.layouts
-        .iter()
-        .any(|l| crate::fixed_maps::has_fixed(&l.grid))
-    {
-        rep.push(Block::Paragraph("Layouts with fixed cameras (aim = \"fixed\"): a fixed camera is bolted in place with a real lens; it sees a point only when the point lies in front of it and projects inside its image (COLMAP's pixel convention). Each draw observes the true projection plus the camera's pixel noise, undistorts it through the lens model and intersects the perturbed rays of the cameras that see the point. A point seen by fewer than two cameras is not measurable: hatched grey on the maps, blank in grid.csv, and counted as not below the threshold. The outlines are each fixed camera's field-of-view footprint on the plane; a map of the number of cameras seeing each point follows the σ_max map.".into()));
-    }
-    for (l, m) in r.layouts.iter().zip(maps) {
-        rep.push(Block::Heading(format!("Layout: {}", l.layout.name)));
-        if !l.layout.description.is_empty() {
-            rep.push(Block::Paragraph(l.layout.description.clone()));
-        }
-        rep.push(Block::Table(Table {
-            caption: "Observers".into(),
-            header: [
-                "observer",
-                "position [mm]",
-                "noise from",
-                "σ position [mm]",
-                "σ tangent [°]",
-                "aim",
-            ]
-            .map(String::from)
-            .to_vec(),
-            rows: l
-                .grid
-                .observers
-                .iter()
-                .zip(&l.layout.observers)
-                .zip(&l.result.observer_sigma)
-                .map(|((o, lo), s)| {
-                    vec![
-                        o.name.clone(),
-                        f3(o.position_mm.into(), 0),
-                        match lo.noise {
-                            ObserverNoise::From(c) => format!("chain camera {}", c.name()),
-                            ObserverNoise::Given(_) => "given in the study file".into(),
-                        },
-                        f3(s.position_mm.into(), 3),
-                        f3(s.angles_rad.map(f64::to_degrees).into(), 4),
-                        aim_cell(o, l),
-                    ]
-                })
-                .collect(),
-        }));
-        let s = &l.summary;
-        // A layout with nothing measurable has no σ to summarise (its verdict row says so).
-        if s.max_sigma_mm.is_finite() {
-            let mut rows = vec![vec![
-                "as given".into(),
-                format!("{:.2}", s.median_sigma_max_mm),
-                format!("{:.1} %", 100.0 * s.fraction_below_threshold),
-            ]];
-            for x in &l.sensitivity {
-                rows.push(vec![
-                    format!("σ of {} halved", x.input),
-                    format!("{:.2}", x.median_sigma_max_mm),
-                    format!("{:.1} %", 100.0 * x.fraction_below_threshold),
-                ]);
-            }
-            rep.push(Block::Table(Table {
-                caption: format!("One-at-a-time sensitivity (median σ_x σ_y σ_z = {} mm; first-order median σ_max {:.2} mm)", f3(s.median_sigma_mm, 2), s.linear_median_sigma_max_mm),
-                header: ["inputs", "median σ_max [mm]", "below threshold"].map(String::from).to_vec(),
-                rows,
-            }));
-        }
-        rep.push(Block::Raw(plan_sketch(l)));
-        for h in m
-            .iter()
-            .filter(|h| h.stem == "sigma_max" || h.stem == "observers_seen")
-        {
-            rep.push(Block::Wide {
-                caption: if h.stem == "observers_seen" {
-                    format!(
-                        "{}: number of cameras seeing each point at z = {} mm (outlines: field-of-view footprints; hatched: not measurable)",
-                        l.layout.name, h.z_mm
-                    )
-                } else if l.summary.fixed.is_some() {
-                    format!(
-                        "{}: σ_max at z = {} mm (white contour: {} mm threshold; outlines: field-of-view footprints; hatched: not measurable)",
-                        l.layout.name, h.z_mm, l.summary.threshold_mm
-                    )
-                } else {
-                    format!(
-                        "{}: σ_max at z = {} mm (white contour: {} mm threshold)",
-                        l.layout.name, h.z_mm, l.summary.threshold_mm
-                    )
-                },
-                png: h.png.clone(),
-            });
-        }
-        let items: Vec<(String, Vec<u8>)> = m
-            .iter()
-            .filter(|h| h.stem != "sigma_max" && h.stem != "observers_seen")
-            .map(|h| {
-                (
-                    format!("{} at z = {} mm", h.stem.replace("sigma_", "σ"), h.z_mm),
-                    h.png.clone(),
-                )
-            })
-            .collect();
-        rep.push(Block::Gallery {
-            caption: format!("{}: per-axis σx σy σz (same colour scale)", l.layout.name),
-            items,
-        });
-        rep.push(Block::Raw(format!("<div>{}</div>", ellipses(l))));
-    }
-
-    if let Some(m) = &r.measure {
-        measure_report(&mut rep, study, m, measure_plots);
-    }
-
-    // Provenance.
+fn provenance_section(rep: &mut Report, study: &Study, r: &StudyResult, prov: &Provenance) {
     rep.push(Block::Heading("Inputs and provenance".into()));
     let cal = &study.calibration;
     let scale = match cal.scale {
@@ -1092,48 +1154,297 @@ pub fn report_html(
         r.samples
     ));
     rep.push(Block::List(cmds));
+}
 
-    if paper {
-        rep.push(Block::Heading(
-            "What differs from the paper, and why".into(),
-        ));
-        let rear = |stem: &str| {
-            r.layouts.iter().find(|l| l.layout.slug() == stem).map(|l| {
-                let rb: Vec<f64> = l
-                    .result
-                    .points
-                    .iter()
-                    .filter(|p| p.point.x <= 800.0)
-                    .map(|p| p.sigma_max_mm)
-                    .collect();
-                grids::median(&rb)
-            })
-        };
-        let fig13 = match (rear("three_cameras_z0_paper"), rear("three_cameras_z300_paper")) {
-            (Some(a), Some(b)) => format!(
-                "Figure 13: the paper reports that raising the points by 30 cm increases σ_max in the rear area. With the assumed layout this is not reproduced: the rear band (x ≤ 800 mm) median σ_max goes {a:.2} → {b:.2} mm ({}). The paper gives no layout dimensions; ours are assumptions (fixtures/scenarios/README.md), so this shape is not confirmed.",
-                if b > a { "it rises here" } else { "it falls instead of rising" }
-            ),
-            _ => "Figure 13: layouts three_cameras_z0_paper / three_cameras_z300_paper not in this study.".into(),
-        };
-        let resample = match study.tie.as_ref().map(|t| t.resample) {
-            Some(TieResample::AllMatches) => {
-                "The bootstrap resampled all matches, as paper §2.3.1 describes."
-            }
-            _ => {
-                "The bootstrap resampled the verified inliers only (crashrig's default, `resample = \"inliers\"`); paper §2.3.1 says all matches are resampled (`resample = \"matches\"`)."
-            }
-        };
-        let fixed = fixed_vs_aimed(r);
-        rep.push(Block::List(vec![
-            fixed,
-            "Tables 1–2: the bundled sequence was generated with the paper's statistics, so agreement checks the estimator (pairing, SO(3) mean, wrap-safe angles, scale bar), not the lab.".into(),
-            "Table 3: the paper's cam2/cam3 translation σ (1.52/2.53 mm) cannot be reproduced from its stated inputs (docs/table3.md); the layouts named *_paper use the paper's Table 3–4 σ directly so Figures 10–13 are comparable, the layouts named *_this_run use this run's propagated σ.".into(),
-            "Figures 8–9: the bundled two-view scene gives a smaller bootstrap spread than the paper's real image pair.".into(),
-            fig13,
-            resample.into(),
-            "The world frame is the outward camera's frame (its pose is the identity); the layouts' vehicle frame is taken with parallel axes, so the observers take the chain cameras' world covariance unchanged.".into(),
-        ]));
+/// The paper reproduction's "What differs from the paper, and why".
+fn paper_differences(rep: &mut Report, study: &Study, r: &StudyResult) {
+    rep.push(Block::Heading(
+        "What differs from the paper, and why".into(),
+    ));
+    let rear = |stem: &str| {
+        r.layouts.iter().find(|l| l.layout.slug() == stem).map(|l| {
+            let rb: Vec<f64> = l
+                .result
+                .points
+                .iter()
+                .filter(|p| p.point.x <= 800.0)
+                .map(|p| p.sigma_max_mm)
+                .collect();
+            grids::median(&rb)
+        })
+    };
+    let fig13 = match (rear("three_cameras_z0_paper"), rear("three_cameras_z300_paper")) {
+        (Some(a), Some(b)) => format!(
+            "Figure 13: the paper reports that raising the points by 30 cm increases σ_max in the rear area. With the assumed layout this is not reproduced: the rear band (x ≤ 800 mm) median σ_max goes {a:.2} → {b:.2} mm ({}). The paper gives no layout dimensions; ours are assumptions (fixtures/scenarios/README.md), so this shape is not confirmed.",
+            if b > a { "it rises here" } else { "it falls instead of rising" }
+        ),
+        _ => "Figure 13: layouts three_cameras_z0_paper / three_cameras_z300_paper not in this study.".into(),
+    };
+    let resample = match study.tie.as_ref().map(|t| t.resample) {
+        Some(TieResample::AllMatches) => {
+            "The bootstrap resampled all matches, as paper §2.3.1 describes."
+        }
+        _ => {
+            "The bootstrap resampled the verified inliers only (crashrig's default, `resample = \"inliers\"`); paper §2.3.1 says all matches are resampled (`resample = \"matches\"`)."
+        }
+    };
+    let fixed = fixed_vs_aimed(r);
+    rep.push(Block::List(vec![
+        fixed,
+        "Tables 1–2: the bundled sequence was generated with the paper's statistics, so agreement checks the estimator (pairing, SO(3) mean, wrap-safe angles, scale bar), not the lab.".into(),
+        "Table 3: the paper's cam2/cam3 translation σ (1.52/2.53 mm) cannot be reproduced from its stated inputs (docs/table3.md); the layouts named *_paper use the paper's Table 3–4 σ directly so Figures 10–13 are comparable, the layouts named *_this_run use this run's propagated σ.".into(),
+        "Figures 8–9: the bundled two-view scene gives a smaller bootstrap spread than the paper's real image pair.".into(),
+        fig13,
+        resample.into(),
+        "The world frame is the outward camera's frame (its pose is the identity); the layouts' vehicle frame is taken with parallel axes, so the observers take the chain cameras' world covariance unchanged.".into(),
+    ]));
+}
+
+/// "Forward intersection over the interior": the method, then one collapsible subsection per
+/// layout.
+fn layouts_section(rep: &mut Report, r: &StudyResult, maps: &[Vec<HeatMapPng>]) {
+    rep.push(Block::Heading(
+        "Forward intersection over the interior, per layout".into(),
+    ));
+    let scale = grids::MapScale::shared(r.layouts.iter().map(|l| (&l.grid, &l.result)));
+    rep.push(Block::Paragraph(format!(
+        "Each grid point (vehicle frame: x forwards from the trunk opening, y left, z up) is observed by the layout's cameras aimed at it without roll, intersected by linear least squares (DLT) for every draw; σx σy σz are the sample standard deviations, σ_max the largest of them, and the worst-direction σ the square root of the largest eigenvalue of the point's 3×3 covariance (the σ along the direction in which the point is least certain; a 5 mm promise holds in every direction only when it is below 5 mm). Every σ map of this study shares one colour scale, 0 to {} mm, chosen from the data (90th percentile of the worst-direction σ over all layouts, at least 1.2× the threshold; larger values saturate); the threshold is the white contour on the map and the black mark on the colour bar. The maps show the interior cameras (red triangles), the outward camera A (behind the rear-most interior camera, looking out of the trunk) and a sketch of the car (grey, trunk opening at x = 0; not a vehicle model).",
+        scale.top_mm
+    )));
+    if r.layouts
+        .iter()
+        .any(|l| crate::fixed_maps::has_fixed(&l.grid))
+    {
+        rep.push(Block::Paragraph("Layouts with fixed cameras (aim = \"fixed\"): a fixed camera is bolted in place with a real lens; it sees a point only when the point lies in front of it and projects inside its image (COLMAP's pixel convention). Each draw observes the true projection plus the camera's pixel noise, undistorts it through the lens model and intersects the perturbed rays of the cameras that see the point. A point seen by fewer than two cameras is not measurable: hatched grey on the maps, blank in grid.csv, and counted as not below the threshold. The outlines are each fixed camera's field-of-view footprint on the plane; a map of the number of cameras seeing each point follows the σ maps.".into()));
     }
-    rep.to_html()
+    for (l, m) in r.layouts.iter().zip(maps) {
+        layout_section(rep, l, m);
+    }
+}
+
+/// One layout: observers, sensitivity, plan sketch, the σ_max and worst-direction maps (and
+/// the camera count), the per-axis maps (collapsed) and the error ellipses.
+fn layout_section(rep: &mut Report, l: &LayoutResult, m: &[HeatMapPng]) {
+    rep.push(Block::SubHeading(format!("Layout: {}", l.layout.name)));
+    if !l.layout.description.is_empty() {
+        rep.push(Block::Paragraph(l.layout.description.clone()));
+    }
+    rep.push(Block::Table(observer_table(l)));
+    let s = &l.summary;
+    // A layout with nothing measurable has no σ to summarise (its verdict row says so).
+    if s.max_sigma_mm.is_finite() {
+        let mut rows = vec![vec![
+            "as given".into(),
+            format!("{:.2}", s.median_sigma_max_mm),
+            format!("{:.1} %", 100.0 * s.fraction_below_threshold),
+        ]];
+        for x in &l.sensitivity {
+            rows.push(vec![
+                format!("σ of {} halved", x.input),
+                format!("{:.2}", x.median_sigma_max_mm),
+                format!("{:.1} %", 100.0 * x.fraction_below_threshold),
+            ]);
+        }
+        rep.push(Block::Table(Table {
+            caption: format!("One-at-a-time sensitivity (median σ_x σ_y σ_z = {} mm; first-order median σ_max {:.2} mm)", f3(s.median_sigma_mm, 2), s.linear_median_sigma_max_mm),
+            header: ["inputs", "median σ_max [mm]", "below threshold"].map(String::from).to_vec(),
+            rows,
+        }));
+    }
+    rep.push(Block::Raw(plan_sketch(l)));
+    let fixed = if l.summary.fixed.is_some() {
+        "; outlines: field-of-view footprints; hatched: not measurable"
+    } else {
+        ""
+    };
+    for h in m
+        .iter()
+        .filter(|h| ["sigma_max", "sigma_worst", "observers_seen"].contains(&h.stem))
+    {
+        let what = match h.stem {
+            "observers_seen" => "number of cameras seeing each point",
+            "sigma_worst" => "worst-direction σ (largest eigen-axis of the covariance)",
+            _ => "σ_max (largest of σx σy σz)",
+        };
+        rep.push(Block::Wide {
+            caption: format!(
+                "{}: {what} at z = {} mm (threshold {} mm{fixed})",
+                l.layout.name, h.z_mm, l.summary.threshold_mm
+            ),
+            png: h.png.clone(),
+        });
+    }
+    // The per-axis maps are files next to grid.csv (linked, not embedded: the page stays
+    // small).
+    let links: Vec<String> = m
+        .iter()
+        .filter(|h| ["sigma_x", "sigma_y", "sigma_z"].contains(&h.stem))
+        .map(|h| {
+            let path = format!("grid/{}/{}", l.layout.slug(), h.file);
+            format!(
+                "<a href=\"{}\">{} at z = {} mm</a>",
+                escape(&path),
+                escape(&h.stem.replace("sigma_", "σ")),
+                h.z_mm
+            )
+        })
+        .collect();
+    rep.push(Block::Raw(format!(
+        "<p>Per-axis maps (same colour scale, files next to grid.csv): {}.</p>",
+        links.join(", ")
+    )));
+    ellipse_figures(rep, l);
+}
+
+fn observer_table(l: &LayoutResult) -> Table {
+    Table {
+        caption: "Observers".into(),
+        header: [
+            "observer",
+            "position [mm]",
+            "noise from",
+            "σ position [mm]",
+            "σ tangent [°]",
+            "aim",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: l
+            .grid
+            .observers
+            .iter()
+            .zip(&l.layout.observers)
+            .zip(&l.result.observer_sigma)
+            .map(|((o, lo), s)| {
+                vec![
+                    o.name.clone(),
+                    f3(o.position_mm.into(), 0),
+                    match lo.noise {
+                        ObserverNoise::From(c) => format!("chain camera {}", c.name()),
+                        ObserverNoise::Given(_) => "given in the study file".into(),
+                    },
+                    f3(s.position_mm.into(), 3),
+                    f3(s.angles_rad.map(f64::to_degrees).into(), 4),
+                    aim_cell(o, l),
+                ]
+            })
+            .collect(),
+    }
+}
+
+/// "What this uncertainty does not include": the error sources outside the model, named for
+/// this study (which parts are modelled depends on its inputs).
+fn not_included(rep: &mut Report, study: &Study, r: &StudyResult) {
+    rep.push(Block::Heading(
+        "What this uncertainty does not include".into(),
+    ));
+    rep.push(Block::Paragraph("Every σ on this page is the spread caused by the inputs' stated uncertainties, propagated through a model that is assumed exact. A lab should add, or bound separately:".into()));
+    let mut items = vec![
+        "Model errors: the vehicle frame is taken parallel to the world frame of the outward camera, the link is assumed rigid during the crash (no deformation of the mount under load), and the cameras' positions in the layouts are the study file's nominal values.".to_string(),
+        "The lens model: the intrinsics and distortion of every camera are taken as exact (COLMAP's refined values); their own uncertainty and any lens model error (e.g. a distortion model too simple for the lens, focus breathing, temperature) are not propagated.".into(),
+        "Rolling shutter and motion blur: every image is treated as one instant (global shutter); a rolling-shutter readout during fast motion shifts rows in time.".into(),
+        "Marker identification and sub-pixel centring bias: pixel noise is Gaussian and unbiased; a systematic offset of a marker's detected centre (perspective, lighting, partial occlusion) is not.".into(),
+        format!(
+            "Scale: the model's scale ({}) is taken as exact; an error of the scale bar's length scales every distance.",
+            match study.calibration.scale {
+                StudyScale::ScaleBar { length_mm, .. } => format!("scale bar of {length_mm} mm"),
+                StudyScale::MmPerUnit(f) => format!("{f} mm per model unit"),
+            }
+        ),
+    ];
+    items.push(match &study.measure {
+        Some(_) => "Timing: the measured sequence assumes camera A and the inward cameras are triggered together unless a synchronisation σ is given; frame-time jitter is not modelled.".into(),
+        None => "Timing: this study has no measured sequence; the synchronisation of camera A and the inward cameras during a crash (trigger offset, frame-time jitter) is not modelled.".into(),
+    });
+    if r.tie.is_none() {
+        items.push("A third, tied-in camera: this study has none, so nothing of a tie's uncertainty is included.".into());
+    }
+    items.push("Statistical noise of the Monte Carlo itself: with n draws a σ is known to about σ/√(2n) (see the draws in the first line).".into());
+    rep.push(Block::List(items));
+}
+
+/// 1σ error ellipses in plan (x–y) and side (x–z) view at a subsample of points of the first
+/// z level, magnified, with axes, ticks and a key (`crashrig_plot::ellipses`).
+fn ellipse_figures(rep: &mut Report, l: &LayoutResult) {
+    let g = &l.grid;
+    let (xs, ys) = (g.x.values(), g.y.values());
+    let step_x = (xs.len() / 6).max(1);
+    let step_y = (ys.len() / 5).max(1);
+    let spacing = if xs.len() > 1 {
+        (xs[1] - xs[0]).abs()
+    } else {
+        100.0
+    };
+    // Magnify so that an ellipse of the threshold's size spans half a cell of the subsample.
+    let mag = (0.5 * spacing * step_x as f64 / g.threshold_mm)
+        .round()
+        .max(1.0);
+    let per_z = xs.len() * ys.len();
+    let pts = &l.result.points[..per_z.min(l.result.points.len())];
+    let sub: Vec<_> = pts
+        .iter()
+        .enumerate()
+        .filter(|(i, p)| {
+            (i % xs.len()) % step_x == 0
+                && (i / xs.len()) % step_y == 0
+                && p.sigma_max_mm.is_finite()
+        })
+        .map(|(_, p)| p)
+        .collect();
+    if sub.is_empty() {
+        rep.push(Block::Paragraph(
+            "No measurable point: no error ellipses.".into(),
+        ));
+        return;
+    }
+    let car = grids::car_outline(g);
+    for (view, b, label) in [
+        ("plan view (x–y)", 1usize, "y [mm] (left)"),
+        (
+            "side view (x–z)",
+            2,
+            "z [mm] (up), points offset by their y",
+        ),
+    ] {
+        let e: Vec<crashrig_plot::Ellipse> = sub
+            .iter()
+            .map(|p| {
+                let c = &p.covariance;
+                // Side view: the rows of the subsample (different y) are spread vertically
+                // by their y so they do not overlap; the ellipse is the x–z covariance.
+                let v = if b == 2 {
+                    p.point[1] + p.point[2]
+                } else {
+                    p.point[1]
+                };
+                crashrig_plot::Ellipse {
+                    centre: (p.point[0], v),
+                    covariance: [[c[(0, 0)], c[(0, b)]], [c[(b, 0)], c[(b, b)]]],
+                    flagged: grids::not_below(p.sigma_worst_mm(), g.threshold_mm),
+                }
+            })
+            .collect();
+        let title = format!("{}: 1-sigma error ellipses, {view}", l.layout.name);
+        let plot = crashrig_plot::EllipsePlot {
+            ellipses: &e,
+            magnification: mag,
+            key_sigma: g.threshold_mm,
+            title: &title,
+            x_label: "x [mm] (vehicle frame)",
+            y_label: label,
+            context: if b == 1 { &car } else { &[] },
+        };
+        if let Ok(png) = crashrig_plot::ellipses(&plot, crashrig_plot::Format::Png) {
+            rep.push(Block::Wide {
+                caption: format!(
+                    "{}: 1σ ellipses ×{mag:.0} in {view} at z = {} mm (red: worst-direction σ at or above the {} mm threshold; the black key circle is a σ of {} mm at the same magnification)",
+                    l.layout.name,
+                    g.z.values().first().copied().unwrap_or(0.0),
+                    g.threshold_mm,
+                    g.threshold_mm
+                ),
+                png,
+            });
+        }
+    }
 }

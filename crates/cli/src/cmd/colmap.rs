@@ -123,6 +123,10 @@ fn points(
     if g.json {
         return crate::output::print_json(&rows);
     }
+    if point.is_some() {
+        print_point_with_track(&rows[0]);
+        return Ok(());
+    }
     println!(
         "{:>10} {:>12} {:>12} {:>12} {:>9} {:>9} {:>6}",
         "point3D_id", "x", "y", "z", "u", "v", "track"
@@ -144,6 +148,38 @@ fn points(
         eprintln!("no 3-D point observed within {radius} px (try a larger --radius)");
     }
     Ok(())
+}
+
+/// Text mode of `colmap points --point ID`: the point's position, track length and reprojection
+/// error, then one line per observation (image name and pixel) — a point has no single pixel.
+fn print_point_with_track(r: &serde_json::Value) {
+    let f = |v: &serde_json::Value, i: usize| v[i].as_f64().unwrap_or(f64::NAN);
+    println!(
+        "{:>10} {:>12} {:>12} {:>12} {:>9} {:>6}",
+        "point3D_id", "x", "y", "z", "error_px", "track"
+    );
+    println!(
+        "{:>10} {:>12.4} {:>12.4} {:>12.4} {:>9.3} {:>6}",
+        r["point3D_id"],
+        f(&r["xyz"], 0),
+        f(&r["xyz"], 1),
+        f(&r["xyz"], 2),
+        r["error_px"].as_f64().unwrap_or(f64::NAN),
+        r["track_length"]
+    );
+    let track = r["track"].as_array().map_or(&[][..], Vec::as_slice);
+    if !track.is_empty() {
+        println!("track:");
+        println!("  {:>9} {:>9}  image", "u", "v");
+        for t in track {
+            println!(
+                "  {:>9.2} {:>9.2}  {}",
+                f(&t["pixel"], 0),
+                f(&t["pixel"], 1),
+                t["image"].as_str().unwrap_or("")
+            );
+        }
+    }
 }
 
 fn model_info(dir: &Path, g: &Global) -> anyhow::Result<()> {

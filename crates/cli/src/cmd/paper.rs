@@ -296,6 +296,8 @@ pub fn run(a: PaperArgs, g: &Global) -> anyhow::Result<()> {
 /// `results.json`'s content.
 pub fn compute(a: &PaperArgs, g: &Global) -> anyhow::Result<Value> {
     let seed = g.seed.unwrap_or(DEFAULT_SEED);
+    super::study::at_least_two("--samples", a.samples)?;
+    super::study::at_least_two("--chain-samples", a.chain_samples)?;
     let inputs = a.out.join("inputs");
     std::fs::create_dir_all(&inputs)
         .with_context(|| format!("{}: cannot create the output directory", inputs.display()))?;

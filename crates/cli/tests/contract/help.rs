@@ -1,6 +1,6 @@
 //! `--help` of every command exits 0 and documents the command's contract options.
 
-use crate::common::run;
+use crate::common::{root, run};
 
 /// Runs `crashrig <cmd…> --help` and checks exit 0, text on stdout and every `option` named.
 fn check_help(cmd: &[&str], options: &[&str]) {
@@ -93,4 +93,53 @@ fn help_grid() {
 #[test]
 fn help_paper() {
     check_help(&["paper"], &["--out"]);
+}
+
+/// The command names `crashrig --help` lists (the subcommand table), `help` left out.
+fn commands_of(help: &str) -> Vec<String> {
+    help.lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+        .take_while(|l| l.starts_with("  "))
+        .filter_map(|l| l.split_whitespace().next())
+        .filter(|c| *c != "help")
+        .map(str::to_string)
+        .collect()
+}
+
+/// Every command `crashrig --help` lists is in the README's command table and in
+/// `docs/REFERENCE.md`'s command table (a row whose first cell starts with `crashrig CMD`).
+#[test]
+fn every_command_is_in_the_readme_and_reference_tables() {
+    let r = run(["--help"]);
+    assert!(r.success, "{}", r.stderr);
+    let cmds = commands_of(&r.stdout);
+    assert!(cmds.len() >= 8, "too few commands parsed: {cmds:?}");
+    for doc in ["README.md", "docs/REFERENCE.md"] {
+        let text = std::fs::read_to_string(root().join(doc)).expect(doc);
+        let rows: Vec<&str> = text
+            .lines()
+            .filter(|l| l.starts_with("| `crashrig "))
+            .collect();
+        let missing: Vec<&String> = cmds
+            .iter()
+            .filter(|c| {
+                let p = format!("| `crashrig {c}");
+                !rows
+                    .iter()
+                    .any(|l| l.starts_with(&p) && l[p.len()..].starts_with([' ', '`']))
+            })
+            .collect();
+        assert!(
+            missing.is_empty(),
+            "{doc}: commands of `crashrig --help` missing from its command table: {missing:?}"
+        );
+    }
+}
+
+#[test]
+fn help_commands_are_parsed() {
+    let help =
+        "Usage: crashrig\n\nCommands:\n  colmap  x\n  grid    y\n  help    z\n\nOptions:\n  -h\n";
+    assert_eq!(commands_of(help), ["colmap", "grid"]);
 }

@@ -397,6 +397,23 @@ fn colmap_points_finds_the_point_at_a_pixel() {
         "--json",
     ]));
     assert_eq!(one[0]["track_length"], 2);
+    // Text mode: the point's coordinates (never NaN) and one line per observation of its track.
+    let text = run(["colmap", "points", d.as_str(), "--point", idarg.as_str()]);
+    assert!(text.success, "{}", text.stderr);
+    assert!(!text.stdout.contains("NaN"), "{}", text.stdout);
+    let x = format!("{:.4}", one[0]["xyz"][0].as_f64().expect("x"));
+    assert!(text.stdout.contains(&x), "{x} missing:\n{}", text.stdout);
+    for t in one[0]["track"].as_array().expect("track") {
+        let name = t["image"].as_str().expect("image");
+        let u = format!("{:.2}", t["pixel"][0].as_f64().expect("u"));
+        assert!(
+            text.stdout
+                .lines()
+                .any(|l| l.contains(name) && l.contains(&u)),
+            "track line {name} {u} missing:\n{}",
+            text.stdout
+        );
+    }
     let r = run([
         "colmap",
         "points",

@@ -282,6 +282,26 @@ fn ellipsoid_semi_axes_nominal() {
     }
 }
 
+/// Worst-direction σ: √ of the largest covariance eigenvalue. With σx = σy = 2 mm and
+/// correlation 0.75 between x and y (covariance [[4, 3, 0], [3, 4, 0], [0, 0, 1]] mm², eigenvalues
+/// 7, 1, 1), σ_max is 2 mm but the point is √7 mm uncertain along the diagonal x = y.
+#[test]
+fn sigma_worst_is_the_largest_eigen_axis() {
+    let sc = scenario("", TWO_OBS, "", "tangent");
+    let study = GridStudy::new(&sc, 0, 0).unwrap();
+    let mut p = study.run(100, 1).unwrap().points[0].clone();
+    p.covariance = Matrix3::new(4.0, 3.0, 0.0, 3.0, 4.0, 0.0, 0.0, 0.0, 1.0);
+    p.sigma_mm = Vector3::new(2.0, 2.0, 1.0);
+    p.sigma_max_mm = 2.0;
+    assert_abs_diff_eq!(p.sigma_worst_mm(), 7f64.sqrt(), epsilon = 1e-12);
+    // Not measurable (or blanked as degenerate): NaN, never a number.
+    p.sigma_max_mm = f64::NAN;
+    assert!(p.sigma_worst_mm().is_nan());
+    p.sigma_max_mm = 2.0;
+    p.covariance[(0, 0)] = f64::NAN;
+    assert!(p.sigma_worst_mm().is_nan());
+}
+
 #[test]
 #[ignore = "slow: 4·10⁶ draws; run by `cargo xtask test --slow`"]
 fn slow_grid_closed_form_large_n() {
