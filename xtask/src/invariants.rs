@@ -19,7 +19,6 @@ pub const MAX_CMD_LINES: usize = 150;
 
 /// Functions over [`MAX_FN_LINES`] still to be split: `(file, function)`.
 pub const LONG_FN_ALLOWED: &[(&str, &str)] = &[
-    // Being rewritten by the report work (issue 29).
     // Issue 23, not yet split.
     ("crates/study/src/study_file.rs", "from_toml_str"),
     ("crates/colmap/src/reconstruction.rs", "build"),
