@@ -531,7 +531,7 @@ impl Chain {
 
     /// Monte Carlo propagation with `samples` joint draws of every camera and link.
     ///
-    /// Draws are split in chunks of [`CHUNK`]; chunk `k` is Philox task `k` of `seed` and the
+    /// Draws are split in chunks of [`CHUNK`](crate::CHUNK); chunk `k` is Philox task `k` of `seed` and the
     /// chunks are merged in index order, so the result is bit-identical for any number of
     /// threads (and any instruction-set level).
     pub fn monte_carlo(&self, samples: usize, seed: u64) -> Vec<PoseMc> {
@@ -544,7 +544,7 @@ impl Chain {
         self.monte_carlo_engine(samples, seed, Engine::Simd(isa), None)
     }
 
-    /// [`Chain::monte_carlo`] reporting `(chunks done, chunks)` of [`CHUNK`] draws to
+    /// [`Chain::monte_carlo`] reporting `(chunks done, chunks)` of [`CHUNK`](crate::CHUNK) draws to
     /// `progress`; the result is the same as without.
     pub fn monte_carlo_with_progress(
         &self,

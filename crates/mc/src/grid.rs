@@ -282,7 +282,7 @@ impl GridStudy {
 
     /// Runs `samples` draws per point.
     ///
-    /// Work is split into (point, chunk of [`CHUNK`] draws) tasks; task (p, k) draws from
+    /// Work is split into (point, chunk of [`CHUNK`](crate::CHUNK) draws) tasks; task (p, k) draws from
     /// the Philox stream of `(seed, p·2²⁴ + k)` and chunks are merged in index order, so the
     /// result is bit-identical for any number of threads (and any instruction-set level).
     pub fn run(&self, samples: usize, seed: u64) -> Result<GridResult, Error> {
@@ -360,7 +360,7 @@ impl GridStudy {
     /// Runs with the adaptive stopping rule of GUM-S1 §7.9 per point: batches of
     /// `adaptive.batch` draws (batch b of point p is task `p·2²⁴ + b`) until the mean
     /// coordinate and the σ of every axis are stable (`2·s/√h ≤ δ`, see
-    /// [`crate::Adaptive`]; at least [`ADAPTIVE_MIN_BATCHES`] batches) or `max_samples` is
+    /// [`crate::Adaptive`]; at least [`ADAPTIVE_MIN_BATCHES`](crate::ADAPTIVE_MIN_BATCHES) batches) or `max_samples` is
     /// reached. The reported mean and σ are those of all draws.
     pub fn run_adaptive(&self, adaptive: &Adaptive, seed: u64) -> Result<GridResult, Error> {
         self.run_adaptive_with_progress(adaptive, seed, None)

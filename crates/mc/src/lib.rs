@@ -31,7 +31,7 @@
 //! dispatch, Philox, normals, the lane forms of the pose noise, rotations and DLT rows, streaming
 //! sums) that imports nothing above it; the engine's vocabulary (`model`: [`Camera`], [`Grid`],
 //! [`Observer`], …); the chain and grid engines; and, behind the default feature `scenario`,
-//! the TOML scenario reader ([`Scenario::from_path`]), [`reference`] and the COLMAP model reader
+//! the TOML scenario reader ([`Scenario::from_path`]), [`mod@reference`] and the COLMAP model reader
 //! of `camera_from`. With `default-features = false` the engine builds without toml,
 //! serde_json, the COLMAP reader and SQLite: build chains and grids with [`ChainBuilder`] and
 //! [`GridBuilder`].

@@ -65,10 +65,10 @@ impl PointStats {
 /// The result of a grid study.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GridResult {
-    /// One entry per grid point, in [`Grid::points`] order.
+    /// One entry per grid point, in [`Grid::points`](crate::Grid::points) order.
     pub points: Vec<PointStats>,
     /// The noise each observer was given (σ of `sigma_from` cameras resolved from the chain's
-    /// Monte Carlo propagation; rotation σ in the observer's [`RotationNoise`] meaning): the
+    /// Monte Carlo propagation; rotation σ in the observer's [`RotationNoise`](crate::RotationNoise) meaning): the
     /// square roots of the diagonal of [`GridResult::observer_covariance`].
     pub observer_sigma: Vec<PoseSigma>,
     /// The full covariance of each observer's noise (mm, rad; tangent about the observer's

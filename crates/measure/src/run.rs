@@ -290,7 +290,7 @@ fn output_files(m: &Measurement, plots: bool) -> Result<Vec<(String, Vec<u8>)>, 
     Ok(files)
 }
 
-/// Whether `path` is usable as [`OutputDir::dir`] ([`output::check_out_dir`]); for front ends
+/// Whether `path` is usable as [`OutputDir::dir`] (`output::check_out_dir`); for front ends
 /// that check before reading their own inputs.
 ///
 /// # Errors

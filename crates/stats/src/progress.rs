@@ -27,7 +27,7 @@ pub type Progress<'a> = &'a (dyn Fn(usize, usize) + Sync);
 
 /// Progress of a library entry with named stages (`crashrig_study::run_grid`, …): the one
 /// optional argument through which a front end watches a long call. The entry turns it into a
-/// [`Progress`] per stage ([`Reporter::stage`]); results never depend on it.
+/// [`Progress`] per stage ([`stage`]); results never depend on it.
 pub trait Reporter: Sync {
     /// `done` of `total` units of `stage` are finished (`done ≤ total`; parallel work may
     /// report slightly out of order).
