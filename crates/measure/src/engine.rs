@@ -587,6 +587,24 @@ fn velocity_pair(e: usize, marker: usize, preps: &[EpochPrep]) -> Option<(usize,
 /// Largest number of Monte Carlo replicates per row (`--samples`, `[measure] samples`).
 pub const MAX_SAMPLES: usize = 10_000_000;
 
+/// Largest number of row draws of one measure run: observation rows × replicates (the same
+/// bound as a grid's points × samples), checked before the replicates start.
+pub const MAX_DRAWS: u64 = 10_000_000_000;
+
+/// Refuses a run whose `rows × samples` exceeds [`MAX_DRAWS`] (it would run for hours).
+fn check_draws(rows: usize, samples: usize) -> Result<(), Error> {
+    let draws = rows as u64 * samples as u64;
+    if draws > MAX_DRAWS {
+        return Err(Error::Setting {
+            name: "--samples",
+            problem: format!(
+                "{samples} replicates × {rows} observation rows = {draws} draws exceeds the limit of {MAX_DRAWS}; use fewer --samples"
+            ),
+        });
+    }
+    Ok(())
+}
+
 fn check_settings(s: &Settings) -> Result<(), Error> {
     let bad = |name, problem: String| Err(Error::Setting { name, problem });
     if !(2..=MAX_SAMPLES).contains(&s.samples) {
@@ -741,6 +759,7 @@ fn measure_once(
     settings: &Settings,
 ) -> Result<Measurement, Error> {
     check_settings(settings)?;
+    check_draws(observations.len(), settings.samples)?;
     crate::input::check_in_image(observations, &rig.camera_b, rig.c.as_ref().map(|(_, c)| c))?;
     let groups = group_observations(epochs, rig, observations)?;
     let (measured, reference_epoch) = measured_epochs(epochs, &groups, settings)?;
@@ -1321,6 +1340,17 @@ fn assemble(
 mod tests {
     use super::*;
     use crashrig_geometry::{Rigid3, quat};
+
+    #[test]
+    fn draws_bound_is_rows_times_samples() {
+        // 1000 rows × 10⁷ replicates = 10¹⁰ draws: at the limit, accepted; one row more is not.
+        assert!(check_draws(1000, 10_000_000).is_ok());
+        let err = check_draws(1001, 10_000_000).unwrap_err().to_string();
+        assert!(
+            err.contains("--samples") && err.contains("10010000000 draws"),
+            "{err}"
+        );
+    }
 
     #[test]
     fn intersect_matches_geometry_dlt() {
