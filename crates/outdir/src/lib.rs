@@ -57,6 +57,8 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod shard;
+
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard, Once};
@@ -101,6 +103,37 @@ pub enum Error {
         out: PathBuf,
         /// The first foreign entry found.
         entry: String,
+    },
+    /// `--shard i/N` is not 1 ≤ i ≤ N ≤ [`shard::MAX_SHARDS`].
+    #[error("--shard {value}: {problem}")]
+    ShardSpec {
+        /// The value as given.
+        value: String,
+        /// What is wrong.
+        problem: String,
+    },
+    /// A directory given to `merge` is not a shard directory.
+    #[error("{}: not a shard directory: {why}", dir.display())]
+    NotAShard {
+        /// The directory.
+        dir: PathBuf,
+        /// Why not.
+        why: &'static str,
+    },
+    /// A `shard.json` that cannot be read as a shard manifest.
+    #[error("{}: {problem}", path.display())]
+    ShardManifest {
+        /// The manifest file.
+        path: PathBuf,
+        /// What is wrong.
+        problem: String,
+    },
+    /// The shard directories given to `merge` are not exactly the shards of one run (the
+    /// message names the directory or the missing i/N).
+    #[error("{problem}")]
+    ShardSet {
+        /// What is wrong, naming the shard.
+        problem: String,
     },
     /// A file name given to [`Staged::write`] is empty, absolute or climbs out with `..`.
     #[error("`{name}`: not a relative file name inside the output directory")]

@@ -136,6 +136,14 @@ pub struct GridDocument {
     pub max_sigma_mm: f64,
     /// Median σ_max (mm).
     pub median_sigma_max_mm: f64,
+    /// Share of points whose worst-direction σ (√ of the largest eigenvalue of the point's
+    /// covariance) is below the threshold ([`crate::grids::WorstDirection`], as the study's
+    /// layouts).
+    pub fraction_worst_below_threshold: f64,
+    /// Median worst-direction σ (mm).
+    pub median_sigma_worst_mm: f64,
+    /// Largest worst-direction σ (mm).
+    pub max_sigma_worst_mm: f64,
     /// Wall-clock time of the Monte Carlo (s).
     pub elapsed_s: f64,
     /// Draws per second.
@@ -428,6 +436,7 @@ fn document(
         .filter(|p| p.converged == Some(false))
         .count();
     let with_fixed = crashrig_mc::coverage::has_fixed(grid);
+    let worst = crate::grids::WorstDirection::new(result, grid.threshold_mm);
     GridDocument {
         points: result.points.len(),
         // Not-measurable points draw nothing; the draws per point are those asked for.
@@ -439,6 +448,9 @@ fn document(
         fraction_below_threshold: result.fraction_below(grid.threshold_mm),
         max_sigma_mm: sm.iter().copied().fold(f64::NAN, f64::max),
         median_sigma_max_mm: median(&sm),
+        fraction_worst_below_threshold: worst.fraction_below_threshold,
+        median_sigma_worst_mm: worst.median_mm,
+        max_sigma_worst_mm: worst.max_mm,
         elapsed_s,
         samples_per_second: total_draws as f64 / elapsed_s,
         fraction_measurable: result.fraction_measurable(),
@@ -601,6 +613,8 @@ fn main_csv(r: &GridResult, angles: &[f64], with_seen: bool) -> Result<Vec<u8>, 
     })
 }
 
+/// `grid_detail.csv`: per point the draws, mean, covariance, ellipsoid, first-order σ, the
+/// intersection angle and, last, the worst-direction σ `sigma_worst_mm` (empty where σ_max is).
 fn detail_csv(r: &GridResult, angles: &[f64]) -> Result<Vec<u8>, Error> {
     csv_bytes(|w| {
         w.write_record([
@@ -626,6 +640,7 @@ fn detail_csv(r: &GridResult, angles: &[f64]) -> Result<Vec<u8>, Error> {
             "linear_sigma_max_mm",
             "ratio_mc_over_linear",
             "intersection_angle_deg",
+            "sigma_worst_mm",
         ])?;
         for (p, angle) in r.points.iter().zip(angles) {
             let c = p.covariance;
@@ -659,6 +674,7 @@ fn detail_csv(r: &GridResult, angles: &[f64]) -> Result<Vec<u8>, Error> {
                 .map(|v| cell(p, v)),
             );
             rec.push(angle.to_string());
+            rec.push(cell(p, p.sigma_worst_mm()));
             w.write_record(&rec)?;
         }
         Ok(())
@@ -669,5 +685,36 @@ fn csv_error(e: csv::Error) -> Error {
     Error::Csv {
         what: "grid CSV",
         source: e,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `grid_detail.csv`'s last column is the worst-direction σ: √7 and 2√7 mm for the known
+    /// covariances of [`crate::grids::tests::known_grid`], empty for the point not measurable.
+    #[test]
+    fn detail_csv_sigma_worst_known_answer() {
+        let r = crate::grids::tests::known_grid();
+        let csv = String::from_utf8(detail_csv(&r, &[90.0; 3]).unwrap()).unwrap();
+        let mut lines = csv.lines();
+        assert!(
+            lines
+                .next()
+                .unwrap()
+                .ends_with(",intersection_angle_deg,sigma_worst_mm")
+        );
+        let last: Vec<&str> = lines.map(|l| l.rsplit(',').next().unwrap()).collect();
+        let s7 = 7f64.sqrt();
+        assert!(
+            (last[0].parse::<f64>().unwrap() - s7).abs() < 1e-12,
+            "{csv}"
+        );
+        assert!(
+            (last[1].parse::<f64>().unwrap() - 2.0 * s7).abs() < 1e-12,
+            "{csv}"
+        );
+        assert_eq!(last[2], "");
     }
 }

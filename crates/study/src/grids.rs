@@ -26,6 +26,38 @@ pub fn not_below(sigma_mm: f64, threshold_mm: f64) -> bool {
     sigma_mm.partial_cmp(&threshold_mm) != Some(std::cmp::Ordering::Less)
 }
 
+/// The worst-direction σ of a grid (√ of the largest eigenvalue of each point's covariance,
+/// [`crashrig_mc::PointStats::sigma_worst_mm`]) summarised against a threshold: the numbers of
+/// the study's layout summaries and of `crashrig grid`'s `summary.json`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WorstDirection {
+    /// Share of all points whose worst-direction σ is below the threshold (a blank σ — not
+    /// measurable or degenerate — counts as not below).
+    pub fraction_below_threshold: f64,
+    /// Median over the points with a finite σ (mm; NaN when there is none).
+    pub median_mm: f64,
+    /// Largest finite value (mm; NaN when there is none).
+    pub max_mm: f64,
+}
+
+impl WorstDirection {
+    /// Summarises the worst-direction σ of `result`'s points against `threshold_mm`.
+    pub fn new(result: &GridResult, threshold_mm: f64) -> WorstDirection {
+        let worst: Vec<f64> = result.points.iter().map(|p| p.sigma_worst_mm()).collect();
+        let n = worst.len().max(1) as f64;
+        WorstDirection {
+            fraction_below_threshold: worst.iter().filter(|s| **s < threshold_mm).count() as f64
+                / n,
+            median_mm: median(&worst),
+            max_mm: worst
+                .iter()
+                .copied()
+                .filter(|v| v.is_finite())
+                .fold(f64::NAN, f64::max),
+        }
+    }
+}
+
 /// Where the worst part of a layout's grid lies.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct WorstRegion {
@@ -104,7 +136,7 @@ impl GridSummary {
             )
         };
         let n = result.points.len().max(1) as f64;
-        let worst: Vec<f64> = result.points.iter().map(|p| p.sigma_worst_mm()).collect();
+        let worst = WorstDirection::new(result, t);
         let (imax, max) =
             sm.iter()
                 .copied()
@@ -135,13 +167,9 @@ impl GridSummary {
             max_sigma_mm: max,
             median_sigma_max_mm: median(&sm),
             median_sigma_mm: [axis(0), axis(1), axis(2)],
-            fraction_worst_below_threshold: worst.iter().filter(|s| **s < t).count() as f64 / n,
-            median_sigma_worst_mm: median(&worst),
-            max_sigma_worst_mm: worst
-                .iter()
-                .copied()
-                .filter(|v| v.is_finite())
-                .fold(f64::NAN, f64::max),
+            fraction_worst_below_threshold: worst.fraction_below_threshold,
+            median_sigma_worst_mm: worst.median_mm,
+            max_sigma_worst_mm: worst.max_mm,
             linear_fraction_below_threshold: lsm.iter().filter(|s| **s < t).count() as f64 / n,
             linear_median_sigma_max_mm: median(&lsm),
             degenerate_points: result
@@ -553,8 +581,55 @@ pub(crate) fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<(), Error> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+    use crashrig_mc::PointStats;
+    use nalgebra::{Matrix3, Vector3};
+
+    /// A measured point at `x` mm with sample covariance `cov` (mm²): σ per axis and σ_max
+    /// from its diagonal, as the Monte Carlo fills them.
+    pub(crate) fn point(x: f64, cov: Matrix3<f64>) -> PointStats {
+        let sigma = Vector3::new(cov[(0, 0)], cov[(1, 1)], cov[(2, 2)]).map(f64::sqrt);
+        PointStats {
+            point: Vector3::new(x, 0.0, 0.0),
+            count: 100,
+            mean_mm: Vector3::new(x, 0.0, 0.0),
+            covariance: cov,
+            sigma_mm: sigma,
+            sigma_max_mm: sigma.max(),
+            linear_covariance: cov,
+            observers_seen: 2,
+            converged: None,
+        }
+    }
+
+    /// Three points against a 5 mm threshold: covariance [[4,3,0],[3,4,0],[0,0,1]] has the
+    /// eigenvalues 7, 1, 1 (σ_worst = √7 ≈ 2.65 mm, σ_max = 2 mm); [[16,12,0],[12,16,0],[0,0,4]]
+    /// has 28, 4, 4 (σ_worst = 2√7 ≈ 5.29 mm above the threshold although σ_max = 4 mm is
+    /// below); a NaN point (not measurable) counts as not below and is left out of the median.
+    pub(crate) fn known_grid() -> GridResult {
+        let a = Matrix3::new(4.0, 3.0, 0.0, 3.0, 4.0, 0.0, 0.0, 0.0, 1.0);
+        let mut nan = point(2.0, Matrix3::from_element(f64::NAN));
+        nan.observers_seen = 1;
+        GridResult {
+            points: vec![point(0.0, a), point(1.0, 4.0 * a), nan],
+            observer_sigma: Vec::new(),
+            observer_covariance: Vec::new(),
+            correlated: false,
+        }
+    }
+
+    #[test]
+    fn worst_direction_known_answer() {
+        let r = known_grid();
+        let w = WorstDirection::new(&r, 5.0);
+        let s7 = 7f64.sqrt();
+        assert_eq!(w.fraction_below_threshold, 1.0 / 3.0);
+        assert!((w.median_mm - 1.5 * s7).abs() < 1e-12, "{}", w.median_mm);
+        assert!((w.max_mm - 2.0 * s7).abs() < 1e-12, "{}", w.max_mm);
+        // σ_max alone would pass two of the three points.
+        assert_eq!(r.fraction_below(5.0), 2.0 / 3.0);
+    }
 
     #[test]
     fn nice_ceil_known_values() {

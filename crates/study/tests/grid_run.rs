@@ -81,6 +81,34 @@ fn grid_compute_nominal_same_csv_for_one_and_two_threads() {
     }
     assert_eq!(summary["points"], 12);
     assert_eq!(summary["samples_per_point"], 300);
+    // The worst-direction σ: last column of grid_detail.csv, never below σ_max, and summarised
+    // in summary.json (median and maximum of the column).
+    let detail = std::fs::read_to_string(out.join("grid_detail.csv")).unwrap();
+    assert!(detail.lines().next().unwrap().ends_with(",sigma_worst_mm"));
+    let mut worst: Vec<f64> = detail
+        .lines()
+        .skip(1)
+        .zip(text.lines().skip(1))
+        .map(|(d, g)| {
+            let w: f64 = d.rsplit(',').next().unwrap().parse().unwrap();
+            let smax: f64 = g.rsplit(',').next().unwrap().parse().unwrap();
+            assert!(w >= smax * (1.0 - 1e-12), "σ_worst {w} < σ_max {smax}");
+            w
+        })
+        .collect();
+    worst.sort_by(f64::total_cmp);
+    assert_eq!(worst.len(), 12);
+    assert_eq!(summary["max_sigma_worst_mm"].as_f64().unwrap(), worst[11]);
+    assert_eq!(
+        summary["median_sigma_worst_mm"].as_f64().unwrap(),
+        0.5 * (worst[5] + worst[6])
+    );
+    let t = summary["threshold_mm"].as_f64().unwrap();
+    let below = worst.iter().filter(|w| **w < t).count() as f64 / 12.0;
+    assert_eq!(
+        summary["fraction_worst_below_threshold"].as_f64().unwrap(),
+        below
+    );
     // One PNG and one SVG per z level and map kind.
     for z in ["z00_0mm", "z01_300mm"] {
         for ext in ["png", "svg"] {
