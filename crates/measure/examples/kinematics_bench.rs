@@ -112,4 +112,57 @@ fn main() {
             best[k] / best[0]
         );
     }
+    filter_stage(n_epochs, n_markers * samples.min(500), repeats);
+}
+
+/// The filter stage alone, side by side: `records` 3-axis records of `n` samples filtered as
+/// three scalar records each (split, filter, reassemble: the kinematics before the change) and
+/// as one 3-vector record (`Cfc::filter_into::<Vec3>`, bit-identical), one thread, best of
+/// `repeats`.
+fn filter_stage(n: usize, records: usize, repeats: usize) {
+    use crashrig_measure::filter::Cfc;
+    let x: Vec<Vec3> = (0..n)
+        .map(|i| {
+            let t = i as f64 / 1000.0;
+            Vec3::new(50.0 * (t * 20.0).sin(), t, -3.0 * t * t)
+        })
+        .collect();
+    for standard in [Standard::J211, Standard::Iso6487] {
+        let f = Cfc::new(180, standard, 1000.0).expect("filter");
+        let (mut per_axis, mut vec3) = (f64::INFINITY, f64::INFINITY);
+        let mut check = (0.0, 0.0);
+        for _ in 0..repeats {
+            let start = Instant::now();
+            let mut axes = [Vec::new(), Vec::new(), Vec::new()];
+            let mut filtered = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+            let (mut work, mut out) = (Vec::new(), vec![Vec3::zeros(); n]);
+            for _ in 0..records {
+                for (c, axis) in axes.iter_mut().enumerate() {
+                    axis.clear();
+                    axis.extend(x.iter().map(|v| v[c]));
+                }
+                for c in 0..3 {
+                    f.filter_into(&axes[c], &mut filtered[c], &mut work);
+                }
+                for (i, o) in out.iter_mut().enumerate() {
+                    *o = Vec3::new(filtered[0][i], filtered[1][i], filtered[2][i]);
+                }
+                check.0 += out[n / 2].x;
+            }
+            per_axis = per_axis.min(start.elapsed().as_secs_f64());
+            let start = Instant::now();
+            let mut work = Vec::new();
+            for _ in 0..records {
+                f.filter_into(&x, &mut out, &mut work);
+                check.1 += out[n / 2].x;
+            }
+            vec3 = vec3.min(start.elapsed().as_secs_f64());
+        }
+        assert_eq!(check.0, check.1, "the two paths agree");
+        println!(
+            "filter stage {:>8}, {records} records × {n} samples: per axis {per_axis:.3} s, 3-vector {vec3:.3} s (ratio {:.2})",
+            standard.name(),
+            per_axis / vec3
+        );
+    }
 }

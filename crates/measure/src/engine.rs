@@ -1068,10 +1068,10 @@ fn assemble_kinematics(
                     .unwrap_or_else(|| Vec3::repeat(f64::NAN))
             };
             let xr = nominal(reference);
-            scratch.filter_and_differentiate(
-                kin.filter,
-                (run.start..run.start + run.len).map(|e| nominal(e) - xr),
-            );
+            let d: Vec<Vec3> = (run.start..run.start + run.len)
+                .map(|e| nominal(e) - xr)
+                .collect();
+            scratch.filter_and_differentiate(kin.filter, &d);
             for i in 0..run.len {
                 let e = run.start + i;
                 let Some(s) = preps[e].slot_of[mk] else {
@@ -1254,7 +1254,7 @@ fn feed_run(
         if !series.iter().all(finite) {
             continue;
         }
-        scratch.filter_and_differentiate(filter, series.iter().copied());
+        scratch.filter_and_differentiate(filter, series);
         acc.n += 1;
         let inv_n = 1.0 / acc.n as f64;
         for (i, q) in acc.m.iter_mut().enumerate() {

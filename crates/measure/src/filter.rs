@@ -156,12 +156,29 @@ pub struct Coefficients {
 }
 
 impl Coefficients {
-    /// One step of the section: input `x0` with the two previous inputs and outputs.
+    /// One step of the section: input `x0` with the two previous inputs and outputs (the same
+    /// products and sums in the same order for every [`Sample`], so a 3-vector's components are
+    /// filtered bit for bit as three scalar records).
     #[inline]
-    fn step(&self, x0: f64, x1: f64, x2: f64, y1: f64, y2: f64) -> f64 {
-        self.a0 * x0 + self.a1 * x1 + self.a2 * x2 + self.b1 * y1 + self.b2 * y2
+    fn step<T: Sample>(&self, x0: T, x1: T, x2: T, y1: T, y2: T) -> T {
+        x0 * self.a0 + x1 * self.a1 + x2 * self.a2 + y1 * self.b1 + y2 * self.b2
     }
 }
+
+/// A value the filter takes: a scalar (`f64`) or a 3-vector ([`crashrig_geometry::Vec3`]),
+/// whose three components are filtered as three independent records — with the same
+/// arithmetic, bit for bit, but in one pass, so that the three recurrences overlap.
+pub trait Sample:
+    Copy
+    + std::ops::Add<Output = Self>
+    + std::ops::Sub<Output = Self>
+    + std::ops::Mul<f64, Output = Self>
+    + std::ops::Div<f64, Output = Self>
+{
+}
+
+impl Sample for f64 {}
+impl Sample for crashrig_geometry::Vec3 {}
 
 /// A CFC filter for one class, standard and sampling rate.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -263,11 +280,12 @@ impl Cfc {
     /// Filters `x` into `out` (same length) with `scratch` as working memory (reused across
     /// calls, so filtering many records allocates once). Records shorter than
     /// [`MIN_SAMPLES`] are copied unchanged — callers check the length first (the kinematics
-    /// give such records no filtered values).
+    /// give such records no filtered values). `T` = [`crashrig_geometry::Vec3`] filters the
+    /// three axes of a series at once, each exactly as `f64` records would be.
     ///
     /// # Panics
     /// When `out.len() != x.len()` (a programming error).
-    pub fn filter_into(&self, x: &[f64], out: &mut [f64], scratch: &mut Vec<f64>) {
+    pub fn filter_into<T: Sample>(&self, x: &[T], out: &mut [T], scratch: &mut Vec<T>) {
         assert_eq!(x.len(), out.len(), "filter_into: output length");
         let n = x.len();
         if n < MIN_SAMPLES {
@@ -285,9 +303,9 @@ impl Cfc {
                 let k = self.iso_extension(n);
                 scratch.clear();
                 scratch.reserve(n + 2 * k);
-                scratch.extend((0..k).map(|j| 2.0 * x[0] - x[k - j]));
+                scratch.extend((0..k).map(|j| x[0] * 2.0 - x[k - j]));
                 scratch.extend_from_slice(x);
-                scratch.extend((0..k).map(|i| 2.0 * x[n - 1] - x[n - 2 - i]));
+                scratch.extend((0..k).map(|i| x[n - 1] * 2.0 - x[n - 2 - i]));
                 iso_pass(&self.c, scratch, false);
                 iso_pass(&self.c, scratch, true);
                 out.copy_from_slice(&scratch[k..k + n]);
@@ -296,10 +314,10 @@ impl Cfc {
     }
 
     /// One J211 pass over `input` into `output`, started at rest on the first input.
-    fn pass_at_rest<'a>(
+    fn pass_at_rest<'a, T: Sample + 'a>(
         &self,
-        input: impl Iterator<Item = f64>,
-        output: impl Iterator<Item = &'a mut f64>,
+        input: impl Iterator<Item = T>,
+        output: impl Iterator<Item = &'a mut T>,
     ) {
         let mut input = input.peekable();
         let Some(&x0) = input.peek() else { return };
@@ -314,10 +332,11 @@ impl Cfc {
 
 /// One ISO 6487 pass in place (forward, or backward when `reverse`): the first two outputs are
 /// the mean of the first ten values the pass reads; from the third on, the section.
-fn iso_pass(c: &Coefficients, v: &mut [f64], reverse: bool) {
+fn iso_pass<T: Sample>(c: &Coefficients, v: &mut [T], reverse: bool) {
     let n = v.len();
     let at = |i: usize| if reverse { n - 1 - i } else { i };
-    let mean = (0..10).map(|i| v[at(i)]).sum::<f64>() / 10.0;
+    // Summed from the first value, as `f64`'s `Sum` (from −0.0) sums: the same bits.
+    let mean = (1..10).fold(v[at(0)], |s, i| s + v[at(i)]) / 10.0;
     let (mut x2, mut x1) = (v[at(0)], v[at(1)]);
     v[at(0)] = mean;
     v[at(1)] = mean;
@@ -362,6 +381,35 @@ mod tests {
                 .to_string()
                 .contains("--cfc-standard")
         );
+    }
+
+    /// A 3-vector record is filtered component by component exactly (bit for bit) as three
+    /// scalar records, in both standards (the kinematics filter the three axes at once).
+    #[test]
+    fn vec3_records_filter_as_three_scalar_records() {
+        use crashrig_geometry::Vec3;
+        let x: Vec<Vec3> = (0..300)
+            .map(|i| {
+                let t = i as f64 * 1e-3;
+                Vec3::new(
+                    (37.0 * t).sin() * 5.0,
+                    t * t * 1e3 - 0.3,
+                    (i % 7) as f64 - 3.0,
+                )
+            })
+            .collect();
+        for s in [Standard::J211, Standard::Iso6487] {
+            let f = Cfc::new(180, s, 1000.0).unwrap();
+            let mut out = vec![Vec3::zeros(); x.len()];
+            f.filter_into(&x, &mut out, &mut Vec::new());
+            for c in 0..3 {
+                let axis: Vec<f64> = x.iter().map(|v| v[c]).collect();
+                let want = f.filter(&axis);
+                for (o, w) in out.iter().zip(&want) {
+                    assert_eq!(o[c].to_bits(), w.to_bits(), "{s:?} axis {c}");
+                }
+            }
+        }
     }
 
     #[test]

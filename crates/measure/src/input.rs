@@ -215,7 +215,19 @@ pub fn read_observations(path: &Path, names: &CameraNames) -> Result<Vec<Observa
     Ok(out)
 }
 
-fn read_json(path: &Path) -> Result<serde_json::Value, Error> {
+/// Reads the text file `path` through [`input_file::read_text_limited`]: a FIFO, device or
+/// directory, a file larger than `limit` bytes or text that is not UTF-8 is an
+/// [`Error::Io`] naming the file, before anything is allocated for it.
+pub(crate) fn read_text(path: &Path, limit: u64) -> Result<String, Error> {
+    input_file::read_text_limited(path, limit).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Reads a JSON input (a result file of another command, a measure output's `summary.json`)
+/// with the JSON size limit ([`input_file::MAX_JSON_BYTES`]).
+pub(crate) fn read_json(path: &Path) -> Result<serde_json::Value, Error> {
     let bytes =
         input_file::read_limited(path, input_file::MAX_JSON_BYTES).map_err(|source| Error::Io {
             path: path.to_path_buf(),

@@ -74,6 +74,8 @@
 //! ```
 
 use crate::Error;
+use crate::input::{read_json, read_text};
+use crashrig_colmap::input_file;
 use crashrig_geometry::{Mat3, Vec3};
 use serde_json::Value;
 use std::collections::BTreeMap;
@@ -177,7 +179,9 @@ pub fn export(cfg: &ExportConfig) -> Result<Export, Error> {
         .and_then(Value::as_str)
         .map(str::to_string);
     let kin = dir.join("kinematics.csv");
-    let (source, csv_path) = if kin.is_file() {
+    // Any entry of that name is the source (a FIFO or device there is refused by the reader,
+    // not silently passed over for the raw displacements).
+    let (source, csv_path) = if kin.exists() {
         ("kinematics.csv", kin)
     } else {
         ("displacements.csv", dir.join("displacements.csv"))
@@ -374,18 +378,6 @@ fn check_test_number(t: &str) -> Result<(), Error> {
     }
 }
 
-fn read_json(path: &Path) -> Result<Value, Error> {
-    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    serde_json::from_str(&text).map_err(|e| Error::Json {
-        path: path.to_path_buf(),
-        key: "$".into(),
-        problem: e.to_string(),
-    })
-}
-
 fn is_signed_permutation(r: &Mat3) -> bool {
     r.row_iter()
         .all(|row| row.iter().filter(|v| v.abs() > 1e-12).count() == 1)
@@ -400,10 +392,7 @@ struct Row {
 }
 
 fn read_rows(path: &Path, hz: f64) -> Result<Vec<Row>, Error> {
-    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let text = read_text(path, input_file::MAX_CSV_BYTES)?;
     let bad = |line: u64, problem: String| Error::Csv {
         path: path.to_path_buf(),
         line,
@@ -470,10 +459,7 @@ fn channel_codes(map: Option<&Path>, markers: &[String]) -> Result<Vec<String>, 
         .map(|n| format!("10VEHC00{n:04}????"))
         .collect();
     if let Some(path) = map {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = read_text(path, input_file::MAX_CSV_BYTES)?;
         let bad = |line: u64, problem: String| Error::Csv {
             path: path.to_path_buf(),
             line,

@@ -179,9 +179,7 @@ impl RunAcc {
 /// Reusable buffers of one filtering task.
 #[derive(Debug, Default)]
 pub(crate) struct Scratch {
-    axis: [Vec<f64>; 3],
-    filtered_axis: [Vec<f64>; 3],
-    work: Vec<f64>,
+    work: Vec<Vec3>,
     /// The displacement runs of a chunk's replicates, replicate-major (filled by the caller).
     pub d: Vec<Vec3>,
     pub f: Vec<Vec3>,
@@ -190,30 +188,13 @@ pub(crate) struct Scratch {
 }
 
 impl Scratch {
-    /// Filters the displacement run `d` (mm) axis by axis and differentiates it: the results
-    /// are in `self.f`, `self.v`, `self.a`.
-    pub fn filter_and_differentiate(&mut self, filter: &Cfc, d: impl Iterator<Item = Vec3>) {
-        for c in &mut self.axis {
-            c.clear();
-        }
-        for x in d {
-            for (c, axis) in self.axis.iter_mut().enumerate() {
-                axis.push(x[c]);
-            }
-        }
-        let n = self.axis[0].len();
-        for c in 0..3 {
-            self.filtered_axis[c].resize(n, 0.0);
-            filter.filter_into(&self.axis[c], &mut self.filtered_axis[c], &mut self.work);
-        }
+    /// Filters the displacement run `d` (mm; the three axes at once, each exactly as a scalar
+    /// record, [`crate::filter::Sample`]) and differentiates it: the results are in `self.f`,
+    /// `self.v`, `self.a`.
+    pub fn filter_and_differentiate(&mut self, filter: &Cfc, d: &[Vec3]) {
         self.f.clear();
-        self.f.extend((0..n).map(|i| {
-            Vec3::new(
-                self.filtered_axis[0][i],
-                self.filtered_axis[1][i],
-                self.filtered_axis[2][i],
-            )
-        }));
+        self.f.resize(d.len(), Vec3::zeros());
+        filter.filter_into(d, &mut self.f, &mut self.work);
         differentiate(
             &self.f,
             1.0 / filter.frame_rate_hz(),

@@ -157,6 +157,71 @@ fn refuses_a_measure_output_without_a_frame_rate() {
     assert!(msg.contains("--test-number"), "{msg}");
 }
 
+/// Every input of the export is read through `crashrig_colmap::input_file::read_limited`: a
+/// FIFO (reading it would wait for a writer for ever) and a file larger than its kind's limit
+/// (a sparse file: nothing is written to disk) are refused with the file named, without
+/// blocking and before anything is allocated.
+#[test]
+fn refuses_fifos_and_oversize_inputs() {
+    use crashrig_colmap::input_file::{MAX_CSV_BYTES, MAX_JSON_BYTES};
+    let dir = tempfile::tempdir().unwrap();
+    let oversize = |name: &str, limit: u64| {
+        measure_dir(dir.path());
+        let path = dir.path().join(name);
+        std::fs::File::create(&path)
+            .unwrap()
+            .set_len(limit + 1)
+            .unwrap();
+        let msg = export(&ExportConfig::new(dir.path(), "T4"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains(name) && msg.contains("larger than the limit"),
+            "{msg}"
+        );
+    };
+    oversize("kinematics.csv", MAX_CSV_BYTES);
+    oversize("summary.json", MAX_JSON_BYTES);
+    #[cfg(unix)]
+    {
+        let fifo = |path: &Path| {
+            let _ = std::fs::remove_file(path);
+            let ok = std::process::Command::new("mkfifo")
+                .arg(path)
+                .status()
+                .unwrap()
+                .success();
+            assert!(ok, "mkfifo {}", path.display());
+        };
+        measure_dir(dir.path());
+        fifo(&dir.path().join("kinematics.csv"));
+        let msg = export(&ExportConfig::new(dir.path(), "T5"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("kinematics.csv") && msg.contains("not a regular file"),
+            "{msg}"
+        );
+        measure_dir_fresh(dir.path());
+        let map = dir.path().join("codes.csv");
+        fifo(&map);
+        let mut cfg = ExportConfig::new(dir.path(), "T6");
+        cfg.channel_map = Some(map);
+        let msg = export(&cfg).unwrap_err().to_string();
+        assert!(
+            msg.contains("codes.csv") && msg.contains("not a regular file"),
+            "{msg}"
+        );
+    }
+}
+
+/// [`measure_dir`] after removing a FIFO left in its place.
+#[cfg(unix)]
+fn measure_dir_fresh(dir: &Path) {
+    let _ = std::fs::remove_file(dir.join("kinematics.csv"));
+    measure_dir(dir);
+}
+
 fn python() -> Option<PathBuf> {
     let p = std::env::var_os("PYISOMME_PYTHON")
         .map(PathBuf::from)

@@ -39,6 +39,7 @@ mod fixed_observer;
 pub mod grid_run;
 pub mod grids;
 pub mod html;
+pub mod kinematics_report;
 pub mod measure_step;
 pub mod pipeline;
 pub mod propagate_run;

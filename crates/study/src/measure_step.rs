@@ -6,7 +6,8 @@
 //! exactly what `crashrig measure --link calibrate.json --tie bootstrap.json` reads from those
 //! commands' JSON, without the text round trip. The files below `DIR/measure/` are written by
 //! the command's own writers, [`crashrig_measure::output`] (`trajectories.csv` with the
-//! contract header, `displacements.csv`, `plots/<marker>.png|svg`, `summary.json`).
+//! contract header, `displacements.csv`, `plots/<marker>.png|svg`, `summary.json`; with `cfc`,
+//! `kinematics.csv` and `plots/<marker>_kinematics.png|svg`).
 
 use crate::Error;
 use crate::study_file::{MeasureANoise, MeasureSection, Study};
@@ -84,8 +85,8 @@ pub fn run_measure(
             frame_rate_hz: s.frame_rate_hz,
             threshold_mm: s.threshold_mm,
             max_reprojection_px: s.max_reprojection_px,
-            cfc: None,
-            sync_sigma_ms: 0.0,
+            cfc: s.cfc,
+            sync_sigma_ms: s.sync_sigma_ms,
         },
         out: None,
     };

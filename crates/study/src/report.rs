@@ -106,12 +106,15 @@ pub fn write_outputs(
         }
         maps.push(m);
     }
-    let plots = match &r.measure {
-        Some(m) => write_measure(&dir.join("measure"), m)?,
-        None => Vec::new(),
+    let (plots, kin_plots) = match &r.measure {
+        Some(m) => (
+            write_measure(&dir.join("measure"), m)?,
+            crate::kinematics_report::write(&dir.join("measure"), m)?,
+        ),
+        None => (Vec::new(), Vec::new()),
     };
     grids::write(dir, "results.json", &json_pretty(&results))?;
-    let html = report_html(study, r, &maps, &plots, prov);
+    let html = report_html(study, r, &maps, &[&plots, &kin_plots], prov);
     grids::write(dir, "report.html", html.as_bytes())
 }
 
@@ -129,20 +132,8 @@ fn write_measure(d: &Path, m: &MeasureResult) -> Result<Vec<MarkerPlot>, Error> 
         "displacements.csv",
         measure_output::displacements_csv(ms).as_bytes(),
     )?;
-    let plots = measure_output::marker_plots(ms).map_err(|e| match e {
-        crashrig_measure::Error::Plot { marker, source } => Error::Plot {
-            what: format!("trajectory of marker {marker}"),
-            source,
-        },
-        // `marker_plots` fails only with `Plot`; anything else keeps its message.
-        other => Error::Plot {
-            what: "trajectory plots".into(),
-            source: crashrig_plot::Error::Draw {
-                figure: "trajectory",
-                message: other.to_string(),
-            },
-        },
-    })?;
+    let plots =
+        measure_output::marker_plots(ms).map_err(|e| measure_plot_error(e, "trajectory"))?;
     for p in &plots {
         grids::write(&d.join("plots"), &format!("{}.png", p.stem), &p.png)?;
         grids::write(&d.join("plots"), &format!("{}.svg", p.stem), &p.svg)?;
@@ -150,6 +141,25 @@ fn write_measure(d: &Path, m: &MeasureResult) -> Result<Vec<MarkerPlot>, Error> 
     let summary = serde_json::to_value(&m.summary).unwrap_or_default();
     grids::write(d, "summary.json", &json_pretty(&summary))?;
     Ok(plots)
+}
+
+/// A plot error of the measure crate's writers as the study's [`Error::Plot`]; `figure` names
+/// the kind of plot (`trajectory`, `kinematics`).
+pub(crate) fn measure_plot_error(e: crashrig_measure::Error, figure: &'static str) -> Error {
+    match e {
+        crashrig_measure::Error::Plot { marker, source } => Error::Plot {
+            what: format!("{figure} of marker {marker}"),
+            source,
+        },
+        // The plot writers fail only with `Plot`; anything else keeps its message.
+        other => Error::Plot {
+            what: format!("{figure} plots"),
+            source: crashrig_plot::Error::Draw {
+                figure,
+                message: other.to_string(),
+            },
+        },
+    }
 }
 
 /// The report section of the measured sequence: summary, displacement σ vs position σ per
@@ -580,12 +590,13 @@ fn fixed_vs_aimed(r: &StudyResult) -> String {
 }
 
 /// The report page: the verdicts and the table of contents first (a few screens), then one
-/// collapsible section per step with the details.
+/// collapsible section per step with the details. `measure_plots`: the measured sequence's
+/// trajectory plots and its kinematics plots (with `cfc`).
 pub fn report_html(
     study: &Study,
     r: &StudyResult,
     maps: &[Vec<HeatMapPng>],
-    measure_plots: &[MarkerPlot],
+    measure_plots: &[&[MarkerPlot]; 2],
     prov: &Provenance,
 ) -> String {
     let paper = study.reference.as_deref() == Some("kaminski2023");
@@ -616,7 +627,8 @@ pub fn report_html(
     chain_section(&mut rep, r, paper);
     layouts_section(&mut rep, r, maps);
     if let Some(m) = &r.measure {
-        measure_report(&mut rep, study, m, measure_plots);
+        measure_report(&mut rep, study, m, measure_plots[0]);
+        crate::kinematics_report::section(&mut rep, m, measure_plots[1]);
     }
     not_included(&mut rep, study, r);
     provenance_section(&mut rep, study, r, prov);
@@ -1125,7 +1137,7 @@ fn provenance_section(rep: &mut Report, study: &Study, r: &StudyResult, prov: &P
             ),
         };
         cmds.push(format!(
-            "crashrig measure {} --camera-a {} --camera-b {}{} --link {dir}/calibration/calibrate.json{} --observations {}{} {a_noise} --pixel-sigma-px {} --samples {} --threshold-mm {}{}{}{} --seed {} --out MEASURE_DIR   # = {dir}/measure/ (the study passes the link with the SO(3) mean rotation; the command reads angles_deg, the per-angle mean: set angles_deg to mean_rotation_angles_deg for identical numbers)",
+            "crashrig measure {} --camera-a {} --camera-b {}{} --link {dir}/calibration/calibrate.json{} --observations {}{} {a_noise} --pixel-sigma-px {} --samples {} --threshold-mm {}{}{}{}{} --seed {} --out MEASURE_DIR   # = {dir}/measure/ (the study passes the link with the SO(3) mean rotation; the command reads angles_deg, the per-angle mean: set angles_deg to mean_rotation_angles_deg for identical numbers)",
             m.model.display(),
             m.camera_a,
             m.camera_b,
@@ -1139,6 +1151,7 @@ fn provenance_section(rep: &mut Report, study: &Study, r: &StudyResult, prov: &P
             m.reference_epoch.as_ref().map_or(String::new(), |e| format!(" --reference-epoch {e}")),
             m.frame_rate_hz.map_or(String::new(), |f| format!(" --frame-rate-hz {f}")),
             m.max_reprojection_px.map_or(String::new(), |f| format!(" --max-reprojection-px {f}")),
+            crate::kinematics_report::flags(m),
             r.seed
         ));
     }

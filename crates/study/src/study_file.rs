@@ -224,6 +224,12 @@ pub struct MeasureSection {
     pub threshold_mm: f64,
     /// Reprojection residual limit (px; default the robust limit of the sequence).
     pub max_reprojection_px: Option<f64>,
+    /// `cfc` / `cfc_standard`: the CFC filter of the kinematics (needs `frame_rate_hz`; checked
+    /// against it when the file is read); `None`: no kinematics.
+    pub cfc: Option<crashrig_measure::filter::CfcSpec>,
+    /// `sync_sigma_ms`: σ of camera A's trigger offset against the inward cameras (ms, default
+    /// 0; > 0 needs `frame_rate_hz`).
+    pub sync_sigma_ms: f64,
 }
 
 /// A validated study.
@@ -288,6 +294,9 @@ struct RawMeasure {
     frame_rate_hz: Option<Spanned<f64>>,
     threshold_mm: Option<Spanned<f64>>,
     max_reprojection_px: Option<Spanned<f64>>,
+    cfc: Option<Spanned<i64>>,
+    cfc_standard: Option<Spanned<String>>,
+    sync_sigma_ms: Option<Spanned<f64>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -767,6 +776,12 @@ fn measure_section(
             );
         }
     };
+    let frame_rate_hz = m
+        .frame_rate_hz
+        .as_ref()
+        .map(|v| cx.positive(v, "measure.frame_rate_hz"))
+        .transpose()?;
+    let (cfc, sync_sigma_ms) = kinematics_keys(cx, m, frame_rate_hz)?;
     Ok(MeasureSection {
         model,
         camera_a: req(&m.camera_a, "measure.camera_a")?.into_inner(),
@@ -789,11 +804,7 @@ fn measure_section(
             })
             .transpose()?,
         reference_epoch: m.reference_epoch.clone(),
-        frame_rate_hz: m
-            .frame_rate_hz
-            .as_ref()
-            .map(|v| cx.positive(v, "measure.frame_rate_hz"))
-            .transpose()?,
+        frame_rate_hz,
         threshold_mm: m
             .threshold_mm
             .as_ref()
@@ -803,7 +814,87 @@ fn measure_section(
             .as_ref()
             .map(|v| cx.positive(v, "measure.max_reprojection_px"))
             .transpose()?,
+        cfc,
+        sync_sigma_ms,
     })
+}
+
+/// `[measure]`'s kinematics keys: `cfc` (a class of [`crashrig_measure::filter::CLASSES`] whose
+/// corner is well below the Nyquist frequency of `frame_rate_hz`, checked here by
+/// [`crashrig_measure::filter::Cfc::new`]), `cfc_standard` (`j211`, default, or `iso6487`; only
+/// with `cfc`) and `sync_sigma_ms` (0 … [`crashrig_measure::engine::MAX_SYNC_SIGMA_MS`]); each
+/// error names the key and its line.
+fn kinematics_keys(
+    cx: &Ctx<'_>,
+    m: &RawMeasure,
+    frame_rate_hz: Option<f64>,
+) -> Result<(Option<crashrig_measure::filter::CfcSpec>, f64), Error> {
+    use crashrig_measure::filter::{Cfc, CfcSpec, Standard};
+    let problem = |e: crashrig_measure::Error| match e {
+        crashrig_measure::Error::Setting { problem, .. } => problem,
+        other => other.to_string(),
+    };
+    let standard = match &m.cfc_standard {
+        None => Standard::J211,
+        Some(v) if m.cfc.is_none() => {
+            return cx.err(
+                Some(v.span()),
+                "measure.cfc_standard",
+                "names the standard of a CFC filter: give `cfc` too",
+            );
+        }
+        Some(v) => Standard::parse(v.get_ref())
+            .or_else(|e| cx.err(Some(v.span()), "measure.cfc_standard", problem(e)))?,
+    };
+    let cfc = match &m.cfc {
+        None => None,
+        Some(v) => {
+            let Ok(class) = u32::try_from(*v.get_ref()) else {
+                return cx.err(
+                    Some(v.span()),
+                    "measure.cfc",
+                    format!(
+                        "{} is not a channel frequency class (60, 180, 600, 1000)",
+                        v.get_ref()
+                    ),
+                );
+            };
+            let Some(hz) = frame_rate_hz else {
+                return cx.err(
+                    Some(v.span()),
+                    "measure.cfc",
+                    "needs measure.frame_rate_hz (the filter is defined in frames per second)",
+                );
+            };
+            Cfc::new(class, standard, hz)
+                .map_err(problem)
+                .or_else(|p| cx.err(Some(v.span()), "measure.cfc", p))?;
+            Some(CfcSpec { class, standard })
+        }
+    };
+    let sync = match &m.sync_sigma_ms {
+        None => 0.0,
+        Some(v) => {
+            let x = *v.get_ref();
+            let max = crashrig_measure::engine::MAX_SYNC_SIGMA_MS;
+            if !(x.is_finite() && (0.0..=max).contains(&x)) {
+                return cx.err(
+                    Some(v.span()),
+                    "measure.sync_sigma_ms",
+                    format!("must be a number from 0 to {max} (ms), got {x}"),
+                );
+            }
+            if x > 0.0 && frame_rate_hz.is_none() {
+                return cx.err(
+                    Some(v.span()),
+                    "measure.sync_sigma_ms",
+                    "needs measure.frame_rate_hz (A's pose is interpolated between frames)",
+                );
+            }
+            x
+        }
+    };
+    Ok((cfc, sync))
 }
 
 impl Study {
@@ -1413,6 +1504,79 @@ mod tests {
         assert!(m.contains("study.toml:") && m.contains("smaples"), "{m}");
         let m = message(&text().replace("method = \"absolute\"", "method = \"magic\""));
         assert!(m.contains("`tie.method`"), "{m}");
+    }
+
+    /// `[measure]`'s kinematics keys: read into the section, and every bad value is one error
+    /// naming the key and its line.
+    #[test]
+    fn measure_kinematics_keys_and_their_errors() {
+        use crashrig_measure::filter::{CfcSpec, Standard};
+        let with = |keys: &str| {
+            // `pixel_sigma_px = 0.3` is [measure]'s alone (the fixed cameras have 0.5).
+            text().replace(
+                "pixel_sigma_px = 0.3\n",
+                &format!("pixel_sigma_px = 0.3\n{keys}\n"),
+            )
+        };
+        let t = with("cfc = 180\ncfc_standard = \"iso6487\"\nsync_sigma_ms = 0.5");
+        let m = parse(&t).unwrap().measure.unwrap();
+        assert_eq!(
+            m.cfc,
+            Some(CfcSpec {
+                class: 180,
+                standard: Standard::Iso6487
+            })
+        );
+        assert_eq!(m.sync_sigma_ms, 0.5);
+        let m = parse(&text()).unwrap().measure.unwrap();
+        assert_eq!((m.cfc, m.sync_sigma_ms), (None, 0.0));
+        for (keys, key, needle) in [
+            ("cfc = 100", "cfc", "100 is not a channel frequency class"),
+            ("cfc = -60", "cfc", "-60 is not a channel frequency class"),
+            (
+                "cfc = 1000",
+                "cfc",
+                "CFC 1000 is too high for 1000 frames/s",
+            ),
+            (
+                "cfc = 60\ncfc_standard = \"sae\"",
+                "cfc_standard",
+                "`sae` is not a filter standard",
+            ),
+            ("cfc_standard = \"j211\"", "cfc_standard", "give `cfc` too"),
+            (
+                "sync_sigma_ms = -1.0",
+                "sync_sigma_ms",
+                "from 0 to 1000 (ms)",
+            ),
+            (
+                "sync_sigma_ms = 2000.0",
+                "sync_sigma_ms",
+                "from 0 to 1000 (ms)",
+            ),
+        ] {
+            let t = with(keys);
+            let last = keys.lines().last().unwrap();
+            let line = t.rfind(last).map(|i| t[..i].lines().count() + 1).unwrap();
+            let m = message(&t);
+            assert!(
+                m.contains(&format!("study.toml:{line}: `measure.{key}`")) && m.contains(needle),
+                "{keys}: {m}"
+            );
+        }
+        // Without a frame rate the filter and the offset have no time base.
+        let t = with("cfc = 60").replace("frame_rate_hz = 1000.0\n", "");
+        let m = message(&t);
+        assert!(
+            m.contains("`measure.cfc`") && m.contains("frame_rate_hz"),
+            "{m}"
+        );
+        let t = with("sync_sigma_ms = 1.0").replace("frame_rate_hz = 1000.0\n", "");
+        let m = message(&t);
+        assert!(
+            m.contains("`measure.sync_sigma_ms`") && m.contains("frame_rate_hz"),
+            "{m}"
+        );
     }
 
     #[test]
