@@ -254,6 +254,8 @@ pub(crate) fn run_task(
 pub(crate) struct Composer {
     plan: Vec<CamPlan>,
     poses: Vec<PoseLanes>,
+    /// The perturbed link of the camera being composed (scratch).
+    link: PoseLanes,
     /// Per camera: centre − nominal (mm, rows 0–2), ω φ κ offsets (rad, rows 3–5; only
     /// with `ANGLES`).
     pub(crate) v: Vec<[Lane; 6]>,
@@ -275,6 +277,10 @@ impl Composer {
                 };
                 n
             ],
+            link: PoseLanes {
+                c: [[0.0; LANES]; 3],
+                r: [[0.0; LANES]; 9],
+            },
             v: vec![[[0.0; LANES]; 6]; n],
             th: vec![[[0.0; LANES]; 3]; n],
             delta: [[0.0; LANES]; 6],
@@ -292,6 +298,7 @@ impl Composer {
         let Composer {
             plan,
             poses,
+            link,
             v,
             th,
             delta,
@@ -301,29 +308,14 @@ impl Composer {
         for &i in chain.order() {
             let p = &plan[i];
             p.noise_factor.apply(&e[6 * i..6 * i + 6], delta);
-            let mut link = PoseLanes {
-                c: [[0.0; LANES]; 3],
-                r: [[0.0; LANES]; 9],
-            };
-            for l in 0..LANES {
-                let d: [f64; 6] = std::array::from_fn(|k| delta[k][l]);
-                let lok = &mut ok[l];
-                for k in 0..3 {
-                    link.c[k][l] = p.position[k] + d[k];
-                }
-                // The link's perturbed rotation: the grid kernel's own series forms.
-                let w = [d[3], d[4], d[5]];
-                let (rl, t) = match p.noise {
-                    RotationNoise::Tangent => tangent_rot(&p.rotation, w),
-                    RotationNoise::Euler => euler_rot(&p.angles, w),
-                };
-                *lok &= t < SMALL_ANGLE_SQ;
-                for k in 0..9 {
-                    link.r[k][l] = rl[k];
-                }
+            // The link's perturbed pose, with the noise kind chosen outside the lane loop (a
+            // `match` inside it kept the loop from vectorising).
+            match p.noise {
+                RotationNoise::Tangent => link_lanes::<true>(p, delta, link, ok),
+                RotationNoise::Euler => link_lanes::<false>(p, delta, link, ok),
             }
             match p.parent {
-                None => poses[i] = link,
+                None => poses[i].clone_from(link),
                 Some(pi) => {
                     let (parent, own) = if pi < i {
                         let (a, b2) = poses.split_at_mut(i);
@@ -356,6 +348,34 @@ impl Composer {
             if !ok[l] {
                 exact_lane(chain, &e[..6 * n], l, v, th);
             }
+        }
+    }
+}
+
+/// The perturbed link of camera plan `p` per lane from its `delta` (centre in the parent's
+/// axes, rotation by the grid kernel's own series forms: `R_l·Exp(δθ)` for `TANGENT`, else
+/// ω φ κ + δθ); a lane whose angle leaves the series' range is marked in `ok`.
+#[inline(always)]
+fn link_lanes<const TANGENT: bool>(
+    p: &CamPlan,
+    delta: &[Lane; 6],
+    link: &mut PoseLanes,
+    ok: &mut [bool; LANES],
+) {
+    for l in 0..LANES {
+        let d: [f64; 6] = std::array::from_fn(|k| delta[k][l]);
+        for k in 0..3 {
+            link.c[k][l] = p.position[k] + d[k];
+        }
+        let w = [d[3], d[4], d[5]];
+        let (rl, t) = if TANGENT {
+            tangent_rot(&p.rotation, w)
+        } else {
+            euler_rot(&p.angles, w)
+        };
+        ok[l] &= t < SMALL_ANGLE_SQ;
+        for k in 0..9 {
+            link.r[k][l] = rl[k];
         }
     }
 }
