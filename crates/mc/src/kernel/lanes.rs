@@ -94,14 +94,18 @@ impl NoiseFactor {
                 }
             }
         } else {
+            // Term by term over the whole row (the lane loop innermost, so it vectorises):
+            // per lane the same products added in the same k order as `delta_lane`.
             for i in 0..6 {
                 let li = &self.l[i];
+                let row = &mut out[i];
                 for d in 0..LANES {
-                    let mut s = li[0] * e[0][d];
-                    for k in 1..=i {
-                        s += li[k] * e[k][d];
+                    row[d] = li[0] * e[0][d];
+                }
+                for k in 1..=i {
+                    for d in 0..LANES {
+                        row[d] += li[k] * e[k][d];
                     }
-                    out[i][d] = s;
                 }
             }
         }
