@@ -324,20 +324,7 @@ impl Composer {
                         let (a, b2) = poses.split_at_mut(pi);
                         (&b2[0], &mut a[i])
                     };
-                    for l in 0..LANES {
-                        let rp: [f64; 9] = std::array::from_fn(|k| parent.r[k][l]);
-                        let rl: [f64; 9] = std::array::from_fn(|k| link.r[k][l]);
-                        let r = mat_mul(&rp, &rl);
-                        for k in 0..3 {
-                            own.c[k][l] = parent.c[k][l]
-                                + (rp[3 * k] * link.c[0][l]
-                                    + rp[3 * k + 1] * link.c[1][l]
-                                    + rp[3 * k + 2] * link.c[2][l]);
-                        }
-                        for k in 0..9 {
-                            own.r[k][l] = r[k];
-                        }
-                    }
+                    compose_lanes(parent, link, own);
                 }
             }
         }
@@ -380,13 +367,28 @@ fn link_lanes<const TANGENT: bool>(
     }
 }
 
-/// `a·b` of row-major 3×3 matrices.
+/// The world pose of a child per lane, `C = C_p + R_p·C_l`, `R = R_p·R_l` (row-major 3×3
+/// products summed left to right), one output element at a time over the whole block: the
+/// lane loop innermost vectorises, where a loop over lanes around the whole product did not.
 #[inline(always)]
-fn mat_mul(a: &[f64; 9], b: &[f64; 9]) -> [f64; 9] {
-    std::array::from_fn(|k| {
+fn compose_lanes(parent: &PoseLanes, link: &PoseLanes, own: &mut PoseLanes) {
+    let (rp, rl) = (&parent.r, &link.r);
+    for k in 0..3 {
+        let (a0, a1, a2) = (&rp[3 * k], &rp[3 * k + 1], &rp[3 * k + 2]);
+        let (pc, c) = (&parent.c[k], &mut own.c[k]);
+        for l in 0..LANES {
+            c[l] = pc[l] + (a0[l] * link.c[0][l] + a1[l] * link.c[1][l] + a2[l] * link.c[2][l]);
+        }
+    }
+    for k in 0..9 {
         let (i, j) = (k / 3, k % 3);
-        a[3 * i] * b[j] + a[3 * i + 1] * b[3 + j] + a[3 * i + 2] * b[6 + j]
-    })
+        let (a0, a1, a2) = (&rp[3 * i], &rp[3 * i + 1], &rp[3 * i + 2]);
+        let (b0, b1, b2) = (&rl[j], &rl[3 + j], &rl[6 + j]);
+        let r = &mut own.r[k];
+        for l in 0..LANES {
+            r[l] = a0[l] * b0[l] + a1[l] * b1[l] + a2[l] * b2[l];
+        }
+    }
 }
 
 /// Per lane: (centre − nominal, ω φ κ offsets) and the body-axis error of one camera.
