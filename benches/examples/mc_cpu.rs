@@ -4,9 +4,11 @@
 //! wall-clock numbers absorb other jobs' load.
 //!
 //! `cargo run --release -p crashrig-benches --example mc_cpu -- WHAT ENGINE MILLIONS`
-//! with WHAT = `normals` | `kernel` | `chain`, ENGINE = `baseline` | `v3` | `v4` | `auto`, MILLIONS = draws (normals for `normals`) in millions. Runs on one thread and prints
-//! the rate per second of wall time.
-use crashrig_benches::{CHAIN, level_of_name, one_point_kernel};
+//! with WHAT = `normals` | `kernel` | `chain` | a kernel path of
+//! [`crashrig_benches::kernel_paths`] (`study`, `full_covariance`, `correlated`, …), ENGINE = `baseline` | `v3` | `v4` | `auto`, MILLIONS = draws (normals for `normals`) in millions. Runs on one thread and prints
+//! the rate per second of wall time and per second of the process's CPU time (Linux). Grid
+//! paths time `GridStudy::run_with` only (the study is set up before the clock starts).
+use crashrig_benches::{CHAIN, kernel_paths, level_of_name, one_point_kernel};
 use crashrig_mc::{Chain, GridStudy, Isa, Scenario};
 use std::hint::black_box;
 use std::path::Path;
@@ -25,9 +27,20 @@ fn main() {
         .num_threads(1)
         .build_global()
         .expect("pool");
-    let t = Instant::now();
-    match what {
-        "normals" => {
+    // Grid paths: the study (and, in correlated mode, its chain propagation) is set up before
+    // the clock starts, as in the criterion benches.
+    let study = (!matches!(what, "normals" | "chain")).then(|| {
+        let toml = kernel_paths()
+            .into_iter()
+            .find(|(name, _)| *name == what)
+            .map_or_else(one_point_kernel, |(_, t)| t);
+        let sc = Scenario::from_toml_str(&toml, Path::new("kernel.toml")).expect("scenario");
+        GridStudy::new(&sc, 0, 0).expect("study")
+    });
+    let mut exact = String::new();
+    let (t, cpu0) = (Instant::now(), process_cpu_ns());
+    match (what, study) {
+        ("normals", _) => {
             let mut s = 0.0;
             let b = crashrig_mc::bench::BLOCK;
             let mut rows = vec![[0.0; crashrig_mc::bench::BLOCK]; 12];
@@ -37,21 +50,40 @@ fn main() {
             }
             black_box(s);
         }
-        "chain" => {
+        (_, Some(study)) => {
+            let r = study.run_with(n, 7, isa).expect("run");
+            // The exact result (shortest round-trip digits): before/after bit-identity.
+            let p = &r.points[0];
+            exact = format!("\n  mean {:?}\n  covariance {:?}", p.mean_mm, p.covariance);
+        }
+        _ => {
             let sc = Scenario::from_toml_str(CHAIN, Path::new("chain.toml")).expect("scenario");
             black_box(Chain::new(&sc).monte_carlo_with(n, 3, isa));
         }
-        _ => {
-            let sc = Scenario::from_toml_str(&one_point_kernel(), Path::new("kernel.toml"))
-                .expect("scenario");
-            let study = GridStudy::new(&sc, 0, 0).expect("study");
-            black_box(study.run_with(n, 7, isa).expect("run"));
-        }
     }
     let s = t.elapsed().as_secs_f64();
+    let cpu = match (cpu0, process_cpu_ns()) {
+        (Some(a), Some(b)) => format!(
+            ", {:.3} M per CPU-s",
+            n as f64 / ((b - a) as f64 * 1e-9) / 1e6
+        ),
+        _ => String::new(),
+    };
     println!(
-        "{what} {}: {:.3} M/s wall ({n} in {s:.3} s)",
+        "{what} {}: {:.3} M/s wall ({n} in {s:.3} s){cpu}{exact}",
         args.get(1).map(String::as_str).unwrap_or("auto"),
         n as f64 / s / 1e6
     );
+}
+
+/// CPU time of this process (ns, the sum over its threads) where Linux reports it
+/// (`/proc/self/task/*/schedstat`): on a machine shared with other jobs it moves much less
+/// than the wall clock.
+fn process_cpu_ns() -> Option<u64> {
+    let mut total = 0;
+    for task in std::fs::read_dir("/proc/self/task").ok()? {
+        let s = std::fs::read_to_string(task.ok()?.path().join("schedstat")).ok()?;
+        total += s.split_whitespace().next()?.parse::<u64>().ok()?;
+    }
+    Some(total)
 }

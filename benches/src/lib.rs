@@ -34,7 +34,8 @@ pub fn one_point_kernel() -> String {
         .replace("y_mm = [-600.0, 600.0, 13]", "y_mm = [300.0, 300.0, 1]")
 }
 
-/// One grid point (1000, 300, 0) mm of each kernel path, by name: tangent and euler noise
+/// One grid point (1000, 300, 0) mm of each kernel path, by name: the real study's path
+/// ([`study_path`]), tangent and euler noise
 /// (diagonal factors), a full tangent covariance, pixel noise, three observers, and observers
 /// drawn jointly from a chain (`correlated`). The per-path benches
 /// (`benches/mc.rs`, group `paths_1thread`) run each on every instruction-set level.
@@ -62,6 +63,7 @@ pub fn kernel_paths() -> Vec<(&'static str, String)> {
         .replace("x_mm = [400.0, 2000.0, 17]", "x_mm = [1000.0, 1000.0, 1]")
         .replace("y_mm = [-600.0, 600.0, 13]", "y_mm = [300.0, 300.0, 1]");
     vec![
+        ("study", study_path()),
         ("tangent", tangent),
         ("euler", one),
         ("full_covariance", full),
@@ -69,6 +71,15 @@ pub fn kernel_paths() -> Vec<(&'static str, String)> {
         ("three_observers", three),
         ("correlated", correlated),
     ]
+}
+
+/// The path a real study takes, at the same single point (`benches/study_path.toml`): the
+/// bundled correlated chain (A = cam1 localised with a full 6×6 tangent covariance, B = cam2
+/// on the calibrated link with a full covariance, C = cam3 tied in), `correlated = true`, and
+/// B and C as fixed OPENCV cameras with distortion and pixel noise, each drawn jointly from
+/// its chain camera. `benches/study_path_numpy.py` is its NumPy equivalent.
+pub fn study_path() -> String {
+    include_str!("../study_path.toml").to_string()
 }
 
 /// A three-camera chain (the paper's cam1 → cam2 link, and a third camera).
@@ -122,7 +133,7 @@ mod tests {
     #[test]
     fn every_kernel_path_parses_and_runs() {
         let paths = kernel_paths();
-        // Every replacement took effect: six different scenarios.
+        // Every replacement took effect: seven different scenarios.
         for (i, (a, ta)) in paths.iter().enumerate() {
             for (b, tb) in &paths[i + 1..] {
                 assert_ne!(ta, tb, "{a} and {b} are the same scenario");
@@ -134,6 +145,13 @@ mod tests {
             let study = GridStudy::new(&sc, 0, 0).unwrap_or_else(|e| panic!("{name}: {e}"));
             let r = study.run_with(200, 1, Isa::Auto).unwrap();
             assert_eq!(r.points.len(), 1, "{name}");
+            if name == "study" {
+                // Both full covariances replaced the σ keys, the observers are drawn jointly
+                // from the chain, and both fixed cameras see the point.
+                assert_eq!(toml.matches("covariance_tangent").count(), 2);
+                assert!(r.correlated);
+                assert_eq!(r.points[0].observers_seen, 2);
+            }
             assert!(
                 r.points[0]
                     .sigma_mm

@@ -254,6 +254,8 @@ pub(crate) fn run_task(
 pub(crate) struct Composer {
     plan: Vec<CamPlan>,
     poses: Vec<PoseLanes>,
+    /// The perturbed link of the camera being composed (scratch).
+    link: PoseLanes,
     /// Per camera: centre − nominal (mm, rows 0–2), ω φ κ offsets (rad, rows 3–5; only
     /// with `ANGLES`).
     pub(crate) v: Vec<[Lane; 6]>,
@@ -275,6 +277,10 @@ impl Composer {
                 };
                 n
             ],
+            link: PoseLanes {
+                c: [[0.0; LANES]; 3],
+                r: [[0.0; LANES]; 9],
+            },
             v: vec![[[0.0; LANES]; 6]; n],
             th: vec![[[0.0; LANES]; 3]; n],
             delta: [[0.0; LANES]; 6],
@@ -292,6 +298,7 @@ impl Composer {
         let Composer {
             plan,
             poses,
+            link,
             v,
             th,
             delta,
@@ -301,29 +308,14 @@ impl Composer {
         for &i in chain.order() {
             let p = &plan[i];
             p.noise_factor.apply(&e[6 * i..6 * i + 6], delta);
-            let mut link = PoseLanes {
-                c: [[0.0; LANES]; 3],
-                r: [[0.0; LANES]; 9],
-            };
-            for l in 0..LANES {
-                let d: [f64; 6] = std::array::from_fn(|k| delta[k][l]);
-                let lok = &mut ok[l];
-                for k in 0..3 {
-                    link.c[k][l] = p.position[k] + d[k];
-                }
-                // The link's perturbed rotation: the grid kernel's own series forms.
-                let w = [d[3], d[4], d[5]];
-                let (rl, t) = match p.noise {
-                    RotationNoise::Tangent => tangent_rot(&p.rotation, w),
-                    RotationNoise::Euler => euler_rot(&p.angles, w),
-                };
-                *lok &= t < SMALL_ANGLE_SQ;
-                for k in 0..9 {
-                    link.r[k][l] = rl[k];
-                }
+            // The link's perturbed pose, with the noise kind chosen outside the lane loop (a
+            // `match` inside it kept the loop from vectorising).
+            match p.noise {
+                RotationNoise::Tangent => link_lanes::<true>(p, delta, link, ok),
+                RotationNoise::Euler => link_lanes::<false>(p, delta, link, ok),
             }
             match p.parent {
-                None => poses[i] = link,
+                None => poses[i].clone_from(link),
                 Some(pi) => {
                     let (parent, own) = if pi < i {
                         let (a, b2) = poses.split_at_mut(i);
@@ -332,20 +324,7 @@ impl Composer {
                         let (a, b2) = poses.split_at_mut(pi);
                         (&b2[0], &mut a[i])
                     };
-                    for l in 0..LANES {
-                        let rp: [f64; 9] = std::array::from_fn(|k| parent.r[k][l]);
-                        let rl: [f64; 9] = std::array::from_fn(|k| link.r[k][l]);
-                        let r = mat_mul(&rp, &rl);
-                        for k in 0..3 {
-                            own.c[k][l] = parent.c[k][l]
-                                + (rp[3 * k] * link.c[0][l]
-                                    + rp[3 * k + 1] * link.c[1][l]
-                                    + rp[3 * k + 2] * link.c[2][l]);
-                        }
-                        for k in 0..9 {
-                            own.r[k][l] = r[k];
-                        }
-                    }
+                    compose_lanes(parent, link, own);
                 }
             }
         }
@@ -360,13 +339,56 @@ impl Composer {
     }
 }
 
-/// `a·b` of row-major 3×3 matrices.
+/// The perturbed link of camera plan `p` per lane from its `delta` (centre in the parent's
+/// axes, rotation by the grid kernel's own series forms: `R_l·Exp(δθ)` for `TANGENT`, else
+/// ω φ κ + δθ); a lane whose angle leaves the series' range is marked in `ok`.
 #[inline(always)]
-fn mat_mul(a: &[f64; 9], b: &[f64; 9]) -> [f64; 9] {
-    std::array::from_fn(|k| {
+fn link_lanes<const TANGENT: bool>(
+    p: &CamPlan,
+    delta: &[Lane; 6],
+    link: &mut PoseLanes,
+    ok: &mut [bool; LANES],
+) {
+    for l in 0..LANES {
+        let d: [f64; 6] = std::array::from_fn(|k| delta[k][l]);
+        for k in 0..3 {
+            link.c[k][l] = p.position[k] + d[k];
+        }
+        let w = [d[3], d[4], d[5]];
+        let (rl, t) = if TANGENT {
+            tangent_rot(&p.rotation, w)
+        } else {
+            euler_rot(&p.angles, w)
+        };
+        ok[l] &= t < SMALL_ANGLE_SQ;
+        for k in 0..9 {
+            link.r[k][l] = rl[k];
+        }
+    }
+}
+
+/// The world pose of a child per lane, `C = C_p + R_p·C_l`, `R = R_p·R_l` (row-major 3×3
+/// products summed left to right), one output element at a time over the whole block: the
+/// lane loop innermost vectorises, where a loop over lanes around the whole product did not.
+#[inline(always)]
+fn compose_lanes(parent: &PoseLanes, link: &PoseLanes, own: &mut PoseLanes) {
+    let (rp, rl) = (&parent.r, &link.r);
+    for k in 0..3 {
+        let (a0, a1, a2) = (&rp[3 * k], &rp[3 * k + 1], &rp[3 * k + 2]);
+        let (pc, c) = (&parent.c[k], &mut own.c[k]);
+        for l in 0..LANES {
+            c[l] = pc[l] + (a0[l] * link.c[0][l] + a1[l] * link.c[1][l] + a2[l] * link.c[2][l]);
+        }
+    }
+    for k in 0..9 {
         let (i, j) = (k / 3, k % 3);
-        a[3 * i] * b[j] + a[3 * i + 1] * b[3 + j] + a[3 * i + 2] * b[6 + j]
-    })
+        let (a0, a1, a2) = (&rp[3 * i], &rp[3 * i + 1], &rp[3 * i + 2]);
+        let (b0, b1, b2) = (&rl[j], &rl[3 + j], &rl[6 + j]);
+        let r = &mut own.r[k];
+        for l in 0..LANES {
+            r[l] = a0[l] * b0[l] + a1[l] * b1[l] + a2[l] * b2[l];
+        }
+    }
 }
 
 /// Per lane: (centre − nominal, ω φ κ offsets) and the body-axis error of one camera.

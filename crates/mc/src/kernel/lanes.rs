@@ -94,14 +94,18 @@ impl NoiseFactor {
                 }
             }
         } else {
+            // Term by term over the whole row (the lane loop innermost, so it vectorises):
+            // per lane the same products added in the same k order as `delta_lane`.
             for i in 0..6 {
                 let li = &self.l[i];
+                let row = &mut out[i];
                 for d in 0..LANES {
-                    let mut s = li[0] * e[0][d];
-                    for k in 1..=i {
-                        s += li[k] * e[k][d];
+                    row[d] = li[0] * e[0][d];
+                }
+                for k in 1..=i {
+                    for d in 0..LANES {
+                        row[d] += li[k] * e[k][d];
                     }
-                    out[i][d] = s;
                 }
             }
         }
@@ -332,4 +336,54 @@ pub(crate) fn euler_rot(nom: &Trig, w: [f64; 3]) -> ([f64; 9], f64) {
         co * cp,
     ];
     (m, t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Normal rows with distinct, irregular values (no two products alike).
+    fn rows() -> Vec<Lane> {
+        (0..6)
+            .map(|i| std::array::from_fn(|d| ((i * 64 + d) as f64 * 0.618_033_988_7).sin() * 3.1))
+            .collect()
+    }
+
+    #[test]
+    fn apply_and_delta_lane_give_identical_bits() {
+        // The narrow shape (`apply`, term by term over the row) and the wide one
+        // (`delta_lane`, lane by lane) must round identically, for a full factor (every
+        // entry of the lower triangle non-zero) and a diagonal one.
+        let e = rows();
+        let full = Matrix6::from_fn(|i, k| {
+            if k <= i {
+                0.3 + 0.7 * ((i * 6 + k) as f64).cos()
+            } else {
+                0.0
+            }
+        });
+        let diag = Matrix6::from_diagonal(&nalgebra::Vector6::new(1.5, 1.4, 1.6, 2e-4, 3e-4, 1e-4));
+        for (f, diagonal) in [(full, false), (diag, true)] {
+            let n = NoiseFactor::from_lower(&f);
+            assert_eq!(n.is_diagonal(), diagonal);
+            let mut out = [[0.0; LANES]; 6];
+            n.apply(&e, &mut out);
+            for d in 0..LANES {
+                let lane = if diagonal {
+                    n.delta_lane::<true>(&e, d)
+                } else {
+                    n.delta_lane::<false>(&e, d)
+                };
+                for i in 0..6 {
+                    assert_eq!(out[i][d].to_bits(), lane[i].to_bits(), "row {i} lane {d}");
+                }
+            }
+            // And the general form on the diagonal factor gives the same bits too.
+            let mut general = [[0.0; LANES]; 6];
+            n.without_shortcut().apply(&e, &mut general);
+            if diagonal {
+                assert_eq!(general, out);
+            }
+        }
+    }
 }
