@@ -93,6 +93,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-study",
             "crashrig-measure",
             "crashrig-covariance",
+            "crashrig-outdir",
         ],
     ),
     (

@@ -63,6 +63,9 @@ pub(crate) fn py_error(message: impl Into<String>) -> PyErr {
 /// The native module `crashrig._crashrig` (re-exported by the package `crashrig`).
 #[pymodule(name = "_crashrig")]
 fn crashrig_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    // Ctrl-C stays Python's (a KeyboardInterrupt); the outdir signal thread would exit the
+    // interpreter.
+    crashrig_outdir::leave_signals_to_host();
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("Error", m.py().get_type::<Error>())?;
     model::register(m)?;

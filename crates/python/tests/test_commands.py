@@ -78,6 +78,7 @@ def test_grid_progress_callback_and_seed():
     b = crashrig.grid(SCENARIOS / "four_cameras_z0.toml", samples=2000, seed=5)
     for k in a:
         np.testing.assert_array_equal(a[k], b[k])
+    assert seen, "the callback was called"
     for stage, done, total in seen:
         assert isinstance(stage, str) and 0 <= done <= total
 
@@ -197,7 +198,7 @@ def test_wrong_types():
     with pytest.raises(TypeError):
         crashrig.calibrate(FIXTURES / "rig" / "paper", camera_a=[1], camera_b="cam_in/")
     with pytest.raises(TypeError):
-        crashrig.measure(SEQ / "model", **{**measure_kwargs(), "sigma_a_position_mm": "x"})
+        crashrig.measure(SEQ / "model", **{**measure_kwargs(), "sigma_a_position_mm": 5.0})
 
 
 def test_bad_values_are_errors(tmp_path):
@@ -218,3 +219,28 @@ def test_warnings_are_python_warnings(tmp_path):
         warnings.simplefilter("always")
         crashrig.measure(SEQ / "model", **kw)
     assert any("treated as exact" in str(x.message) for x in w)
+
+
+def test_ctrl_c_stops_a_long_grid(tmp_path):
+    """SIGINT during a long `grid` raises KeyboardInterrupt within seconds, not at the end."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    script = (
+        "import crashrig, sys\n"
+        "print('start', flush=True)\n"
+        "try:\n"
+        f"    crashrig.grid({str(SCENARIOS / 'four_cameras_z0.toml')!r}, samples=5000000, seed=1)\n"
+        "except KeyboardInterrupt:\n"
+        "    print('interrupted', flush=True); sys.exit(3)\n"
+    )
+    p = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True)
+    assert p.stdout.readline().strip() == "start"
+    time.sleep(1.0)
+    t = time.monotonic()
+    p.send_signal(signal.SIGINT)
+    out, _ = p.communicate(timeout=60)
+    assert p.returncode == 3 and "interrupted" in out
+    assert time.monotonic() - t < 10
