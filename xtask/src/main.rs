@@ -1,6 +1,6 @@
 //! `cargo xtask`: developer automation for crashrig (the cargo-xtask convention).
 //!
-//! Verbs: `ci`, `tidy`, `test [--slow]`, `paper [--out DIR]`, `interop`, `bench [--e2e]`,
+//! Verbs: `ci`, `tidy`, `test [--slow]`, `test-python`, `paper [--out DIR]`, `interop`, `bench [--e2e]`,
 //! `fixtures`. Contributor-only work lives here; everything a user sees lives in `crashrig`.
 
 mod invariants;
@@ -20,6 +20,8 @@ verbs:
   paper [--out DIR]  the main job: `crashrig paper` in release mode (default DIR: out/paper)
   interop            COLMAP interop round trips against pycolmap (needs a Python with pycolmap; PYTHON=...)
   bench [--e2e]      criterion benchmarks; --e2e adds whole-command timings
+  test-python        build the Python wheel (crates/python, maturin) into a venv under target/ and
+                     run its pytest suite against the CLI (PYTHON=... picks the interpreter)
   fixtures           regenerate the Python-generated fixtures (needs pycolmap + opencv; PYTHON=...)
   report-check [DIR] [--docs]
                      the browser test on DIR/report.html (default out/paper) in headless Chromium:
@@ -51,6 +53,7 @@ fn main() -> Result<()> {
         "bench" => bench(rest.iter().any(|a| a == "--e2e")),
         "fixtures" => fixtures(),
         "report-check" => report_check(rest),
+        "test-python" => test_python(),
         "help" | "--help" | "-h" => {
             print!("{HELP}");
             Ok(())
@@ -296,4 +299,55 @@ fn report_check(rest: &[String]) -> Result<()> {
     .env("CRASHRIG_SCREENSHOT_DIR", &shots)
     .env("CI", "true");
     run(t)
+}
+
+/// `cargo xtask test-python`: builds the release CLI and the `crashrig` wheel (maturin, in the
+/// workspace's target directory, so a second run rebuilds only what changed), installs the
+/// wheel into the venv `target/python-venv` (made on first use with `PYTHON`, default
+/// `python3`; pip fetches maturin, numpy and pytest), and runs `crates/python/tests` with
+/// `CRASHRIG_BIN` pointing at the CLI the results are compared with.
+fn test_python() -> Result<()> {
+    let root = project_root();
+    let target = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root.join("target"));
+    let venv = target.join("python-venv");
+    let py = venv.join("bin").join("python");
+    if !py.exists() {
+        let python = std::env::var("PYTHON").unwrap_or_else(|_| "python3".into());
+        let mut c = Command::new(python);
+        c.args(["-m", "venv"]).arg(&venv);
+        run(c)?;
+    }
+    let pip = |args: &[&str]| -> Result<()> {
+        let mut c = Command::new(&py);
+        c.args([
+            "-m",
+            "pip",
+            "install",
+            "--quiet",
+            "--disable-pip-version-check",
+        ])
+        .args(args);
+        run(c)
+    };
+    pip(&["maturin>=1.9,<2", "numpy", "pytest", "pycolmap"])?;
+    let mut cli = cargo();
+    cli.args(["build", "--release", "-p", "crashrig-cli"]);
+    run(cli)?;
+    // maturin builds with cargo into the same target directory (cached between runs) and
+    // installs the wheel into the venv.
+    let mut develop = Command::new(venv.join("bin").join("maturin"));
+    develop
+        .current_dir(root.join("crates/python"))
+        .args(["develop", "--release", "--quiet"])
+        .env("VIRTUAL_ENV", &venv)
+        .env("CARGO_TARGET_DIR", &target);
+    run(develop)?;
+    let mut pytest = Command::new(&py);
+    pytest
+        .current_dir(&root)
+        .args(["-m", "pytest", "-q", "crates/python/tests"])
+        .env("CRASHRIG_BIN", target.join("release").join("crashrig"));
+    run(pytest)
 }

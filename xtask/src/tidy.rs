@@ -82,6 +82,21 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
         ],
     ),
     (
+        "crashrig-python",
+        &[
+            "crashrig-geometry",
+            "crashrig-stats",
+            "crashrig-camera",
+            "crashrig-colmap",
+            "crashrig-bootstrap",
+            "crashrig-mc",
+            "crashrig-study",
+            "crashrig-measure",
+            "crashrig-covariance",
+            "crashrig-outdir",
+        ],
+    ),
+    (
         "crashrig-benches",
         &[
             "crashrig-geometry",

@@ -226,6 +226,14 @@ fn install_handler() {
     });
 }
 
+/// For a host process that handles signals itself (the Python module `crashrig`, where Ctrl-C
+/// is a `KeyboardInterrupt` that unwinds the call and drops its [`Staged`], which removes the
+/// staging directory): the signal thread is never installed, so SIGINT/SIGTERM/SIGHUP keep the
+/// host's handling. Call it before the first [`Staged::new`]; later it has no effect.
+pub fn leave_signals_to_host() {
+    HANDLER.call_once(|| {});
+}
+
 fn register(p: &Path) {
     pending().push(p.to_path_buf());
 }

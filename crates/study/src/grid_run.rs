@@ -560,54 +560,145 @@ fn cell(p: &PointStats, v: f64) -> String {
     }
 }
 
-/// `grid.csv`: the contract's seven columns; when any point is degenerate, the columns
+/// The values of one `grid.csv` column, typed.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ColumnValues {
+    /// Numbers; with `blank_nan` a NaN is an empty cell (a blanked or not-measurable σ),
+    /// otherwise it is written as `NaN`.
+    Float {
+        /// One value per point.
+        values: Vec<f64>,
+        /// NaN is an empty cell.
+        blank_nan: bool,
+    },
+    /// Counts.
+    Count(Vec<u64>),
+    /// Flags.
+    Flag(Vec<bool>),
+    /// Flags that may be absent (an empty cell).
+    MaybeFlag(Vec<Option<bool>>),
+}
+
+/// One column of `grid.csv`: its header name and its values.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Column {
+    /// Header name.
+    pub name: &'static str,
+    /// One value per grid point.
+    pub values: ColumnValues,
+}
+
+impl Column {
+    fn cell(&self, i: usize) -> String {
+        match &self.values {
+            ColumnValues::Float { values, blank_nan } if *blank_nan && values[i].is_nan() => {
+                String::new()
+            }
+            ColumnValues::Float { values, .. } => values[i].to_string(),
+            ColumnValues::Count(v) => v[i].to_string(),
+            ColumnValues::Flag(v) => v[i].to_string(),
+            ColumnValues::MaybeFlag(v) => v[i].map_or_else(String::new, |c| c.to_string()),
+        }
+    }
+}
+
+impl GridRun {
+    /// The columns of `grid.csv`, typed (the CSV is written from them; the Python module's
+    /// `grid` returns them as NumPy arrays).
+    pub fn columns(&self) -> Vec<Column> {
+        let angles = crashrig_mc::degenerate::grid_angles_deg(&self.grid);
+        grid_columns(
+            &self.result,
+            &angles,
+            crashrig_mc::coverage::has_fixed(&self.grid),
+        )
+    }
+}
+
+/// `grid.csv`'s columns: the contract's seven; when any point is degenerate, the columns
 /// `intersection_angle_deg` and `degenerate` follow (the plain header stays exactly the
 /// contract's for layouts without degenerate points); with fixed observers the column
-/// `observers_seen` is appended and the σ cells of not-measurable points are empty.
-fn main_csv(r: &GridResult, angles: &[f64], with_seen: bool) -> Result<Vec<u8>, Error> {
+/// `observers_seen` is appended and the σ cells of not-measurable points are empty; adaptive
+/// runs add `draws` and `converged`.
+pub fn grid_columns(r: &GridResult, angles: &[f64], with_seen: bool) -> Vec<Column> {
     let degenerate = crashrig_mc::degenerate::is_degenerate_point;
     let flagged = r.points.iter().zip(angles).any(|(p, a)| degenerate(p, *a));
+    let float = |name, value: &dyn Fn(&PointStats) -> f64, blank_nan| Column {
+        name,
+        values: ColumnValues::Float {
+            values: r.points.iter().map(value).collect(),
+            blank_nan,
+        },
+    };
+    // σ cells are empty for a blanked (NaN: degenerate) value or a not-measurable point.
+    let sigma = |name, value: fn(&PointStats) -> f64| {
+        float(
+            name,
+            &|p: &PointStats| {
+                if p.is_measurable() {
+                    value(p)
+                } else {
+                    f64::NAN
+                }
+            },
+            true,
+        )
+    };
+    let mut columns = vec![
+        float("x_mm", &|p: &PointStats| p.point.x, false),
+        float("y_mm", &|p: &PointStats| p.point.y, false),
+        float("z_mm", &|p: &PointStats| p.point.z, false),
+        sigma("sigma_x_mm", |p| p.sigma_mm.x),
+        sigma("sigma_y_mm", |p| p.sigma_mm.y),
+        sigma("sigma_z_mm", |p| p.sigma_mm.z),
+        sigma("sigma_max_mm", |p| p.sigma_max_mm),
+    ];
+    if flagged {
+        columns.push(Column {
+            name: "intersection_angle_deg",
+            values: ColumnValues::Float {
+                values: angles.to_vec(),
+                blank_nan: false,
+            },
+        });
+        columns.push(Column {
+            name: "degenerate",
+            values: ColumnValues::Flag(
+                r.points
+                    .iter()
+                    .zip(angles)
+                    .map(|(p, a)| degenerate(p, *a))
+                    .collect(),
+            ),
+        });
+    }
+    if with_seen {
+        columns.push(Column {
+            name: "observers_seen",
+            values: ColumnValues::Count(r.points.iter().map(|p| p.observers_seen as u64).collect()),
+        });
+    }
+    // Adaptive runs: the draws each point took and whether it met the tolerance.
+    if r.points.iter().any(|p| p.converged.is_some()) {
+        columns.push(Column {
+            name: "draws",
+            values: ColumnValues::Count(r.points.iter().map(|p| p.count).collect()),
+        });
+        columns.push(Column {
+            name: "converged",
+            values: ColumnValues::MaybeFlag(r.points.iter().map(|p| p.converged).collect()),
+        });
+    }
+    columns
+}
+
+/// `grid.csv`, written from [`grid_columns`].
+fn main_csv(r: &GridResult, angles: &[f64], with_seen: bool) -> Result<Vec<u8>, Error> {
+    let columns = grid_columns(r, angles, with_seen);
     csv_bytes(|w| {
-        let mut header = vec![
-            "x_mm",
-            "y_mm",
-            "z_mm",
-            "sigma_x_mm",
-            "sigma_y_mm",
-            "sigma_z_mm",
-            "sigma_max_mm",
-        ];
-        if flagged {
-            header.extend(["intersection_angle_deg", "degenerate"]);
-        }
-        if with_seen {
-            header.push("observers_seen");
-        }
-        // Adaptive runs: the draws each point took and whether it met the tolerance.
-        let adaptive = r.points.iter().any(|p| p.converged.is_some());
-        if adaptive {
-            header.extend(["draws", "converged"]);
-        }
-        w.write_record(&header)?;
-        for (p, &angle) in r.points.iter().zip(angles) {
-            let mut rec: Vec<String> = [p.point.x, p.point.y, p.point.z]
-                .map(|v| v.to_string())
-                .to_vec();
-            rec.extend(
-                [p.sigma_mm.x, p.sigma_mm.y, p.sigma_mm.z, p.sigma_max_mm].map(|v| cell(p, v)),
-            );
-            if flagged {
-                rec.push(angle.to_string());
-                rec.push(degenerate(p, angle).to_string());
-            }
-            if with_seen {
-                rec.push(p.observers_seen.to_string());
-            }
-            if adaptive {
-                rec.push(p.count.to_string());
-                rec.push(p.converged.map_or_else(String::new, |c| c.to_string()));
-            }
-            w.write_record(&rec)?;
+        w.write_record(columns.iter().map(|c| c.name))?;
+        for i in 0..r.points.len() {
+            w.write_record(columns.iter().map(|c| c.cell(i)))?;
         }
         Ok(())
     })

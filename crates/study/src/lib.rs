@@ -9,6 +9,8 @@
 //!   grid study per layout, with a one-at-a-time sensitivity;
 //! - [`grid_run`]: [`run_grid`], the library entry of `crashrig grid`;
 //! - [`propagate_run`]: [`run_propagate`], the library entry of `crashrig propagate`;
+//! - [`study_run`]: [`study_run::run_to_dir`], the library entry of `crashrig study` (run +
+//!   every output file);
 //! - [`grids`]: grid summaries, `grid.csv` and heat maps;
 //! - [`fixed_maps`]: layouts with fixed observers (`aim = "fixed"`): coverage and
 //!   field-of-view footprints;
@@ -46,6 +48,7 @@ pub mod propagate_run;
 pub mod quality;
 pub mod report;
 pub mod study_file;
+pub mod study_run;
 pub mod tie;
 
 pub use error::Error;

@@ -1,0 +1,611 @@
+//! One function per command, each calling the command's library entry: the same inputs and
+//! seed give the same dict as the command's `--json` (`grid`: its `grid.csv` columns).
+
+use crate::args::{self, Source, TextFile};
+use crate::convert::{document, to_python};
+use crate::watch::{self, Watch};
+use crate::{py_error, to_py_err};
+use numpy::PyArray1;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+use std::path::PathBuf;
+
+/// Emits each library warning as a Python `UserWarning`.
+fn warn_all(py: Python<'_>, warnings: &[String]) -> PyResult<()> {
+    let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
+    for w in warnings {
+        let text =
+            std::ffi::CString::new(w.replace('\0', " ")).map_err(|e| py_error(e.to_string()))?;
+        PyErr::warn(py, &category, &text, 1)?;
+    }
+    Ok(())
+}
+
+/// `mm_per_unit` within the range every command accepts (the CLI checks it while parsing).
+fn check_mm_per_unit(v: Option<f64>, name: &str) -> PyResult<Option<f64>> {
+    let (lo, hi) = crashrig_measure::input::MM_PER_UNIT_RANGE;
+    match v {
+        Some(f) if !(f.is_finite() && (lo..=hi).contains(&f)) => Err(py_error(format!(
+            "{name}: must be a number from {lo:e} to {hi:e} mm per model unit"
+        ))),
+        other => Ok(other),
+    }
+}
+
+/// A scale bar: two point3D ids and their distance, given together.
+fn scale_bar(
+    points: Option<Vec<u64>>,
+    length_mm: Option<f64>,
+) -> PyResult<Option<([u64; 2], f64)>> {
+    match (points, length_mm) {
+        (None, None) => Ok(None),
+        (Some(p), Some(l)) if p.len() == 2 => Ok(Some(([p[0], p[1]], l))),
+        (Some(_), Some(_)) => Err(py_error("scale_points: give exactly two point3D ids")),
+        _ => Err(py_error(
+            "scale_points and scale_length_mm go together (a scale bar: two point3D ids and their distance in mm)",
+        )),
+    }
+}
+
+/// A scenario as a file the libraries can read: the path, or the TOML text checked (so its
+/// errors name `<scenario>` and the line) and written to a temporary file.
+fn scenario_file(source: Source) -> PyResult<(PathBuf, Option<TextFile>)> {
+    match source {
+        Source::Path(p) => Ok((p, None)),
+        Source::Text(text) => {
+            crashrig_mc::Scenario::from_toml_str(&text, std::path::Path::new("<scenario>"))
+                .map_err(to_py_err)?;
+            let file = TextFile::new(&text, "scenario.toml")?;
+            Ok((file.path.clone(), Some(file)))
+        }
+    }
+}
+
+/// Rig calibration (`crashrig calibrate --json`): base and ω φ κ of B relative to A from an
+/// epoch sequence.
+///
+/// Example:
+///
+/// ```python
+/// r = crashrig.calibrate("lab/model", camera_a="cam_out/", camera_b="cam_in/", mm_per_unit=1000.0)
+/// print(r["base_mm"], r["sem_covariance_tangent"])
+/// ```
+#[pyfunction]
+#[pyo3(signature = (model, camera_a, camera_b, *, scale_points=None, scale_length_mm=None,
+    mm_per_unit=None, max_lag=10, refine=true, accept_rig_constrained=false, plots=None,
+    progress=None))]
+#[allow(clippy::too_many_arguments)]
+fn calibrate<'py>(
+    py: Python<'py>,
+    model: &Bound<'py, PyAny>,
+    camera_a: &Bound<'py, PyAny>,
+    camera_b: &Bound<'py, PyAny>,
+    scale_points: Option<Vec<u64>>,
+    scale_length_mm: Option<f64>,
+    mm_per_unit: Option<f64>,
+    max_lag: usize,
+    refine: bool,
+    accept_rig_constrained: bool,
+    plots: Option<&Bound<'py, PyAny>>,
+    progress: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    use crashrig_study::calibration::{CalibrationConfig, Scale, calibrate_with_progress};
+    let bar = scale_bar(scale_points, scale_length_mm)?;
+    let mm_per_unit = check_mm_per_unit(mm_per_unit, "mm_per_unit")?;
+    let scale = match (bar, mm_per_unit) {
+        (Some(_), Some(_)) => {
+            return Err(py_error(
+                "scale_points and mm_per_unit exclude each other (give a scale bar or a factor)",
+            ));
+        }
+        (Some((points, length_mm)), None) => Scale::ScaleBar { points, length_mm },
+        (None, Some(f)) => Scale::MmPerUnit(f),
+        (None, None) => Scale::Default,
+    };
+    let config = CalibrationConfig {
+        model: args::path(model, "model")?,
+        camera_a: args::camera(camera_a, "camera_a")?,
+        camera_b: args::camera(camera_b, "camera_b")?,
+        scale,
+        max_lag,
+        refine,
+        accept_rig_constrained,
+    };
+    let plots = args::opt_path(plots, "plots")?;
+    let r = watch::run(py, progress, |w: &Watch| {
+        let rounds = w.stage("refinement: weighting rounds");
+        calibrate_with_progress(&config, Some(&rounds))
+    })?
+    .map_err(to_py_err)?;
+    warn_all(py, &r.warnings)?;
+    if let Some(dir) = &plots {
+        r.write_plots(dir).map_err(to_py_err)?;
+    }
+    to_python(py, &r.to_json())
+}
+
+/// Pose uncertainty of image B relative to A by resampling correspondences
+/// (`crashrig bootstrap --json`).
+///
+/// Example:
+///
+/// ```python
+/// t = crashrig.bootstrap("fixtures/paper/twoview/database.db", model="fixtures/paper/twoview/model",
+///                        image_a="cam_in/000001.png", image_b="cam_door/000001.png",
+///                        iterations=200, mm_per_unit=1000.0, seed=1)
+/// print(t["covariance_tangent"])
+/// ```
+#[pyfunction]
+#[pyo3(signature = (database, model, image_a, image_b, *, method="absolute", iterations=500,
+    mm_per_unit=1.0, max_error_px=4.0, base_mm=None, resample="inliers", seed=None,
+    progress=None))]
+#[allow(clippy::too_many_arguments)]
+fn bootstrap<'py>(
+    py: Python<'py>,
+    database: &Bound<'py, PyAny>,
+    model: &Bound<'py, PyAny>,
+    image_a: String,
+    image_b: String,
+    method: &str,
+    iterations: usize,
+    mm_per_unit: f64,
+    max_error_px: f64,
+    base_mm: Option<f64>,
+    resample: &str,
+    seed: Option<u64>,
+    progress: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    use crashrig_study::tie::{self, Method, Resample, TieConfig};
+    let method = Method::from_name(method).ok_or_else(|| {
+        py_error(format!(
+            "method: {method:?} is not one of \"absolute\", \"relative\""
+        ))
+    })?;
+    let resample = Resample::from_name(resample).ok_or_else(|| {
+        py_error(format!(
+            "resample: {resample:?} is not one of \"inliers\", \"matches\""
+        ))
+    })?;
+    let max = crashrig_bootstrap::MAX_ITERATIONS;
+    if !(2..=max).contains(&iterations) {
+        return Err(py_error(format!("iterations: must be from 2 to {max}")));
+    }
+    check_mm_per_unit(Some(mm_per_unit), "mm_per_unit")?;
+    let config = TieConfig {
+        database: args::path(database, "database")?,
+        model: args::path(model, "model")?,
+        image_a,
+        image_b,
+        method,
+        iterations,
+        // The command's default seed.
+        seed: seed.unwrap_or(1),
+        mm_per_unit,
+        max_error_px,
+        base_mm,
+        resample,
+    };
+    let r = watch::run(py, progress, |w: &Watch| {
+        let replicates = w.stage("replicates + jackknife");
+        tie::bootstrap_with_progress(&config, Some(&replicates))
+    })?
+    .map_err(to_py_err)?;
+    warn_all(py, &r.warnings())?;
+    to_python(py, &r.to_json())
+}
+
+/// Monte Carlo and first-order propagation through a camera chain
+/// (`crashrig propagate --json`); `scenario` is a path or the TOML text.
+///
+/// Example:
+///
+/// ```python
+/// p = crashrig.propagate("fixtures/scenarios/paper_chain.toml", samples=2000, seed=1)
+/// for c in p["cameras"]:
+///     print(c["name"], c["position_sigma_mm"])
+/// ```
+#[pyfunction]
+#[pyo3(signature = (scenario, *, samples=None, seed=None, progress=None))]
+fn propagate<'py>(
+    py: Python<'py>,
+    scenario: &Bound<'py, PyAny>,
+    samples: Option<usize>,
+    seed: Option<u64>,
+    progress: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let (path, _text) = scenario_file(Source::extract(scenario, "scenario")?)?;
+    let config = crashrig_study::PropagateConfig {
+        scenario: path,
+        samples,
+        seed,
+    };
+    let r = watch::run(py, progress, |w: &Watch| {
+        crashrig_study::run_propagate(&config, Some(w))
+    })?
+    .map_err(to_py_err)?;
+    warn_all(py, &r.warnings)?;
+    document(py, &r.document)
+}
+
+/// Forward-intersection precision over a grid (`crashrig grid`): a dict of NumPy arrays, one
+/// per `grid.csv` column, with the command's values (empty cells are NaN; `converged` holds
+/// `True`/`False`/`None`). With `out`, the command's output directory is written as well.
+///
+/// Example:
+///
+/// ```python
+/// import pandas
+/// g = pandas.DataFrame(crashrig.grid("fixtures/scenarios/three_cameras_z0.toml", samples=500, seed=1))
+/// print(g["sigma_max_mm"].median())
+/// ```
+#[pyfunction]
+#[pyo3(signature = (scenario, *, samples=None, seed=None, out=None, progress=None))]
+fn grid<'py>(
+    py: Python<'py>,
+    scenario: &Bound<'py, PyAny>,
+    samples: Option<usize>,
+    seed: Option<u64>,
+    out: Option<&Bound<'py, PyAny>>,
+    progress: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    use crashrig_study::grid_run::ColumnValues;
+    let (path, _text) = scenario_file(Source::extract(scenario, "scenario")?)?;
+    let out = args::opt_path(out, "out")?;
+    // Without `out` the files go to a temporary folder (no heat maps) that is removed again.
+    let scratch = match out {
+        Some(_) => None,
+        None => Some(
+            tempfile::tempdir()
+                .map_err(|e| py_error(format!("cannot create a temporary folder: {e}")))?,
+        ),
+    };
+    let config = crashrig_study::GridConfig {
+        scenario: path,
+        out: out
+            .clone()
+            .or_else(|| scratch.as_ref().map(|d| d.path().join("grid")))
+            .unwrap_or_default(),
+        samples,
+        seed,
+        plots: out.is_some(),
+    };
+    let r = watch::run(py, progress, |w: &Watch| {
+        crashrig_study::run_grid(&config, Some(w))
+    })?
+    .map_err(to_py_err)?;
+    warn_all(py, &r.warnings)?;
+    let dict = PyDict::new(py);
+    for c in r.columns() {
+        match c.values {
+            ColumnValues::Float { values, .. } => {
+                dict.set_item(c.name, PyArray1::from_vec(py, values))?
+            }
+            ColumnValues::Count(v) => dict.set_item(c.name, PyArray1::from_vec(py, v))?,
+            ColumnValues::Flag(v) => dict.set_item(c.name, PyArray1::from_vec(py, v))?,
+            ColumnValues::MaybeFlag(v) => {
+                let numpy = py.import("numpy")?;
+                let kwargs = PyDict::new(py);
+                kwargs.set_item("dtype", "object")?;
+                let array = numpy.call_method("array", (PyList::new(py, v)?,), Some(&kwargs))?;
+                dict.set_item(c.name, array)?
+            }
+        }
+    }
+    Ok(dict)
+}
+
+/// Marker trajectories with σ from a crash-test sequence (`crashrig measure --json`): the
+/// summary document. `out` (optional here) receives the command's files.
+///
+/// Example:
+///
+/// ```python
+/// s = crashrig.measure("seq/model", camera_a="cam_out/", camera_b="cam_in/", link="link.json",
+///                      observations="markers.csv", out="measure_out", mm_per_unit=1000.0,
+///                      sigma_a_position_mm=[0.5, 0.5, 0.5], sigma_a_angles_deg=[0.01, 0.01, 0.01],
+///                      samples=2000, seed=1)
+/// print(s["numbers"]["fraction_below_threshold"])
+/// ```
+#[pyfunction]
+#[pyo3(signature = (model, camera_a, camera_b, link, observations, *, out=None, camera_c=None,
+    tie=None, mm_per_unit=None, sigma_a_position_mm=None, sigma_a_angles_deg=None,
+    a_covariance=None, pixel_sigma_px=0.5, samples=2000, seed=None, reference_epoch=None,
+    frame_rate_hz=None, threshold_mm=5.0, max_reprojection_px=None, plots=true, cfc=None,
+    cfc_standard=None, sync_sigma_ms=0.0, progress=None))]
+#[allow(clippy::too_many_arguments)]
+fn measure<'py>(
+    py: Python<'py>,
+    model: &Bound<'py, PyAny>,
+    camera_a: &Bound<'py, PyAny>,
+    camera_b: &Bound<'py, PyAny>,
+    link: &Bound<'py, PyAny>,
+    observations: &Bound<'py, PyAny>,
+    out: Option<&Bound<'py, PyAny>>,
+    camera_c: Option<&Bound<'py, PyAny>>,
+    tie: Option<&Bound<'py, PyAny>>,
+    mm_per_unit: Option<f64>,
+    sigma_a_position_mm: Option<[f64; 3]>,
+    sigma_a_angles_deg: Option<[f64; 3]>,
+    a_covariance: Option<&Bound<'py, PyAny>>,
+    pixel_sigma_px: f64,
+    samples: usize,
+    seed: Option<u64>,
+    reference_epoch: Option<String>,
+    frame_rate_hz: Option<f64>,
+    threshold_mm: f64,
+    max_reprojection_px: Option<f64>,
+    plots: bool,
+    cfc: Option<u32>,
+    cfc_standard: Option<String>,
+    sync_sigma_ms: f64,
+    progress: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    use crashrig_measure::filter::{CfcSpec, Standard};
+    use crashrig_measure::{ANoise, MeasureConfig, OutputDir, Settings, input};
+    let out = args::opt_path(out, "out")?;
+    if let Some(o) = &out {
+        crashrig_measure::check_out(o).map_err(to_py_err)?;
+    }
+    let camera_c = camera_c
+        .filter(|c| !c.is_none())
+        .map(|c| args::camera(c, "camera_c"))
+        .transpose()?;
+    let tie = args::opt_path(tie, "tie")?;
+    if camera_c.is_some() != tie.is_some() {
+        return Err(py_error(
+            "camera_c and tie go together (give both for a tied-in camera C, or neither)",
+        ));
+    }
+    let a_covariance = args::opt_path(a_covariance, "a_covariance")?;
+    let no_a_noise =
+        a_covariance.is_none() && sigma_a_position_mm.is_none() && sigma_a_angles_deg.is_none();
+    let a_noise = match a_covariance {
+        Some(p) if sigma_a_position_mm.is_some() || sigma_a_angles_deg.is_some() => {
+            return Err(py_error(format!(
+                "a_covariance ({}) excludes sigma_a_position_mm and sigma_a_angles_deg",
+                p.display()
+            )));
+        }
+        Some(p) => ANoise::File(p),
+        None => {
+            let v = |x: Option<[f64; 3]>, name: &str| -> PyResult<crashrig_geometry::Vec3> {
+                let x = x.unwrap_or([0.0; 3]);
+                if x.iter().all(|c| c.is_finite() && *c >= 0.0) {
+                    Ok(crashrig_geometry::Vec3::from(x))
+                } else {
+                    Err(py_error(format!("{name}: σ must be finite numbers ≥ 0")))
+                }
+            };
+            ANoise::Sigmas {
+                position_mm: v(sigma_a_position_mm, "sigma_a_position_mm")?,
+                angles_deg: v(sigma_a_angles_deg, "sigma_a_angles_deg")?,
+            }
+        }
+    };
+    let a_cov = match &a_noise {
+        ANoise::File(p) => Some(input::read_a_covariance(p).map_err(to_py_err)?),
+        _ => None,
+    };
+    let mm_per_unit = check_mm_per_unit(mm_per_unit, "mm_per_unit")?;
+    let mm_per_unit =
+        input::model_scale(mm_per_unit, a_cov.as_ref(), "mm_per_unit").map_err(to_py_err)?;
+    let cfc = match (cfc, cfc_standard) {
+        (None, Some(_)) => return Err(py_error("cfc_standard needs cfc")),
+        (None, None) => None,
+        (Some(class), standard) => Some(CfcSpec {
+            class,
+            standard: Standard::parse(standard.as_deref().unwrap_or("j211")).map_err(to_py_err)?,
+        }),
+    };
+    let link = args::path(link, "link")?;
+    let config = MeasureConfig {
+        model: args::path(model, "model")?,
+        camera_a: args::camera(camera_a, "camera_a")?,
+        camera_b: args::camera(camera_b, "camera_b")?,
+        camera_c,
+        a_from_b: input::load_link(&link).map_err(to_py_err)?,
+        b_from_c: tie
+            .as_deref()
+            .map(input::load_link)
+            .transpose()
+            .map_err(to_py_err)?,
+        observations: args::path(observations, "observations")?,
+        mm_per_unit,
+        a_noise,
+        settings: Settings {
+            samples,
+            // The command's default seed.
+            seed: seed.unwrap_or(1),
+            pixel_sigma_px,
+            reference_epoch,
+            frame_rate_hz,
+            threshold_mm,
+            max_reprojection_px,
+            cfc,
+            sync_sigma_ms,
+        },
+        out: out.map(|dir| OutputDir { dir, plots }),
+    };
+    let r =
+        watch::run(py, progress, |_: &Watch| crashrig_measure::run(&config))?.map_err(to_py_err)?;
+    if no_a_noise {
+        warn_all(
+            py,
+            &["no uncertainty given for camera A's pose (sigma_a_position_mm, sigma_a_angles_deg or a_covariance): it is treated as exact".to_string()],
+        )?;
+    }
+    warn_all(py, &r.warnings)?;
+    warn_all(
+        py,
+        &crashrig_measure::plausible::warnings(
+            &r.measurement,
+            frame_rate_hz,
+            "frame_rate_hz",
+            "mm_per_unit",
+        ),
+    )?;
+    document(py, &r.summary)
+}
+
+/// Camera A's per-epoch pose covariance from the bundle (`crashrig covariance --json`);
+/// with `out` the document is also written there (what `measure(a_covariance=)` reads).
+///
+/// Example:
+///
+/// ```python
+/// c = crashrig.covariance("lab/model", camera="cam_out/", control_points="control.csv",
+///                         mm_per_unit=1000.0, out="a_cov.json")
+/// print(c["sigma0_px"], len(c["epochs"]))
+/// ```
+#[pyfunction]
+#[pyo3(signature = (model, camera, control_points, *, out=None, mm_per_unit=None,
+    scale_points=None, scale_length_mm=None, pixel_sigma_px=None, intrinsics="all",
+    progress=None))]
+#[allow(clippy::too_many_arguments)]
+fn covariance<'py>(
+    py: Python<'py>,
+    model: &Bound<'py, PyAny>,
+    camera: &Bound<'py, PyAny>,
+    control_points: &Bound<'py, PyAny>,
+    out: Option<&Bound<'py, PyAny>>,
+    mm_per_unit: Option<f64>,
+    scale_points: Option<Vec<u64>>,
+    scale_length_mm: Option<f64>,
+    pixel_sigma_px: Option<f64>,
+    intrinsics: &str,
+    progress: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    use crashrig_covariance::{CovarianceConfig, Intrinsics, Scale};
+    let bar = scale_bar(scale_points, scale_length_mm)?;
+    let mm_per_unit = check_mm_per_unit(mm_per_unit, "mm_per_unit")?;
+    let scale = match (bar, mm_per_unit) {
+        (Some(_), Some(_)) => {
+            return Err(py_error(
+                "scale_points and mm_per_unit exclude each other (give a scale bar or a factor)",
+            ));
+        }
+        (Some((points, length_mm)), None) => Scale::ScaleBar { points, length_mm },
+        (None, Some(f)) => Scale::MmPerUnit(f),
+        (None, None) => {
+            return Err(py_error(
+                "give mm_per_unit or a scale bar (scale_points and scale_length_mm)",
+            ));
+        }
+    };
+    let intrinsics = Intrinsics::parse(intrinsics).ok_or_else(|| {
+        py_error(format!(
+            "intrinsics: {intrinsics:?} is not one of \"all\", \"colmap\", \"fixed\""
+        ))
+    })?;
+    let config = CovarianceConfig {
+        model: args::path(model, "model")?,
+        camera_a: args::camera(camera, "camera")?,
+        control_points: args::path(control_points, "control_points")?,
+        scale,
+        pixel_sigma_px,
+        intrinsics,
+    };
+    let out = args::opt_path(out, "out")?;
+    let r = watch::run(py, progress, |_: &Watch| crashrig_covariance::run(&config))?
+        .map_err(to_py_err)?;
+    warn_all(py, &r.warnings)?;
+    let doc = r.to_json();
+    if let Some(out) = &out {
+        let mut text = serde_json::to_string_pretty(&doc).map_err(to_py_err)?;
+        text.push('\n');
+        write_atomic(out, text.as_bytes())?;
+    }
+    to_python(py, &doc)
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same folder and a rename.
+fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> PyResult<()> {
+    use std::io::Write;
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(std::path::Path::new("."));
+    let fail =
+        |e: &dyn std::fmt::Display| py_error(format!("{}: cannot write: {e}", path.display()));
+    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(|e| fail(&e))?;
+    tmp.write_all(bytes).map_err(|e| fail(&e))?;
+    tmp.persist(path).map_err(|e| fail(&e.error))?;
+    Ok(())
+}
+
+/// The whole study on a COLMAP project (`crashrig study --json`): runs every step, writes
+/// `out` (results.json, report.html, …) and returns `results.json`. `study` is a path or the
+/// TOML text (relative paths in text resolve against the current folder).
+///
+/// Example:
+///
+/// ```python
+/// r = crashrig.study("fixtures/study/study.toml", out="study_out", seed=1)
+/// for layout in r["layouts"]:
+///     print(layout["name"], layout["summary"]["fraction_below_threshold"])
+/// ```
+#[pyfunction]
+#[pyo3(signature = (study, out, *, seed=None, samples=None, no_sensitivity=false, progress=None))]
+fn study<'py>(
+    py: Python<'py>,
+    study: &Bound<'py, PyAny>,
+    out: &Bound<'py, PyAny>,
+    seed: Option<u64>,
+    samples: Option<usize>,
+    no_sensitivity: bool,
+    progress: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    use crashrig_study::Study;
+    use crashrig_study::study_run::{StudyRunConfig, run_to_dir};
+    let out = args::path(out, "out")?;
+    if let Some(n) = samples
+        && n < 2
+    {
+        return Err(py_error(format!("samples: must be at least 2, got {n}")));
+    }
+    let (study_path, parsed) = match Source::extract(study, "study")? {
+        Source::Path(p) => {
+            let s = Study::from_path(&p).map_err(to_py_err)?;
+            (p, s)
+        }
+        Source::Text(text) => {
+            let cwd = std::env::current_dir()
+                .map_err(|e| py_error(format!("cannot read the current folder: {e}")))?;
+            let p = cwd.join("<study>");
+            let s = Study::from_toml_str(&text, &p).map_err(to_py_err)?;
+            (p, s)
+        }
+    };
+    let config = StudyRunConfig {
+        command: format!(
+            "crashrig.study({:?}, out={:?}{})",
+            study_path.display().to_string(),
+            out.display().to_string(),
+            seed.map(|s| format!(", seed={s}")).unwrap_or_default()
+        ),
+        study_path,
+        out,
+        seed,
+        samples,
+        no_sensitivity,
+    };
+    let run = watch::run(py, progress, |w: &Watch| {
+        let report = |stage: &str, done: u64, total: u64| w.note_u64(stage, done, total);
+        run_to_dir(&parsed, &config, Some(&report), None)
+    })?
+    .map_err(to_py_err)?;
+    warn_all(py, &run.warnings)?;
+    to_python(py, &run.json)
+}
+
+/// Adds the command functions to the module.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(calibrate, m)?)?;
+    m.add_function(wrap_pyfunction!(bootstrap, m)?)?;
+    m.add_function(wrap_pyfunction!(propagate, m)?)?;
+    m.add_function(wrap_pyfunction!(grid, m)?)?;
+    m.add_function(wrap_pyfunction!(measure, m)?)?;
+    m.add_function(wrap_pyfunction!(covariance, m)?)?;
+    m.add_function(wrap_pyfunction!(study, m)?)?;
+    Ok(())
+}
