@@ -64,6 +64,9 @@ pub enum ANoise {
     /// ([`input::read_a_covariance`]); with `joint`, A's poses of one replicate are drawn
     /// jointly ([`crate::engine::measure_with_joint`]).
     File(PathBuf),
+    /// A covariance already read or computed (typed, no file round trip: e.g. a study's
+    /// `crashrig_covariance` result), with the meaning of [`ANoise::File`]'s contents.
+    Covariance(Box<input::ACovariance>),
 }
 
 /// Where and how [`run`] writes the output directory.
@@ -207,6 +210,7 @@ pub fn run(config: &MeasureConfig) -> Result<MeasureRun, Error> {
 fn a_epochs(poses: &[APose], noise: &ANoise) -> Result<(Vec<Epoch>, Option<JointA>), Error> {
     let mut a_cov = match noise {
         ANoise::File(p) => Some(input::read_a_covariance(p)?),
+        ANoise::Covariance(c) => Some(c.as_ref().clone()),
         ANoise::Sigmas { .. } => None,
     };
     let mut epochs = Vec::with_capacity(poses.len());
@@ -237,7 +241,7 @@ fn a_epochs(poses: &[APose], noise: &ANoise) -> Result<(Vec<Epoch>, Option<Joint
                 *position_mm,
                 angles_deg.map(f64::to_radians),
             ),
-            (None, ANoise::File(_)) => unreachable!("read above"),
+            (None, ANoise::File(_) | ANoise::Covariance(_)) => unreachable!("read above"),
         };
         epochs.push(Epoch {
             key: p.key.clone(),
