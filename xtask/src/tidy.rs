@@ -61,6 +61,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-stats",
             "crashrig-plot",
             "crashrig-outdir",
+            "crashrig-covariance",
         ],
     ),
     (

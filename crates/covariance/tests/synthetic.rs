@@ -223,3 +223,91 @@ fn collinear_control_points_and_an_unobserved_epoch_are_errors() {
         "{e}"
     );
 }
+
+/// Two more images of A, taken by a second camera, that see only points of their own (copies
+/// of lab points under new ids, observed by nothing else): a part of the model that no control
+/// point ties to the lab. Its seven similarity degrees of freedom are free — one error naming
+/// the control-point file and an image of that part, never an infinite covariance.
+#[test]
+fn a_disconnected_pair_of_images_is_a_gauge_error_naming_the_file() {
+    use crashrig_colmap::{CameraRecord, Point2D, TrackElement};
+    let scene = ring_scene(4, 0.3);
+    let m = &scene.model;
+    let mut images = m.images().to_vec();
+    let mut points = m.points3d().to_vec();
+    let free = |id: u64| !scene.control_ids.contains(&id);
+    let seen_by = |im: &Image| -> Vec<u64> {
+        im.points2d
+            .iter()
+            .filter_map(|p| p.point3d_id)
+            .filter(|&id| free(id))
+            .collect()
+    };
+    let (a, b) = (&images[0], &images[1]);
+    let common: Vec<u64> = seen_by(a)
+        .into_iter()
+        .filter(|id| seen_by(b).contains(id))
+        .take(12)
+        .collect();
+    assert!(common.len() >= 8, "{} shared points", common.len());
+    const OFFSET: u64 = 10_000;
+    let mut new_points: Vec<Point3D> = common
+        .iter()
+        .map(|&id| {
+            let p = m.point3d(id).unwrap();
+            Point3D {
+                point3d_id: id + OFFSET,
+                xyz: p.xyz,
+                rgb: p.rgb,
+                error: 0.0,
+                track: Vec::new(),
+            }
+        })
+        .collect();
+    for (k, src) in [a.clone(), b.clone()].into_iter().enumerate() {
+        let image_id = 50 + k as u32;
+        let mut points2d = Vec::new();
+        for p2 in &src.points2d {
+            let Some(id) = p2.point3d_id.filter(|id| common.contains(id)) else {
+                continue;
+            };
+            let j = common.iter().position(|&c| c == id).unwrap();
+            new_points[j].track.push(TrackElement {
+                image_id,
+                point2d_idx: points2d.len() as u32,
+            });
+            points2d.push(Point2D {
+                xy: p2.xy,
+                point3d_id: Some(id + OFFSET),
+            });
+        }
+        images.push(Image {
+            image_id,
+            camera_id: 2,
+            name: format!("cam_side/{k:04}.png"),
+            points2d,
+            ..src
+        });
+    }
+    points.extend(new_points);
+    let mut cameras = m.cameras().to_vec();
+    cameras.push(CameraRecord {
+        camera_id: 2,
+        camera: cameras[0].camera.clone(),
+    });
+    let model =
+        Reconstruction::from_records(cameras, Vec::new(), Vec::new(), images, points).unwrap();
+    let control = ControlPoints::from_ids("lab/control.csv", &scene.control_ids, 0.0);
+    for intrinsics in [Intrinsics::All, Intrinsics::Fixed] {
+        let e = covariance(&model, &control, &options(intrinsics, Some(0.5)))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("lab/control.csv: ")
+                && e.contains("cam_side/")
+                && e.contains("0 control point(s)")
+                && e.contains("disconnected"),
+            "{e}"
+        );
+    }
+}

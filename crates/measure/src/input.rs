@@ -3,6 +3,7 @@
 
 use crate::Error;
 use crashrig_colmap::input_file;
+use crashrig_geometry::uncertain::COVARIANCE_RELATIVE_TOLERANCE;
 use crashrig_geometry::{Mat6, Rigid3, UncertainPose};
 use nalgebra::Vector2;
 use std::collections::{BTreeMap, HashMap};
@@ -319,6 +320,160 @@ pub struct ACovariance {
     /// covariance` result states it), the units of `measure`'s model when `--mm-per-unit` is
     /// not given ([`model_scale`]).
     pub mm_per_unit: Option<f64>,
+    /// `joint`: the epochs' joint covariance; when present, A's poses of one replicate are
+    /// drawn jointly from it ([`crate::engine::measure_with_joint`]).
+    pub joint: Option<JointA>,
+}
+
+/// Most epochs of a joint covariance (`joint.epochs`): its 6n × 6n matrix is factored once
+/// (n = 500: 3 000 × 3 000, 72 MB, about 2 × 10¹⁰ flops) and every replicate costs
+/// (6n)² multiply-adds; a file of this size is about 200 MB of JSON, within the 256 MB that
+/// the JSON reader accepts.
+pub const MAX_JOINT_EPOCHS: usize = 500;
+
+/// Camera A's poses of several epochs with their joint covariance: `δ = (δ_A(e₁), …, δ_A(eₙ))
+/// ~ N(0, Σ)`, each `δ_A(e)` in the contract's tangent convention of `world_from_A`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JointA {
+    /// The epochs (names or keys, as `measure` forms them) in the matrix's block order.
+    pub epochs: Vec<String>,
+    /// The 6n × 6n covariance in the library's units (mm, rad; epoch-major blocks of x, y, z,
+    /// θx, θy, θz).
+    pub covariance: nalgebra::DMatrix<f64>,
+    /// The file (for messages).
+    pub path: PathBuf,
+}
+
+impl JointA {
+    /// A joint covariance given in the contract's units (mm, deg), checked: `6·epochs` rows
+    /// of `6·epochs` finite numbers, symmetric to [`COVARIANCE_RELATIVE_TOLERANCE`], distinct
+    /// epoch names, at most [`MAX_JOINT_EPOCHS`]. Positive semi-definiteness is checked when
+    /// the matrix is factored ([`crate::engine::measure_with_joint`]).
+    ///
+    /// # Errors
+    /// [`Error::Json`] naming `joint.epochs` or `joint.covariance_tangent`.
+    pub fn from_deg(
+        path: &Path,
+        epochs: Vec<String>,
+        covariance_deg: nalgebra::DMatrix<f64>,
+    ) -> Result<JointA, Error> {
+        let key = "joint.covariance_tangent";
+        check_joint_epochs(path, epochs.len())?;
+        let mut seen = std::collections::BTreeSet::new();
+        if let Some(dup) = epochs.iter().find(|e| !seen.insert(e.as_str())) {
+            return Err(json_err(
+                path,
+                "joint.epochs",
+                format!("epoch `{dup}` is named twice"),
+            ));
+        }
+        let n = 6 * epochs.len();
+        if covariance_deg.shape() != (n, n) {
+            return Err(json_err(
+                path,
+                key,
+                format!(
+                    "is {} × {}; {} epochs need {n} × {n}",
+                    covariance_deg.nrows(),
+                    covariance_deg.ncols(),
+                    epochs.len()
+                ),
+            ));
+        }
+        if covariance_deg.iter().any(|v| !v.is_finite()) {
+            return Err(json_err(path, key, "an entry is not finite"));
+        }
+        let tol = COVARIANCE_RELATIVE_TOLERANCE * covariance_deg.amax();
+        for i in 0..n {
+            if covariance_deg[(i, i)] < 0.0 {
+                return Err(json_err(
+                    path,
+                    key,
+                    format!("the variance on row {} is negative", i + 1),
+                ));
+            }
+            for j in i + 1..n {
+                if (covariance_deg[(i, j)] - covariance_deg[(j, i)]).abs() > tol {
+                    return Err(json_err(
+                        path,
+                        key,
+                        format!(
+                            "not symmetric: entry ({}, {}) differs from ({}, {})",
+                            i + 1,
+                            j + 1,
+                            j + 1,
+                            i + 1
+                        ),
+                    ));
+                }
+            }
+        }
+        let rad = 1.0_f64.to_radians();
+        let unit = |k: usize| if k % 6 >= 3 { rad } else { 1.0 };
+        let covariance = nalgebra::DMatrix::from_fn(n, n, |i, j| {
+            0.5 * (covariance_deg[(i, j)] + covariance_deg[(j, i)]) * unit(i) * unit(j)
+        });
+        Ok(JointA {
+            epochs,
+            covariance,
+            path: path.to_path_buf(),
+        })
+    }
+
+    /// The block of epoch `k` (index into [`JointA::epochs`]) in the contract's units (mm, deg).
+    pub fn block_deg(&self, k: usize) -> Mat6 {
+        let deg = 1.0_f64.to_degrees();
+        let unit = |i: usize| if i >= 3 { deg } else { 1.0 };
+        Mat6::from_fn(|i, j| self.covariance[(6 * k + i, 6 * k + j)] * unit(i) * unit(j))
+    }
+}
+
+/// The bound on the number of jointly drawn epochs, checked before the matrix is allocated.
+fn check_joint_epochs(path: &Path, n: usize) -> Result<(), Error> {
+    if (1..=MAX_JOINT_EPOCHS).contains(&n) {
+        return Ok(());
+    }
+    Err(json_err(
+        path,
+        "joint.epochs",
+        format!("{n} epochs (from 1 to {MAX_JOINT_EPOCHS} can be drawn jointly)"),
+    ))
+}
+
+/// Reads `joint`: `{"epochs": [names], "covariance_tangent": 6n × 6n}` (contract units).
+fn joint_value(path: &Path, v: &serde_json::Value) -> Result<JointA, Error> {
+    let epochs: Vec<String> = v
+        .get("epochs")
+        .and_then(|e| e.as_array())
+        .and_then(|a| {
+            a.iter()
+                .map(|x| x.as_str().map(String::from))
+                .collect::<Option<Vec<_>>>()
+        })
+        .ok_or_else(|| json_err(path, "joint.epochs", "must be a list of epoch names"))?;
+    check_joint_epochs(path, epochs.len())?;
+    let key = "joint.covariance_tangent";
+    let n = 6 * epochs.len();
+    let msg = format!("must be {n} rows of {n} finite numbers (6 per epoch of joint.epochs)");
+    let rows = v
+        .get("covariance_tangent")
+        .and_then(|r| r.as_array())
+        .filter(|r| r.len() == n)
+        .ok_or_else(|| json_err(path, key, msg.clone()))?;
+    let mut m = nalgebra::DMatrix::<f64>::zeros(n, n);
+    for (i, row) in rows.iter().enumerate() {
+        let row = row
+            .as_array()
+            .filter(|r| r.len() == n)
+            .ok_or_else(|| json_err(path, key, msg.clone()))?;
+        for (j, x) in row.iter().enumerate() {
+            m[(i, j)] = x
+                .as_f64()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| json_err(path, key, msg.clone()))?;
+        }
+    }
+    JointA::from_deg(path, epochs, m)
 }
 
 impl ACovariance {
@@ -327,6 +482,11 @@ impl ACovariance {
         names
             .iter()
             .find_map(|n| self.per_epoch_deg.get(*n).copied())
+            .or_else(|| {
+                let j = self.joint.as_ref()?;
+                let k = j.epochs.iter().position(|e| names.contains(&e.as_str()))?;
+                Some(j.block_deg(k))
+            })
             .or(self.default_deg)
     }
 }
@@ -374,11 +534,30 @@ pub fn read_a_covariance(path: &Path) -> Result<ACovariance, Error> {
             })?;
         out.mm_per_unit = Some(f);
     }
-    if out.default_deg.is_none() && out.per_epoch_deg.is_empty() {
+    if let Some(v) = doc.get("joint") {
+        let joint = joint_value(path, v)?;
+        // An epoch's own entry and its block of the joint matrix must be the same covariance
+        // (a `crashrig covariance` result writes both from one matrix).
+        for (k, name) in joint.epochs.iter().enumerate() {
+            let Some(m) = out.per_epoch_deg.get(name) else {
+                continue;
+            };
+            let block = joint.block_deg(k);
+            if (block - m).amax() > COVARIANCE_RELATIVE_TOLERANCE * m.amax().max(block.amax()) {
+                return Err(json_err(
+                    path,
+                    "joint.covariance_tangent",
+                    format!("the block of epoch `{name}` differs from epochs.{name}"),
+                ));
+            }
+        }
+        out.joint = Some(joint);
+    }
+    if out.default_deg.is_none() && out.per_epoch_deg.is_empty() && out.joint.is_none() {
         return Err(json_err(
             path,
             "covariance_tangent",
-            "missing (give covariance_tangent and/or epochs)",
+            "missing (give covariance_tangent, epochs and/or joint)",
         ));
     }
     Ok(out)

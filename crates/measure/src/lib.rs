@@ -111,6 +111,6 @@ pub mod plausible;
 mod run;
 pub mod sequence;
 
-pub use engine::{Epoch, Measurement, Rig, Row, Settings, measure};
+pub use engine::{Epoch, Measurement, Rig, Row, Settings, measure, measure_with_joint};
 pub use error::Error;
 pub use run::{ANoise, MeasureConfig, MeasureRun, OutputDir, check_out, run};

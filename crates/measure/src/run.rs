@@ -43,7 +43,7 @@
 
 use crate::Error;
 use crate::engine::{Epoch, Measurement, Rig, Settings};
-use crate::input::{self, CameraNames};
+use crate::input::{self, CameraNames, JointA};
 use crate::output::{self, Skipped, SummaryDocument};
 use crate::sequence::{self, APose, CameraSelector};
 use crashrig_geometry::{UncertainPose, Vec3};
@@ -60,8 +60,13 @@ pub enum ANoise {
         /// σ of the rotation (degrees).
         angles_deg: Vec3,
     },
-    /// A JSON file with `covariance_tangent` and/or `epochs` ([`input::read_a_covariance`]).
+    /// A JSON file with `covariance_tangent`, `epochs` and/or `joint`
+    /// ([`input::read_a_covariance`]); with `joint`, A's poses of one replicate are drawn
+    /// jointly ([`crate::engine::measure_with_joint`]).
     File(PathBuf),
+    /// A covariance already read or computed (typed, no file round trip: e.g. a study's
+    /// `crashrig_covariance` result), with the meaning of [`ANoise::File`]'s contents.
+    Covariance(Box<input::ACovariance>),
 }
 
 /// Where and how [`run`] writes the output directory.
@@ -152,19 +157,25 @@ pub fn run(config: &MeasureConfig) -> Result<MeasureRun, Error> {
         has_c: c.is_some(),
     };
     let observations = input::read_observations(&config.observations, &names)?;
-    let epochs = a_epochs(&seq.poses, &config.a_noise)?;
+    let (epochs, joint) = a_epochs(&seq.poses, &config.a_noise)?;
     let rig = Rig {
         a_from_b: config.a_from_b,
         camera_b,
         c: c.map(|(_, tie, cam)| (tie, cam)),
     };
-    let measurement = crate::measure(&epochs, &rig, &observations, &config.settings)
-        .and_then(|m| {
-            crate::plausible::check_measurable(&m)?;
-            crate::plausible::check_finite(&m)?;
-            Ok(m)
-        })
-        .map_err(|e| e.in_files(&config.observations, &config.model))?;
+    let measurement = crate::engine::measure_with_joint(
+        &epochs,
+        joint.as_ref(),
+        &rig,
+        &observations,
+        &config.settings,
+    )
+    .and_then(|m| {
+        crate::plausible::check_measurable(&m)?;
+        crate::plausible::check_finite(&m)?;
+        Ok(m)
+    })
+    .map_err(|e| e.in_files(&config.observations, &config.model))?;
     let warnings = measurement
         .skipped
         .iter()
@@ -194,10 +205,12 @@ pub fn run(config: &MeasureConfig) -> Result<MeasureRun, Error> {
     })
 }
 
-/// The epochs of A's sequence with their uncertain poses.
-fn a_epochs(poses: &[APose], noise: &ANoise) -> Result<Vec<Epoch>, Error> {
-    let a_cov = match noise {
+/// The epochs of A's sequence with their uncertain poses, and the file's joint covariance of
+/// the epochs (if it has one).
+fn a_epochs(poses: &[APose], noise: &ANoise) -> Result<(Vec<Epoch>, Option<JointA>), Error> {
+    let mut a_cov = match noise {
         ANoise::File(p) => Some(input::read_a_covariance(p)?),
+        ANoise::Covariance(c) => Some(c.as_ref().clone()),
         ANoise::Sigmas { .. } => None,
     };
     let mut epochs = Vec::with_capacity(poses.len());
@@ -228,7 +241,7 @@ fn a_epochs(poses: &[APose], noise: &ANoise) -> Result<Vec<Epoch>, Error> {
                 *position_mm,
                 angles_deg.map(f64::to_radians),
             ),
-            (None, ANoise::File(_)) => unreachable!("read above"),
+            (None, ANoise::File(_) | ANoise::Covariance(_)) => unreachable!("read above"),
         };
         epochs.push(Epoch {
             key: p.key.clone(),
@@ -236,7 +249,7 @@ fn a_epochs(poses: &[APose], noise: &ANoise) -> Result<Vec<Epoch>, Error> {
             world_from_a,
         });
     }
-    Ok(epochs)
+    Ok((epochs, a_cov.as_mut().and_then(|c| c.joint.take())))
 }
 
 /// `summary.json` without the files and the time (filled in by [`run`] when it writes).

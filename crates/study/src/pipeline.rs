@@ -595,6 +595,17 @@ impl StudyResult {
         });
         if let Some(m) = &self.measure {
             v["measure"] = json!({"dir": "measure", "summary": m.summary});
+            if let Some(a) = &m.a_covariance {
+                // The per-epoch and joint matrices are in measure/a_covariance.json (what
+                // `crashrig covariance --out` writes); here its numbers and σ per epoch.
+                let mut j = a.to_json();
+                if let Some(o) = j.as_object_mut() {
+                    o.remove("epochs");
+                    o.remove("joint");
+                }
+                j["file"] = json!("measure/a_covariance.json");
+                v["measure"]["a_covariance"] = j;
+            }
         }
         v
     }

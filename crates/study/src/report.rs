@@ -138,6 +138,21 @@ fn write_measure(d: &Path, m: &MeasureResult) -> Result<Vec<MarkerPlot>, Error> 
         grids::write(&d.join("plots"), &format!("{}.png", p.stem), &p.png)?;
         grids::write(&d.join("plots"), &format!("{}.svg", p.stem), &p.svg)?;
     }
+    if let Some(a) = &m.a_covariance {
+        // What `crashrig covariance --out` writes, and the per-epoch σ plot of the report.
+        grids::write(d, "a_covariance.json", &json_pretty(&a.to_json()))?;
+        for (format, ext) in [
+            (crashrig_plot::Format::Png, "png"),
+            (crashrig_plot::Format::Svg, "svg"),
+        ] {
+            let bytes =
+                crate::measure_step::a_sigma_plot(a, format).map_err(|source| Error::Plot {
+                    what: "camera A's σ per epoch".into(),
+                    source,
+                })?;
+            grids::write(d, &format!("a_sigma.{ext}"), &bytes)?;
+        }
+    }
     let summary = serde_json::to_value(&m.summary).unwrap_or_default();
     grids::write(d, "summary.json", &json_pretty(&summary))?;
     Ok(plots)
@@ -181,6 +196,9 @@ fn measure_report(rep: &mut Report, study: &Study, m: &MeasureResult, plots: &[M
         s.seed,
         s.reference_epoch
     )));
+    if let Some(a) = &m.a_covariance {
+        a_covariance_report(rep, sec, a);
+    }
     let opt = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
     rep.push(Block::Table(Table {
         caption: "Summary".into(),
@@ -292,6 +310,82 @@ fn measure_report(rep: &mut Report, study: &Study, m: &MeasureResult, plots: &[M
                 p.marker
             ),
             png: p.png.clone(),
+        });
+    }
+}
+
+/// Camera A's pose uncertainty from the bundle (`[measure] a_control_points`): σ̂₀ and the
+/// pixel σ used, the adjustment's size, the σ per epoch (range table and plot against epoch).
+fn a_covariance_report(
+    rep: &mut Report,
+    sec: &crate::study_file::MeasureSection,
+    a: &crashrig_covariance::CovarianceResult,
+) {
+    let crate::study_file::MeasureANoise::Bundle(b) = &sec.a_noise else {
+        return;
+    };
+    let given = b.pixel_sigma_px.is_some();
+    rep.push(Block::Paragraph(format!(
+        "Camera A's pose uncertainty comes from the bundle (crashrig covariance, docs/COVARIANCE.md): {} observations of {} with {} control points observed ({}), {} unknowns (intrinsics marginalised: {}), redundancy {}. σ̂₀ of the residuals = {}; pixel σ used = {:.3} px ({}). A's epochs of one replicate are drawn jointly from their joint covariance{}. File: measure/a_covariance.json.",
+        a.observations,
+        b.model.display(),
+        a.control_points,
+        b.control_points.display(),
+        a.parameters,
+        a.intrinsics.name(),
+        a.redundancy,
+        if a.sigma0_px.is_finite() { format!("{:.3} px", a.sigma0_px) } else { "— (no redundancy)".into() },
+        a.pixel_sigma_px,
+        if given { "a_pixel_sigma_px" } else { "σ̂₀" },
+        if a.epochs.len() > crashrig_measure::input::MAX_JOINT_EPOCHS {
+            " — except here: more epochs than measure draws jointly, so they are drawn independently"
+        } else {
+            ""
+        }
+    )));
+    let per_axis: Vec<[f64; 6]> = a
+        .epochs
+        .iter()
+        .map(|e| {
+            let p = e.world_from_a.sigma_position();
+            let r = e.world_from_a.sigma_rotation().map(f64::to_degrees);
+            [p.x, p.y, p.z, r.x, r.y, r.z]
+        })
+        .collect();
+    let names = [
+        "x [mm]",
+        "y [mm]",
+        "z [mm]",
+        "θx [deg]",
+        "θy [deg]",
+        "θz [deg]",
+    ];
+    let rows = (0..6)
+        .map(|k| {
+            let v: Vec<f64> = per_axis.iter().map(|s| s[k]).collect();
+            let min = v.iter().copied().fold(f64::INFINITY, f64::min);
+            let max = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            let d = if k < 3 { 3 } else { 4 };
+            vec![
+                names[k].to_string(),
+                format!("{min:.d$}"),
+                format!("{:.d$}", grids::median(&v)),
+                format!("{max:.d$}"),
+            ]
+        })
+        .collect();
+    rep.push(Block::Table(Table {
+        caption: format!(
+            "Camera A's σ over its {} epochs (centre in world axes, rotation about A's own axes)",
+            a.epochs.len()
+        ),
+        header: ["σ of", "min", "median", "max"].map(String::from).to_vec(),
+        rows,
+    }));
+    if let Ok(png) = crate::measure_step::a_sigma_plot(a, crashrig_plot::Format::Png) {
+        rep.push(Block::Wide {
+            caption: "camera A: σ of its world pose against the epoch, from the bundle (measure/a_sigma.png)".into(),
+            png,
         });
     }
 }
@@ -1131,6 +1225,18 @@ fn provenance_section(rep: &mut Report, study: &Study, r: &StudyResult, prov: &P
         };
         let a_noise = match &m.a_noise {
             crate::study_file::MeasureANoise::File(p) => format!("--a-covariance {}", p.display()),
+            crate::study_file::MeasureANoise::Bundle(b) => {
+                cmds.push(format!(
+                    "crashrig covariance {} --camera {} --control-points {} --mm-per-unit {}{} --intrinsics {} --out {dir}/measure/a_covariance.json   # = {dir}/measure/a_covariance.json",
+                    b.model.display(),
+                    m.camera_a,
+                    b.control_points.display(),
+                    m.mm_per_unit.unwrap_or(1.0),
+                    b.pixel_sigma_px.map_or(String::new(), |s| format!(" --pixel-sigma-px {s}")),
+                    b.intrinsics.name()
+                ));
+                format!("--a-covariance {dir}/measure/a_covariance.json")
+            }
             crate::study_file::MeasureANoise::Sigmas(p, a) => format!(
                 "--sigma-a-position-mm {} {} {} --sigma-a-angles-deg {} {} {}",
                 p.x, p.y, p.z, a.x, a.y, a.z

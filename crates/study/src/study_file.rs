@@ -192,6 +192,23 @@ pub enum MeasureANoise {
     Sigmas(Vec3, Vec3),
     /// `a_covariance`: a JSON file as `crashrig measure --a-covariance` takes it.
     File(PathBuf),
+    /// `a_control_points` (with `a_model`, `a_pixel_sigma_px`, `a_intrinsics`): computed from
+    /// the bundle by `crashrig_covariance::run` as a typed step of the study.
+    Bundle(ABundle),
+}
+
+/// Camera A's covariance from the bundle (`[measure] a_control_points`): what `crashrig
+/// covariance` takes; camera A and the scale are the section's `camera_a` and `mm_per_unit`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ABundle {
+    /// `a_model`: the COLMAP model with A's epochs and the lab's points (default: `model`).
+    pub model: PathBuf,
+    /// `a_control_points`: the control-point CSV (`point3D_id`, optional `sigma_mm`).
+    pub control_points: PathBuf,
+    /// `a_pixel_sigma_px`: the pixel σ (px); `None`: the model's σ̂₀.
+    pub pixel_sigma_px: Option<f64>,
+    /// `a_intrinsics`: which intrinsics are marginalised (default `all`).
+    pub intrinsics: crashrig_covariance::Intrinsics,
 }
 
 /// `[measure]`: a crash-test sequence measured with the study's calibrated link (and tie), as
@@ -288,6 +305,10 @@ struct RawMeasure {
     sigma_a_position_mm: Option<Spanned<[f64; 3]>>,
     sigma_a_angles_deg: Option<Spanned<[f64; 3]>>,
     a_covariance: Option<Spanned<String>>,
+    a_model: Option<Spanned<String>>,
+    a_control_points: Option<Spanned<String>>,
+    a_pixel_sigma_px: Option<Spanned<f64>>,
+    a_intrinsics: Option<Spanned<String>>,
     pixel_sigma_px: Option<Spanned<f64>>,
     samples: Option<Spanned<i64>>,
     reference_epoch: Option<String>,
@@ -696,6 +717,51 @@ pub fn check_layout_size(layout: &Layout, samples: usize) -> Result<(), String> 
     Ok(())
 }
 
+/// `a_control_points` and its companions → [`MeasureANoise::Bundle`]; the companions without
+/// `a_control_points`, or `a_control_points` with another source of A's σ, are errors.
+fn a_bundle(cx: &Ctx<'_>, m: &RawMeasure, model: &Path) -> Result<MeasureANoise, Error> {
+    let Some(cp) = &m.a_control_points else {
+        unreachable!("called with a_control_points")
+    };
+    if m.a_covariance.is_some() || m.sigma_a_position_mm.is_some() || m.sigma_a_angles_deg.is_some()
+    {
+        return cx.err(
+            Some(cp.span()),
+            "measure.a_control_points",
+            "give one source of A's σ: a_control_points (from the bundle), a_covariance, or sigma_a_position_mm / sigma_a_angles_deg",
+        );
+    }
+    let control_points = cx.existing_path(cp, "measure.a_control_points", false)?;
+    let model = match &m.a_model {
+        Some(v) => cx.existing_path(v, "measure.a_model", true)?,
+        None => model.to_path_buf(),
+    };
+    let pixel_sigma_px = m
+        .a_pixel_sigma_px
+        .as_ref()
+        .map(|v| cx.positive(v, "measure.a_pixel_sigma_px"))
+        .transpose()?;
+    let intrinsics = match &m.a_intrinsics {
+        None => crashrig_covariance::Intrinsics::All,
+        Some(v) => crashrig_covariance::Intrinsics::parse(v.get_ref()).map_or_else(
+            || {
+                cx.err(
+                    Some(v.span()),
+                    "measure.a_intrinsics",
+                    format!("`{}`: must be all, colmap or fixed", v.get_ref()),
+                )
+            },
+            Ok,
+        )?,
+    };
+    Ok(MeasureANoise::Bundle(ABundle {
+        model,
+        control_points,
+        pixel_sigma_px,
+        intrinsics,
+    }))
+}
+
 fn measure_section(
     cx: &Ctx<'_>,
     m: &Spanned<RawMeasure>,
@@ -729,11 +795,32 @@ fn measure_section(
             "needs a [tie] section (the tie link B_from_C carries camera C)",
         );
     }
+    if m.a_control_points.is_none() {
+        let companions = [
+            (m.a_model.as_ref().map(|v| v.span()), "measure.a_model"),
+            (
+                m.a_pixel_sigma_px.as_ref().map(|v| v.span()),
+                "measure.a_pixel_sigma_px",
+            ),
+            (
+                m.a_intrinsics.as_ref().map(|v| v.span()),
+                "measure.a_intrinsics",
+            ),
+        ];
+        if let Some((span, key)) = companions.into_iter().find(|(s, _)| s.is_some()) {
+            return cx.err(
+                span,
+                key,
+                "needs measure.a_control_points (A's covariance from the bundle)",
+            );
+        }
+    }
     let a_noise = match (
         &m.a_covariance,
         &m.sigma_a_position_mm,
         &m.sigma_a_angles_deg,
     ) {
+        _ if m.a_control_points.is_some() => a_bundle(cx, m, &model)?,
         (Some(f), None, None) => {
             MeasureANoise::File(cx.existing_path(f, "measure.a_covariance", false)?)
         }
@@ -758,6 +845,13 @@ fn measure_section(
         .as_ref()
         .map(|v| cx.scale(v, "measure.mm_per_unit"))
         .transpose()?;
+    if mm_per_unit.is_none() && matches!(a_noise, MeasureANoise::Bundle(..)) {
+        return cx.err(
+            Some(ms),
+            "measure.mm_per_unit",
+            "missing: a_control_points computes A's covariance from the bundle, which needs the model's units (mm per model unit: 1000 for a model in metres, 1 for millimetres)",
+        );
+    }
     if mm_per_unit.is_none() && matches!(a_noise, MeasureANoise::Sigmas(..)) {
         return cx.err(
             Some(ms),
