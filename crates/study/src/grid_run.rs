@@ -624,7 +624,8 @@ fn mask_degenerate(r: &mut GridResult, grid: &Grid, scenario: &Path) -> Result<V
     Ok(angles)
 }
 
-fn csv_bytes(
+/// A CSV document written by `rows` (errors: [`Error::Csv`] of the grid CSV).
+pub(crate) fn csv_bytes(
     rows: impl Fn(&mut csv::Writer<&mut Vec<u8>>) -> csv::Result<()>,
 ) -> Result<Vec<u8>, Error> {
     let mut buf = Vec::new();

@@ -254,24 +254,14 @@ const COLUMNS: [&str; 32] = [
 
 /// `points.csv`: one row per point (its global index first), every field of [`PointStats`].
 fn rows_csv(first: usize, points: &[PointStats]) -> Result<Vec<u8>, Error> {
-    let csv_error = |source| Error::Csv {
-        what: "grid shard rows",
-        source,
-    };
-    let mut buf = Vec::new();
-    {
-        let mut w = csv::Writer::from_writer(&mut buf);
-        w.write_record(COLUMNS).map_err(csv_error)?;
+    crate::grid_run::csv_bytes(|w| {
+        w.write_record(COLUMNS)?;
         for (k, p) in points.iter().enumerate() {
             let mut rec = vec![(first + k).to_string()];
             let v3 = |v: &Vector3<f64>| [v.x, v.y, v.z].map(|x| x.to_string());
             // Row-major, all nine (the accumulator's covariance need not be symmetric in its
             // last bit).
-            let m3 = |m: &Matrix3<f64>| {
-                (0..9)
-                    .map(|i| m[(i / 3, i % 3)].to_string())
-                    .collect::<Vec<_>>()
-            };
+            let m3 = |m: &Matrix3<f64>| (0..9).map(|i| m[(i / 3, i % 3)].to_string());
             rec.extend(v3(&p.point));
             rec.push(p.count.to_string());
             rec.extend(v3(&p.mean_mm));
@@ -281,11 +271,10 @@ fn rows_csv(first: usize, points: &[PointStats]) -> Result<Vec<u8>, Error> {
             rec.extend(m3(&p.linear_covariance));
             rec.push(p.observers_seen.to_string());
             rec.push(p.converged.map_or_else(String::new, |c| c.to_string()));
-            w.write_record(&rec).map_err(csv_error)?;
+            w.write_record(&rec)?;
         }
-        w.flush().map_err(|e| csv_error(e.into()))?;
-    }
-    Ok(buf)
+        Ok(())
+    })
 }
 
 /// Bytes of one `points.csv` row at most (32 numbers of at most 24 characters and commas).
