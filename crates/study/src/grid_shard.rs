@@ -261,7 +261,11 @@ fn rows_csv(first: usize, points: &[PointStats]) -> Result<Vec<u8>, Error> {
             let v3 = |v: &Vector3<f64>| [v.x, v.y, v.z].map(|x| x.to_string());
             // Row-major, all nine (the accumulator's covariance need not be symmetric in its
             // last bit).
-            let m3 = |m: &Matrix3<f64>| (0..9).map(|i| m[(i / 3, i % 3)].to_string());
+            let m3 = |m: &Matrix3<f64>| {
+                (0..9)
+                    .map(|i| m[(i / 3, i % 3)].to_string())
+                    .collect::<Vec<_>>()
+            };
             rec.extend(v3(&p.point));
             rec.push(p.count.to_string());
             rec.extend(v3(&p.mean_mm));
