@@ -1,9 +1,10 @@
 //! `cargo xtask`: developer automation for crashrig (the cargo-xtask convention).
 //!
 //! Verbs: `ci`, `tidy`, `test [--slow]`, `test-python`, `paper [--out DIR]`, `interop`, `bench [--e2e]`,
-//! `fixtures`. Contributor-only work lives here; everything a user sees lives in `crashrig`.
+//! `fixtures`, `report-check`, `shards`. Contributor-only work lives here; everything a user sees lives in `crashrig`.
 
 mod invariants;
+mod shards;
 mod tidy;
 
 use anyhow::{Context, Result, bail};
@@ -23,6 +24,10 @@ verbs:
   test-python        build the Python wheel (crates/python, maturin) into a venv under target/ and
                      run its pytest suite against the CLI (PYTHON=... picks the interpreter)
   fixtures           regenerate the Python-generated fixtures (needs pycolmap + opencv; PYTHON=...)
+  shards N [-P JOBS] [--bin PATH] --out DIR -- SCENARIO.toml [grid options]
+                     the N shards of `crashrig grid` as local processes (xargs -P JOBS, default N)
+                     into DIR.shards/1..N, then `crashrig merge` into DIR (docs/SCALE.md);
+                     builds the release binary unless --bin is given
   report-check [DIR] [--docs]
                      the browser test on DIR/report.html (default out/paper) in headless Chromium:
                      figures, contents, sizes, text >= 9 px; screenshots report-1400.png and
@@ -54,6 +59,14 @@ fn main() -> Result<()> {
         "fixtures" => fixtures(),
         "report-check" => report_check(rest),
         "test-python" => test_python(),
+        "shards" => {
+            let (plan, bin) = shards::parse(rest)?;
+            let bin = match bin {
+                Some(b) => b,
+                None => build_release_cli()?,
+            };
+            shards::run(&plan, &bin).map(|_| ())
+        }
         "help" | "--help" | "-h" => {
             print!("{HELP}");
             Ok(())
@@ -116,7 +129,9 @@ fn test(slow: bool) -> Result<()> {
     let mut t = cargo();
     t.args(["test", "--workspace"]);
     if slow {
-        t.args(["--release", "--", "--ignored"]);
+        // The Slurm test needs a running cluster: `cargo test -p crashrig-cli --test contract
+        // slurm -- --ignored` (docs/SCALE.md).
+        t.args(["--release", "--", "--ignored", "--skip", "slurm_"]);
     }
     run(t)
 }
@@ -158,7 +173,9 @@ fn build_release_cli() -> Result<PathBuf> {
         "crashrig",
     ]);
     run(b)?;
-    Ok(project_root().join("target/release/crashrig"))
+    let target = std::env::var_os("CARGO_TARGET_DIR")
+        .map_or_else(|| project_root().join("target"), PathBuf::from);
+    Ok(target.join("release/crashrig"))
 }
 
 fn interop() -> Result<()> {

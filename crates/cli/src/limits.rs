@@ -11,6 +11,15 @@ pub const MM_PER_UNIT_RANGE: (f64, f64) = crashrig_measure::input::MM_PER_UNIT_R
 /// Largest `measure --samples` (replicates per row).
 pub const MAX_MEASURE_SAMPLES: usize = crashrig_measure::plausible::MAX_SAMPLES;
 
+/// clap value parser of `--shard i/N` (1 ≤ i ≤ N ≤ `crashrig_outdir::shard::MAX_SHARDS`).
+pub fn parse_shard(s: &str) -> Result<crashrig_outdir::shard::Shard, String> {
+    s.parse::<crashrig_outdir::shard::Shard>()
+        .map_err(|e| match e {
+            crashrig_outdir::Error::ShardSpec { problem, .. } => problem,
+            other => other.to_string(),
+        })
+}
+
 /// clap value parser of `--mm-per-unit`: a finite number within [`MM_PER_UNIT_RANGE`].
 pub fn parse_mm_per_unit(s: &str) -> Result<f64, String> {
     let v: f64 = s

@@ -59,3 +59,11 @@ mod covariance;
 mod pinned;
 #[path = "contract/units.rs"]
 mod units;
+
+#[path = "contract/shard.rs"]
+mod shard;
+
+/// `cargo xtask shards` (std + anyhow only), run here with the built binary.
+#[path = "../../../xtask/src/shards.rs"]
+#[allow(dead_code)]
+mod xtask_shards;

@@ -400,15 +400,17 @@ fn run_chunk(
     }
 }
 
-/// Runs the grid study with fixed (and aimed) observers.
+/// Runs the grid study with fixed (and aimed) observers at `points` (all of the grid's, or a
+/// shard of them), the first of which is grid point `first` (the global index keys the
+/// streams).
 pub(crate) fn run(
     setup: &Setup<'_>,
+    (first, points): (usize, &[Vector3<f64>]),
     draws: Draws<'_>,
     seed: u64,
     engine: Engine,
     progress: &PointTicks<'_>,
 ) -> Result<Vec<PointStats>, Error> {
-    let points = setup.grid.points();
     let views: Vec<Vec<View<'_>>> = points
         .iter()
         .map(|p| views(setup, p))
@@ -436,7 +438,7 @@ pub(crate) fn run(
                     let (p, k) = (drawn[t / chunks], t % chunks);
                     let m = CHUNK.min(samples - k * CHUNK);
                     let mut acc = Acc3::new(points[p]);
-                    let task = task_index(p, k);
+                    let task = task_index(first + p, k);
                     run_chunk(
                         &views[p], &blocks[p], chain, seed, task, m, &mut acc, engine,
                     );
@@ -471,7 +473,7 @@ pub(crate) fn run(
                     };
                 }
                 let (total, converged) = adaptive_draws(point, ad, |b, m, acc| {
-                    let task = task_index(p, b);
+                    let task = task_index(first + p, b);
                     run_chunk(&views[p], &blocks[p], chain, seed, task, m, acc, engine);
                 });
                 progress.point_done();

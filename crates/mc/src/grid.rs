@@ -47,6 +47,8 @@ pub struct GridStudy {
     chain_nominal: Vec<WorldPose>,
     samples: usize,
     seed: u64,
+    /// Only these grid points are run (a shard of the grid); `None`: all.
+    selection: Option<std::ops::Range<usize>>,
 }
 
 fn aim(
@@ -203,6 +205,7 @@ impl GridStudy {
             chain_nominal,
             samples,
             seed,
+            selection: None,
         };
         Ok(study)
     }
@@ -280,6 +283,35 @@ impl GridStudy {
         &self.grid
     }
 
+    /// The same study restricted to the grid points `points` (indices into
+    /// [`Grid::points`]): every run then computes only those points and its
+    /// [`GridResult::points`] holds them in order. A point's draws come from its own streams
+    /// (task `p·2²⁴ + k` of its global index `p`), so its statistics are bit-identical to the
+    /// same point's in a run of the whole grid — the basis of `--shard i/N`.
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] when `points` reaches past the grid.
+    pub fn with_points(&self, points: std::ops::Range<usize>) -> Result<Self, Error> {
+        if points.start > points.end || points.end > self.grid.points().len() {
+            return Err(Error::Invalid {
+                key: "grid".to_string(),
+                problem: "the selected points reach past the grid",
+            });
+        }
+        let mut s = self.clone();
+        s.selection = Some(points);
+        Ok(s)
+    }
+
+    /// The selected points (all by default) and the global index of the first.
+    fn selected_points(&self) -> (usize, Vec<Vector3<f64>>) {
+        let mut all = self.grid.points();
+        match &self.selection {
+            Some(r) => (r.start, all.drain(r.clone()).collect()),
+            None => (0, all),
+        }
+    }
+
     /// Runs `samples` draws per point.
     ///
     /// Work is split into (point, chunk of [`CHUNK`](crate::CHUNK) draws) tasks; task (p, k) draws from
@@ -317,7 +349,7 @@ impl GridStudy {
         progress: Option<Progress<'_>>,
     ) -> Result<GridResult, Error> {
         let chunks = samples.div_ceil(CHUNK);
-        let points = self.grid.points();
+        let (first, points) = self.selected_points();
         let ticks = PointTicks::new(progress, points.len(), chunks);
         if self.has_fixed() {
             let r = self.run_fixed(crate::fixed::Draws::Samples(samples), seed, engine, &ticks);
@@ -337,7 +369,7 @@ impl GridStudy {
                     &aimed[p],
                     &self.ctx,
                     seed,
-                    task_index(p, k),
+                    task_index(first + p, k),
                     m,
                     &mut acc,
                     engine,
@@ -377,7 +409,7 @@ impl GridStudy {
         seed: u64,
         progress: Option<Progress<'_>>,
     ) -> Result<GridResult, Error> {
-        let points = self.grid.points();
+        let (first, points) = self.selected_points();
         let ticks = PointTicks::new(progress, points.len(), 1);
         if self.has_fixed() {
             let r = self.run_fixed(
@@ -399,7 +431,7 @@ impl GridStudy {
                         &aimed[p],
                         &self.ctx,
                         seed,
-                        task_index(p, b),
+                        task_index(first + p, b),
                         m,
                         acc,
                         Engine::Simd(Isa::Auto),
@@ -441,7 +473,11 @@ impl GridStudy {
             pixel: self.grid.pixel,
             chain: self.ctx.chain.as_ref(),
         };
-        Ok(self.result(crate::fixed::run(&setup, draws, seed, engine, ticks)?))
+        let (first, points) = self.selected_points();
+        let selection = (first, points.as_slice());
+        Ok(self.result(crate::fixed::run(
+            &setup, selection, draws, seed, engine, ticks,
+        )?))
     }
 
     fn finish(&self, point: &Vector3<f64>, aimed: &[Aimed], m: &Acc3) -> PointStats {

@@ -121,6 +121,16 @@ pub enum Error {
     /// The output directory cannot be used or written.
     #[error(transparent)]
     OutDir(#[from] crashrig_outdir::Error),
+    /// A file of a shard directory (`crashrig merge`) that cannot be used.
+    #[error("{}{}: {problem}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Shard {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line, where known.
+        line: Option<usize>,
+        /// What is wrong.
+        problem: String,
+    },
     /// A scenario without cameras given to `propagate`.
     #[error("{}: `camera`: the scenario has no camera", path.display())]
     NoCamera {

@@ -239,17 +239,125 @@ pub fn replaceable(name: &str) -> bool {
 /// The files written so far (names, in order) and the staging directory they go to; the whole
 /// directory replaces the output at the end, so a failed or interrupted run leaves the old
 /// result.
-struct Pending {
+pub(crate) struct Pending {
     staged: crashrig_outdir::Staged,
     names: Vec<String>,
 }
 
 impl Pending {
-    fn write(&mut self, name: &str, bytes: &[u8]) -> Result<(), Error> {
+    /// Starts writing `out`; fails before any work when it holds files `replaceable` rejects.
+    pub(crate) fn new(out: &Path, replaceable: impl Fn(&str) -> bool) -> Result<Self, Error> {
+        Ok(Pending {
+            staged: crashrig_outdir::Staged::new(out, replaceable)?,
+            names: Vec::new(),
+        })
+    }
+
+    pub(crate) fn write(&mut self, name: &str, bytes: &[u8]) -> Result<(), Error> {
         self.staged.write(name, bytes)?;
         self.names.push(name.to_string());
         Ok(())
     }
+
+    /// Swaps the directory in; returns the number of files written.
+    pub(crate) fn commit(self) -> Result<usize, Error> {
+        let n = self.names.len();
+        self.staged.commit()?;
+        Ok(n)
+    }
+}
+
+/// A grid run set up and checked, before any draw: the scenario, the resolved samples and
+/// seed, and the prepared study.
+pub(crate) struct Prepared {
+    pub(crate) scenario: Scenario,
+    pub(crate) samples: usize,
+    pub(crate) seed: u64,
+    pub(crate) study: GridStudy,
+}
+
+/// Reads and checks `scenario` with the `samples` / `seed` options (as `crashrig grid`).
+pub(crate) fn prepare(
+    path: &Path,
+    samples: Option<usize>,
+    seed: Option<u64>,
+) -> Result<Prepared, Error> {
+    let scenario = load_scenario(path)?;
+    let samples = resolve_samples(samples, &scenario)?;
+    let seed = seed.unwrap_or(scenario.seed);
+    let study = GridStudy::new(&scenario, samples, seed).map_err(|e| locate(e, path))?;
+    let grid = study.grid();
+    if grid.adaptive.is_none() {
+        // --samples may exceed what the scenario's own bound check saw.
+        crashrig_mc::limits::check_grid_draws(grid.points().len(), samples).map_err(|e| {
+            Error::Setting {
+                name: "--samples",
+                problem: format!("{samples}: {e}"),
+            }
+        })?;
+    }
+    Ok(Prepared {
+        scenario,
+        samples,
+        seed,
+        study,
+    })
+}
+
+fn locate(e: crashrig_mc::Error, path: &Path) -> Error {
+    Error::Scenario {
+        path: None,
+        source: crashrig_mc::limits::locate(e, path),
+    }
+}
+
+/// The Monte Carlo statistics of a grid run before they are reported: the points of `study`
+/// (all, or a shard's), and in correlated mode the same points with independent observers;
+/// degenerate points not yet blanked.
+#[derive(Debug, Clone)]
+pub(crate) struct Computed {
+    pub(crate) result: GridResult,
+    pub(crate) independent: Option<GridResult>,
+    /// Wall-clock seconds of the main run.
+    pub(crate) elapsed_s: f64,
+    /// Worker threads of the run.
+    pub(crate) threads: usize,
+}
+
+/// Runs the draws of `study` (its selected points).
+pub(crate) fn compute(
+    p: &Prepared,
+    study: &GridStudy,
+    path: &Path,
+    progress: Option<&dyn Reporter>,
+) -> Result<Computed, Error> {
+    let (samples, seed) = (p.samples, p.seed);
+    let start = std::time::Instant::now();
+    let run = |s: &GridStudy, stage: &str| {
+        let hook = progress.map(|r| progress::stage(r, stage));
+        let hook = hook.as_ref().map(|h| h as &(dyn Fn(usize, usize) + Sync));
+        match &s.grid().adaptive {
+            Some(ad) => s.run_adaptive_with_progress(ad, seed, hook),
+            None => s.run_with_progress(samples, seed, hook),
+        }
+        .map_err(|e| locate(e, path))
+    };
+    let result = run(study, "grid points")?;
+    let elapsed_s = start.elapsed().as_secs_f64();
+    let independent = if result.correlated {
+        Some(run(
+            &study.independent(),
+            "grid points, independent observers",
+        )?)
+    } else {
+        None
+    };
+    Ok(Computed {
+        result,
+        independent,
+        elapsed_s,
+        threads: rayon::current_num_threads(),
+    })
 }
 
 /// Runs the grid study of `config.scenario` and writes its output directory; `progress`
@@ -260,61 +368,51 @@ impl Pending {
 /// [`Error::OutDir`] (checked before any work), [`Error::Grid`] for a non-finite σ, and
 /// [`Error::Plot`].
 pub fn run_grid(config: &GridConfig, progress: Option<&dyn Reporter>) -> Result<GridRun, Error> {
-    let scenario = load_scenario(&config.scenario)?;
-    let samples = resolve_samples(config.samples, &scenario)?;
-    let seed = config.seed.unwrap_or(scenario.seed);
-    let ctx = |e: crashrig_mc::Error| Error::Scenario {
-        path: None,
-        source: crashrig_mc::limits::locate(e, &config.scenario),
-    };
-    let study = GridStudy::new(&scenario, samples, seed).map_err(ctx)?;
-    let grid = study.grid().clone();
-    if grid.adaptive.is_none() {
-        // --samples may exceed what the scenario's own bound check saw.
-        crashrig_mc::limits::check_grid_draws(grid.points().len(), samples).map_err(|e| {
-            Error::Setting {
-                name: "--samples",
-                problem: format!("{samples}: {e}"),
-            }
-        })?;
-    }
+    let p = prepare(&config.scenario, config.samples, config.seed)?;
     // Fails before any work when the output holds files `grid` does not write.
-    let mut files = Pending {
-        staged: crashrig_outdir::Staged::new(&config.out, replaceable)?,
-        names: Vec::new(),
-    };
-    let start = std::time::Instant::now();
-    let run = |s: &GridStudy, stage: &str| {
-        let hook = progress.map(|r| progress::stage(r, stage));
-        let hook = hook.as_ref().map(|h| h as &(dyn Fn(usize, usize) + Sync));
-        match &grid.adaptive {
-            Some(ad) => s.run_adaptive_with_progress(ad, seed, hook),
-            None => s.run_with_progress(samples, seed, hook),
-        }
-        .map_err(ctx)
-    };
-    let mut result = run(&study, "grid points")?;
+    let files = Pending::new(&config.out, replaceable)?;
+    let computed = compute(&p, &p.study, &config.scenario, progress)?;
+    finish(&p, computed, &config.scenario, config.plots, files)
+}
+
+/// Reports a whole grid's statistics: blanks degenerate points, writes `grid.csv`,
+/// `grid_detail.csv`, the heat maps and `summary.json` to `files` and commits them — the one
+/// path of `crashrig grid` and of `crashrig merge` (which passes the shards' rows).
+pub(crate) fn finish(
+    p: &Prepared,
+    computed: Computed,
+    path: &Path,
+    plots: bool,
+    mut files: Pending,
+) -> Result<GridRun, Error> {
+    let (scenario, samples, seed) = (&p.scenario, p.samples, p.seed);
+    let grid = p.study.grid().clone();
+    let Computed {
+        mut result,
+        independent,
+        elapsed_s,
+        threads,
+    } = computed;
     // Degenerate points (lines of sight nearly parallel): no σ, not in medians or colours.
-    let angles = mask_degenerate(&mut result, &grid, &config.scenario)?;
-    let elapsed_s = start.elapsed().as_secs_f64();
-    let correlation = if result.correlated {
-        let mut ind = run(&study.independent(), "grid points, independent observers")?;
-        mask_degenerate(&mut ind, &grid, &config.scenario)?;
-        Some(correlation_summary(&result, &ind, grid.threshold_mm))
-    } else {
-        None
+    let angles = mask_degenerate(&mut result, &grid, path)?;
+    let correlation = match independent {
+        Some(mut ind) => {
+            mask_degenerate(&mut ind, &grid, path)?;
+            Some(correlation_summary(&result, &ind, grid.threshold_mm))
+        }
+        None => None,
     };
     let mut warnings = Vec::new();
     if result.points.iter().all(|p| !p.is_measurable()) {
         warnings.push(format!(
             "{}: no grid point is seen by two or more observers; every point is not measurable",
-            config.scenario.display()
+            path.display()
         ));
     }
     let with_fixed = crashrig_mc::coverage::has_fixed(&grid);
     files.write("grid.csv", &main_csv(&result, &angles, with_fixed)?)?;
     files.write("grid_detail.csv", &detail_csv(&result, &angles)?)?;
-    if config.plots {
+    if plots {
         for h in crate::grids::level_maps(&grid, &result, &grid_specs(&grid), &GRID_STYLE)? {
             files.write(&h.file, &h.png)?;
             files.write(&h.file.replace(".png", ".svg"), &h.svg)?;
@@ -328,12 +426,13 @@ pub fn run_grid(config: &GridConfig, progress: Option<&dyn Reporter>) -> Result<
     if unconverged > 0 {
         warnings.push(format!(
             "{}: {unconverged} of {} grid points stopped at max_samples without meeting the adaptive tolerance (grid.csv column `converged`)",
-            config.scenario.display(),
+            path.display(),
             result.points.len()
         ));
     }
-    let mut summary = document(&scenario, &grid, &result, &angles, samples, seed, elapsed_s);
+    let mut summary = document(scenario, &grid, &result, &angles, samples, seed, elapsed_s);
     summary.correlation = correlation;
+    summary.threads = threads;
     summary.files = files
         .names
         .iter()
@@ -341,12 +440,11 @@ pub fn run_grid(config: &GridConfig, progress: Option<&dyn Reporter>) -> Result<
         .chain(std::iter::once("summary.json".to_string()))
         .collect();
     let json = serde_json::to_vec_pretty(&summary).map_err(|e| Error::Grid {
-        path: config.scenario.clone(),
+        path: path.to_path_buf(),
         problem: format!("formatting summary.json: {e}"),
     })?;
     files.write("summary.json", &json)?;
-    let n = files.names.len();
-    files.staged.commit()?;
+    let n = files.commit()?;
     Ok(GridRun {
         grid,
         result,
@@ -538,7 +636,8 @@ fn mask_degenerate(r: &mut GridResult, grid: &Grid, scenario: &Path) -> Result<V
     Ok(angles)
 }
 
-fn csv_bytes(
+/// A CSV document written by `rows` (errors: [`Error::Csv`] of the grid CSV).
+pub(crate) fn csv_bytes(
     rows: impl Fn(&mut csv::Writer<&mut Vec<u8>>) -> csv::Result<()>,
 ) -> Result<Vec<u8>, Error> {
     let mut buf = Vec::new();

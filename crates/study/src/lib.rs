@@ -39,6 +39,7 @@ mod error;
 pub mod fixed_maps;
 mod fixed_observer;
 pub mod grid_run;
+pub mod grid_shard;
 pub mod grids;
 pub mod html;
 pub mod kinematics_report;

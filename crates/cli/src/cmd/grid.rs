@@ -19,6 +19,10 @@ pub struct GridArgs {
     /// Skip the heat maps (PNG/SVG), e.g. for timing the engine alone.
     #[arg(long)]
     pub no_plots: bool,
+    /// Run only shard i of N (1 ≤ i ≤ N) and write a shard directory to --out; `crashrig
+    /// merge` turns the N shard directories into the unsharded output (docs/SCALE.md).
+    #[arg(long, value_name = "I/N", value_parser = crate::limits::parse_shard)]
+    pub shard: Option<crashrig_outdir::shard::Shard>,
 }
 
 /// Runs `crashrig grid`.
@@ -31,8 +35,18 @@ pub fn run(a: GridArgs, g: &Global) -> anyhow::Result<()> {
         plots: !a.no_plots,
     };
     let bar = crate::progress::Bar::new("crashrig grid");
+    if let Some(shard) = a.shard {
+        let r = crashrig_study::grid_shard::run_grid_shard(&config, shard, bar.reporter())?;
+        bar.finish();
+        return super::merge::print_shard(&r.manifest, r.files, &config.out, g);
+    }
     let r = crashrig_study::run_grid(&config, bar.reporter())?;
     bar.finish();
+    print(&r, &config.out, g)
+}
+
+/// Prints a grid run (`crashrig grid`, and `crashrig merge` of grid shards).
+pub fn print(r: &crashrig_study::GridRun, out: &std::path::Path, g: &Global) -> anyhow::Result<()> {
     crate::output::warn_all(&r.warnings);
     let s = &r.summary;
     if g.json {
@@ -60,7 +74,7 @@ pub fn run(a: GridArgs, g: &Global) -> anyhow::Result<()> {
                 100.0 * s.fraction_measurable
             )?;
         }
-        writeln!(w, "wrote {} files to {}", r.files, config.out.display())
+        writeln!(w, "wrote {} files to {}", r.files, out.display())
     };
     super::propagate::quiet_pipe(print())
 }

@@ -8,6 +8,7 @@ pub mod export;
 pub mod grid;
 pub mod measure;
 pub mod measure_options;
+pub mod merge;
 pub mod paper;
 pub mod propagate;
 pub mod study;

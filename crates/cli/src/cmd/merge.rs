@@ -1,0 +1,59 @@
+//! `crashrig merge`: the shard directories of a `--shard i/N` run → the unsharded output.
+//! Arguments → [`crashrig_outdir::shard::read_set`] (refuses missing, repeated and foreign
+//! shards) → the command's merge entry → print.
+
+use crate::Global;
+use crashrig_outdir::shard::{MAX_SHARDS, Manifest, read_set};
+use std::path::{Path, PathBuf};
+
+/// Arguments of `crashrig merge`.
+#[derive(Debug, clap::Args)]
+pub struct MergeArgs {
+    /// The shard directories (all N of one run, in any order).
+    #[arg(required = true, num_args = 1..=MAX_SHARDS, value_name = "SHARD_DIR")]
+    pub shards: Vec<PathBuf>,
+    /// Output directory: exactly what the unsharded run writes.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Skip the plots (as the unsharded run's --no-plots).
+    #[arg(long)]
+    pub no_plots: bool,
+}
+
+/// Runs `crashrig merge`.
+pub fn run(a: MergeArgs, g: &Global) -> anyhow::Result<()> {
+    let shards = read_set(&a.shards)?;
+    match shards[0].1.command.as_str() {
+        crashrig_study::grid_shard::COMMAND => {
+            let r = crashrig_study::grid_shard::merge_grid(&shards, &a.out, !a.no_plots)?;
+            super::grid::print(&r, &a.out, g)
+        }
+        other => anyhow::bail!(
+            "{}: a `{other}` shard; this crashrig merges `grid` shards",
+            shards[0].0.join(crashrig_outdir::shard::MANIFEST).display()
+        ),
+    }
+}
+
+/// Prints what a shard run wrote (`--json`: its `shard.json`).
+pub fn print_shard(m: &Manifest, files: usize, out: &Path, g: &Global) -> anyhow::Result<()> {
+    if g.json {
+        return crate::output::print_json(m);
+    }
+    let print = || -> std::io::Result<()> {
+        use std::io::Write;
+        let mut w = std::io::stdout().lock();
+        writeln!(
+            w,
+            "shard {}: items {}..{} of {} in {:.3} s; wrote {files} files to {} (merge all {} with `crashrig merge`)",
+            m.shard,
+            m.items.start,
+            m.items.end,
+            m.items.total,
+            m.elapsed_s,
+            out.display(),
+            m.shard.count()
+        )
+    };
+    super::propagate::quiet_pipe(print())
+}

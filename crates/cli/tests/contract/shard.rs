@@ -1,0 +1,263 @@
+//! `--shard i/N` and `crashrig merge` (contract section "Scale"): a bad `--shard` is one
+//! `error:` line naming the flag; `merge` of all shards writes what the unsharded run writes;
+//! a missing, repeated or foreign shard, or a directory that is not a shard, is one `error:`
+//! line naming it, and nothing is written.
+
+use crate::common::{assert_clean_error, read_json, run, without_timing};
+use std::path::{Path, PathBuf};
+
+const SCENARIO: &str = r#"seed = 7
+samples = 200
+[grid]
+x_mm = [0.0, 400.0, 5]
+y_mm = [0.0, 300.0, 2]
+z_mm = [1000.0, 1000.0, 1]
+[[grid.observer]]
+position_mm = [-300.0, 0.0, 0.0]
+sigma_position_mm = [1.0, 1.0, 1.0]
+sigma_angles_deg = [0.01, 0.01, 0.01]
+[[grid.observer]]
+position_mm = [700.0, 0.0, 0.0]
+sigma_position_mm = [1.0, 1.0, 1.0]
+sigma_angles_deg = [0.01, 0.01, 0.01]
+"#;
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Runs shard `i/n` of `scenario` into `dir` with extra arguments.
+fn shard(scenario: &Path, dir: &Path, i: usize, n: usize, extra: &[&str]) {
+    let spec = format!("{i}/{n}");
+    let mut args = vec![
+        "grid",
+        s(scenario),
+        "--out",
+        s(dir),
+        "--shard",
+        &spec,
+        "--no-plots",
+    ];
+    args.extend_from_slice(extra);
+    let r = run(&args);
+    assert!(r.success, "shard {spec}: {}", r.stderr);
+}
+
+fn setup() -> (tempfile::TempDir, PathBuf, Vec<PathBuf>) {
+    let tmp = tempfile::tempdir().unwrap();
+    let scen = tmp.path().join("s.toml");
+    std::fs::write(&scen, SCENARIO).unwrap();
+    let dirs: Vec<PathBuf> = (1..=3).map(|i| tmp.path().join(format!("s{i}"))).collect();
+    for (k, d) in dirs.iter().enumerate() {
+        shard(&scen, d, k + 1, 3, &[]);
+    }
+    (tmp, scen, dirs)
+}
+
+#[test]
+fn grid_shard_bad_values_name_the_flag() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scen = tmp.path().join("s.toml");
+    std::fs::write(&scen, SCENARIO).unwrap();
+    let out = tmp.path().join("out");
+    for bad in ["0/3", "4/3", "a/b", "1/0", "3", "1/1000000"] {
+        let r = run(["grid", s(&scen), "--out", s(&out), "--shard", bad]);
+        assert_clean_error(&r, &["--shard", bad]);
+        assert!(!out.exists(), "--shard {bad}: something was written");
+    }
+}
+
+#[test]
+fn merge_of_all_shards_equals_the_unsharded_run() {
+    let (tmp, scen, dirs) = setup();
+    let whole = tmp.path().join("whole");
+    let r = run(["grid", s(&scen), "--out", s(&whole), "--no-plots"]);
+    assert!(r.success, "{}", r.stderr);
+    let merged = tmp.path().join("merged");
+    // Any order.
+    let r = run([
+        "merge",
+        s(&dirs[2]),
+        s(&dirs[0]),
+        s(&dirs[1]),
+        "--out",
+        s(&merged),
+        "--no-plots",
+    ]);
+    assert!(r.success, "{}", r.stderr);
+    for f in ["grid.csv", "grid_detail.csv"] {
+        assert_eq!(
+            std::fs::read(whole.join(f)).unwrap(),
+            std::fs::read(merged.join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    assert_eq!(
+        without_timing(read_json(&whole.join("summary.json"))),
+        without_timing(read_json(&merged.join("summary.json")))
+    );
+    // The shard's manifest under --json.
+    let d = tmp.path().join("json");
+    let r = run(["--json", "grid", s(&scen), "--out", s(&d), "--shard", "2/3"]);
+    let m = crate::common::json_of(&r);
+    assert_eq!(m["shard"]["index"], 2);
+    assert_eq!(m["shard"]["count"], 3);
+    assert_eq!(m["command"], "grid");
+    assert!(m["fingerprint"].as_str().unwrap().starts_with("sha256:"));
+}
+
+#[test]
+fn merge_refuses_missing_repeated_and_foreign_shards() {
+    let (tmp, scen, dirs) = setup();
+    let out = tmp.path().join("merged");
+    let merge = |ds: &[&Path]| {
+        let mut args: Vec<&str> = vec!["merge"];
+        args.extend(ds.iter().map(|d| s(d)));
+        args.extend(["--out", s(&out)]);
+        run(&args)
+    };
+    // Missing.
+    let r = merge(&[&dirs[0], &dirs[2]]);
+    assert_clean_error(&r, &["missing", "2/3"]);
+    // Repeated.
+    let r = merge(&[&dirs[0], &dirs[1], &dirs[1], &dirs[2]]);
+    assert_clean_error(&r, &["2/3", "twice", s(&dirs[1])]);
+    // Foreign: another seed, sample count, N, scenario.
+    let other = tmp.path().join("other");
+    for (extra, what, i, n) in [
+        (&["--seed", "8"][..], "seed", 2, 3),
+        (&["--samples", "300"][..], "samples", 2, 3),
+        (&[][..], "shard count N", 2, 4),
+    ] {
+        shard(&scen, &other, i, n, extra);
+        let r = merge(&[&dirs[0], &other, &dirs[2]]);
+        assert_clean_error(&r, &[s(&other), "another run", what]);
+    }
+    let scen2 = tmp.path().join("s2.toml");
+    std::fs::write(&scen2, SCENARIO.replace("seed = 7", "seed = 7 # edited")).unwrap();
+    shard(&scen2, &other, 2, 3, &[]);
+    let r = merge(&[&dirs[0], &other, &dirs[2]]);
+    assert_clean_error(&r, &[s(&other), "another run", "fingerprint"]);
+    // Not a shard directory.
+    let plain = tmp.path().join("plain");
+    std::fs::create_dir(&plain).unwrap();
+    let r = merge(&[&dirs[0], &plain, &dirs[2]]);
+    assert_clean_error(&r, &[s(&plain), "not a shard directory"]);
+    assert!(!out.exists(), "a refused merge wrote its output");
+    // A usable merge after all the refusals.
+    let r = merge(&[&dirs[0], &dirs[1], &dirs[2]]);
+    assert!(r.success, "{}", r.stderr);
+}
+
+#[test]
+fn xtask_shards_runs_xargs_and_merges_to_the_unsharded_output() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scen = tmp.path().join("s.toml");
+    std::fs::write(&scen, SCENARIO).unwrap();
+    let whole = tmp.path().join("whole");
+    let r = run(["grid", s(&scen), "--out", s(&whole), "--no-plots"]);
+    assert!(r.success, "{}", r.stderr);
+    let out = tmp.path().join("merged");
+    let args: Vec<String> = [
+        "3",
+        "-P",
+        "2",
+        "--out",
+        s(&out),
+        "--",
+        s(&scen),
+        "--no-plots",
+    ]
+    .iter()
+    .map(|a| a.to_string())
+    .collect();
+    let (plan, bin) = crate::xtask_shards::parse(&args).unwrap();
+    assert_eq!(bin, None);
+    let dirs = crate::xtask_shards::run(&plan, Path::new(env!("CARGO_BIN_EXE_crashrig"))).unwrap();
+    assert_eq!(dirs.len(), 3);
+    for d in &dirs {
+        assert!(d.join("shard.json").is_file(), "{}", d.display());
+    }
+    for f in ["grid.csv", "grid_detail.csv"] {
+        assert_eq!(
+            std::fs::read(whole.join(f)).unwrap(),
+            std::fs::read(out.join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    assert_eq!(
+        without_timing(read_json(&whole.join("summary.json"))),
+        without_timing(read_json(&out.join("summary.json")))
+    );
+}
+
+/// The Slurm example end to end through a real `sbatch`: `examples/scale/slurm-submit.sh`
+/// submits a 3-task job array and the merge (dependency `afterok`); the merged output equals
+/// the unsharded run. Needs a running Slurm cluster whose nodes see this directory (run on a
+/// single-node Debian `slurm-wlm` cluster, docs/SCALE.md):
+/// `cargo test -p crashrig-cli --test contract slurm -- --ignored`.
+#[test]
+#[ignore = "needs a running Slurm cluster (sbatch, squeue); docs/SCALE.md"]
+fn slurm_job_array_and_merge_equal_the_unsharded_run() {
+    let root = crate::common::root();
+    let tmp = tempfile::tempdir_in(std::env::temp_dir()).unwrap();
+    let scen = tmp.path().join("s.toml");
+    std::fs::write(&scen, SCENARIO).unwrap();
+    let bin = env!("CARGO_BIN_EXE_crashrig");
+    let submit = std::process::Command::new(root.join("examples/scale/slurm-submit.sh"))
+        .args(["3", s(&scen), "out", "--samples", "300"])
+        .current_dir(tmp.path())
+        .env("CRASHRIG", bin)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&submit.stdout).to_string();
+    assert!(
+        submit.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&submit.stderr)
+    );
+    let merge_job = text
+        .split("merge: job ")
+        .nth(1)
+        .and_then(|t| t.split_whitespace().next())
+        .expect("the merge job id")
+        .to_string();
+    // Wait until the merge job has left the queue (at most 5 minutes).
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(300);
+    loop {
+        let q = std::process::Command::new("squeue")
+            .args(["-h", "-j", &merge_job])
+            .output()
+            .unwrap();
+        if String::from_utf8_lossy(&q.stdout).trim().is_empty() {
+            break;
+        }
+        assert!(
+            std::time::Instant::now() < deadline,
+            "job {merge_job} still queued"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(500));
+    }
+    let whole = tmp.path().join("whole");
+    let r = run(["grid", s(&scen), "--samples", "300", "--out", s(&whole)]);
+    assert!(r.success, "{}", r.stderr);
+    let out = tmp.path().join("out");
+    let mut names: Vec<String> = std::fs::read_dir(&whole)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter(|n| n != "summary.json")
+        .collect();
+    names.sort();
+    assert!(names.iter().any(|n| n.ends_with(".png")));
+    for f in &names {
+        assert_eq!(
+            std::fs::read(whole.join(f)).unwrap(),
+            std::fs::read(out.join(f)).unwrap_or_default(),
+            "{f}"
+        );
+    }
+    assert_eq!(
+        without_timing(read_json(&whole.join("summary.json"))),
+        without_timing(read_json(&out.join("summary.json")))
+    );
+}
