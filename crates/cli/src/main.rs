@@ -59,6 +59,8 @@ enum Command {
     Export(cmd::export::ExportCommand),
     /// Camera A's per-epoch pose covariance from the bundle (input of measure --a-covariance).
     Covariance(cmd::covariance::CovarianceArgs),
+    /// Where to mount the cameras: choose K observers from candidates (Monte Carlo confirmed).
+    Place(cmd::place::PlaceArgs),
 }
 
 /// The error line of a failed run: the context chain joined with ": ", skipping a cause whose
@@ -137,6 +139,7 @@ fn main() -> std::process::ExitCode {
         Command::Study(a) => cmd::study::run(a, &cli.global),
         Command::Export(c) => cmd::export::run(c, &cli.global),
         Command::Covariance(a) => cmd::covariance::run(a, &cli.global),
+        Command::Place(a) => cmd::place::run(a, &cli.global),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

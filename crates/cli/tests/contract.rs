@@ -57,5 +57,7 @@ mod covariance;
 
 #[path = "contract/pinned.rs"]
 mod pinned;
+#[path = "contract/place.rs"]
+mod place;
 #[path = "contract/units.rs"]
 mod units;

@@ -253,13 +253,26 @@ impl Pending {
 /// [`Error::Plot`].
 pub fn run_grid(config: &GridConfig, progress: Option<&dyn Reporter>) -> Result<GridRun, Error> {
     let scenario = load_scenario(&config.scenario)?;
-    let samples = resolve_samples(config.samples, &scenario)?;
+    run_grid_scenario(&scenario, config, progress)
+}
+
+/// [`run_grid`] on a scenario already read (or built, e.g. by `crashrig place` from a
+/// scenario and its chosen candidates); `config.scenario` names the file in messages.
+///
+/// # Errors
+/// As [`run_grid`].
+pub fn run_grid_scenario(
+    scenario: &Scenario,
+    config: &GridConfig,
+    progress: Option<&dyn Reporter>,
+) -> Result<GridRun, Error> {
+    let samples = resolve_samples(config.samples, scenario)?;
     let seed = config.seed.unwrap_or(scenario.seed);
     let ctx = |e: crashrig_mc::Error| Error::Scenario {
         path: None,
         source: crashrig_mc::limits::locate(e, &config.scenario),
     };
-    let study = GridStudy::new(&scenario, samples, seed).map_err(ctx)?;
+    let study = GridStudy::new(scenario, samples, seed).map_err(ctx)?;
     let grid = study.grid().clone();
     if grid.adaptive.is_none() {
         // --samples may exceed what the scenario's own bound check saw.
@@ -324,7 +337,7 @@ pub fn run_grid(config: &GridConfig, progress: Option<&dyn Reporter>) -> Result<
             result.points.len()
         ));
     }
-    let mut summary = document(&scenario, &grid, &result, &angles, samples, seed, elapsed_s);
+    let mut summary = document(scenario, &grid, &result, &angles, samples, seed, elapsed_s);
     summary.correlation = correlation;
     summary.files = files
         .names

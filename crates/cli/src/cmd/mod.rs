@@ -9,5 +9,6 @@ pub mod grid;
 pub mod measure;
 pub mod measure_options;
 pub mod paper;
+pub mod place;
 pub mod propagate;
 pub mod study;
