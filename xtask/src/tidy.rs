@@ -65,8 +65,18 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
         ],
     ),
     (
+        "crashrig-place",
+        &[
+            "crashrig-mc",
+            "crashrig-stats",
+            "crashrig-study",
+            "crashrig-outdir",
+        ],
+    ),
+    (
         "crashrig-cli",
         &[
+            "crashrig-place",
             "crashrig-geometry",
             "crashrig-stats",
             "crashrig-camera",

@@ -61,6 +61,8 @@ enum Command {
     Covariance(cmd::covariance::CovarianceArgs),
     /// Merge the shard directories of a `--shard i/N` run into the unsharded output.
     Merge(cmd::merge::MergeArgs),
+    /// Where to mount the cameras: choose K observers from candidates (Monte Carlo confirmed).
+    Place(cmd::place::PlaceArgs),
 }
 
 /// The error line of a failed run: the context chain joined with ": ", skipping a cause whose
@@ -140,6 +142,7 @@ fn main() -> std::process::ExitCode {
         Command::Export(c) => cmd::export::run(c, &cli.global),
         Command::Covariance(a) => cmd::covariance::run(a, &cli.global),
         Command::Merge(a) => cmd::merge::run(a, &cli.global),
+        Command::Place(a) => cmd::place::run(a, &cli.global),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

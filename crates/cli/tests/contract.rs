@@ -57,6 +57,8 @@ mod covariance;
 
 #[path = "contract/pinned.rs"]
 mod pinned;
+#[path = "contract/place.rs"]
+mod place;
 #[path = "contract/units.rs"]
 mod units;
 

@@ -86,12 +86,25 @@ fn is_diagonal(l: &Matrix6<f64>) -> bool {
 /// The views of every observer that sees `point`.
 pub(crate) fn views<'a>(setup: &Setup<'a>, point: &Vector3<f64>) -> Result<Vec<View<'a>>, Error> {
     let mut out = Vec::with_capacity(setup.grid.observers.len());
-    for ((o, s), kind) in setup
-        .grid
-        .observers
-        .iter()
-        .zip(setup.covariance)
-        .zip(setup.kinds)
+    for k in 0..setup.grid.observers.len() {
+        if let Some(v) = view_of(setup, k, point)? {
+            out.push(v);
+        }
+    }
+    Ok(out)
+}
+
+/// The view of observer `k` of `point`, or `None` when it does not see the point.
+fn view_of<'a>(
+    setup: &Setup<'a>,
+    k: usize,
+    point: &Vector3<f64>,
+) -> Result<Option<View<'a>>, Error> {
+    let (o, s, kind) = (
+        &setup.grid.observers[k],
+        &setup.covariance[k],
+        &setup.kinds[k],
+    );
     {
         let source = match (setup.chain, o.sigma) {
             (Some(_), crate::model::ObserverSigma::From(i)) => Some(i),
@@ -106,7 +119,7 @@ pub(crate) fn views<'a>(setup: &Setup<'a>, point: &Vector3<f64>) -> Result<Vec<V
                 let a = crashrig_geometry::opk::opk_from_rotation(&r);
                 let (sigma_px, focal) =
                     setup.pixel.map_or((0.0, 1.0), |p| (p.sigma_px, p.focal_px));
-                out.push(View {
+                Ok(Some(View {
                     c: o.position_mm,
                     r: r.into_inner(),
                     opk: Vector3::new(a.omega, a.phi, a.kappa),
@@ -122,13 +135,13 @@ pub(crate) fn views<'a>(setup: &Setup<'a>, point: &Vector3<f64>) -> Result<Vec<V
                     fast: None,
                     full_lens: None,
                     source,
-                });
+                }))
             }
             Aim::Fixed(f) => {
                 let Some((u0, n0, jinv)) = sight(f, &o.position_mm, point) else {
-                    continue;
+                    return Ok(None);
                 };
-                out.push(View {
+                Ok(Some(View {
                     c: o.position_mm,
                     r: f.rotation,
                     opk: f.angles_rad,
@@ -144,11 +157,10 @@ pub(crate) fn views<'a>(setup: &Setup<'a>, point: &Vector3<f64>) -> Result<Vec<V
                     fast: FastLens::of(&f.lens),
                     full_lens: Some(&f.lens),
                     source,
-                });
+                }))
             }
         }
     }
-    Ok(out)
 }
 
 /// The block engine's description of view `v` (`chain`: correlated mode; `pixel`: σ of the
@@ -305,6 +317,24 @@ pub(crate) fn linear_covariance(views: &[View<'_>], point: &Vector3<f64>) -> Mat
     };
     let mut cov = Matrix3::zeros();
     for v in views {
+        let (jp, jpx) = view_jacobian(v, point, &ai);
+        let sp = v.l * v.l.transpose();
+        cov += jp * sp * jp.transpose() + jpx * jpx.transpose() * (v.sigma_px * v.sigma_px);
+    }
+    cov
+}
+
+/// `ai·A·∂X/∂(pose)` (3 × 6) and `ai·A·∂X/∂(pixel)` (3 × 2) of view `v` at `point` (`A`: the
+/// DLT normal matrix): `ai = A⁻¹` gives the Jacobian itself, the identity gives the factors of
+/// a [`LinearTerm`].
+fn view_jacobian(
+    v: &View<'_>,
+    point: &Vector3<f64>,
+    ai: &Matrix3<f64>,
+) -> (nalgebra::Matrix3x6<f64>, nalgebra::Matrix3x2<f64>) {
+    let rows = |v: &View<'_>, r: &Matrix3<f64>| dlt_rows(r, v.n0.x, v.n0.y);
+    let ai = *ai;
+    {
         let [ra, rb] = rows(v, &v.r);
         let xc = point - v.c;
         // Pose block (3 × 6): centre, then rotation.
@@ -326,10 +356,69 @@ pub(crate) fn linear_covariance(views: &[View<'_>], point: &Vector3<f64>) -> Mat
         let g = -c3.dot(&xc);
         let jn = nalgebra::Matrix3x2::from_columns(&[ai * ra * g, ai * rb * g]);
         let jpx = jn * v.jinv;
-        let sp = v.l * v.l.transpose();
-        cov += jp * sp * jp.transpose() + jpx * jpx.transpose() * (v.sigma_px * v.sigma_px);
+        (jp, jpx)
     }
-    cov
+}
+
+/// One observer's additive share of the first-order covariance of the forward intersection at
+/// a grid point (observers independent). With the DLT normal matrix `A = Σⱼ normalⱼ` and
+/// `N = Σⱼ noiseⱼ`, the intersection's first-order covariance is `A⁻¹ N A⁻¹`
+/// ([`LinearTerm::covariance`]): a layout's covariance is a sum over its observers, so a search
+/// over layouts adds 3 × 3 matrices instead of re-deriving Jacobians (`docs/PLACE.md`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinearTerm {
+    /// This view's rows of the DLT normal matrix, `aaᵀ + bbᵀ` (`I − ddᵀ` for an aimed view).
+    pub normal: Matrix3<f64>,
+    /// `K Σ Kᵀ + σ²_px K_px K_pxᵀ`: the view's pose covariance Σ and pixel noise through the
+    /// derivatives `K` of the DLT right-hand side (the Jacobian without the `A⁻¹`).
+    pub noise: Matrix3<f64>,
+}
+
+impl LinearTerm {
+    /// The zero term (no observer).
+    pub fn zero() -> Self {
+        LinearTerm {
+            normal: Matrix3::zeros(),
+            noise: Matrix3::zeros(),
+        }
+    }
+
+    /// Adds another observer's term.
+    pub fn add(&mut self, other: &LinearTerm) {
+        self.normal += other.normal;
+        self.noise += other.noise;
+    }
+
+    /// The first-order covariance `A⁻¹ N A⁻¹` (mm²) of a sum of terms; NaN when `A` is
+    /// singular (fewer than two independent lines of sight).
+    pub fn covariance(&self) -> Matrix3<f64> {
+        match self.normal.try_inverse() {
+            Some(ai) => ai * self.noise * ai.transpose(),
+            None => Matrix3::from_element(f64::NAN),
+        }
+    }
+}
+
+/// The [`LinearTerm`] of every observer of `setup` at `point`, `None` where it does not see
+/// the point.
+pub(crate) fn linear_terms(
+    setup: &Setup<'_>,
+    point: &Vector3<f64>,
+) -> Result<Vec<Option<LinearTerm>>, Error> {
+    (0..setup.grid.observers.len())
+        .map(|k| {
+            Ok(view_of(setup, k, point)?.map(|v| {
+                let [ra, rb] = dlt_rows(&v.r, v.n0.x, v.n0.y);
+                let (jp, jpx) = view_jacobian(&v, point, &Matrix3::identity());
+                let sp = v.l * v.l.transpose();
+                LinearTerm {
+                    normal: ra * ra.transpose() + rb * rb.transpose(),
+                    noise: jp * sp * jp.transpose()
+                        + jpx * jpx.transpose() * (v.sigma_px * v.sigma_px),
+                }
+            }))
+        })
+        .collect()
 }
 
 fn not_measurable(point: &Vector3<f64>, seen: usize) -> PointStats {

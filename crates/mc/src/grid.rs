@@ -4,6 +4,7 @@
 use crate::block::{Aimed, Ctx};
 use crate::chain::{Chain, WorldPose};
 use crate::error::Error;
+use crate::fixed::LinearTerm;
 use crate::kernel::Isa;
 #[cfg(test)]
 use crate::kernel::Normal3;
@@ -478,6 +479,28 @@ impl GridStudy {
         Ok(self.result(crate::fixed::run(
             &setup, selection, draws, seed, engine, ticks,
         )?))
+    }
+
+    /// Each observer's additive share of the first-order covariance at `point` (`None` where
+    /// a fixed observer does not see it), every observer independent with its resolved noise
+    /// (the `sigma_from` covariance even in correlated mode): the first-order covariance of a
+    /// sub-layout is [`LinearTerm::covariance`] of the sum of its observers' terms, which
+    /// `crashrig place` searches on.
+    ///
+    /// # Errors
+    /// An aimed observer that cannot aim at `point` (straight above or below it).
+    pub fn linear_terms(&self, point: &Vector3<f64>) -> Result<Vec<Option<LinearTerm>>, Error> {
+        let covariance: Vec<Matrix6<f64>> =
+            self.observer_noise.iter().map(|n| n.covariance).collect();
+        let kinds: Vec<RotationNoise> = self.observer_noise.iter().map(|n| n.noise).collect();
+        let setup = crate::fixed::Setup {
+            grid: &self.grid,
+            covariance: &covariance,
+            kinds: &kinds,
+            pixel: self.grid.pixel,
+            chain: None,
+        };
+        crate::fixed::linear_terms(&setup, point)
     }
 
     fn finish(&self, point: &Vector3<f64>, aimed: &[Aimed], m: &Acc3) -> PointStats {

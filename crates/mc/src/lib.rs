@@ -225,6 +225,7 @@ mod view;
 pub use chain::{CameraId, Chain, ChainBuilder, PoseLinear, PoseMc, WorldPose};
 pub use crashrig_geometry::result_kind::ResultKind;
 pub use error::Error;
+pub use fixed::LinearTerm;
 pub use grid::{CHAIN_SAMPLES_MIN, GridStudy, INPUTS_PER_OBSERVER};
 pub use grid_builder::GridBuilder;
 pub use kernel::Isa;
@@ -237,7 +238,7 @@ pub use model::{
 pub use reference::link_from_result_json;
 pub use result::{GridResult, PointStats};
 #[cfg(feature = "scenario")]
-pub use scenario::{AimKeys, LensKeys, aim_from_keys};
+pub use scenario::{AimKeys, LensKeys, aim_from_keys, candidates_from_toml_str, read_candidates};
 pub use schedule::ADAPTIVE_MIN_BATCHES;
 pub use view::{UNDISTORT_RESIDUAL_PX, footprint_margin_px};
 

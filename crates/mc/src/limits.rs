@@ -259,7 +259,9 @@ impl Walk<'_> {
             DeValue::Array(a) => {
                 let tables = a.iter().all(|e| matches!(e.get_ref(), DeValue::Table(_)));
                 if tables && !a.is_empty() {
-                    if (leaf == "camera" || leaf == "observer") && a.len() > MAX_CAMERAS {
+                    if (leaf == "camera" || leaf == "observer" || leaf == "candidate")
+                        && a.len() > MAX_CAMERAS
+                    {
                         return Err(self.err(
                             at,
                             key,

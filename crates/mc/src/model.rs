@@ -340,8 +340,7 @@ pub const MIN_OBSERVER_DISTANCE_MM: f64 = 1e-6;
 pub const CORRELATED_POSITION_TOLERANCE_MM: f64 = 1.0;
 
 /// Checks of a grid against its chain (`chain_positions`: nominal world centres, `names`):
-/// at least two observers; correlated observers at their chain camera; no observer on or
-/// vertically above/below a grid point.
+/// at least two observers, then [`check_observers`] on them (keys `grid.observer[i]`).
 pub(crate) fn check_grid(
     grid: &Grid,
     chain_positions: &[Vector3<f64>],
@@ -352,15 +351,34 @@ pub(crate) fn check_grid(
             found: grid.observers.len(),
         });
     }
+    check_observers(
+        grid,
+        &grid.observers,
+        "grid.observer",
+        chain_positions,
+        names,
+    )
+}
+
+/// Checks `observers` (errors name `{prefix}[i]`) against `grid` and its chain: correlated
+/// observers at their chain camera; no aimed observer on or vertically above/below a grid
+/// point. Used for a grid's own observers and for `crashrig place`'s candidates.
+pub(crate) fn check_observers(
+    grid: &Grid,
+    observers: &[Observer],
+    prefix: &str,
+    chain_positions: &[Vector3<f64>],
+    names: &[String],
+) -> Result<(), Error> {
     // Correlated observers stand where their chain camera is (one frame for chain and grid).
     if grid.correlated {
-        for (i, o) in grid.observers.iter().enumerate() {
+        for (i, o) in observers.iter().enumerate() {
             if let ObserverSigma::From(c) = o.sigma {
                 let nominal = chain_positions[c];
                 let distance_mm = (o.position_mm - nominal).norm();
                 if distance_mm > CORRELATED_POSITION_TOLERANCE_MM {
                     return Err(Error::ObserverOffChain {
-                        key: format!("grid.observer[{i}].position_mm"),
+                        key: format!("{prefix}[{i}].position_mm"),
                         camera: names[c].clone(),
                         nominal_mm: nominal.into(),
                         distance_mm,
@@ -371,12 +389,12 @@ pub(crate) fn check_grid(
     }
     // Geometric checks against every grid point.
     for p in grid.points() {
-        for (i, o) in grid.observers.iter().enumerate() {
+        for (i, o) in observers.iter().enumerate() {
             if o.aim != Aim::Point {
                 continue; // a fixed observer does not turn: visibility decides (grid/fixed.rs)
             }
             let d = p - o.position_mm;
-            let key = format!("grid.observer[{i}]");
+            let key = format!("{prefix}[{i}]");
             if d.norm() < MIN_OBSERVER_DISTANCE_MM {
                 return Err(Error::ObserverAtGridPoint {
                     key,

@@ -10,7 +10,7 @@ use crate::error::Error;
 use crate::limits::key_line;
 use crate::model::{
     Adaptive, Axis, Camera, Grid, MAX_NDIG, Observer, ObserverSigma, PixelNoise, PoseSigma,
-    RotationNoise, Scenario, Tolerance, check_grid, topological_order,
+    RotationNoise, Scenario, Tolerance, check_observers, topological_order,
 };
 use crate::reference::ResultKind;
 use crashrig_geometry::uncertain::check_covariance;
@@ -19,7 +19,9 @@ use nalgebra::Vector3;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
+mod candidates;
 mod observer;
+pub use candidates::{candidates_from_toml_str, read_candidates};
 pub use observer::{AimKeys, LensKeys, aim_from_keys};
 
 // ---------------------------------------------------------------- raw TOML ---
@@ -242,6 +244,18 @@ impl Scenario {
     /// Parses and validates scenario text; `path` names the file in error messages, and the
     /// files of `from = "…"` references are relative to its directory.
     pub fn from_toml_str(text: &str, path: &Path) -> Result<Self, Error> {
+        Self::parse(text, path, 2)
+    }
+
+    /// Reads a scenario as the base layout of `crashrig place`: like [`Scenario::from_path`],
+    /// except that its `[grid]` may have fewer than two observers (the candidates add the
+    /// rest).
+    pub fn from_path_for_placement(path: &Path) -> Result<Self, Error> {
+        let text = crate::limits::read_text(path)?;
+        Self::parse(&text, path, 0)
+    }
+
+    fn parse(text: &str, path: &Path, min_observers: usize) -> Result<Self, Error> {
         crate::limits::check_document(text, path)?;
         let raw: RawScenario = toml::from_str(text).map_err(|e| {
             let (line, column) = e.span().map_or_else(
@@ -261,17 +275,19 @@ impl Scenario {
             }
         })?;
         let base = path.parent().unwrap_or(Path::new(""));
-        Self::validate(raw, base).map_err(|e| match e.key().and_then(|k| key_line(text, k)) {
-            Some(line) => Error::Located {
-                path: PathBuf::from(path),
-                line,
-                source: Box::new(e),
-            },
-            None => e,
+        Self::validate(raw, base, min_observers).map_err(|e| {
+            match e.key().and_then(|k| key_line(text, k)) {
+                Some(line) => Error::Located {
+                    path: PathBuf::from(path),
+                    line,
+                    source: Box::new(e),
+                },
+                None => e,
+            }
         })
     }
 
-    fn validate(raw: RawScenario, base: &Path) -> Result<Self, Error> {
+    fn validate(raw: RawScenario, base: &Path, min_observers: usize) -> Result<Self, Error> {
         let samples = count("samples", raw.samples.unwrap_or(2000), 2)?;
         let rotation_noise = match raw.rotation_noise.as_deref().unwrap_or("tangent") {
             "tangent" => RotationNoise::Tangent,
@@ -334,7 +350,7 @@ impl Scenario {
         topological_order(&cameras)?;
         let grid = raw
             .grid
-            .map(|g| validate_grid(g, &cameras, base))
+            .map(|g| validate_grid(g, &cameras, base, min_observers))
             .transpose()?;
         Ok(Scenario {
             seed: raw.seed.unwrap_or(0),
@@ -455,7 +471,14 @@ fn camera_pose(
     }
 }
 
-fn validate_grid(g: RawGrid, cameras: &[Camera], base: &Path) -> Result<Grid, Error> {
+/// The `[grid]` table; `min_observers` is 2 for a grid study, 0 for the base layout of
+/// `crashrig place` (its candidates add the rest).
+fn validate_grid(
+    g: RawGrid,
+    cameras: &[Camera],
+    base: &Path,
+    min_observers: usize,
+) -> Result<Grid, Error> {
     let x = axis("grid.x_mm", &g.x_mm)?;
     let y = axis("grid.y_mm", &g.y_mm)?;
     let z = axis("grid.z_mm", &g.z_mm)?;
@@ -528,71 +551,17 @@ fn validate_grid(g: RawGrid, cameras: &[Camera], base: &Path) -> Result<Grid, Er
             })
         })
         .transpose()?;
-    if g.observer.len() < 2 {
+    if g.observer.len() < min_observers {
         return Err(Error::TooFewObservers {
             found: g.observer.len(),
         });
     }
-    let mut observers = Vec::with_capacity(g.observer.len());
-    for (i, o) in g.observer.iter().enumerate() {
-        let k = |f: &str| format!("grid.observer[{i}].{f}");
-        let sigma = match (
-            &o.sigma_from,
-            &o.covariance_tangent,
-            o.sigma_position_mm,
-            o.sigma_angles_deg,
-        ) {
-            (Some(name), None, None, None) => {
-                let idx =
-                    cameras
-                        .iter()
-                        .position(|c| &c.name == name)
-                        .ok_or(Error::UnknownCamera {
-                            key: k("sigma_from"),
-                            name: name.clone(),
-                        })?;
-                ObserverSigma::From(idx)
-            }
-            (None, Some(v), None, None) => {
-                ObserverSigma::Covariance(covariance_tangent(k("covariance_tangent"), v)?)
-            }
-            (None, None, Some(p), Some(a)) => ObserverSigma::Given(PoseSigma {
-                position_mm: sigma3(k("sigma_position_mm"), p)?,
-                angles_rad: sigma3(k("sigma_angles_deg"), a)?.map(f64::to_radians),
-            }),
-            (Some(_), _, _, _) => {
-                return Err(Error::Invalid {
-                    key: k("sigma_from"),
-                    problem: "give one of sigma_from, covariance_tangent, or sigma_position_mm with sigma_angles_deg",
-                });
-            }
-            (None, Some(_), _, _) => {
-                return Err(Error::Invalid {
-                    key: k("covariance_tangent"),
-                    problem: "give either covariance_tangent or sigma_position_mm with sigma_angles_deg, not both",
-                });
-            }
-            (None, None, None, _) => {
-                return Err(Error::Invalid {
-                    key: k("sigma_position_mm"),
-                    problem: "is missing (or give sigma_from or covariance_tangent)",
-                });
-            }
-            (None, None, _, None) => {
-                return Err(Error::Invalid {
-                    key: k("sigma_angles_deg"),
-                    problem: "is missing (or give sigma_from or covariance_tangent)",
-                });
-            }
-        };
-        let position_mm = finite3(k("position_mm"), o.position_mm)?;
-        observers.push(Observer {
-            name: o.name.clone().unwrap_or_else(|| format!("obs{i}")),
-            aim: observer::aim_from_raw(i, o, &position_mm, base)?,
-            position_mm,
-            sigma,
-        });
-    }
+    let observers = g
+        .observer
+        .iter()
+        .enumerate()
+        .map(|(i, o)| observer_from_raw("grid.observer", i, o, cameras, base))
+        .collect::<Result<Vec<_>, _>>()?;
     let grid = Grid {
         x,
         y,
@@ -608,8 +577,75 @@ fn validate_grid(g: RawGrid, cameras: &[Camera], base: &Path) -> Result<Grid, Er
         .map(|p| p.translation.vector)
         .collect();
     let names: Vec<String> = cameras.iter().map(|c| c.name.clone()).collect();
-    check_grid(&grid, &world, &names)?;
+    check_observers(&grid, &grid.observers, "grid.observer", &world, &names)?;
     Ok(grid)
+}
+
+/// One observer table (`{prefix}[i]`: a scenario's `[[grid.observer]]` or a `[[candidate]]` of
+/// `crashrig place`): its noise and aim; errors name `{prefix}[i].key`.
+fn observer_from_raw(
+    prefix: &str,
+    i: usize,
+    o: &RawObserver,
+    cameras: &[Camera],
+    base: &Path,
+) -> Result<Observer, Error> {
+    let k = |f: &str| format!("{prefix}[{i}].{f}");
+    let sigma = match (
+        &o.sigma_from,
+        &o.covariance_tangent,
+        o.sigma_position_mm,
+        o.sigma_angles_deg,
+    ) {
+        (Some(name), None, None, None) => {
+            let idx = cameras
+                .iter()
+                .position(|c| &c.name == name)
+                .ok_or(Error::UnknownCamera {
+                    key: k("sigma_from"),
+                    name: name.clone(),
+                })?;
+            ObserverSigma::From(idx)
+        }
+        (None, Some(v), None, None) => {
+            ObserverSigma::Covariance(covariance_tangent(k("covariance_tangent"), v)?)
+        }
+        (None, None, Some(p), Some(a)) => ObserverSigma::Given(PoseSigma {
+            position_mm: sigma3(k("sigma_position_mm"), p)?,
+            angles_rad: sigma3(k("sigma_angles_deg"), a)?.map(f64::to_radians),
+        }),
+        (Some(_), _, _, _) => {
+            return Err(Error::Invalid {
+                key: k("sigma_from"),
+                problem: "give one of sigma_from, covariance_tangent, or sigma_position_mm with sigma_angles_deg",
+            });
+        }
+        (None, Some(_), _, _) => {
+            return Err(Error::Invalid {
+                key: k("covariance_tangent"),
+                problem: "give either covariance_tangent or sigma_position_mm with sigma_angles_deg, not both",
+            });
+        }
+        (None, None, None, _) => {
+            return Err(Error::Invalid {
+                key: k("sigma_position_mm"),
+                problem: "is missing (or give sigma_from or covariance_tangent)",
+            });
+        }
+        (None, None, _, None) => {
+            return Err(Error::Invalid {
+                key: k("sigma_angles_deg"),
+                problem: "is missing (or give sigma_from or covariance_tangent)",
+            });
+        }
+    };
+    let position_mm = finite3(k("position_mm"), o.position_mm)?;
+    Ok(Observer {
+        name: o.name.clone().unwrap_or_else(|| format!("obs{i}")),
+        aim: observer::aim_from_raw(&format!("{prefix}[{i}]"), o, &position_mm, base)?,
+        position_mm,
+        sigma,
+    })
 }
 
 /// Nominal `world_from_cam` of every camera (file order); the parent links must be acyclic.

@@ -282,7 +282,16 @@ pub(crate) fn prepare(
     samples: Option<usize>,
     seed: Option<u64>,
 ) -> Result<Prepared, Error> {
-    let scenario = load_scenario(path)?;
+    prepare_scenario(load_scenario(path)?, path, samples, seed)
+}
+
+/// [`prepare`] on a scenario already read; `path` names it in messages.
+pub(crate) fn prepare_scenario(
+    scenario: Scenario,
+    path: &Path,
+    samples: Option<usize>,
+    seed: Option<u64>,
+) -> Result<Prepared, Error> {
     let samples = resolve_samples(samples, &scenario)?;
     let seed = seed.unwrap_or(scenario.seed);
     let study = GridStudy::new(&scenario, samples, seed).map_err(|e| locate(e, path))?;
@@ -369,10 +378,37 @@ pub(crate) fn compute(
 /// [`Error::Plot`].
 pub fn run_grid(config: &GridConfig, progress: Option<&dyn Reporter>) -> Result<GridRun, Error> {
     let p = prepare(&config.scenario, config.samples, config.seed)?;
+    run_prepared(&p, config, progress)
+}
+
+/// [`run_grid`] on a scenario already read (or built, e.g. by `crashrig place` from a
+/// scenario and its chosen candidates); `config.scenario` names the file in messages.
+///
+/// # Errors
+/// As [`run_grid`].
+pub fn run_grid_scenario(
+    scenario: &Scenario,
+    config: &GridConfig,
+    progress: Option<&dyn Reporter>,
+) -> Result<GridRun, Error> {
+    let p = prepare_scenario(
+        scenario.clone(),
+        &config.scenario,
+        config.samples,
+        config.seed,
+    )?;
+    run_prepared(&p, config, progress)
+}
+
+fn run_prepared(
+    p: &Prepared,
+    config: &GridConfig,
+    progress: Option<&dyn Reporter>,
+) -> Result<GridRun, Error> {
     // Fails before any work when the output holds files `grid` does not write.
     let files = Pending::new(&config.out, replaceable)?;
-    let computed = compute(&p, &p.study, &config.scenario, progress)?;
-    finish(&p, computed, &config.scenario, config.plots, files)
+    let computed = compute(p, &p.study, &config.scenario, progress)?;
+    finish(p, computed, &config.scenario, config.plots, files)
 }
 
 /// Reports a whole grid's statistics: blanks degenerate points, writes `grid.csv`,

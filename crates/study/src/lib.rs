@@ -53,7 +53,7 @@ pub mod study_run;
 pub mod tie;
 
 pub use error::Error;
-pub use grid_run::{GridConfig, GridRun, run_grid};
+pub use grid_run::{GridConfig, GridRun, run_grid, run_grid_scenario};
 pub use pipeline::{Options, StudyResult, run_study};
 pub use propagate_run::{PropagateConfig, PropagateRun, run_propagate};
 pub use study_file::Study;

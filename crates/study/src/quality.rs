@@ -217,6 +217,8 @@ pub fn verdict(c: &CalibrationResult) -> Verdict {
             )
         });
     }
+    // The verdict names every warning it refers to ("with the warnings below").
+    lines.extend(c.warnings.iter().map(|w| format!("warning: {w}")));
     let bad = c.split_half.as_ref().is_some_and(|s| !s.agree);
     let (answer, status) = if bad {
         (

@@ -10,5 +10,6 @@ pub mod measure;
 pub mod measure_options;
 pub mod merge;
 pub mod paper;
+pub mod place;
 pub mod propagate;
 pub mod study;

@@ -87,9 +87,9 @@ pub fn aim_from_keys(
     }
 }
 
-/// The [`Aim`] of scenario observer `i`.
+/// The [`Aim`] of the observer table `prefix` (e.g. `grid.observer[2]`, `candidate[0]`).
 pub(super) fn aim_from_raw(
-    i: usize,
+    prefix: &str,
     o: &RawObserver,
     position: &Vector3<f64>,
     base: &Path,
@@ -102,7 +102,7 @@ pub(super) fn aim_from_raw(
         camera_from: o.camera_from.as_deref(),
         pixel_sigma_px: o.pixel_sigma_px,
     };
-    aim_from_keys(&keys, &format!("grid.observer[{i}]"), position, base)
+    aim_from_keys(&keys, prefix, position, base)
 }
 
 fn fixed_from_keys(

@@ -1,0 +1,68 @@
+//! The one error type of `crashrig-place`.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong in [`crate::run`]; every message names the file (and line)
+/// or the option at fault, so the CLI prints it as one `error:` line.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// The scenario or the candidates file is invalid; the message names the file and, where
+    /// known, the line.
+    #[error("{}", located(path, source))]
+    Input {
+        /// The file, when the source error does not name it already.
+        path: Option<PathBuf>,
+        /// The reader's error.
+        #[source]
+        source: crashrig_mc::Error,
+    },
+    /// An option is out of range (`--choose`, `--samples`).
+    #[error("`{name}`: {problem}")]
+    Setting {
+        /// The option.
+        name: &'static str,
+        /// What is wrong.
+        problem: String,
+    },
+    /// A step of `crashrig grid` (the confirmation and the chosen layout's output) failed.
+    #[error(transparent)]
+    Grid(#[from] crashrig_study::Error),
+    /// The output directory.
+    #[error(transparent)]
+    OutDir(#[from] crashrig_outdir::Error),
+    /// `placement.json` could not be formatted.
+    #[error("{}: formatting placement.json: {problem}", out.display())]
+    Output {
+        /// The output directory.
+        out: PathBuf,
+        /// What went wrong.
+        problem: String,
+    },
+}
+
+fn located(path: &Option<PathBuf>, source: &crashrig_mc::Error) -> String {
+    match path {
+        Some(p) => format!("{}: {source}", p.display()),
+        None => source.to_string(),
+    }
+}
+
+impl Error {
+    /// An input error of `path`: the file is named once (the reader's located errors name it
+    /// already).
+    pub(crate) fn input(path: &std::path::Path, e: crashrig_mc::Error) -> Self {
+        match e {
+            crashrig_mc::Error::Io { .. }
+            | crashrig_mc::Error::Toml { .. }
+            | crashrig_mc::Error::Located { .. } => Error::Input {
+                path: None,
+                source: e,
+            },
+            other => Error::Input {
+                path: Some(path.to_path_buf()),
+                source: other,
+            },
+        }
+    }
+}

@@ -1,0 +1,275 @@
+//! The search over layouts on the first-order [`Table`]: every K-subset when there are at
+//! most [`crate::EXHAUSTIVE_MAX_LAYOUTS`] of them, else greedy forward selection with
+//! best-improvement swap refinement. Memory is independent of the number of subsets: the
+//! search keeps only a bounded [`Board`] of the best distinct layouts it has scored.
+
+use crate::approx::{Score, Table};
+use rayon::prelude::*;
+use std::cmp::Ordering;
+
+/// The best distinct K-layouts scored so far (candidate indices, sorted), best first; ties
+/// by the lexicographically smaller set, so the board does not depend on the evaluation order.
+#[derive(Debug, Clone)]
+pub struct Board {
+    cap: usize,
+    /// (score, layout) best first.
+    pub entries: Vec<(Score, Vec<usize>)>,
+}
+
+fn rank(a: &(Score, Vec<usize>), b: &(Score, Vec<usize>)) -> Ordering {
+    // Ordering::Less = `a` ranks first.
+    b.0.compare(&a.0).then_with(|| a.1.cmp(&b.1))
+}
+
+impl Board {
+    /// An empty board keeping `cap` layouts.
+    pub fn new(cap: usize) -> Self {
+        Board {
+            cap,
+            entries: Vec::with_capacity(cap + 1),
+        }
+    }
+
+    /// Offers a layout (any order of indices).
+    pub fn offer(&mut self, score: Score, layout: &[usize]) {
+        let mut set = layout.to_vec();
+        set.sort_unstable();
+        if self.entries.iter().any(|(_, s)| *s == set) {
+            return;
+        }
+        let e = (score, set);
+        if self.entries.len() == self.cap
+            && self
+                .entries
+                .last()
+                .is_some_and(|last| rank(&e, last) != Ordering::Less)
+        {
+            return;
+        }
+        let at = self
+            .entries
+            .partition_point(|x| rank(x, &e) == Ordering::Less);
+        self.entries.insert(at, e);
+        self.entries.truncate(self.cap);
+    }
+
+    fn merge(mut self, other: Board) -> Board {
+        for (s, l) in other.entries {
+            self.offer(s, &l);
+        }
+        self
+    }
+}
+
+/// What the search found.
+#[derive(Debug, Clone)]
+pub struct Found {
+    /// `"exhaustive"` or `"greedy+swap"`.
+    pub method: &'static str,
+    /// Layouts scored by the approximation during the search (the greedy steps' partial
+    /// layouts included; exactly C(n, K) for the exhaustive search).
+    pub evaluated: u64,
+    /// The best layouts, best first.
+    pub board: Board,
+}
+
+/// C(n, k), saturating.
+pub fn binomial(n: usize, k: usize) -> u128 {
+    if k > n {
+        return 0;
+    }
+    let k = k.min(n - k);
+    let mut c: u128 = 1;
+    for i in 0..k {
+        c = c.saturating_mul((n - i) as u128) / (i + 1) as u128;
+    }
+    c
+}
+
+/// Searches the K-layouts of `table`'s candidates; `keep` layouts are kept on the board.
+pub fn search(table: &Table, k: usize, keep: usize) -> Found {
+    let n = table.candidates();
+    let before = table.scored();
+    let mut found = if binomial(n, k) <= crate::EXHAUSTIVE_MAX_LAYOUTS as u128 {
+        exhaustive(table, k, keep)
+    } else {
+        greedy_swap(table, k, keep)
+    };
+    found.evaluated = table.scored() - before;
+    found
+}
+
+/// Every K-subset, split by its first index across threads (each enumerates its subsets in
+/// lexicographic order with its own board; the boards merge in index order).
+fn exhaustive(table: &Table, k: usize, keep: usize) -> Found {
+    let n = table.candidates();
+    let parts: Vec<Board> = (0..=n - k)
+        .into_par_iter()
+        .map(|first| {
+            let mut board = Board::new(keep);
+            let mut dirs = Vec::new();
+            let mut layout: Vec<usize> = (first..first + k).collect();
+            loop {
+                board.offer(table.score(&layout, &mut dirs), &layout);
+                // Next subset with the same first index (lexicographic).
+                let mut i = k;
+                loop {
+                    if i <= 1 {
+                        return board;
+                    }
+                    i -= 1;
+                    if layout[i] < n - k + i {
+                        layout[i] += 1;
+                        for j in i + 1..k {
+                            layout[j] = layout[j - 1] + 1;
+                        }
+                        break;
+                    }
+                }
+            }
+        })
+        .collect();
+    let board = parts
+        .into_iter()
+        .fold(Board::new(keep), |acc, b| acc.merge(b));
+    Found {
+        method: "exhaustive",
+        evaluated: 0,
+        board,
+    }
+}
+
+/// The best of `options` (layouts), each scored in parallel; ties by the earlier option.
+fn best_of(table: &Table, options: Vec<Vec<usize>>) -> Vec<(Score, Vec<usize>)> {
+    options
+        .into_par_iter()
+        .map_init(Vec::new, |dirs, l| (table.score(&l, dirs), l))
+        .collect()
+}
+
+fn pick(scored: &[(Score, Vec<usize>)]) -> Option<usize> {
+    let mut best: Option<usize> = None;
+    for (i, s) in scored.iter().enumerate() {
+        if best.is_none_or(|b| s.0.compare(&scored[b].0) == Ordering::Greater) {
+            best = Some(i);
+        }
+    }
+    best
+}
+
+/// Greedy forward selection (from the best pair when the base layout has no σ anywhere, i.e.
+/// single additions cannot be told apart), then best-improvement swaps (one chosen for one
+/// unchosen) until none improves the score.
+fn greedy_swap(table: &Table, k: usize, keep: usize) -> Found {
+    let n = table.candidates();
+    let mut board = Board::new(keep);
+    let offer = |board: &mut Board, scored: &[(Score, Vec<usize>)]| {
+        for (s, l) in scored {
+            if l.len() == k {
+                board.offer(*s, l);
+            }
+        }
+    };
+    // The best one (or the best pair, when single candidates cannot be told apart); then
+    // forward selection.
+    let mut current = order_within(table, &(0..n).collect::<Vec<_>>(), k.min(2));
+    while current.len() < k {
+        let options: Vec<Vec<usize>> = (0..n)
+            .filter(|c| !current.contains(c))
+            .map(|c| {
+                let mut l = current.clone();
+                l.push(c);
+                l
+            })
+            .collect();
+        let scored = best_of(table, options);
+        offer(&mut board, &scored);
+        let Some(i) = pick(&scored) else { break };
+        current = scored[i].1.clone();
+    }
+    let mut dirs = Vec::new();
+    let mut score = table.score(&current, &mut dirs);
+    board.offer(score, &current);
+    for _round in 0..MAX_SWAP_ROUNDS {
+        let mut options = Vec::new();
+        for i in 0..current.len() {
+            for c in (0..n).filter(|c| !current.contains(c)) {
+                let mut l = current.clone();
+                l[i] = c;
+                options.push(l);
+            }
+        }
+        let scored = best_of(table, options);
+        offer(&mut board, &scored);
+        match pick(&scored) {
+            Some(i) if scored[i].0.compare(&score) == Ordering::Greater => {
+                score = scored[i].0;
+                current = scored[i].1.clone();
+            }
+            _ => break,
+        }
+    }
+    Found {
+        method: "greedy+swap",
+        evaluated: 0,
+        board,
+    }
+}
+
+/// Upper bound of swap rounds (each strictly improves the score, so the search ends anyway).
+const MAX_SWAP_ROUNDS: usize = 1000;
+
+/// The pick order of `set` (candidate indices): greedily, the member that improves the
+/// approximate score most comes next (ties: file order); the first two come as the best pair
+/// when single members cannot be told apart (every score equal). Returns the first `take`
+/// (all when `take ≥ set.len()`).
+pub fn order_within(table: &Table, set: &[usize], take: usize) -> Vec<usize> {
+    let mut set = set.to_vec();
+    set.sort_unstable();
+    let mut dirs = Vec::new();
+    let mut chosen: Vec<usize> = Vec::new();
+    let take = take.min(set.len());
+    while chosen.len() < take {
+        let rest: Vec<usize> = set
+            .iter()
+            .copied()
+            .filter(|c| !chosen.contains(c))
+            .collect();
+        let scored: Vec<(Score, Vec<usize>)> = rest
+            .iter()
+            .map(|&c| {
+                let mut l = chosen.clone();
+                l.push(c);
+                (table.score(&l, &mut dirs), l)
+            })
+            .collect();
+        let all_equal = scored
+            .windows(2)
+            .all(|w| w[0].0.compare(&w[1].0) == Ordering::Equal);
+        if all_equal && rest.len() >= 2 && chosen.len() + 2 <= take {
+            // Pairs decide (e.g. no observer of its own: one camera alone measures nothing).
+            let mut best: Option<(Score, Vec<usize>)> = None;
+            for (i, &a) in rest.iter().enumerate() {
+                for &b in &rest[i + 1..] {
+                    let mut l = chosen.clone();
+                    l.extend([a, b]);
+                    let s = table.score(&l, &mut dirs);
+                    if best
+                        .as_ref()
+                        .is_none_or(|(bs, _)| s.compare(bs) == Ordering::Greater)
+                    {
+                        best = Some((s, l));
+                    }
+                }
+            }
+            if let Some((_, l)) = best {
+                chosen = l;
+                continue;
+            }
+        }
+        let Some(i) = pick(&scored) else { break };
+        chosen = scored[i].1.clone();
+    }
+    chosen.truncate(take);
+    chosen
+}
