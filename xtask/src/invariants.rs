@@ -24,7 +24,6 @@ pub const LONG_FN_ALLOWED: &[(&str, &str)] = &[
     ("crates/colmap/src/reconstruction.rs", "build"),
     ("crates/study/src/calibration.rs", "text_report"),
     ("crates/study/src/pipeline.rs", "run_study"),
-    ("crates/mc/src/scenario.rs", "validate_grid"),
 ];
 
 /// Environment variables a library crate may read: test hooks that exist today.
