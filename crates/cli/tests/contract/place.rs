@@ -71,11 +71,12 @@ fn place_writes_placement_json_and_the_chosen_grid() {
 /// Writes a candidates file made of the example's first two tables plus `extra`.
 fn candidates_with(dir: &Path, extra: &str) -> PathBuf {
     let text = std::fs::read_to_string(example("candidates.toml")).unwrap();
+    // The tables start a line ("[[candidate]]" also appears in the file's opening comment).
     let head: String = text
-        .split("[[candidate]]")
+        .split("\n[[candidate]]")
         .take(3)
         .collect::<Vec<_>>()
-        .join("[[candidate]]");
+        .join("\n[[candidate]]");
     let path = dir.join("cands.toml");
     std::fs::write(&path, format!("{head}\n{extra}")).unwrap();
     path
