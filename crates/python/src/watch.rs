@@ -95,7 +95,23 @@ where
                     .unwrap_or_else(|p| p.into_inner());
                 slot.take()
             });
+            let show = |shown: &mut Option<(String, usize, usize)>| -> Option<PyErr> {
+                let cb = progress?;
+                let latest = watch.latest.lock().ok().and_then(|l| l.clone());
+                if latest.is_none() || latest == *shown {
+                    return None;
+                }
+                let err = latest
+                    .as_ref()
+                    .and_then(|(stage, d, t)| cb.call1((stage.as_str(), *d, *t)).err());
+                *shown = latest;
+                err
+            };
             if let Some(o) = finished {
+                // A call faster than one tick still shows its last progress report.
+                if failure.is_none() {
+                    failure = show(&mut shown);
+                }
                 return o;
             }
             if failure.is_some() {
@@ -106,17 +122,9 @@ where
                 failure = Some(e);
                 continue;
             }
-            if let Some(cb) = progress {
-                let latest = watch.latest.lock().ok().and_then(|l| l.clone());
-                if latest.is_some() && latest != shown {
-                    if let Some((stage, d, t)) = &latest
-                        && let Err(e) = cb.call1((stage.as_str(), *d, *t))
-                    {
-                        watch.cancel.store(true, Ordering::Relaxed);
-                        failure = Some(e);
-                    }
-                    shown = latest;
-                }
+            if let Some(e) = show(&mut shown) {
+                watch.cancel.store(true, Ordering::Relaxed);
+                failure = Some(e);
             }
         }
     });
