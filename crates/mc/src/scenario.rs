@@ -225,6 +225,26 @@ fn axis(key: &str, raw: &[Num; 3]) -> Result<Axis, Error> {
     Ok(Axis { start, stop, count })
 }
 
+/// A TOML syntax or type error of `text` (read from `path`), located at its line and column
+/// (a nesting too deep for the parser at the place it gives up) and naming the key of the value
+/// it is about: the one mapping of the scenario and the candidates readers.
+pub(crate) fn toml_error(e: &toml::de::Error, text: &str, path: &Path) -> Error {
+    let (line, column) = e.span().map_or_else(
+        || crate::limits::deep_nesting(text).unwrap_or((1, 1)),
+        |span| line_col(text, span.start),
+    );
+    let message = e.message().trim();
+    let key = e
+        .span()
+        .and_then(|span| crate::limits::toml_value_key(text, span.start));
+    Error::Toml {
+        path: PathBuf::from(path),
+        line,
+        column,
+        message: key.map_or_else(|| message.to_string(), |k| format!("`{k}`: {message}")),
+    }
+}
+
 /// 1-based (line, column) of a byte offset.
 fn line_col(text: &str, offset: usize) -> (usize, usize) {
     let offset = offset.min(text.len());
@@ -257,23 +277,7 @@ impl Scenario {
 
     fn parse(text: &str, path: &Path, min_observers: usize) -> Result<Self, Error> {
         crate::limits::check_document(text, path)?;
-        let raw: RawScenario = toml::from_str(text).map_err(|e| {
-            let (line, column) = e.span().map_or_else(
-                || crate::limits::deep_nesting(text).unwrap_or((1, 1)),
-                |span| line_col(text, span.start),
-            );
-            // A type error is located at the value: name its key as every other error does.
-            let message = e.message().trim();
-            let key = e
-                .span()
-                .and_then(|span| crate::limits::toml_value_key(text, span.start));
-            Error::Toml {
-                path: PathBuf::from(path),
-                line,
-                column,
-                message: key.map_or_else(|| message.to_string(), |k| format!("`{k}`: {message}")),
-            }
-        })?;
+        let raw: RawScenario = toml::from_str(text).map_err(|e| toml_error(&e, text, path))?;
         let base = path.parent().unwrap_or(Path::new(""));
         Self::validate(raw, base, min_observers).map_err(|e| {
             match e.key().and_then(|k| key_line(text, k)) {

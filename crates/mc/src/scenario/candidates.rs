@@ -2,7 +2,7 @@
 //! of a `[[grid.observer]]` (read by the same code, so every key means the same; users'
 //! reference: `docs/PLACE.md`).
 
-use super::{RawObserver, line_col, nominal_world_poses, observer_from_raw};
+use super::{RawObserver, nominal_world_poses, observer_from_raw, toml_error};
 use crate::error::Error;
 use crate::limits::key_line;
 use crate::model::{Observer, Scenario, check_observers};
@@ -39,19 +39,7 @@ pub fn candidates_from_toml_str(
     scenario: &Scenario,
 ) -> Result<Vec<Observer>, Error> {
     crate::limits::check_document(text, path)?;
-    let raw: RawCandidates = toml::from_str(text).map_err(|e| {
-        let (line, column) = e.span().map_or((1, 1), |span| line_col(text, span.start));
-        let message = e.message().trim();
-        let key = e
-            .span()
-            .and_then(|span| crate::limits::toml_value_key(text, span.start));
-        Error::Toml {
-            path: PathBuf::from(path),
-            line,
-            column,
-            message: key.map_or_else(|| message.to_string(), |k| format!("`{k}`: {message}")),
-        }
-    })?;
+    let raw: RawCandidates = toml::from_str(text).map_err(|e| toml_error(&e, text, path))?;
     let base = path.parent().unwrap_or(Path::new(""));
     validate(&raw, scenario, base).map_err(|e| Error::Located {
         path: PathBuf::from(path),
