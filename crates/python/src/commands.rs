@@ -104,10 +104,14 @@ fn calibrate<'py>(
 ///                        iterations=200, mm_per_unit=1000.0, seed=1)
 /// print(t["covariance_tangent"])
 /// ```
+///
+/// `plots` (a folder) receives the histograms `bootstrap_{x,y,z,omega,phi,kappa}.{png,svg}`
+/// and `replicates` (a CSV file) every replicate, as the command's `--plots` and
+/// `--replicates`.
 #[pyfunction]
 #[pyo3(signature = (database, model, image_a, image_b, *, method="absolute", iterations=500,
-    mm_per_unit=1.0, max_error_px=4.0, base_mm=None, resample="inliers", seed=None,
-    progress=None))]
+    mm_per_unit=1.0, max_error_px=4.0, base_mm=None, resample="inliers", seed=None, plots=None,
+    replicates=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn bootstrap<'py>(
     py: Python<'py>,
@@ -122,9 +126,13 @@ fn bootstrap<'py>(
     base_mm: Option<f64>,
     resample: &str,
     seed: Option<u64>,
+    plots: Option<&Bound<'py, PyAny>>,
+    replicates: Option<&Bound<'py, PyAny>>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     use crashrig_study::tie::{self, Method, Resample, TieConfig};
+    let plots = args::opt_path(plots, "plots")?;
+    let replicates_csv = args::opt_path(replicates, "replicates")?;
     let method = Method::from_name(method).ok_or_else(|| {
         py_error(format!(
             "method: {method:?} is not one of \"absolute\", \"relative\""
@@ -160,6 +168,20 @@ fn bootstrap<'py>(
     })?
     .map_err(to_py_err)?;
     warn_all(py, &r.warnings())?;
+    if let Some(dir) = &plots {
+        std::fs::create_dir_all(dir).map_err(|e| {
+            py_error(format!(
+                "{}: cannot create the plot directory: {e}",
+                dir.display()
+            ))
+        })?;
+        for (name, bytes) in r.plots().map_err(to_py_err)? {
+            write_atomic(&dir.join(name), &bytes)?;
+        }
+    }
+    if let Some(path) = &replicates_csv {
+        write_atomic(path, r.replicates_csv().as_bytes())?;
+    }
     to_python(py, &r.to_json())
 }
 
@@ -489,6 +511,93 @@ fn study<'py>(
     to_python(py, &run.json)
 }
 
+/// Where to mount the cameras (`crashrig place --json`): chooses `choose` observers from the
+/// candidates file, writes `out` (`placement.json`, the chosen layout's grid output in
+/// `out/grid/`) and returns `placement.json`. `scenario` is a path or the TOML text.
+///
+/// Example:
+///
+/// ```python
+/// p = crashrig.place("examples/place/scenario.toml", candidates="examples/place/candidates.toml",
+///                    choose=2, out="place_out", samples=300, seed=3)
+/// print(p["chosen"], p["share_below_threshold"])
+/// ```
+#[pyfunction]
+#[pyo3(signature = (scenario, candidates, choose, out, *, samples=None, seed=None, plots=true,
+    progress=None))]
+#[allow(clippy::too_many_arguments)]
+fn place<'py>(
+    py: Python<'py>,
+    scenario: &Bound<'py, PyAny>,
+    candidates: &Bound<'py, PyAny>,
+    choose: usize,
+    out: &Bound<'py, PyAny>,
+    samples: Option<usize>,
+    seed: Option<u64>,
+    plots: bool,
+    progress: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let (path, _text) = scenario_file(Source::extract(scenario, "scenario")?)?;
+    let config = crashrig_place::PlaceConfig {
+        scenario: path,
+        candidates: args::path(candidates, "candidates")?,
+        choose,
+        out: args::path(out, "out")?,
+        samples,
+        seed,
+        plots,
+    };
+    let r = watch::run(py, progress, |w: &Watch| {
+        crashrig_place::run(&config, Some(w))
+    })?
+    .map_err(to_py_err)?;
+    warn_all(py, &r.grid.warnings)?;
+    document(py, &r.placement)
+}
+
+/// Merges the shard directories of a `--shard i/N` run into `out` (`crashrig merge --json`):
+/// exactly what the unsharded run writes; returns its summary (`grid` shards: `summary.json`).
+///
+/// Example:
+///
+/// ```python
+/// import subprocess
+/// for i in (1, 2):
+///     subprocess.run(["crashrig", "grid", "scenario.toml", "--shard", f"{i}/2",
+///                     "--out", f"shards/{i}"], check=True)
+/// s = crashrig.merge(["shards/1", "shards/2"], out="grid_out")
+/// print(s["points"], s["median_sigma_max_mm"])
+/// ```
+#[pyfunction]
+#[pyo3(signature = (shards, out, *, plots=true))]
+fn merge<'py>(
+    py: Python<'py>,
+    shards: &Bound<'py, PyAny>,
+    out: &Bound<'py, PyAny>,
+    plots: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    use crashrig_study::merge::{MergeRun, merge_shards};
+    if shards.is_instance_of::<pyo3::types::PyString>() {
+        return Err(pyo3::exceptions::PyTypeError::new_err(
+            "shards: expected a list of shard directories, got one str",
+        ));
+    }
+    let dirs = shards
+        .try_iter()?
+        .map(|d| args::path(&d?, "shards"))
+        .collect::<PyResult<Vec<_>>>()?;
+    let out = args::path(out, "out")?;
+    let r =
+        watch::run(py, None, |_: &Watch| merge_shards(&dirs, &out, plots))?.map_err(to_py_err)?;
+    match r {
+        MergeRun::Grid(r) => {
+            warn_all(py, &r.warnings)?;
+            document(py, &r.summary)
+        }
+        _ => Err(py_error("this crashrig cannot return what it merged")),
+    }
+}
+
 /// Adds the command functions to the module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(calibrate, m)?)?;
@@ -498,5 +607,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(measure, m)?)?;
     m.add_function(wrap_pyfunction!(covariance, m)?)?;
     m.add_function(wrap_pyfunction!(study, m)?)?;
+    m.add_function(wrap_pyfunction!(place, m)?)?;
+    m.add_function(wrap_pyfunction!(merge, m)?)?;
     Ok(())
 }
