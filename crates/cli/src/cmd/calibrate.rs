@@ -5,7 +5,7 @@
 //! retry policy, JSON, report, plots) lives in `crashrig_study::calibration`.
 
 use crate::Global;
-use crashrig_study::calibration::{CalibrationConfig, Scale, calibrate_with_progress};
+use crashrig_study::calibration::{CalibrationConfig, Scale, calibrate};
 use std::path::PathBuf;
 
 /// Arguments of `crashrig calibrate`.
@@ -76,7 +76,7 @@ impl CalibrateArgs {
 pub fn run(a: CalibrateArgs, g: &Global) -> anyhow::Result<()> {
     let bar = crate::progress::Bar::new("crashrig calibrate");
     let rounds = bar.stage("refinement: weighting rounds");
-    let r = calibrate_with_progress(&a.config(), bar.hook(&rounds))?;
+    let r = calibrate(&a.config(), bar.monitor(&rounds))?;
     bar.finish();
     for w in &r.warnings {
         eprintln!("warning: {w}");
