@@ -18,6 +18,7 @@ use crashrig_geometry::{Mat6, UncertainPose};
 use crashrig_mc::{
     CameraId, Chain, ChainBuilder, GridBuilder, GridResult, GridStudy, PoseLinear, PoseMc,
 };
+use crashrig_stats::progress::Monitor;
 use nalgebra::Vector3;
 use serde_json::{Value, json};
 
@@ -400,14 +401,16 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
     let on = options.progress.is_some();
 
     let sub = within("calibration".into());
-    let calibration =
-        calibration::calibrate_with_progress(&calibration_config(study), hook(on, &sub))
-            .map_err(|e| study.step_error("calibration", 0, e.to_string()))?;
+    let calibration = calibration::calibrate(
+        &calibration_config(study),
+        on.then_some(&sub as &dyn Monitor),
+    )
+    .map_err(|e| study.step_error("calibration", 0, e.to_string()))?;
     tick("calibration");
     let tie = match &study.tie {
         Some(t) => {
             let sub = within("tie replicates + jackknife".into());
-            let r = tie::bootstrap_with_progress(&tie_config(t, seed), hook(on, &sub))
+            let r = tie::bootstrap(&tie_config(t, seed), on.then_some(&sub as &dyn Monitor))
                 .map_err(|e| study.step_error("tie", 0, e.to_string()))?;
             tick("tie");
             Some(r)
