@@ -28,8 +28,12 @@ pub fn run(a: MergeArgs, g: &Global) -> anyhow::Result<()> {
             let r = crashrig_study::grid_shard::merge_grid(&shards, &a.out, !a.no_plots)?;
             super::grid::print(&r, &a.out, g)
         }
+        crashrig_place::shard::COMMAND => {
+            let r = crashrig_place::shard::merge(&shards, &a.out, !a.no_plots)?;
+            super::place::print(&r, &a.out, g)
+        }
         other => anyhow::bail!(
-            "{}: a `{other}` shard; this crashrig merges `grid` shards",
+            "{}: a `{other}` shard; this crashrig merges `grid` and `place` shards",
             shards[0].0.join(crashrig_outdir::shard::MANIFEST).display()
         ),
     }
