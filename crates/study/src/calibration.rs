@@ -217,6 +217,28 @@ pub enum Scale {
     },
 }
 
+impl Scale {
+    /// The scale the options give: a factor, a scale bar or neither ([`Scale::Default`]).
+    ///
+    /// # Errors
+    /// [`crate::Error::Usage`] (names in `spelling`): both given, a bar without its length or
+    /// points, a factor out of range.
+    pub fn from_options(
+        options: &crashrig_geometry::options::ScaleOptions,
+        spelling: crashrig_geometry::options::Spelling,
+    ) -> Result<Scale, crate::Error> {
+        use crashrig_geometry::options::GivenScale;
+        match options.given(spelling) {
+            Ok(Some(GivenScale::MmPerUnit(f))) => Ok(Scale::MmPerUnit(f)),
+            Ok(Some(GivenScale::ScaleBar { points, length_mm })) => {
+                Ok(Scale::ScaleBar { points, length_mm })
+            }
+            Ok(None) => Ok(Scale::Default),
+            Err(e) => Err(crate::Error::Usage(e.to_string())),
+        }
+    }
+}
+
 /// What `crashrig calibrate` takes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CalibrationConfig {

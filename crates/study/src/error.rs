@@ -137,4 +137,8 @@ pub enum Error {
         /// The scenario file.
         path: PathBuf,
     },
+    /// Options of a command that do not fit together or are out of range, named as the front
+    /// end spells them ([`crashrig_geometry::options::Spelling`]).
+    #[error("{0}")]
+    Usage(String),
 }
