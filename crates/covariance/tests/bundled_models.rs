@@ -33,13 +33,15 @@
 //!   far less where there are outliers: `bootstrap/tie_sampling` has 17.9 px against 116 px).
 //!   Noise-free models (no residual) are left out of this check only, with a printed line.
 
-use crashrig_colmap::{Frame, Image, Point3D, RawPose, Reconstruction};
+use crashrig_colmap::Reconstruction;
 use crashrig_covariance::{CovarianceConfig, CovarianceResult, Intrinsics, Scale, run};
 use crashrig_geometry::quat::rigid_from_rotation;
-use crashrig_geometry::{Mat3, Mat6, Rigid3, Vec3, so3};
-use nalgebra::Point3;
+use crashrig_geometry::{Mat3, Mat6, Vec3, so3};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+
+mod common;
+use common::moved;
 
 /// Fewer points seen by two images than this: the model is skipped.
 const MIN_POINTS: usize = 20;
@@ -127,48 +129,6 @@ fn control_points(model: &Reconstruction) -> Option<Vec<u64>> {
         ids.push(fourth.0);
     }
     Some(ids)
-}
-
-/// The model moved as a whole: `world' = t · world`.
-fn moved(model: &Reconstruction, t: &Rigid3) -> Reconstruction {
-    let inv = t.inverse();
-    let pose = |p: &RawPose| p.to_rigid().map_or(*p, |r| RawPose::from_rigid(&(r * inv)));
-    let images: Vec<Image> = model
-        .images()
-        .iter()
-        .map(|im| {
-            let mut im = im.clone();
-            im.stored_cam_from_world = pose(&im.stored_cam_from_world);
-            im
-        })
-        .collect();
-    let frames: Vec<Frame> = model
-        .frames()
-        .iter()
-        .map(|f| {
-            let mut f = f.clone();
-            f.rig_from_world = pose(&f.rig_from_world);
-            f
-        })
-        .collect();
-    let points: Vec<Point3D> = model
-        .points3d()
-        .iter()
-        .map(|p| {
-            let mut p = p.clone();
-            let x = t * Point3::from(Vec3::from(p.xyz));
-            p.xyz = [x.x, x.y, x.z];
-            p
-        })
-        .collect();
-    Reconstruction::from_records(
-        model.cameras().to_vec(),
-        model.rigs().to_vec(),
-        frames,
-        images,
-        points,
-    )
-    .unwrap()
 }
 
 fn config(
