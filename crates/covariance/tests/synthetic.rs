@@ -1,13 +1,16 @@
 //! Known answers on generated scenes: the Schur complement against the full information
 //! matrix, the gauge (a model moved and rotated as a whole), fixed vs tight priors, σ̂₀.
 
-use crashrig_colmap::{CameraSelector, Image, Point3D, RawPose, Reconstruction};
+use crashrig_colmap::{CameraSelector, Image, Point3D, Reconstruction};
 use crashrig_covariance::jacobian::project;
 use crashrig_covariance::synthetic::{LabSettings, lab_scene, ring_scene};
 use crashrig_covariance::{ControlPoints, Intrinsics, Options, covariance};
 use crashrig_geometry::quat::rigid_from_rotation;
 use crashrig_geometry::{Mat3, Mat6, Rigid3, Vec3, so3};
-use nalgebra::{DMatrix, Point3};
+use nalgebra::DMatrix;
+
+mod common;
+use common::moved;
 
 fn options(intrinsics: Intrinsics, sigma: Option<f64>) -> Options {
     Options {
@@ -94,36 +97,7 @@ fn gauge_covariance_follows_a_rigid_motion_of_the_whole_scene() {
     let scene = ring_scene(5, 0.3);
     let q = so3::exp(&Vec3::new(0.4, -1.1, 2.0));
     let t: Rigid3 = rigid_from_rotation(&q, &Vec3::new(12.0, -3.0, 40.0));
-    let images: Vec<Image> = scene
-        .model
-        .images()
-        .iter()
-        .map(|im| {
-            let mut im = im.clone();
-            let p = scene.model.image_cam_from_world(im.image_id).unwrap() * t.inverse();
-            im.stored_cam_from_world = RawPose::from_rigid(&p);
-            im
-        })
-        .collect();
-    let points: Vec<Point3D> = scene
-        .model
-        .points3d()
-        .iter()
-        .map(|p| {
-            let mut p = p.clone();
-            let x = t * Point3::from(Vec3::from(p.xyz));
-            p.xyz = [x.x, x.y, x.z];
-            p
-        })
-        .collect();
-    let moved = Reconstruction::from_records(
-        scene.model.cameras().to_vec(),
-        Vec::new(),
-        Vec::new(),
-        images,
-        points,
-    )
-    .unwrap();
+    let moved = moved(&scene.model, &t);
     let control = ControlPoints::from_ids("t", &scene.control_ids, 0.0);
     let a = covariance(&scene.model, &control, &options(Intrinsics::All, Some(0.5))).unwrap();
     let b = covariance(&moved, &control, &options(Intrinsics::All, Some(0.5))).unwrap();
