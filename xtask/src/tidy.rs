@@ -105,6 +105,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-measure",
             "crashrig-covariance",
             "crashrig-outdir",
+            "crashrig-place",
         ],
     ),
     (

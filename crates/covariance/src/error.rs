@@ -65,4 +65,8 @@ pub enum Error {
         /// What is wrong.
         problem: String,
     },
+    /// Options of the command that do not fit together or are out of range, named as the front
+    /// end spells them ([`crashrig_geometry::options::Spelling`]).
+    #[error("{0}")]
+    Usage(String),
 }

@@ -108,6 +108,27 @@ pub enum Scale {
     },
 }
 
+impl Scale {
+    /// The scale the options give: a factor or a scale bar, one of them required.
+    ///
+    /// # Errors
+    /// [`Error::Usage`] (names in `spelling`): neither or both given, a bar without its
+    /// length or points, a factor out of range.
+    pub fn from_options(
+        options: &crashrig_geometry::options::ScaleOptions,
+        spelling: crashrig_geometry::options::Spelling,
+    ) -> Result<Scale, Error> {
+        use crashrig_geometry::options::GivenScale;
+        match options.required(spelling) {
+            Ok(GivenScale::MmPerUnit(f)) => Ok(Scale::MmPerUnit(f)),
+            Ok(GivenScale::ScaleBar { points, length_mm }) => {
+                Ok(Scale::ScaleBar { points, length_mm })
+            }
+            Err(e) => Err(Error::Usage(e.to_string())),
+        }
+    }
+}
+
 /// What `crashrig covariance` needs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CovarianceConfig {

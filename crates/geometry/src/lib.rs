@@ -64,6 +64,7 @@ mod error;
 pub mod look_at;
 pub mod mean;
 pub mod opk;
+pub mod options;
 pub mod quat;
 #[cfg(feature = "json")]
 pub mod result_json;

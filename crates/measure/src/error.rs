@@ -96,6 +96,10 @@ pub enum Error {
         #[source]
         source: Box<Error>,
     },
+    /// Options of the command that do not fit together or are out of range, named as the front
+    /// end spells them ([`crashrig_geometry::options::Spelling`]).
+    #[error("{0}")]
+    Usage(String),
 }
 
 impl Error {

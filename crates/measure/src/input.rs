@@ -604,7 +604,7 @@ pub fn check_in_image(
 
 /// Smallest and largest model scale (mm per model unit): a model in nanometre …
 /// kilometre-scale units.
-pub const MM_PER_UNIT_RANGE: (f64, f64) = (1e-9, 1e9);
+pub use crashrig_geometry::options::MM_PER_UNIT_RANGE;
 
 /// The model's units in mm: `given` (`--mm-per-unit`, `[measure] mm_per_unit`), else the
 /// `mm_per_unit` that the A-covariance file states (a `crashrig covariance` result). Units

@@ -106,6 +106,7 @@ pub mod filter;
 pub mod input;
 pub mod isomme;
 pub mod kinematics;
+mod options;
 pub mod output;
 pub mod plausible;
 mod run;
@@ -113,4 +114,5 @@ pub mod sequence;
 
 pub use engine::{Epoch, Measurement, Rig, Row, Settings, measure, measure_with_joint};
 pub use error::Error;
+pub use options::{DEFAULT_SEED, MeasureOptions};
 pub use run::{ANoise, MeasureConfig, MeasureRun, OutputDir, check_out, run};

@@ -5,6 +5,7 @@ use crate::args::{self, Source, TextFile};
 use crate::convert::{document, to_python};
 use crate::watch::{self, Watch};
 use crate::{py_error, to_py_err};
+use crashrig_geometry::options::{ScaleOptions, Spelling, check_mm_per_unit};
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
@@ -21,40 +22,18 @@ fn warn_all(py: Python<'_>, warnings: &[String]) -> PyResult<()> {
     Ok(())
 }
 
-/// `mm_per_unit` within the range every command accepts (the CLI checks it while parsing).
-fn check_mm_per_unit(v: Option<f64>, name: &str) -> PyResult<Option<f64>> {
-    let (lo, hi) = crashrig_measure::input::MM_PER_UNIT_RANGE;
-    match v {
-        Some(f) if !(f.is_finite() && (lo..=hi).contains(&f)) => Err(py_error(format!(
-            "{name}: must be a number from {lo:e} to {hi:e} mm per model unit"
-        ))),
-        other => Ok(other),
-    }
-}
-
-/// A scale bar: two point3D ids and their distance, given together.
-fn scale_bar(
-    points: Option<Vec<u64>>,
-    length_mm: Option<f64>,
-) -> PyResult<Option<([u64; 2], f64)>> {
-    match (points, length_mm) {
-        (None, None) => Ok(None),
-        (Some(p), Some(l)) if p.len() == 2 => Ok(Some(([p[0], p[1]], l))),
-        (Some(_), Some(_)) => Err(py_error("scale_points: give exactly two point3D ids")),
-        _ => Err(py_error(
-            "scale_points and scale_length_mm go together (a scale bar: two point3D ids and their distance in mm)",
-        )),
-    }
-}
+/// How a scenario given as text is checked: as `propagate` and `grid` read it, or as `place`
+/// reads its base layout (fewer than two observers allowed).
+type ScenarioCheck =
+    fn(&str, &std::path::Path) -> Result<crashrig_mc::Scenario, crashrig_mc::Error>;
 
 /// A scenario as a file the libraries can read: the path, or the TOML text checked (so its
 /// errors name `<scenario>` and the line) and written to a temporary file.
-fn scenario_file(source: Source) -> PyResult<(PathBuf, Option<TextFile>)> {
+fn scenario_file(source: Source, check: ScenarioCheck) -> PyResult<(PathBuf, Option<TextFile>)> {
     match source {
         Source::Path(p) => Ok((p, None)),
         Source::Text(text) => {
-            crashrig_mc::Scenario::from_toml_str(&text, std::path::Path::new("<scenario>"))
-                .map_err(to_py_err)?;
+            check(&text, std::path::Path::new("<scenario>")).map_err(to_py_err)?;
             let file = TextFile::new(&text, "scenario.toml")?;
             Ok((file.path.clone(), Some(file)))
         }
@@ -89,19 +68,13 @@ fn calibrate<'py>(
     plots: Option<&Bound<'py, PyAny>>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    use crashrig_study::calibration::{CalibrationConfig, Scale, calibrate_with_progress};
-    let bar = scale_bar(scale_points, scale_length_mm)?;
-    let mm_per_unit = check_mm_per_unit(mm_per_unit, "mm_per_unit")?;
-    let scale = match (bar, mm_per_unit) {
-        (Some(_), Some(_)) => {
-            return Err(py_error(
-                "scale_points and mm_per_unit exclude each other (give a scale bar or a factor)",
-            ));
-        }
-        (Some((points, length_mm)), None) => Scale::ScaleBar { points, length_mm },
-        (None, Some(f)) => Scale::MmPerUnit(f),
-        (None, None) => Scale::Default,
+    use crashrig_study::calibration::{CalibrationConfig, Scale, calibrate};
+    let options = ScaleOptions {
+        scale_points,
+        scale_length_mm,
+        mm_per_unit,
     };
+    let scale = Scale::from_options(&options, Spelling::Keyword).map_err(to_py_err)?;
     let config = CalibrationConfig {
         model: args::path(model, "model")?,
         camera_a: args::camera(camera_a, "camera_a")?,
@@ -114,7 +87,7 @@ fn calibrate<'py>(
     let plots = args::opt_path(plots, "plots")?;
     let r = watch::run(py, progress, |w: &Watch| {
         let rounds = w.stage("refinement: weighting rounds");
-        calibrate_with_progress(&config, Some(&rounds))
+        calibrate(&config, Some(&rounds))
     })?
     .map_err(to_py_err)?;
     warn_all(py, &r.warnings)?;
@@ -135,10 +108,14 @@ fn calibrate<'py>(
 ///                        iterations=200, mm_per_unit=1000.0, seed=1)
 /// print(t["covariance_tangent"])
 /// ```
+///
+/// `plots` (a folder) receives the histograms `bootstrap_{x,y,z,omega,phi,kappa}.{png,svg}`
+/// and `replicates` (a CSV file) every replicate, as the command's `--plots` and
+/// `--replicates`.
 #[pyfunction]
 #[pyo3(signature = (database, model, image_a, image_b, *, method="absolute", iterations=500,
-    mm_per_unit=1.0, max_error_px=4.0, base_mm=None, resample="inliers", seed=None,
-    progress=None))]
+    mm_per_unit=1.0, max_error_px=4.0, base_mm=None, resample="inliers", seed=None, plots=None,
+    replicates=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn bootstrap<'py>(
     py: Python<'py>,
@@ -153,9 +130,13 @@ fn bootstrap<'py>(
     base_mm: Option<f64>,
     resample: &str,
     seed: Option<u64>,
+    plots: Option<&Bound<'py, PyAny>>,
+    replicates: Option<&Bound<'py, PyAny>>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     use crashrig_study::tie::{self, Method, Resample, TieConfig};
+    let plots = args::opt_path(plots, "plots")?;
+    let replicates_csv = args::opt_path(replicates, "replicates")?;
     let method = Method::from_name(method).ok_or_else(|| {
         py_error(format!(
             "method: {method:?} is not one of \"absolute\", \"relative\""
@@ -170,7 +151,7 @@ fn bootstrap<'py>(
     if !(2..=max).contains(&iterations) {
         return Err(py_error(format!("iterations: must be from 2 to {max}")));
     }
-    check_mm_per_unit(Some(mm_per_unit), "mm_per_unit")?;
+    check_mm_per_unit(mm_per_unit, "mm_per_unit").map_err(to_py_err)?;
     let config = TieConfig {
         database: args::path(database, "database")?,
         model: args::path(model, "model")?,
@@ -187,10 +168,24 @@ fn bootstrap<'py>(
     };
     let r = watch::run(py, progress, |w: &Watch| {
         let replicates = w.stage("replicates + jackknife");
-        tie::bootstrap_with_progress(&config, Some(&replicates))
+        tie::bootstrap(&config, Some(&replicates))
     })?
     .map_err(to_py_err)?;
     warn_all(py, &r.warnings())?;
+    if let Some(dir) = &plots {
+        std::fs::create_dir_all(dir).map_err(|e| {
+            py_error(format!(
+                "{}: cannot create the plot directory: {e}",
+                dir.display()
+            ))
+        })?;
+        for (name, bytes) in r.plots().map_err(to_py_err)? {
+            write_atomic(&dir.join(name), &bytes)?;
+        }
+    }
+    if let Some(path) = &replicates_csv {
+        write_atomic(path, r.replicates_csv().as_bytes())?;
+    }
     to_python(py, &r.to_json())
 }
 
@@ -213,7 +208,10 @@ fn propagate<'py>(
     seed: Option<u64>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let (path, _text) = scenario_file(Source::extract(scenario, "scenario")?)?;
+    let (path, _text) = scenario_file(
+        Source::extract(scenario, "scenario")?,
+        crashrig_mc::Scenario::from_toml_str,
+    )?;
     let config = crashrig_study::PropagateConfig {
         scenario: path,
         samples,
@@ -249,7 +247,10 @@ fn grid<'py>(
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     use crashrig_study::grid_run::ColumnValues;
-    let (path, _text) = scenario_file(Source::extract(scenario, "scenario")?)?;
+    let (path, _text) = scenario_file(
+        Source::extract(scenario, "scenario")?,
+        crashrig_mc::Scenario::from_toml_str,
+    )?;
     let out = args::opt_path(out, "out")?;
     // Without `out` the files go to a temporary folder (no heat maps) that is removed again.
     let scratch = match out {
@@ -340,110 +341,42 @@ fn measure<'py>(
     sync_sigma_ms: f64,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    use crashrig_measure::filter::{CfcSpec, Standard};
-    use crashrig_measure::{ANoise, MeasureConfig, OutputDir, Settings, input};
+    use crashrig_measure::{MeasureOptions, OutputDir};
     let out = args::opt_path(out, "out")?;
-    if let Some(o) = &out {
-        crashrig_measure::check_out(o).map_err(to_py_err)?;
-    }
     let camera_c = camera_c
         .filter(|c| !c.is_none())
         .map(|c| args::camera(c, "camera_c"))
         .transpose()?;
-    let tie = args::opt_path(tie, "tie")?;
-    if camera_c.is_some() != tie.is_some() {
-        return Err(py_error(
-            "camera_c and tie go together (give both for a tied-in camera C, or neither)",
-        ));
-    }
-    let a_covariance = args::opt_path(a_covariance, "a_covariance")?;
-    let no_a_noise =
-        a_covariance.is_none() && sigma_a_position_mm.is_none() && sigma_a_angles_deg.is_none();
-    let a_noise = match a_covariance {
-        Some(p) if sigma_a_position_mm.is_some() || sigma_a_angles_deg.is_some() => {
-            return Err(py_error(format!(
-                "a_covariance ({}) excludes sigma_a_position_mm and sigma_a_angles_deg",
-                p.display()
-            )));
-        }
-        Some(p) => ANoise::File(p),
-        None => {
-            let v = |x: Option<[f64; 3]>, name: &str| -> PyResult<crashrig_geometry::Vec3> {
-                let x = x.unwrap_or([0.0; 3]);
-                if x.iter().all(|c| c.is_finite() && *c >= 0.0) {
-                    Ok(crashrig_geometry::Vec3::from(x))
-                } else {
-                    Err(py_error(format!("{name}: σ must be finite numbers ≥ 0")))
-                }
-            };
-            ANoise::Sigmas {
-                position_mm: v(sigma_a_position_mm, "sigma_a_position_mm")?,
-                angles_deg: v(sigma_a_angles_deg, "sigma_a_angles_deg")?,
-            }
-        }
-    };
-    let a_cov = match &a_noise {
-        ANoise::File(p) => Some(input::read_a_covariance(p).map_err(to_py_err)?),
-        _ => None,
-    };
-    let mm_per_unit = check_mm_per_unit(mm_per_unit, "mm_per_unit")?;
-    let mm_per_unit =
-        input::model_scale(mm_per_unit, a_cov.as_ref(), "mm_per_unit").map_err(to_py_err)?;
-    let cfc = match (cfc, cfc_standard) {
-        (None, Some(_)) => return Err(py_error("cfc_standard needs cfc")),
-        (None, None) => None,
-        (Some(class), standard) => Some(CfcSpec {
-            class,
-            standard: Standard::parse(standard.as_deref().unwrap_or("j211")).map_err(to_py_err)?,
-        }),
-    };
-    let link = args::path(link, "link")?;
-    let config = MeasureConfig {
-        model: args::path(model, "model")?,
-        camera_a: args::camera(camera_a, "camera_a")?,
-        camera_b: args::camera(camera_b, "camera_b")?,
+    let options = MeasureOptions {
         camera_c,
-        a_from_b: input::load_link(&link).map_err(to_py_err)?,
-        b_from_c: tie
-            .as_deref()
-            .map(input::load_link)
-            .transpose()
-            .map_err(to_py_err)?,
-        observations: args::path(observations, "observations")?,
-        mm_per_unit,
-        a_noise,
-        settings: Settings {
-            samples,
-            // The command's default seed.
-            seed: seed.unwrap_or(1),
-            pixel_sigma_px,
-            reference_epoch,
-            frame_rate_hz,
-            threshold_mm,
-            max_reprojection_px,
-            cfc,
-            sync_sigma_ms,
-        },
+        tie: args::opt_path(tie, "tie")?,
         out: out.map(|dir| OutputDir { dir, plots }),
+        mm_per_unit,
+        sigma_a_position_mm,
+        sigma_a_angles_deg,
+        a_covariance: args::opt_path(a_covariance, "a_covariance")?,
+        pixel_sigma_px,
+        samples,
+        seed,
+        reference_epoch,
+        frame_rate_hz,
+        threshold_mm,
+        max_reprojection_px,
+        cfc,
+        cfc_standard,
+        sync_sigma_ms,
+        ..MeasureOptions::new(
+            args::path(model, "model")?,
+            args::camera(camera_a, "camera_a")?,
+            args::camera(camera_b, "camera_b")?,
+            args::path(link, "link")?,
+            args::path(observations, "observations")?,
+        )
     };
+    let config = options.config(Spelling::Keyword).map_err(to_py_err)?;
     let r =
         watch::run(py, progress, |_: &Watch| crashrig_measure::run(&config))?.map_err(to_py_err)?;
-    if no_a_noise {
-        warn_all(
-            py,
-            &["no uncertainty given for camera A's pose (sigma_a_position_mm, sigma_a_angles_deg or a_covariance): it is treated as exact".to_string()],
-        )?;
-    }
-    warn_all(py, &r.warnings)?;
-    warn_all(
-        py,
-        &crashrig_measure::plausible::warnings(
-            &r.measurement,
-            frame_rate_hz,
-            "frame_rate_hz",
-            "mm_per_unit",
-        ),
-    )?;
+    warn_all(py, &options.warnings(&r, Spelling::Keyword))?;
     document(py, &r.summary)
 }
 
@@ -476,22 +409,12 @@ fn covariance<'py>(
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     use crashrig_covariance::{CovarianceConfig, Intrinsics, Scale};
-    let bar = scale_bar(scale_points, scale_length_mm)?;
-    let mm_per_unit = check_mm_per_unit(mm_per_unit, "mm_per_unit")?;
-    let scale = match (bar, mm_per_unit) {
-        (Some(_), Some(_)) => {
-            return Err(py_error(
-                "scale_points and mm_per_unit exclude each other (give a scale bar or a factor)",
-            ));
-        }
-        (Some((points, length_mm)), None) => Scale::ScaleBar { points, length_mm },
-        (None, Some(f)) => Scale::MmPerUnit(f),
-        (None, None) => {
-            return Err(py_error(
-                "give mm_per_unit or a scale bar (scale_points and scale_length_mm)",
-            ));
-        }
+    let options = ScaleOptions {
+        scale_points,
+        scale_length_mm,
+        mm_per_unit,
     };
+    let scale = Scale::from_options(&options, Spelling::Keyword).map_err(to_py_err)?;
     let intrinsics = Intrinsics::parse(intrinsics).ok_or_else(|| {
         py_error(format!(
             "intrinsics: {intrinsics:?} is not one of \"all\", \"colmap\", \"fixed\""
@@ -598,6 +521,96 @@ fn study<'py>(
     to_python(py, &run.json)
 }
 
+/// Where to mount the cameras (`crashrig place --json`): chooses `choose` observers from the
+/// candidates file, writes `out` (`placement.json`, the chosen layout's grid output in
+/// `out/grid/`) and returns `placement.json`. `scenario` is a path or the TOML text.
+///
+/// Example:
+///
+/// ```python
+/// p = crashrig.place("examples/place/scenario.toml", candidates="examples/place/candidates.toml",
+///                    choose=2, out="place_out", samples=300, seed=3)
+/// print(p["chosen"], p["share_below_threshold"])
+/// ```
+#[pyfunction]
+#[pyo3(signature = (scenario, candidates, choose, out, *, samples=None, seed=None, plots=true,
+    progress=None))]
+#[allow(clippy::too_many_arguments)]
+fn place<'py>(
+    py: Python<'py>,
+    scenario: &Bound<'py, PyAny>,
+    candidates: &Bound<'py, PyAny>,
+    choose: usize,
+    out: &Bound<'py, PyAny>,
+    samples: Option<usize>,
+    seed: Option<u64>,
+    plots: bool,
+    progress: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let (path, _text) = scenario_file(
+        Source::extract(scenario, "scenario")?,
+        crashrig_mc::Scenario::from_toml_str_for_placement,
+    )?;
+    let config = crashrig_place::PlaceConfig {
+        scenario: path,
+        candidates: args::path(candidates, "candidates")?,
+        choose,
+        out: args::path(out, "out")?,
+        samples,
+        seed,
+        plots,
+    };
+    let r = watch::run(py, progress, |w: &Watch| {
+        crashrig_place::run(&config, Some(w))
+    })?
+    .map_err(to_py_err)?;
+    warn_all(py, &r.grid.warnings)?;
+    document(py, &r.placement)
+}
+
+/// Merges the shard directories of a `--shard i/N` run into `out` (`crashrig merge --json`):
+/// exactly what the unsharded run writes; returns its summary (`grid` shards: `summary.json`).
+///
+/// Example:
+///
+/// ```python
+/// import subprocess
+/// for i in (1, 2):
+///     subprocess.run(["crashrig", "grid", "scenario.toml", "--shard", f"{i}/2",
+///                     "--out", f"shards/{i}"], check=True)
+/// s = crashrig.merge(["shards/1", "shards/2"], out="grid_out")
+/// print(s["points"], s["median_sigma_max_mm"])
+/// ```
+#[pyfunction]
+#[pyo3(signature = (shards, out, *, plots=true))]
+fn merge<'py>(
+    py: Python<'py>,
+    shards: &Bound<'py, PyAny>,
+    out: &Bound<'py, PyAny>,
+    plots: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    use crashrig_study::merge::{MergeRun, merge_shards};
+    if shards.is_instance_of::<pyo3::types::PyString>() {
+        return Err(pyo3::exceptions::PyTypeError::new_err(
+            "shards: expected a list of shard directories, got one str",
+        ));
+    }
+    let dirs = shards
+        .try_iter()?
+        .map(|d| args::path(&d?, "shards"))
+        .collect::<PyResult<Vec<_>>>()?;
+    let out = args::path(out, "out")?;
+    let r =
+        watch::run(py, None, |_: &Watch| merge_shards(&dirs, &out, plots))?.map_err(to_py_err)?;
+    match r {
+        MergeRun::Grid(r) => {
+            warn_all(py, &r.warnings)?;
+            document(py, &r.summary)
+        }
+        _ => Err(py_error("this crashrig cannot return what it merged")),
+    }
+}
+
 /// Adds the command functions to the module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(calibrate, m)?)?;
@@ -607,5 +620,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(measure, m)?)?;
     m.add_function(wrap_pyfunction!(covariance, m)?)?;
     m.add_function(wrap_pyfunction!(study, m)?)?;
+    m.add_function(wrap_pyfunction!(place, m)?)?;
+    m.add_function(wrap_pyfunction!(merge, m)?)?;
     Ok(())
 }

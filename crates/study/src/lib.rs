@@ -9,6 +9,7 @@
 //!   grid study per layout, with a one-at-a-time sensitivity;
 //! - [`grid_run`]: [`run_grid`], the library entry of `crashrig grid`;
 //! - [`propagate_run`]: [`run_propagate`], the library entry of `crashrig propagate`;
+//! - [`merge`]: [`merge::merge_shards`], the library entry of `crashrig merge`;
 //! - [`study_run`]: [`study_run::run_to_dir`], the library entry of `crashrig study` (run +
 //!   every output file);
 //! - [`grids`]: grid summaries, `grid.csv` and heat maps;
@@ -44,6 +45,7 @@ pub mod grids;
 pub mod html;
 pub mod kinematics_report;
 pub mod measure_step;
+pub mod merge;
 pub mod pipeline;
 pub mod propagate_run;
 pub mod quality;
@@ -52,7 +54,7 @@ pub mod study_file;
 pub mod study_run;
 pub mod tie;
 
-pub use error::Error;
+pub use error::{Error, StepError};
 pub use grid_run::{GridConfig, GridRun, run_grid, run_grid_scenario};
 pub use pipeline::{Options, StudyResult, run_study};
 pub use propagate_run::{PropagateConfig, PropagateRun, run_propagate};

@@ -8,6 +8,7 @@
 //! parsed back or rewritten as text.
 
 use crate::Error;
+use crate::StepError;
 use crate::calibration::{self, CalibrationConfig, CalibrationResult};
 use crate::grids::GridSummary;
 use crate::study_file::{
@@ -18,6 +19,7 @@ use crashrig_geometry::{Mat6, UncertainPose};
 use crashrig_mc::{
     CameraId, Chain, ChainBuilder, GridBuilder, GridResult, GridStudy, PoseLinear, PoseMc,
 };
+use crashrig_stats::progress::Monitor;
 use nalgebra::Vector3;
 use serde_json::{Value, json};
 
@@ -354,7 +356,7 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
     }
     for (i, layout) in study.layouts.iter().enumerate() {
         crate::study_file::check_layout_size(layout, samples)
-            .map_err(|m| study.step_error("layout", i, m))?;
+            .map_err(|problem| study.step_error("layout", i, StepError::LayoutSize { problem }))?;
     }
     let n_sens: usize = if options.no_sensitivity {
         0
@@ -400,15 +402,17 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
     let on = options.progress.is_some();
 
     let sub = within("calibration".into());
-    let calibration =
-        calibration::calibrate_with_progress(&calibration_config(study), hook(on, &sub))
-            .map_err(|e| study.step_error("calibration", 0, e.to_string()))?;
+    let calibration = calibration::calibrate(
+        &calibration_config(study),
+        on.then_some(&sub as &dyn Monitor),
+    )
+    .map_err(|e| study.step_error("calibration", 0, e))?;
     tick("calibration");
     let tie = match &study.tie {
         Some(t) => {
             let sub = within("tie replicates + jackknife".into());
-            let r = tie::bootstrap_with_progress(&tie_config(t, seed), hook(on, &sub))
-                .map_err(|e| study.step_error("tie", 0, e.to_string()))?;
+            let r = tie::bootstrap(&tie_config(t, seed), on.then_some(&sub as &dyn Monitor))
+                .map_err(|e| study.step_error("tie", 0, e))?;
             tick("tie");
             Some(r)
         }
@@ -423,7 +427,7 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
         inputs.push((ChainCamera::Tie, t.link));
     }
     // The chain of outward → inward → tie: its errors name `[outward]`'s line.
-    let mc_err = |e: crashrig_mc::Error| study.step_error("outward", 0, e.to_string());
+    let mc_err = |e: crashrig_mc::Error| study.step_error("outward", 0, e);
     let (chain_mc, _) = build_chain(&inputs, &Scales::unit(0)).map_err(mc_err)?;
     let sub = within("propagation chunks".into());
     let mc = chain_mc.monte_carlo_with_progress(study.chain_samples, seed, hook(on, &sub));
@@ -450,7 +454,7 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
                 .iter()
                 .position(|l| std::ptr::eq(l, layout))
                 .unwrap_or(0);
-            study.step_error("layout", i, e.to_string())
+            study.step_error("layout", i, e)
         };
         let g = layout_study(&inputs, layout, s, samples, seed).map_err(at_layout)?;
         crashrig_mc::degenerate::check_layout(g.grid()).map_err(at_layout)?;

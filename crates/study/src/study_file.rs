@@ -9,7 +9,7 @@
 //!   propagated world covariance of that chain camera unchanged: the vehicle axes are taken as
 //!   parallel to the world axes (the covariance is not rotated).
 
-use crate::Error;
+use crate::{Error, StepError};
 use crashrig_geometry::{Mat6, Rigid3, UncertainPose, Vec3};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -1468,13 +1468,13 @@ impl Study {
     }
 
     /// An [`Error::Step`] for a failure of the step configured by section `key`.
-    pub fn step_error(&self, key: &str, n: usize, message: impl Into<String>) -> Error {
+    pub fn step_error(&self, key: &str, n: usize, source: impl Into<StepError>) -> Error {
         let section = key.split('[').next().unwrap_or(key);
         Error::Step {
             path: self.path.clone(),
             line: self.section_line(section, n).or(Some(1)),
             key: key.to_string(),
-            message: message.into(),
+            source: Box::new(source.into()),
         }
     }
 }

@@ -5,7 +5,8 @@
 //! retry policy, JSON, report, plots) lives in `crashrig_study::calibration`.
 
 use crate::Global;
-use crashrig_study::calibration::{CalibrationConfig, Scale, calibrate_with_progress};
+use crashrig_geometry::options::{ScaleOptions, Spelling};
+use crashrig_study::calibration::{CalibrationConfig, Scale, calibrate};
 use std::path::PathBuf;
 
 /// Arguments of `crashrig calibrate`.
@@ -51,16 +52,14 @@ pub struct CalibrateArgs {
 
 impl CalibrateArgs {
     /// The library configuration these arguments stand for.
-    pub fn config(&self) -> CalibrationConfig {
-        let scale = match (&self.scale_points, self.scale_length_mm, self.mm_per_unit) {
-            (Some(ids), Some(len), _) if ids.len() == 2 => Scale::ScaleBar {
-                points: [ids[0], ids[1]],
-                length_mm: len,
-            },
-            (_, _, Some(f)) => Scale::MmPerUnit(f),
-            _ => Scale::Default,
+    pub fn config(&self) -> Result<CalibrationConfig, crashrig_study::Error> {
+        let options = ScaleOptions {
+            scale_points: self.scale_points.clone(),
+            scale_length_mm: self.scale_length_mm,
+            mm_per_unit: self.mm_per_unit,
         };
-        CalibrationConfig {
+        let scale = Scale::from_options(&options, Spelling::Flag)?;
+        Ok(CalibrationConfig {
             model: self.model.clone(),
             camera_a: self.camera_a.clone(),
             camera_b: self.camera_b.clone(),
@@ -68,7 +67,7 @@ impl CalibrateArgs {
             max_lag: self.max_lag,
             refine: !self.no_refine,
             accept_rig_constrained: self.accept_rig_constrained,
-        }
+        })
     }
 }
 
@@ -76,7 +75,7 @@ impl CalibrateArgs {
 pub fn run(a: CalibrateArgs, g: &Global) -> anyhow::Result<()> {
     let bar = crate::progress::Bar::new("crashrig calibrate");
     let rounds = bar.stage("refinement: weighting rounds");
-    let r = calibrate_with_progress(&a.config(), bar.hook(&rounds))?;
+    let r = calibrate(&a.config()?, bar.monitor(&rounds))?;
     bar.finish();
     for w in &r.warnings {
         eprintln!("warning: {w}");

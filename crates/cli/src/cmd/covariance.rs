@@ -6,6 +6,7 @@
 
 use crate::Global;
 use crashrig_covariance::{CovarianceConfig, Intrinsics, Scale};
+use crashrig_geometry::options::{ScaleOptions, Spelling};
 use std::path::PathBuf;
 
 /// Arguments of `crashrig covariance`.
@@ -53,28 +54,27 @@ pub struct CovarianceArgs {
 
 impl CovarianceArgs {
     /// The library configuration these arguments stand for.
-    pub fn config(&self) -> CovarianceConfig {
-        let scale = match (&self.scale_points, self.scale_length_mm, self.mm_per_unit) {
-            (Some(ids), Some(len), _) if ids.len() == 2 => Scale::ScaleBar {
-                points: [ids[0], ids[1]],
-                length_mm: len,
-            },
-            (_, _, f) => Scale::MmPerUnit(f.unwrap_or(f64::NAN)),
+    pub fn config(&self) -> Result<CovarianceConfig, crashrig_covariance::Error> {
+        let options = ScaleOptions {
+            scale_points: self.scale_points.clone(),
+            scale_length_mm: self.scale_length_mm,
+            mm_per_unit: self.mm_per_unit,
         };
-        CovarianceConfig {
+        let scale = Scale::from_options(&options, Spelling::Flag)?;
+        Ok(CovarianceConfig {
             model: self.model.clone(),
             camera_a: self.camera.clone(),
             control_points: self.control_points.clone(),
             scale,
             pixel_sigma_px: self.pixel_sigma_px,
             intrinsics: Intrinsics::parse(&self.intrinsics).unwrap_or(Intrinsics::All),
-        }
+        })
     }
 }
 
 /// Runs `crashrig covariance`.
 pub fn run(a: CovarianceArgs, g: &Global) -> anyhow::Result<()> {
-    let r = crashrig_covariance::run(&a.config())?;
+    let r = crashrig_covariance::run(&a.config()?)?;
     for w in &r.warnings {
         eprintln!("warning: {w}");
     }

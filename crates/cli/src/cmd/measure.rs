@@ -1,12 +1,9 @@
 //! `crashrig measure`: marker trajectories with their uncertainty from a crash-test sequence.
 
 use crate::Global;
-use crashrig_measure::input;
-use crashrig_measure::{MeasureConfig, OutputDir, Settings};
+use crashrig_geometry::options::Spelling;
+use crashrig_measure::{MeasureOptions, OutputDir};
 use std::path::PathBuf;
-
-/// Default seed of `measure` when `--seed` is not given.
-pub const DEFAULT_SEED: u64 = 1;
 
 /// Arguments of `crashrig measure`.
 #[derive(Debug, Clone, clap::Args)]
@@ -67,21 +64,12 @@ pub struct MeasureArgs {
     pub kinematics: super::measure_options::KinematicsArgs,
 }
 
-/// Runs the command: arguments → [`MeasureConfig`] → [`crashrig_measure::run`] → print.
+/// Runs the command: arguments → [`MeasureOptions`] → [`crashrig_measure::run`] → print.
 pub fn run(a: MeasureArgs, g: &Global) -> anyhow::Result<()> {
-    let config = config(&a, g.seed)?;
-    let r = crashrig_measure::run(&config)?;
+    let options = options(&a, g.seed);
+    let r = crashrig_measure::run(&options.config(Spelling::Flag)?)?;
     // Warnings after a successful run: a failed run prints its one `error:` line only.
-    if a.a_noise.is_empty() {
-        eprintln!("warning: {}", super::measure_options::A_EXACT_WARNING);
-    }
-    crate::output::warn_all(&r.warnings);
-    crate::output::warn_all(&crashrig_measure::plausible::warnings(
-        &r.measurement,
-        a.frame_rate_hz,
-        "--frame-rate-hz",
-        "--mm-per-unit",
-    ));
+    crate::output::warn_all(&options.warnings(&r, Spelling::Flag));
     let s = &r.summary;
     if g.json {
         return crate::output::print_json(s);
@@ -103,46 +91,36 @@ pub fn run(a: MeasureArgs, g: &Global) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The typed configuration of the arguments: checks the flags and reads the link and the tie.
-fn config(a: &MeasureArgs, seed: Option<u64>) -> anyhow::Result<MeasureConfig> {
-    crashrig_measure::check_out(&a.out)?;
-    anyhow::ensure!(
-        a.camera_c.is_some() == a.tie.is_some(),
-        "--camera-c and --tie go together (give both for a tied-in camera C, or neither)"
-    );
-    // Units are never guessed: the flag, or the units the A covariance states.
-    let a_cov = a
-        .a_noise
-        .a_covariance
-        .as_deref()
-        .map(input::read_a_covariance)
-        .transpose()?;
-    let mm_per_unit = input::model_scale(a.mm_per_unit, a_cov.as_ref(), "--mm-per-unit")?;
-    let a_noise = a.a_noise.to_config()?;
-    Ok(MeasureConfig {
-        model: a.model.clone(),
-        camera_a: a.camera_a.clone(),
-        camera_b: a.camera_b.clone(),
+/// The library's options these arguments stand for.
+fn options(a: &MeasureArgs, seed: Option<u64>) -> MeasureOptions {
+    use super::measure_options::three;
+    MeasureOptions {
         camera_c: a.camera_c.clone(),
-        a_from_b: input::load_link(&a.link)?,
-        b_from_c: a.tie.as_deref().map(input::load_link).transpose()?,
-        observations: a.observations.clone(),
-        mm_per_unit,
-        a_noise,
-        settings: Settings {
-            samples: a.samples,
-            seed: seed.unwrap_or(DEFAULT_SEED),
-            pixel_sigma_px: a.pixel_sigma_px,
-            reference_epoch: a.reference_epoch.clone(),
-            frame_rate_hz: a.frame_rate_hz,
-            threshold_mm: a.threshold_mm,
-            max_reprojection_px: a.max_reprojection_px,
-            cfc: a.kinematics.cfc_spec()?,
-            sync_sigma_ms: a.kinematics.sync_sigma_ms,
-        },
+        tie: a.tie.clone(),
         out: Some(OutputDir {
             dir: a.out.clone(),
             plots: !a.no_plots,
         }),
-    })
+        mm_per_unit: a.mm_per_unit,
+        sigma_a_position_mm: three(&a.a_noise.sigma_a_position_mm),
+        sigma_a_angles_deg: three(&a.a_noise.sigma_a_angles_deg),
+        a_covariance: a.a_noise.a_covariance.clone(),
+        pixel_sigma_px: a.pixel_sigma_px,
+        samples: a.samples,
+        seed,
+        reference_epoch: a.reference_epoch.clone(),
+        frame_rate_hz: a.frame_rate_hz,
+        threshold_mm: a.threshold_mm,
+        max_reprojection_px: a.max_reprojection_px,
+        cfc: a.kinematics.cfc,
+        cfc_standard: a.kinematics.cfc_standard.clone(),
+        sync_sigma_ms: a.kinematics.sync_sigma_ms,
+        ..MeasureOptions::new(
+            a.model.clone(),
+            a.camera_a.clone(),
+            a.camera_b.clone(),
+            a.link.clone(),
+            a.observations.clone(),
+        )
+    }
 }

@@ -2,13 +2,7 @@
 //! `--a-covariance`) and the kinematics (`--cfc`, `--cfc-standard`, `--sync-sigma-ms`;
 //! `docs/KINEMATICS.md`).
 
-use crashrig_geometry::Vec3;
-use crashrig_measure::ANoise;
-use crashrig_measure::filter::{CfcSpec, Standard};
 use std::path::PathBuf;
-
-/// The warning when no uncertainty of A is given.
-pub const A_EXACT_WARNING: &str = "no uncertainty given for camera A's pose (--sigma-a-position-mm, --sigma-a-angles-deg or --a-covariance): it is treated as exact";
 
 /// Camera A's pose uncertainty per epoch: σ values or a covariance file.
 #[derive(Debug, Clone, clap::Args)]
@@ -24,31 +18,9 @@ pub struct ANoiseArgs {
     pub a_covariance: Option<PathBuf>,
 }
 
-impl ANoiseArgs {
-    /// No uncertainty given at all (A's pose is then treated as exact, with a warning).
-    pub fn is_empty(&self) -> bool {
-        self.a_covariance.is_none()
-            && self.sigma_a_position_mm.is_none()
-            && self.sigma_a_angles_deg.is_none()
-    }
-
-    /// The typed noise of A (σ must be finite and ≥ 0; absent σ are 0).
-    pub fn to_config(&self) -> anyhow::Result<ANoise> {
-        Ok(match &self.a_covariance {
-            Some(p) => ANoise::File(p.clone()),
-            None => ANoise::Sigmas {
-                position_mm: vec3(&self.sigma_a_position_mm, "--sigma-a-position-mm")?,
-                angles_deg: vec3(&self.sigma_a_angles_deg, "--sigma-a-angles-deg")?,
-            },
-        })
-    }
-}
-
-fn vec3(v: &Option<Vec<f64>>, name: &str) -> anyhow::Result<Vec3> {
-    let x = v.as_deref().map_or(Vec3::zeros(), Vec3::from_row_slice);
-    let ok = x.iter().all(|c| c.is_finite() && *c >= 0.0);
-    anyhow::ensure!(ok, "{name}: σ must be finite numbers ≥ 0");
-    Ok(x)
+/// Three values of a flag with `num_args = 3` (clap gives exactly three).
+pub fn three(v: &Option<Vec<f64>>) -> Option<[f64; 3]> {
+    v.as_deref().map(|x| [x[0], x[1], x[2]])
 }
 
 /// Filtered kinematics and camera A's trigger offset.
@@ -70,15 +42,4 @@ pub struct KinematicsArgs {
         allow_negative_numbers = true
     )]
     pub sync_sigma_ms: f64,
-}
-
-impl KinematicsArgs {
-    /// The filter of `--cfc` / `--cfc-standard` (default standard: j211), if any.
-    pub fn cfc_spec(&self) -> anyhow::Result<Option<CfcSpec>> {
-        let Some(class) = self.cfc else {
-            return Ok(None);
-        };
-        let standard = Standard::parse(self.cfc_standard.as_deref().unwrap_or("j211"))?;
-        Ok(Some(CfcSpec { class, standard }))
-    }
 }

@@ -1,9 +1,10 @@
 //! `crashrig merge`: the shard directories of a `--shard i/N` run → the unsharded output.
 //! Arguments → [`crashrig_outdir::shard::read_set`] (refuses missing, repeated and foreign
-//! shards) → the command's merge entry → print.
+//! shards) → `place` shards: [`crashrig_place::shard::merge`]; others:
+//! [`crashrig_study::merge::merge_shards`] (merges by the command that wrote them) → print.
 
 use crate::Global;
-use crashrig_outdir::shard::{MAX_SHARDS, Manifest, read_set};
+use crashrig_outdir::shard::{MAX_SHARDS, Manifest};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `crashrig merge`.
@@ -22,16 +23,16 @@ pub struct MergeArgs {
 
 /// Runs `crashrig merge`.
 pub fn run(a: MergeArgs, g: &Global) -> anyhow::Result<()> {
-    let shards = read_set(&a.shards)?;
-    match shards[0].1.command.as_str() {
-        crashrig_study::grid_shard::COMMAND => {
-            let r = crashrig_study::grid_shard::merge_grid(&shards, &a.out, !a.no_plots)?;
-            super::grid::print(&r, &a.out, g)
-        }
-        other => anyhow::bail!(
-            "{}: a `{other}` shard; this crashrig merges `grid` shards",
-            shards[0].0.join(crashrig_outdir::shard::MANIFEST).display()
-        ),
+    use crashrig_study::merge::{MergeRun, merge_shards};
+    // Place shards are merged by crashrig-place (it sits above crashrig-study in the DAG).
+    let shards = crashrig_outdir::shard::read_set(&a.shards)?;
+    if shards[0].1.command == crashrig_place::shard::COMMAND {
+        let r = crashrig_place::shard::merge(&shards, &a.out, !a.no_plots)?;
+        return super::place::print(&r, &a.out, g);
+    }
+    match merge_shards(&a.shards, &a.out, !a.no_plots)? {
+        MergeRun::Grid(r) => super::grid::print(&r, &a.out, g),
+        _ => anyhow::bail!("this crashrig cannot print what it merged"),
     }
 }
 

@@ -115,9 +115,13 @@ def bootstrap(
     base_mm: Optional[float] = None,
     resample: str = "inliers",
     seed: Optional[int] = None,
+    plots: Optional[PathLike] = None,
+    replicates: Optional[PathLike] = None,
     progress: Optional[Progress] = None,
 ) -> Dict[str, Any]:
-    """``crashrig bootstrap --json`` (seed 1 when not given, as the command).
+    """``crashrig bootstrap --json`` (seed 1 when not given, as the command); ``plots``: a
+    folder for the histograms, ``replicates``: a CSV of every replicate (``--plots``,
+    ``--replicates``).
 
     >>> t = crashrig.bootstrap("db.db", model="model", image_a="a.png", image_b="b.png", seed=1)
     """
@@ -211,4 +215,33 @@ def study(
     """``crashrig study --json``: runs the study, writes ``out``, returns results.json.
 
     >>> r = crashrig.study("fixtures/study/study.toml", out="study_out", seed=1)
+    """
+
+def place(
+    scenario: PathOrToml,
+    candidates: PathLike,
+    choose: int,
+    out: PathLike,
+    *,
+    samples: Optional[int] = None,
+    seed: Optional[int] = None,
+    plots: bool = True,
+    progress: Optional[Progress] = None,
+) -> Dict[str, Any]:
+    """``crashrig place --json``: writes ``out`` (placement.json, grid/), returns placement.json.
+
+    >>> p = crashrig.place("examples/place/scenario.toml", candidates="examples/place/candidates.toml",
+    ...                    choose=2, out="place_out", samples=300, seed=3)
+    """
+
+def merge(
+    shards: Sequence[PathLike],
+    out: PathLike,
+    *,
+    plots: bool = True,
+) -> Dict[str, Any]:
+    """``crashrig merge --json``: the shard directories of a ``--shard i/N`` run merged into
+    ``out``; returns the merged run's summary (grid shards: summary.json).
+
+    >>> s = crashrig.merge(["shards/1", "shards/2"], out="grid_out")
     """

@@ -1,0 +1,312 @@
+//! The options of `crashrig measure` as a front end gives them (the CLI's flags, Python's
+//! keywords) → a checked [`MeasureConfig`]: the pairs that go together or exclude each other,
+//! the σ of camera A, the model's units, the link and the tie read, the filter.
+//!
+//! ```no_run
+//! use crashrig_geometry::options::Spelling;
+//! use crashrig_measure::MeasureOptions;
+//! let options = MeasureOptions {
+//!     mm_per_unit: Some(1000.0),
+//!     sigma_a_position_mm: Some([0.5; 3]),
+//!     ..MeasureOptions::new("seq/model", "cam_out/", "cam_in/", "link.json", "markers.csv")
+//! };
+//! let config = options.config(Spelling::Flag)?;
+//! let run = crashrig_measure::run(&config)?;
+//! for w in options.warnings(&run, Spelling::Flag) {
+//!     eprintln!("warning: {w}");
+//! }
+//! # Ok::<(), crashrig_measure::Error>(())
+//! ```
+
+use crate::filter::{CfcSpec, Standard};
+use crate::{ANoise, Error, MeasureConfig, MeasureRun, OutputDir, Settings, input};
+use crashrig_geometry::Vec3;
+use crashrig_geometry::options::{Spelling, check_mm_per_unit};
+use std::path::PathBuf;
+
+/// The seed of `measure` when none is given.
+pub const DEFAULT_SEED: u64 = 1;
+
+/// The options of `crashrig measure` (`crashrig.measure` in Python), unchecked.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeasureOptions {
+    /// COLMAP model of the sequence.
+    pub model: PathBuf,
+    /// Camera A: image-name prefix or camera id.
+    pub camera_a: String,
+    /// Camera B: camera id or image-name prefix.
+    pub camera_b: String,
+    /// Camera C (tied to B by [`MeasureOptions::tie`]).
+    pub camera_c: Option<String>,
+    /// The calibrated link `A_from_B`: a `calibrate --json` result.
+    pub link: PathBuf,
+    /// The tie `B_from_C`: a `bootstrap --json` result.
+    pub tie: Option<PathBuf>,
+    /// Marker observations CSV.
+    pub observations: PathBuf,
+    /// The output directory (`None`: compute only).
+    pub out: Option<OutputDir>,
+    /// Model units → mm (else the units the A-covariance file states).
+    pub mm_per_unit: Option<f64>,
+    /// σ of A's projection centre per epoch (mm; absent: 0).
+    pub sigma_a_position_mm: Option<[f64; 3]>,
+    /// σ of A's rotation per epoch (degrees; absent: 0).
+    pub sigma_a_angles_deg: Option<[f64; 3]>,
+    /// A's pose covariance per epoch (JSON); excludes the σ.
+    pub a_covariance: Option<PathBuf>,
+    /// σ of each pixel coordinate (px).
+    pub pixel_sigma_px: f64,
+    /// Monte Carlo replicates per row.
+    pub samples: usize,
+    /// The seed ([`DEFAULT_SEED`] when `None`).
+    pub seed: Option<u64>,
+    /// Reference epoch of the displacements.
+    pub reference_epoch: Option<String>,
+    /// Frame rate (Hz).
+    pub frame_rate_hz: Option<f64>,
+    /// σ_max above which rows are flagged (mm).
+    pub threshold_mm: f64,
+    /// Reprojection residual above which rows are flagged (px).
+    pub max_reprojection_px: Option<f64>,
+    /// CFC filter class of the kinematics.
+    pub cfc: Option<u32>,
+    /// The filter's standard (`j211` when `None`); needs [`MeasureOptions::cfc`].
+    pub cfc_standard: Option<String>,
+    /// σ of A's trigger offset (ms).
+    pub sync_sigma_ms: f64,
+}
+
+impl MeasureOptions {
+    /// The required inputs with every other option at the command's default.
+    pub fn new(
+        model: impl Into<PathBuf>,
+        camera_a: impl Into<String>,
+        camera_b: impl Into<String>,
+        link: impl Into<PathBuf>,
+        observations: impl Into<PathBuf>,
+    ) -> MeasureOptions {
+        MeasureOptions {
+            model: model.into(),
+            camera_a: camera_a.into(),
+            camera_b: camera_b.into(),
+            camera_c: None,
+            link: link.into(),
+            tie: None,
+            observations: observations.into(),
+            out: None,
+            mm_per_unit: None,
+            sigma_a_position_mm: None,
+            sigma_a_angles_deg: None,
+            a_covariance: None,
+            pixel_sigma_px: 0.5,
+            samples: 2000,
+            seed: None,
+            reference_epoch: None,
+            frame_rate_hz: None,
+            threshold_mm: 5.0,
+            max_reprojection_px: None,
+            cfc: None,
+            cfc_standard: None,
+            sync_sigma_ms: 0.0,
+        }
+    }
+
+    /// No uncertainty of camera A given (its pose is then treated as exact, with a warning).
+    pub fn a_is_exact(&self) -> bool {
+        self.a_covariance.is_none()
+            && self.sigma_a_position_mm.is_none()
+            && self.sigma_a_angles_deg.is_none()
+    }
+
+    /// Checks the options and reads the link, the tie and the A covariance's units.
+    ///
+    /// # Errors
+    /// [`Error::Usage`] (names in `spelling`) for options that do not fit together or a σ or
+    /// scale out of range; the errors of [`crate::check_out`], [`input::read_a_covariance`],
+    /// [`input::model_scale`], [`input::load_link`] and [`Standard::parse`].
+    pub fn config(&self, spelling: Spelling) -> Result<MeasureConfig, Error> {
+        let name = |k| spelling.name(k);
+        if let Some(out) = &self.out {
+            crate::check_out(&out.dir)?;
+        }
+        if self.camera_c.is_some() != self.tie.is_some() {
+            return Err(Error::Usage(format!(
+                "{} and {} go together (give both for a tied-in camera C, or neither)",
+                name("camera_c"),
+                name("tie")
+            )));
+        }
+        if let Some(p) = &self.a_covariance
+            && (self.sigma_a_position_mm.is_some() || self.sigma_a_angles_deg.is_some())
+        {
+            return Err(Error::Usage(format!(
+                "{} ({}) excludes {} and {}",
+                name("a_covariance"),
+                p.display(),
+                name("sigma_a_position_mm"),
+                name("sigma_a_angles_deg")
+            )));
+        }
+        if self.cfc.is_none() && self.cfc_standard.is_some() {
+            return Err(Error::Usage(format!(
+                "{} needs {}",
+                name("cfc_standard"),
+                name("cfc")
+            )));
+        }
+        let given = self
+            .mm_per_unit
+            .map(|f| check_mm_per_unit(f, name("mm_per_unit")))
+            .transpose()
+            .map_err(|e| Error::Usage(e.to_string()))?;
+        // Units are never guessed: the option, or the units the A covariance states.
+        let a_cov = self
+            .a_covariance
+            .as_deref()
+            .map(input::read_a_covariance)
+            .transpose()?;
+        let mm_per_unit = input::model_scale(given, a_cov.as_ref(), name("mm_per_unit"))?;
+        let a_noise = match &self.a_covariance {
+            Some(p) => ANoise::File(p.clone()),
+            None => ANoise::Sigmas {
+                position_mm: sigmas(self.sigma_a_position_mm, name("sigma_a_position_mm"))?,
+                angles_deg: sigmas(self.sigma_a_angles_deg, name("sigma_a_angles_deg"))?,
+            },
+        };
+        let cfc = self
+            .cfc
+            .map(|class| {
+                let standard = Standard::parse(self.cfc_standard.as_deref().unwrap_or("j211"))?;
+                Ok::<_, Error>(CfcSpec { class, standard })
+            })
+            .transpose()?;
+        Ok(MeasureConfig {
+            model: self.model.clone(),
+            camera_a: self.camera_a.clone(),
+            camera_b: self.camera_b.clone(),
+            camera_c: self.camera_c.clone(),
+            a_from_b: input::load_link(&self.link)?,
+            b_from_c: self.tie.as_deref().map(input::load_link).transpose()?,
+            observations: self.observations.clone(),
+            mm_per_unit,
+            a_noise,
+            settings: Settings {
+                samples: self.samples,
+                seed: self.seed.unwrap_or(DEFAULT_SEED),
+                pixel_sigma_px: self.pixel_sigma_px,
+                reference_epoch: self.reference_epoch.clone(),
+                frame_rate_hz: self.frame_rate_hz,
+                threshold_mm: self.threshold_mm,
+                max_reprojection_px: self.max_reprojection_px,
+                cfc,
+                sync_sigma_ms: self.sync_sigma_ms,
+            },
+            out: self.out.clone(),
+        })
+    }
+
+    /// The warnings of a finished run, in the order the command prints them: A treated as
+    /// exact, the run's own, implausible values of the frame rate or the units.
+    pub fn warnings(&self, run: &MeasureRun, spelling: Spelling) -> Vec<String> {
+        let mut all = Vec::new();
+        if self.a_is_exact() {
+            all.push(format!(
+                "no uncertainty given for camera A's pose ({}, {} or {}): it is treated as exact",
+                spelling.name("sigma_a_position_mm"),
+                spelling.name("sigma_a_angles_deg"),
+                spelling.name("a_covariance")
+            ));
+        }
+        all.extend(run.warnings.iter().cloned());
+        all.extend(crate::plausible::warnings(
+            &run.measurement,
+            self.frame_rate_hz,
+            spelling.name("frame_rate_hz"),
+            spelling.name("mm_per_unit"),
+        ));
+        all
+    }
+}
+
+/// Three σ (absent: 0), finite and ≥ 0.
+fn sigmas(v: Option<[f64; 3]>, name: &str) -> Result<Vec3, Error> {
+    let x = Vec3::from(v.unwrap_or([0.0; 3]));
+    if x.iter().all(|c| c.is_finite() && *c >= 0.0) {
+        Ok(x)
+    } else {
+        Err(Error::Usage(format!(
+            "{name}: σ must be finite numbers ≥ 0"
+        )))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn options() -> MeasureOptions {
+        MeasureOptions::new(
+            "no/model",
+            "cam_out/",
+            "cam_in/",
+            "no/link.json",
+            "no/markers.csv",
+        )
+    }
+
+    fn message(o: &MeasureOptions, spelling: Spelling) -> String {
+        o.config(spelling).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn options_that_do_not_fit_are_named_as_each_front_end_spells_them() {
+        let c_alone = MeasureOptions {
+            camera_c: Some("cam_door/".into()),
+            ..options()
+        };
+        assert_eq!(
+            message(&c_alone, Spelling::Flag),
+            "--camera-c and --tie go together (give both for a tied-in camera C, or neither)"
+        );
+        assert_eq!(
+            message(&c_alone, Spelling::Keyword),
+            "camera_c and tie go together (give both for a tied-in camera C, or neither)"
+        );
+        let both = MeasureOptions {
+            a_covariance: Some("a.json".into()),
+            sigma_a_angles_deg: Some([0.1; 3]),
+            ..options()
+        };
+        assert_eq!(
+            message(&both, Spelling::Keyword),
+            "a_covariance (a.json) excludes sigma_a_position_mm and sigma_a_angles_deg"
+        );
+        let standard = MeasureOptions {
+            cfc_standard: Some("j211".into()),
+            ..options()
+        };
+        assert_eq!(
+            message(&standard, Spelling::Flag),
+            "--cfc-standard needs --cfc"
+        );
+        let units = MeasureOptions {
+            mm_per_unit: Some(0.0),
+            ..options()
+        };
+        assert_eq!(
+            message(&units, Spelling::Flag),
+            "--mm-per-unit: must be a number from 1e-9 to 1e9 mm per model unit"
+        );
+        let sigma = MeasureOptions {
+            mm_per_unit: Some(1.0),
+            sigma_a_position_mm: Some([0.1, f64::NAN, 0.1]),
+            ..options()
+        };
+        assert_eq!(
+            message(&sigma, Spelling::Keyword),
+            "sigma_a_position_mm: σ must be finite numbers ≥ 0"
+        );
+        // Units are never guessed.
+        assert!(message(&options(), Spelling::Flag).contains("--mm-per-unit"));
+    }
+}
