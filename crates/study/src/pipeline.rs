@@ -872,5 +872,13 @@ sigma_angles_deg = [0.01, 0.01, 0.01]
             sigmas(2),
             "correlated = false draws independently"
         );
+        // The verdict states the independence assumption, and why, for exactly those two.
+        let note = crate::report::independent_chain_observers_note(&r).unwrap();
+        assert!(
+            note.starts_with(
+                "Assumption of independent (`correlated = false`), off_by_2mm (observers not at their chain cameras):"
+            ),
+            "{note}"
+        );
     }
 }

@@ -622,7 +622,7 @@ fn unreliable_sem_note(c: &crate::calibration::CalibrationResult) -> String {
 /// (`from = …`) but are drawn independently — `correlated = false`, or observers that do not
 /// stand at their chain cameras (so the physical default, [`crate::pipeline::resolve_correlated`],
 /// cannot apply): stated in the verdict (issue 25 §5); `None` when no layout does that.
-fn independent_chain_observers_note(r: &StudyResult) -> Option<String> {
+pub(crate) fn independent_chain_observers_note(r: &StudyResult) -> Option<String> {
     let names: Vec<String> = r
         .layouts
         .iter()
