@@ -160,8 +160,12 @@ pub struct Layout {
     pub threshold_mm: f64,
     /// Pixel noise σ (px) and focal length (px), optional.
     pub pixel: Option<(f64, f64)>,
-    /// Observers drawn jointly from one chain draw (`correlated = true`).
-    pub correlated: bool,
+    /// `correlated` as written: `Some(true)` draws the `from` observers jointly from one chain
+    /// draw (the physical, rigid-body model), `Some(false)` independently; `None` (key absent)
+    /// is the default the pipeline resolves against the chain's nominal poses
+    /// ([`crate::pipeline::physical_model_applies`]): jointly when at least two aimed `from`
+    /// observers stand at their chain cameras, else independently.
+    pub correlated: Option<bool>,
     /// At least two observers.
     pub observers: Vec<Observer>,
 }
@@ -1406,7 +1410,7 @@ impl Study {
                     .as_ref()
                     .map_or(Ok(5.0), |v| cx.positive(v, &k("threshold_mm")))?,
                 pixel,
-                correlated: l.correlated.unwrap_or(false),
+                correlated: l.correlated,
                 observers,
             };
             check_layout_size(&layout, samples).map_err(|message| Error::Key {
