@@ -45,6 +45,7 @@
 //! # Ok::<(), crashrig_covariance::Error>(())
 //! ```
 
+pub mod contract;
 mod control;
 mod error;
 mod gauge;
@@ -442,52 +443,59 @@ fn a_from_frame_tangent(p: &problem::Problem, image: usize, mm_per_unit: f64) ->
 }
 
 impl CovarianceResult {
-    /// The JSON document of `crashrig covariance` (what `measure --a-covariance` reads).
-    pub fn to_json(&self) -> serde_json::Value {
-        use serde_json::{Map, Value, json};
-        let rows = |m: &Mat6| -> Value {
-            Value::Array(
-                (0..6)
-                    .map(|i| json!((0..6).map(|j| m[(i, j)]).collect::<Vec<f64>>()))
-                    .collect(),
-            )
+    /// The JSON document of `crashrig covariance` (what `measure --a-covariance` reads) as
+    /// typed structs.
+    pub fn document(&self) -> contract::CovarianceDocument {
+        let rows = |m: &Mat6| -> [[f64; 6]; 6] {
+            std::array::from_fn(|i| std::array::from_fn(|j| m[(i, j)]))
         };
-        let mut epochs = Map::new();
-        let mut summary = Vec::new();
-        for e in &self.epochs {
-            epochs.insert(e.name.clone(), rows(&e.world_from_a.covariance_deg()));
-            let sp = e.world_from_a.sigma_position();
-            let sr = e.world_from_a.sigma_rotation().map(f64::to_degrees);
-            let c = e.world_from_a.center();
-            summary.push(json!({
-                "name": e.name,
-                "image": e.image,
-                "position_mm": [c.x, c.y, c.z],
-                "sigma_position_mm": [sp.x, sp.y, sp.z],
-                "sigma_angles_deg": [sr.x, sr.y, sr.z],
-            }));
-        }
-        let n = self.joint_deg.nrows();
-        let joint: Vec<Vec<f64>> = (0..n)
-            .map(|i| (0..n).map(|j| self.joint_deg[(i, j)]).collect())
+        let epochs = self
+            .epochs
+            .iter()
+            .map(|e| (e.name.clone(), rows(&e.world_from_a.covariance_deg())))
             .collect();
-        json!({
-            "epochs": epochs,
-            "sigma0_px": if self.sigma0_px.is_finite() { json!(self.sigma0_px) } else { Value::Null },
-            "pixel_sigma_px": self.pixel_sigma_px,
-            "observations": self.observations,
-            "parameters": self.parameters,
-            "redundancy": self.redundancy,
-            "control_points": self.control_points,
-            "intrinsics": self.intrinsics.name(),
-            "mm_per_unit": self.mm_per_unit,
-            "frames": self.frames,
-            "points_left_out": self.points_left_out,
-            "epoch_sigmas": summary,
-            "joint": {
-                "epochs": self.epochs.iter().map(|e| e.name.clone()).collect::<Vec<_>>(),
-                "covariance_tangent": joint,
+        let epoch_sigmas = self
+            .epochs
+            .iter()
+            .map(|e| {
+                let sp = e.world_from_a.sigma_position();
+                let sr = e.world_from_a.sigma_rotation().map(f64::to_degrees);
+                let c = e.world_from_a.center();
+                contract::EpochSigmas {
+                    image: e.image.clone(),
+                    name: e.name.clone(),
+                    position_mm: [c.x, c.y, c.z],
+                    sigma_position_mm: [sp.x, sp.y, sp.z],
+                    sigma_angles_deg: [sr.x, sr.y, sr.z],
+                }
+            })
+            .collect();
+        let n = self.joint_deg.nrows();
+        contract::CovarianceDocument {
+            control_points: self.control_points,
+            epoch_sigmas,
+            epochs,
+            frames: self.frames,
+            intrinsics: self.intrinsics.name(),
+            joint: contract::JointCovariance {
+                covariance_tangent: (0..n)
+                    .map(|i| (0..n).map(|j| self.joint_deg[(i, j)]).collect())
+                    .collect(),
+                epochs: self.epochs.iter().map(|e| e.name.clone()).collect(),
             },
-        })
+            mm_per_unit: self.mm_per_unit,
+            observations: self.observations,
+            parameters: self.parameters,
+            pixel_sigma_px: self.pixel_sigma_px,
+            points_left_out: self.points_left_out,
+            redundancy: self.redundancy,
+            sigma0_px: self.sigma0_px.is_finite().then_some(self.sigma0_px),
+        }
+    }
+
+    /// [`Self::document`] as a JSON value (the same bytes when printed).
+    pub fn to_json(&self) -> serde_json::Value {
+        // Infallible: every map key is a string.
+        serde_json::to_value(self.document()).unwrap_or(serde_json::Value::Null)
     }
 }

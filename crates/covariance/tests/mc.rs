@@ -94,3 +94,74 @@ fn measure_reads_the_document() {
         );
     }
 }
+
+/// The document as the library built it with `json!` before the typed `contract` structs
+/// (kept here as the reference of the byte-identical output).
+fn json_literal_document(r: &crashrig_covariance::CovarianceResult) -> serde_json::Value {
+    use serde_json::{Map, Value, json};
+    let rows = |m: &crashrig_geometry::Mat6| -> Value {
+        Value::Array(
+            (0..6)
+                .map(|i| json!((0..6).map(|j| m[(i, j)]).collect::<Vec<f64>>()))
+                .collect(),
+        )
+    };
+    let mut epochs = Map::new();
+    let mut summary = Vec::new();
+    for e in &r.epochs {
+        epochs.insert(e.name.clone(), rows(&e.world_from_a.covariance_deg()));
+        let sp = e.world_from_a.sigma_position();
+        let sr = e.world_from_a.sigma_rotation().map(f64::to_degrees);
+        let c = e.world_from_a.center();
+        summary.push(json!({
+            "name": e.name,
+            "image": e.image,
+            "position_mm": [c.x, c.y, c.z],
+            "sigma_position_mm": [sp.x, sp.y, sp.z],
+            "sigma_angles_deg": [sr.x, sr.y, sr.z],
+        }));
+    }
+    let n = r.joint_deg.nrows();
+    let joint: Vec<Vec<f64>> = (0..n)
+        .map(|i| (0..n).map(|j| r.joint_deg[(i, j)]).collect())
+        .collect();
+    json!({
+        "epochs": epochs,
+        "sigma0_px": if r.sigma0_px.is_finite() { json!(r.sigma0_px) } else { Value::Null },
+        "pixel_sigma_px": r.pixel_sigma_px,
+        "observations": r.observations,
+        "parameters": r.parameters,
+        "redundancy": r.redundancy,
+        "control_points": r.control_points,
+        "intrinsics": r.intrinsics.name(),
+        "mm_per_unit": r.mm_per_unit,
+        "frames": r.frames,
+        "points_left_out": r.points_left_out,
+        "epoch_sigmas": summary,
+        "joint": {
+            "epochs": r.epochs.iter().map(|e| e.name.clone()).collect::<Vec<_>>(),
+            "covariance_tangent": joint,
+        },
+    })
+}
+
+/// The typed document prints the same bytes as the `json!` document it replaced, serialised
+/// directly or through `to_json`, also with σ̂₀ undefined (`null`).
+#[test]
+fn document_is_byte_identical_to_the_json_literal() {
+    let mut r = run(&CovarianceConfig {
+        model: dir().join("model"),
+        camera_a: "cam_out/".into(),
+        control_points: dir().join("control_points.csv"),
+        scale: Scale::MmPerUnit(1000.0),
+        pixel_sigma_px: None,
+        intrinsics: Intrinsics::Colmap,
+    })
+    .unwrap();
+    for _ in 0..2 {
+        let want = serde_json::to_string_pretty(&json_literal_document(&r)).unwrap();
+        assert_eq!(serde_json::to_string_pretty(&r.to_json()).unwrap(), want);
+        assert_eq!(serde_json::to_string_pretty(&r.document()).unwrap(), want);
+        r.sigma0_px = f64::NAN;
+    }
+}

@@ -132,6 +132,12 @@ pub enum Error {
         /// What is wrong.
         problem: String,
     },
+    /// A bundled input of `crashrig paper` is missing or unusable (a bug of the program).
+    #[error("internal: {problem}")]
+    Bundled {
+        /// What is wrong.
+        problem: String,
+    },
     /// A scenario without cameras given to `propagate`.
     #[error("{}: `camera`: the scenario has no camera", path.display())]
     NoCamera {

@@ -46,6 +46,7 @@ pub mod html;
 pub mod kinematics_report;
 pub mod measure_step;
 pub mod merge;
+pub mod paper_study;
 pub mod pipeline;
 pub mod propagate_run;
 pub mod quality;

@@ -482,6 +482,52 @@ fn errors_name_the_file_or_option() {
     c.database = fixture("bootstrap/tie_sampling/missing.db");
     let e = tie::bootstrap(&c, None).unwrap_err().to_string();
     assert!(e.contains("missing.db"), "{e}");
+    // Moved from `crates/cli/src/cmd/bootstrap.rs` (the command passes these through).
+    let mut c = config(Method::Relative, Resample::Inliers, 10);
+    c.image_b = c.image_a.clone();
+    let e = tie::bootstrap(&c, None).unwrap_err().to_string();
+    assert!(e.contains("same image"), "{e}");
+    let mut c = config(Method::Relative, Resample::Inliers, 10);
+    c.base_mm = Some(0.0);
+    let e = tie::bootstrap(&c, None).unwrap_err().to_string();
+    assert!(e.contains("--base-mm"), "{e}");
+}
+
+/// An image that is in the model but not in the database is named, with the database.
+#[test]
+fn errors_image_missing_from_database() {
+    use crashrig_colmap::Reconstruction;
+    let c = config(Method::Absolute, Resample::Inliers, 10);
+    let m = Reconstruction::read(&c.model).unwrap();
+    let mut images = m.images().to_vec();
+    for im in &mut images {
+        if im.name == c.image_b {
+            im.name = "renamed.png".into();
+        }
+    }
+    let renamed = Reconstruction::from_records(
+        m.cameras().to_vec(),
+        m.rigs().to_vec(),
+        m.frames().to_vec(),
+        images,
+        m.points3d().to_vec(),
+    )
+    .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    renamed
+        .write(dir.path(), crashrig_colmap::ModelFormat::Binary)
+        .unwrap();
+    let c = TieConfig {
+        model: dir.path().to_path_buf(),
+        image_b: "renamed.png".into(),
+        ..c
+    };
+    let msg = tie::bootstrap(&c, None).unwrap_err().to_string();
+    assert!(
+        msg.contains("\"renamed.png\" is not in the database"),
+        "{msg}"
+    );
+    assert!(msg.contains("database.db"), "{msg}");
 }
 
 /// Cancels once a report reaches `after` units.
