@@ -275,6 +275,11 @@ impl Scenario {
         Self::parse(&text, path, 0)
     }
 
+    /// [`Scenario::from_path_for_placement`] on the text of a scenario (errors name `path`).
+    pub fn from_toml_str_for_placement(text: &str, path: &Path) -> Result<Self, Error> {
+        Self::parse(text, path, 0)
+    }
+
     fn parse(text: &str, path: &Path, min_observers: usize) -> Result<Self, Error> {
         crate::limits::check_document(text, path)?;
         let raw: RawScenario = toml::from_str(text).map_err(|e| toml_error(&e, text, path))?;

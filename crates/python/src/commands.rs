@@ -22,14 +22,18 @@ fn warn_all(py: Python<'_>, warnings: &[String]) -> PyResult<()> {
     Ok(())
 }
 
+/// How a scenario given as text is checked: as `propagate` and `grid` read it, or as `place`
+/// reads its base layout (fewer than two observers allowed).
+type ScenarioCheck =
+    fn(&str, &std::path::Path) -> Result<crashrig_mc::Scenario, crashrig_mc::Error>;
+
 /// A scenario as a file the libraries can read: the path, or the TOML text checked (so its
 /// errors name `<scenario>` and the line) and written to a temporary file.
-fn scenario_file(source: Source) -> PyResult<(PathBuf, Option<TextFile>)> {
+fn scenario_file(source: Source, check: ScenarioCheck) -> PyResult<(PathBuf, Option<TextFile>)> {
     match source {
         Source::Path(p) => Ok((p, None)),
         Source::Text(text) => {
-            crashrig_mc::Scenario::from_toml_str(&text, std::path::Path::new("<scenario>"))
-                .map_err(to_py_err)?;
+            check(&text, std::path::Path::new("<scenario>")).map_err(to_py_err)?;
             let file = TextFile::new(&text, "scenario.toml")?;
             Ok((file.path.clone(), Some(file)))
         }
@@ -64,7 +68,7 @@ fn calibrate<'py>(
     plots: Option<&Bound<'py, PyAny>>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    use crashrig_study::calibration::{CalibrationConfig, Scale, calibrate_with_progress};
+    use crashrig_study::calibration::{CalibrationConfig, Scale, calibrate};
     let options = ScaleOptions {
         scale_points,
         scale_length_mm,
@@ -83,7 +87,7 @@ fn calibrate<'py>(
     let plots = args::opt_path(plots, "plots")?;
     let r = watch::run(py, progress, |w: &Watch| {
         let rounds = w.stage("refinement: weighting rounds");
-        calibrate_with_progress(&config, Some(&rounds))
+        calibrate(&config, Some(&rounds))
     })?
     .map_err(to_py_err)?;
     warn_all(py, &r.warnings)?;
@@ -164,7 +168,7 @@ fn bootstrap<'py>(
     };
     let r = watch::run(py, progress, |w: &Watch| {
         let replicates = w.stage("replicates + jackknife");
-        tie::bootstrap_with_progress(&config, Some(&replicates))
+        tie::bootstrap(&config, Some(&replicates))
     })?
     .map_err(to_py_err)?;
     warn_all(py, &r.warnings())?;
@@ -204,7 +208,10 @@ fn propagate<'py>(
     seed: Option<u64>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let (path, _text) = scenario_file(Source::extract(scenario, "scenario")?)?;
+    let (path, _text) = scenario_file(
+        Source::extract(scenario, "scenario")?,
+        crashrig_mc::Scenario::from_toml_str,
+    )?;
     let config = crashrig_study::PropagateConfig {
         scenario: path,
         samples,
@@ -240,7 +247,10 @@ fn grid<'py>(
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     use crashrig_study::grid_run::ColumnValues;
-    let (path, _text) = scenario_file(Source::extract(scenario, "scenario")?)?;
+    let (path, _text) = scenario_file(
+        Source::extract(scenario, "scenario")?,
+        crashrig_mc::Scenario::from_toml_str,
+    )?;
     let out = args::opt_path(out, "out")?;
     // Without `out` the files go to a temporary folder (no heat maps) that is removed again.
     let scratch = match out {
@@ -537,7 +547,10 @@ fn place<'py>(
     plots: bool,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let (path, _text) = scenario_file(Source::extract(scenario, "scenario")?)?;
+    let (path, _text) = scenario_file(
+        Source::extract(scenario, "scenario")?,
+        crashrig_mc::Scenario::from_toml_str_for_placement,
+    )?;
     let config = crashrig_place::PlaceConfig {
         scenario: path,
         candidates: args::path(candidates, "candidates")?,
