@@ -205,6 +205,21 @@ impl Inputs {
         })
     }
 
+    /// The first-order table over the scenario's own observers and every candidate.
+    pub(crate) fn table(
+        &self,
+        config: &PlaceConfig,
+        progress: Option<&dyn Reporter>,
+    ) -> Result<approx::Table, Error> {
+        let own = self.scenario.grid.as_ref().map_or(0, |g| g.observers.len());
+        let all = layout(&self.scenario, &self.candidates);
+        let study = GridStudy::new(&all, self.samples, self.seed)
+            .map_err(|e| Error::input(&config.candidates, e))?;
+        let hook = progress.map(|r| progress::stage(r, "first-order terms"));
+        let hook = hook.as_ref().map(|h| h as &(dyn Fn(usize, usize) + Sync));
+        approx::Table::build(&study, own, hook).map_err(|e| Error::input(&config.candidates, e))
+    }
+
     /// The layout with the candidates `order` (indices, in pick order) mounted.
     pub(crate) fn layout(&self, order: &[usize]) -> Scenario {
         let chosen: Vec<Observer> = order.iter().map(|&c| self.candidates[c].clone()).collect();
@@ -256,33 +271,27 @@ impl Shortlist {
         config: &PlaceConfig,
         progress: Option<&dyn Reporter>,
     ) -> Result<Shortlist, Error> {
-        let own = inputs
-            .scenario
-            .grid
-            .as_ref()
-            .map_or(0, |g| g.observers.len());
-        let all = layout(&inputs.scenario, &inputs.candidates);
-        let study = GridStudy::new(&all, inputs.samples, inputs.seed)
-            .map_err(|e| Error::input(&config.candidates, e))?;
-        let hook = progress.map(|r| progress::stage(r, "first-order terms"));
-        let hook = hook.as_ref().map(|h| h as &(dyn Fn(usize, usize) + Sync));
-        let table = approx::Table::build(&study, own, hook)
-            .map_err(|e| Error::input(&config.candidates, e))?;
-        drop(study);
+        let table = inputs.table(config, progress)?;
         let found = search::search(&table, inputs.k, MAX_CONFIRMED);
+        Ok(Shortlist::of(&table, &found))
+    }
+
+    /// The layouts of `found`'s board whose approximate share is within [`CONFIRM_MARGIN`] of
+    /// the best, in rank order, each in pick order.
+    pub(crate) fn of(table: &approx::Table, found: &search::Found) -> Shortlist {
         let best_share = found.board.entries.first().map_or(0.0, |(s, _)| s.share());
         let layouts = found
             .board
             .entries
             .iter()
             .filter(|(s, _)| s.share() >= best_share - CONFIRM_MARGIN)
-            .map(|(s, set)| (*s, search::order_within(&table, set, set.len())))
+            .map(|(s, set)| (*s, search::order_within(table, set, set.len())))
             .collect();
-        Ok(Shortlist {
+        Shortlist {
             method: found.method,
             evaluated: found.evaluated,
             layouts,
-        })
+        }
     }
 
     /// `placement.json` from the Monte Carlo scores of the layouts (in shortlist order), and

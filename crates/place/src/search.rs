@@ -6,6 +6,7 @@
 use crate::approx::{Score, Table};
 use rayon::prelude::*;
 use std::cmp::Ordering;
+use std::ops::Range;
 
 /// The best distinct K-layouts scored so far (candidate indices, sorted), best first; ties
 /// by the lexicographically smaller set, so the board does not depend on the evaluation order.
@@ -53,7 +54,8 @@ impl Board {
         self.entries.truncate(self.cap);
     }
 
-    fn merge(mut self, other: Board) -> Board {
+    /// The board of both boards' layouts.
+    pub fn merge(mut self, other: Board) -> Board {
         for (s, l) in other.entries {
             self.offer(s, &l);
         }
@@ -102,6 +104,106 @@ pub fn search(table: &Table, k: usize, keep: usize) -> Found {
     };
     found.evaluated = table.scored() - before;
     found
+}
+
+/// The work items of a sharded search: the C(n, K) subsets in lexicographic order when the
+/// search is exhaustive, else 1 (greedy + swap is one sequential search that cannot be split).
+pub fn items(n: usize, k: usize) -> usize {
+    let c = binomial(n, k);
+    if c <= crate::EXHAUSTIVE_MAX_LAYOUTS as u128 {
+        c as usize
+    } else {
+        1
+    }
+}
+
+/// The share `ranks` of the search of [`items`]: the subsets of those lexicographic ranks
+/// (exhaustive), or the whole greedy + swap search when `ranks` holds its one item (else
+/// nothing). The board holds the best `keep` layouts of the share; the best `keep` layouts of
+/// the union of all shares' boards are the unsharded search's (the board's order is total).
+pub fn search_share(table: &Table, k: usize, keep: usize, ranks: Range<usize>) -> Found {
+    let n = table.candidates();
+    let before = table.scored();
+    let mut found = if binomial(n, k) <= crate::EXHAUSTIVE_MAX_LAYOUTS as u128 {
+        exhaustive_ranks(table, k, keep, ranks)
+    } else if ranks.is_empty() {
+        Found {
+            method: GREEDY_SWAP,
+            evaluated: 0,
+            board: Board::new(keep),
+        }
+    } else {
+        greedy_swap(table, k, keep)
+    };
+    found.evaluated = table.scored() - before;
+    found
+}
+
+/// The K-subset of `0..n` with lexicographic rank `r` (`r < C(n, K)`).
+pub fn unrank(n: usize, k: usize, mut r: u128) -> Vec<usize> {
+    let mut out = Vec::with_capacity(k);
+    let mut x = 0;
+    for i in 0..k {
+        loop {
+            let with_x = binomial(n - x - 1, k - i - 1);
+            if r < with_x {
+                out.push(x);
+                x += 1;
+                break;
+            }
+            r -= with_x;
+            x += 1;
+        }
+    }
+    out
+}
+
+/// The lexicographic successor of `layout` among the K-subsets of `0..n`; false after the last.
+fn next_subset(layout: &mut [usize], n: usize) -> bool {
+    let k = layout.len();
+    let mut i = k;
+    while i > 0 {
+        i -= 1;
+        if layout[i] < n - k + i {
+            layout[i] += 1;
+            for j in i + 1..k {
+                layout[j] = layout[j - 1] + 1;
+            }
+            return true;
+        }
+    }
+    false
+}
+
+/// The subsets of lexicographic ranks `ranks`, in parallel chunks (boards merged; the result
+/// does not depend on the chunking).
+fn exhaustive_ranks(table: &Table, k: usize, keep: usize, ranks: Range<usize>) -> Found {
+    let n = table.candidates();
+    const CHUNK: usize = 512;
+    let starts: Vec<usize> = ranks.clone().step_by(CHUNK).collect();
+    let board = starts
+        .into_par_iter()
+        .map(|start| {
+            let end = (start + CHUNK).min(ranks.end);
+            let mut board = Board::new(keep);
+            let mut dirs = Vec::new();
+            let mut layout = unrank(n, k, start as u128);
+            for r in start..end {
+                board.offer(table.score(&layout, &mut dirs), &layout);
+                if r + 1 < end && !next_subset(&mut layout, n) {
+                    break;
+                }
+            }
+            board
+        })
+        .collect::<Vec<_>>()
+        .into_iter()
+        .fold(Board::new(keep), |acc, b| acc.merge(b));
+    Found {
+        method: EXHAUSTIVE,
+        evaluated: 0,
+        board,
+    }
 }
 
 /// Every K-subset, split by its first index across threads (each enumerates its subsets in

@@ -1,18 +1,26 @@
 //! `crashrig place --shard i/N` and the place half of `crashrig merge` (docs/SCALE.md).
 //!
-//! Every shard runs the whole first-order search — it is deterministic (the search's board
-//! ranks ties by the candidate sets, not by the evaluation order), so every shard finds the
-//! same shortlist — and then the Monte Carlo confirmation of **every** shortlisted layout on
-//! its share of the grid points (`Shard::range(points)`), as a grid shard runs them
-//! ([`crashrig_study::grid_shard::write_scenario_rows`]: each point's draws come from its own
-//! streams, so the rows are bit-identical to the unsharded run's). The shard directory holds
-//! `shard.json`, the search's shortlist (`place_shard.json`) and the rows of layout k
-//! (`layout<k>_points.csv`, with `layout<k>_points_independent.csv` in correlated mode).
+//! The search dominates a placement (on the 40-candidate example, K = 4, the search alone
+//! takes as long as the whole run: `docs/performance.md`), so the shards split **the search**:
+//! its work items are the C(n, K) subsets in lexicographic order when it is exhaustive (shard i
+//! scores the ranks `Shard::range(C(n, K))`), or one item, the whole greedy + swap search
+//! (sequential rounds; one shard runs it, the others write an empty board). Each shard
+//! keeps the board of its best layouts, and confirms by the Monte Carlo, **on every grid
+//! point**, the layouts of its board within [`crate::CONFIRM_MARGIN`] of its own best
+//! ([`crashrig_study::grid_shard::write_scenario_rows`]; each point's draws come from its own
+//! streams, so the rows are the unsharded run's bit for bit). The board's order is total
+//! (score, then the candidate set), so the best layouts of the union of the shards' boards are
+//! the unsharded search's; and every layout the unsharded run confirms was confirmed by the
+//! shard that scored it (its share is within the margin of the global best, hence of its
+//! shard's best, and fewer than [`crate::MAX_CONFIRMED`] layouts of its shard beat it).
+//! The shard directory holds `shard.json`, its board (`place_shard.json`) and the rows of the
+//! layouts it confirmed (`layout<k>_points.csv`, with `layout<k>_points_independent.csv` in
+//! correlated mode).
 //!
-//! [`merge`] reads every layout's rows back, scores them as the unsharded run does, picks the
-//! same winner, and writes `placement.json` and the winner's `grid/` through the code of
-//! `crashrig grid` — no draw is repeated (the unsharded run draws the winner twice, once to
-//! confirm it and once for `grid/`; both give the same bits).
+//! [`merge`] merges the boards, takes the confirmed layouts' rows from the shards that hold
+//! them, scores them as the unsharded run does, picks the same winner, and writes
+//! `placement.json` and the winner's `grid/` through the code of `crashrig grid` — no draw is
+//! repeated.
 //!
 //! # Example
 //! ```no_run
@@ -40,7 +48,9 @@
 //! ```
 
 use crate::approx::Score;
-use crate::{Error, Inputs, PlaceConfig, PlaceRun, Shortlist, commit, replaceable, score_of};
+use crate::{
+    Error, Inputs, PlaceConfig, PlaceRun, Shortlist, commit, replaceable, score_of, search,
+};
 use crashrig_outdir::shard::{MANIFEST, Manifest, Shard};
 use crashrig_stats::progress::Reporter;
 use crashrig_study::grid_shard::{fingerprint_inputs, read_scenario_rows, write_scenario_rows};
@@ -50,10 +60,10 @@ use std::path::{Path, PathBuf};
 /// The `command` of a place shard's manifest.
 pub const COMMAND: &str = "place";
 
-/// The search's shortlist in a place shard directory.
+/// The board of a place shard (`place_shard.json`).
 pub const SEARCH_FILE: &str = "place_shard.json";
 
-/// Largest `place_shard.json` read (a shortlist of at most [`crate::MAX_CONFIRMED`] layouts
+/// Largest `place_shard.json` read (a board of at most [`crate::MAX_CONFIRMED`] layouts
 /// of at most 1000 names is far smaller).
 const MAX_SEARCH_BYTES: u64 = 4 << 20;
 
@@ -66,8 +76,8 @@ pub struct ShardRun {
     pub files: usize,
 }
 
-/// `place_shard.json`: the candidates file and K the shard ran with, and the search's
-/// shortlist (every shard of one run holds the same).
+/// `place_shard.json`: the candidates file and K the shard ran with, and the board of its
+/// share of the search.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SearchFile {
@@ -75,20 +85,24 @@ struct SearchFile {
     candidates: PathBuf,
     choose: usize,
     method: String,
+    /// Layouts the shard scored to first order.
     evaluated: u64,
-    layouts: Vec<LayoutEntry>,
+    board: Vec<BoardEntry>,
 }
 
-/// One shortlisted layout: names in pick order and its approximate score (the sum in Rust's
-/// shortest round-trip decimal form, so it parses back to the same bits).
+/// One layout of a shard's board: names (in pick order when the shard confirmed it, else in
+/// file order), its approximate score (the sum in Rust's shortest round-trip decimal form, so
+/// it parses back to the same bits) and, when the shard confirmed it, the k of its
+/// `layout<k>_points.csv`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct LayoutEntry {
+struct BoardEntry {
     chosen: Vec<String>,
     below: usize,
     points: usize,
     with_sigma: usize,
     sum_sigma_max_mm: String,
+    rows: Option<usize>,
 }
 
 /// The file-name prefix of layout `i`'s rows (0-based `i`; `layout1_` first).
@@ -118,8 +132,9 @@ fn input_fingerprint(config: &PlaceConfig, inputs: &Inputs) -> Result<String, Er
 }
 
 /// Runs shard `shard` of `config`'s placement and writes the shard directory `config.out`
-/// (`config.plots` is ignored: maps are drawn by the merge). The shard runs the whole search
-/// and its share of the grid points of every layout the search shortlists.
+/// (`config.plots` is ignored: maps are drawn by the merge). The shard scores its share of the
+/// search ([`crate::search::search_share`]) and confirms the best layouts of its board on every
+/// grid point.
 ///
 /// # Errors
 /// As [`crate::run`].
@@ -133,43 +148,54 @@ pub fn run_shard(
     let mut staged = crashrig_outdir::Staged::new(&config.out, shard_replaceable)?;
     let fingerprint = input_fingerprint(config, &inputs)?;
     let start = std::time::Instant::now();
-    let shortlist = Shortlist::find(&inputs, config, progress)?;
-    let range = shard.range(inputs.points);
+    let table = inputs.table(config, progress)?;
+    let n = inputs.candidates.len();
+    let total = search::items(n, inputs.k);
+    let range = shard.range(total);
+    let found = search::search_share(&table, inputs.k, crate::MAX_CONFIRMED, range.clone());
+    let local = Shortlist::of(&table, &found);
+    drop(table);
     let mut files = 2;
-    for (i, (_, order)) in shortlist.layouts.iter().enumerate() {
-        files += write_scenario_rows(
-            &inputs.layout(order),
-            &config.scenario,
-            inputs.samples,
-            inputs.seed,
-            range.clone(),
-            &prefix(i),
-            &mut staged,
-            progress,
-        )?;
+    let mut board = Vec::with_capacity(found.board.entries.len());
+    for (i, (score, set)) in found.board.entries.iter().enumerate() {
+        // The shortlist is the board's first entries (the margin filter keeps its order).
+        let (order, rows) = match local.layouts.get(i) {
+            Some((_, order)) => {
+                files += write_scenario_rows(
+                    &inputs.layout(order),
+                    &config.scenario,
+                    inputs.samples,
+                    inputs.seed,
+                    0..inputs.points,
+                    &prefix(i),
+                    &mut staged,
+                    progress,
+                )?;
+                (order.clone(), Some(i + 1))
+            }
+            None => (set.clone(), None),
+        };
+        board.push(BoardEntry {
+            chosen: inputs.names(&order),
+            below: score.below,
+            points: score.points,
+            with_sigma: score.with_sigma,
+            sum_sigma_max_mm: score.sum_sigma_max_mm.to_string(),
+            rows,
+        });
     }
     let absolute = |p: &Path| std::fs::canonicalize(p).unwrap_or(p.to_path_buf());
     let search = SearchFile {
         candidates: absolute(&config.candidates),
         choose: inputs.k,
-        method: shortlist.method.to_string(),
-        evaluated: shortlist.evaluated,
-        layouts: shortlist
-            .layouts
-            .iter()
-            .map(|(s, order)| LayoutEntry {
-                chosen: inputs.names(order),
-                below: s.below,
-                points: s.points,
-                with_sigma: s.with_sigma,
-                sum_sigma_max_mm: s.sum_sigma_max_mm.to_string(),
-            })
-            .collect(),
+        method: found.method.to_string(),
+        evaluated: found.evaluated,
+        board,
     };
     let mut manifest = Manifest::new(
         COMMAND,
         shard,
-        inputs.points,
+        total,
         range,
         fingerprint,
         inputs.seed,
@@ -207,28 +233,33 @@ fn read_search(dir: &Path) -> Result<SearchFile, Error> {
     serde_json::from_slice(&bytes).map_err(|e| bad(format!("line {}: {e}", e.line())))
 }
 
+/// A board entry of one shard in terms of the candidates: its set (sorted), pick order and
+/// score, the shard (position in the set) and the k of its rows.
+struct Owned {
+    set: Vec<usize>,
+    order: Vec<usize>,
+    score: Score,
+    shard: usize,
+    rows: Option<usize>,
+}
+
 impl SearchFile {
-    /// The shortlist in terms of `inputs`' candidates.
-    fn shortlist(&self, inputs: &Inputs, path: &Path) -> Result<Shortlist, Error> {
+    /// The board's entries in terms of `inputs`' candidates.
+    fn entries(&self, inputs: &Inputs, shard: usize, path: &Path) -> Result<Vec<Owned>, Error> {
         let bad = |problem: String| Error::Shard {
             path: path.to_path_buf(),
             problem,
         };
-        let method = match self.method.as_str() {
-            m if m == crate::search::EXHAUSTIVE => crate::search::EXHAUSTIVE,
-            m if m == crate::search::GREEDY_SWAP => crate::search::GREEDY_SWAP,
-            other => return Err(bad(format!("`method`: `{other}` is not a search method"))),
-        };
-        if self.layouts.is_empty() || self.layouts.len() > crate::MAX_CONFIRMED {
+        if self.board.len() > crate::MAX_CONFIRMED {
             return Err(bad(format!(
-                "`layouts`: {} layouts, expected 1 to {}",
-                self.layouts.len(),
+                "`board`: {} layouts, at most {}",
+                self.board.len(),
                 crate::MAX_CONFIRMED
             )));
         }
-        let mut layouts = Vec::with_capacity(self.layouts.len());
-        for l in &self.layouts {
-            let order = l
+        let mut out = Vec::with_capacity(self.board.len());
+        for e in &self.board {
+            let order = e
                 .chosen
                 .iter()
                 .map(|name| {
@@ -239,25 +270,28 @@ impl SearchFile {
                         .ok_or_else(|| bad(format!("`chosen`: no candidate is named `{name}`")))
                 })
                 .collect::<Result<Vec<usize>, Error>>()?;
-            let sum = l.sum_sigma_max_mm.parse::<f64>().map_err(|_| {
+            let sum = e.sum_sigma_max_mm.parse::<f64>().map_err(|_| {
                 bad(format!(
                     "`sum_sigma_max_mm`: `{}` is not a number",
-                    l.sum_sigma_max_mm
+                    e.sum_sigma_max_mm
                 ))
             })?;
-            let score = Score {
-                below: l.below,
-                points: l.points,
-                sum_sigma_max_mm: sum,
-                with_sigma: l.with_sigma,
-            };
-            layouts.push((score, order));
+            let mut set = order.clone();
+            set.sort_unstable();
+            out.push(Owned {
+                set,
+                order,
+                score: Score {
+                    below: e.below,
+                    points: e.points,
+                    sum_sigma_max_mm: sum,
+                    with_sigma: e.with_sigma,
+                },
+                shard,
+                rows: e.rows,
+            });
         }
-        Ok(Shortlist {
-            method,
-            evaluated: self.evaluated,
-            layouts,
-        })
+        Ok(out)
     }
 }
 
@@ -268,8 +302,8 @@ impl SearchFile {
 /// shards recorded and must have the fingerprint they recorded. Nothing is written on an error.
 ///
 /// # Errors
-/// [`Error::Shard`] for a shard that is not a place shard, a shortlist that differs between
-/// shards, or inputs that changed; the errors of [`crate::run`] and of
+/// [`Error::Shard`] for a shard that is not a place shard, a board that names other
+/// candidates, K or method than the first shard's, or inputs that changed; the errors of [`crate::run`] and of
 /// [`crashrig_study::grid_shard::read_scenario_rows`] (a shard's rows, with file and line).
 pub fn merge(shards: &[(PathBuf, Manifest)], out: &Path, plots: bool) -> Result<PlaceRun, Error> {
     let Some((dir0, m0)) = shards.first() else {
@@ -284,13 +318,19 @@ pub fn merge(shards: &[(PathBuf, Manifest)], out: &Path, plots: bool) -> Result<
             problem: format!("a `{}` shard, not a place shard", m0.command),
         });
     }
-    let search = read_search(dir0)?;
-    for (dir, _) in &shards[1..] {
-        if read_search(dir)? != search {
+    let searches = shards
+        .iter()
+        .map(|(dir, _)| read_search(dir))
+        .collect::<Result<Vec<_>, Error>>()?;
+    let search = &searches[0];
+    for ((dir, _), other) in shards.iter().zip(&searches).skip(1) {
+        if (&other.candidates, other.choose, &other.method)
+            != (&search.candidates, search.choose, &search.method)
+        {
             return Err(Error::Shard {
                 path: dir.join(SEARCH_FILE),
                 problem: format!(
-                    "a shard of another run: its candidates, K or search result differ from {}'s",
+                    "a shard of another run: its candidates, K or search method differ from {}'s",
                     dir0.display()
                 ),
             });
@@ -316,17 +356,76 @@ pub fn merge(shards: &[(PathBuf, Manifest)], out: &Path, plots: bool) -> Result<
             ),
         });
     }
-    let shortlist = search.shortlist(&inputs, &dir0.join(SEARCH_FILE))?;
+    let method = match search.method.as_str() {
+        m if m == search::EXHAUSTIVE => search::EXHAUSTIVE,
+        m if m == search::GREEDY_SWAP => search::GREEDY_SWAP,
+        other => {
+            return Err(Error::Shard {
+                path: dir0.join(SEARCH_FILE),
+                problem: format!("`method`: `{other}` is not a search method"),
+            });
+        }
+    };
+    // The union of the boards: the unsharded search's board.
+    let mut owned = Vec::new();
+    for (k, ((dir, _), sf)) in shards.iter().zip(&searches).enumerate() {
+        owned.extend(sf.entries(&inputs, k, &dir.join(SEARCH_FILE))?);
+    }
+    let mut board = search::Board::new(crate::MAX_CONFIRMED);
+    for o in &owned {
+        board.offer(o.score, &o.set);
+    }
+    let found = search::Found {
+        method,
+        evaluated: searches.iter().map(|s| s.evaluated).sum(),
+        board,
+    };
+    let best_share = found.board.entries.first().map_or(0.0, |(s, _)| s.share());
+    let mut layouts = Vec::new();
+    let mut sources = Vec::new();
+    for (score, set) in &found.board.entries {
+        if score.share() < best_share - crate::CONFIRM_MARGIN {
+            continue;
+        }
+        // Every board entry was offered from a shard's board.
+        let Some((o, Some(rows))) = owned.iter().find(|o| o.set == *set).map(|o| (o, o.rows))
+        else {
+            let o = owned.iter().find(|o| o.set == *set);
+            let shard = o.map_or(0, |o| o.shard);
+            return Err(Error::Shard {
+                path: shards[shard].0.join(SEARCH_FILE),
+                problem: format!(
+                    "layout {:?} is among the best but its shard has no Monte Carlo rows for it",
+                    inputs.names(set)
+                ),
+            });
+        };
+        layouts.push((*score, o.order.clone()));
+        sources.push((o.shard, rows));
+    }
+    let shortlist = Shortlist {
+        method,
+        evaluated: found.evaluated,
+        layouts,
+    };
     let mut rows = Vec::with_capacity(shortlist.layouts.len());
     let mut scores = Vec::with_capacity(shortlist.layouts.len());
-    for (i, (_, order)) in shortlist.layouts.iter().enumerate() {
+    for ((_, order), (shard, k)) in shortlist.layouts.iter().zip(&sources) {
+        // The rows hold every grid point.
+        let (dir, m) = &shards[*shard];
+        let mut whole = m.clone();
+        whole.items = crashrig_outdir::shard::Items {
+            start: 0,
+            end: inputs.points,
+            total: inputs.points,
+        };
         let r = read_scenario_rows(
             inputs.layout(order),
             &config.scenario,
             inputs.samples,
             inputs.seed,
-            shards,
-            &prefix(i),
+            &[(dir.clone(), whole)],
+            &prefix(k - 1),
         )?;
         scores.push(score_of(r.result().clone(), r.grid()));
         rows.push(r);

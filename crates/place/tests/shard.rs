@@ -214,27 +214,40 @@ fn place_merge_refuses_missing_repeated_foreign_and_changed_and_writes_nothing()
     let e = refused(&dirs);
     assert!(e.contains("changed since the shards ran"), "{e}");
     std::fs::write(&cands, &cands_text).unwrap();
-    // A shard whose shortlist was altered.
+    // A shard whose search file names another method.
     let search = dirs[1].join(crashrig_place::shard::SEARCH_FILE);
     let text = std::fs::read_to_string(&search).unwrap();
-    std::fs::write(&search, text.replace("\"evaluated\": ", "\"evaluated\": 1")).unwrap();
+    std::fs::write(&search, text.replace("\"exhaustive\"", "\"greedy+swap\"")).unwrap();
     let e = refused(&dirs);
     assert!(
         e.contains("place_shard.json") && e.contains("a shard of another run"),
         "{e}"
     );
     std::fs::write(&search, &text).unwrap();
-    // A truncated row file names its file.
-    let rows = dirs[1].join("layout1_points.csv");
-    let body = std::fs::read_to_string(&rows).unwrap();
-    let cut: Vec<&str> = body.lines().collect();
-    std::fs::write(&rows, cut[..cut.len() - 1].join("\n")).unwrap();
+    // A truncated row file names its file (truncated in every shard that has one: the
+    // merge reads those of the layouts it confirms).
+    let rows: Vec<PathBuf> = dirs
+        .iter()
+        .map(|d| d.join("layout1_points.csv"))
+        .filter(|p| p.is_file())
+        .collect();
+    assert!(!rows.is_empty());
+    let bodies: Vec<String> = rows
+        .iter()
+        .map(|p| std::fs::read_to_string(p).unwrap())
+        .collect();
+    for (p, body) in rows.iter().zip(&bodies) {
+        let cut: Vec<&str> = body.lines().collect();
+        std::fs::write(p, cut[..cut.len() - 1].join("\n")).unwrap();
+    }
     let e = refused(&dirs);
     assert!(
         e.contains("layout1_points.csv") && e.contains("incomplete"),
         "{e}"
     );
-    std::fs::write(&rows, &body).unwrap();
+    for (p, body) in rows.iter().zip(&bodies) {
+        std::fs::write(p, body).unwrap();
+    }
     // Intact again: merges.
     merge(&read_set(&dirs).unwrap(), &out, false).unwrap();
     assert!(out.join("placement.json").is_file());
@@ -316,4 +329,62 @@ sigma_angles_deg = [0.01, 0.01, 0.01]
         .to_string();
     assert!(e.contains("--candidates"), "{e}");
     assert!(!out.exists());
+}
+
+/// `unrank` lists the K-subsets in lexicographic order (against an independent enumeration),
+/// and the shares of a sharded search, merged, give the unsharded search's board and count.
+#[test]
+fn search_shares_merge_to_the_unsharded_search() {
+    use crashrig_place::search::{Board, items, search, search_share, unrank};
+    let (n, k) = (6, 3);
+    let mut expect = Vec::new();
+    for a in 0..n {
+        for b in a + 1..n {
+            for c in b + 1..n {
+                expect.push(vec![a, b, c]);
+            }
+        }
+    }
+    let got: Vec<Vec<usize>> = (0..expect.len()).map(|r| unrank(n, k, r as u128)).collect();
+    assert_eq!(got, expect);
+
+    let s = crashrig_mc::Scenario::from_path_for_placement(&repo("examples/place/scenario.toml"))
+        .unwrap();
+    let c = crashrig_mc::read_candidates(&repo("examples/place/candidates.toml"), &s).unwrap();
+    let all = crashrig_place::layout(&s, &c);
+    let study = crashrig_mc::GridStudy::new(&all, 100, 1).unwrap();
+    let own = s.grid.as_ref().unwrap().observers.len();
+    let table = crashrig_place::approx::Table::build(&study, own, None).unwrap();
+    for k in [2, 3] {
+        let whole = search(&table, k, 4);
+        let total = items(c.len(), k);
+        assert_eq!(whole.evaluated, total as u64);
+        for parts in [1, 3, 7] {
+            let mut board = Board::new(4);
+            let mut evaluated = 0;
+            for i in 1..=parts {
+                let share = Shard::new(i, parts).unwrap().range(total);
+                let f = search_share(&table, k, 4, share);
+                evaluated += f.evaluated;
+                board = board.merge(f.board);
+            }
+            assert_eq!(evaluated, whole.evaluated, "K = {k}, {parts} shares");
+            assert_eq!(
+                board.entries, whole.board.entries,
+                "K = {k}, {parts} shares"
+            );
+        }
+    }
+}
+
+#[test]
+fn place_shard_merge_equals_whole_with_greedy_search() {
+    // 40 candidates, K = 5: C(40, 5) = 658 008 subsets, above the exhaustive bound, so the
+    // search is greedy + swap (one work item: one shard runs it, the others only check).
+    assert_merge_is_whole(
+        &repo("examples/place/scenario.toml"),
+        &repo("examples/place/candidates40.toml"),
+        5,
+        false,
+    );
 }
