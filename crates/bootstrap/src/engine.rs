@@ -1,7 +1,7 @@
 //! The resampling engine: replicates in parallel, one RNG stream per replicate.
 
 use crate::Error;
-use crashrig_stats::progress::{Counter, Progress};
+use crashrig_stats::progress::{Counter, Monitor};
 use rand::RngExt;
 use rayon::prelude::*;
 
@@ -58,28 +58,20 @@ pub fn resample(n_items: usize, seed: u64, replicate: usize) -> Vec<usize> {
 /// `crashrig_stats::stream(seed, r)` and the results are collected by index, so the output is
 /// bit-identical whatever the number of threads. A statistic that returns `Err` marks its
 /// replicate failed; the error is kept in [`Replicates::failures`].
+///
+/// `monitor` (optional) gets `(replicates done, replicates)` after each replicate (one atomic
+/// increment each) and is asked before each replicate whether the call was cancelled; the
+/// result is the same with and without it.
+///
+/// # Errors
+/// [`Error::NoItems`], [`Error::NoReplicates`], and [`Error::Cancelled`] when `monitor` said
+/// so.
 pub fn run<T, E, F>(
     n_items: usize,
     replicates: usize,
     seed: u64,
     statistic: F,
-) -> Result<Replicates<T, E>, Error>
-where
-    T: Send,
-    E: Send,
-    F: Fn(&[usize]) -> Result<T, E> + Sync,
-{
-    run_with_progress(n_items, replicates, seed, statistic, None)
-}
-
-/// [`run`] reporting `(replicates done, replicates)` to `progress` after each replicate (one
-/// atomic increment each); the result is the same as without.
-pub fn run_with_progress<T, E, F>(
-    n_items: usize,
-    replicates: usize,
-    seed: u64,
-    statistic: F,
-    progress: Option<Progress<'_>>,
+    monitor: Option<&dyn Monitor>,
 ) -> Result<Replicates<T, E>, Error>
 where
     T: Send,
@@ -92,15 +84,16 @@ where
     if replicates == 0 {
         return Err(Error::NoReplicates);
     }
-    let counter = Counter::new(progress, replicates);
+    let counter = Counter::monitored(monitor, replicates);
     let outcomes: Vec<Result<T, E>> = (0..replicates)
         .into_par_iter()
         .map(|r| {
+            counter.check()?;
             let outcome = statistic(&resample(n_items, seed, r));
             counter.add(1);
-            outcome
+            Ok(outcome)
         })
-        .collect();
+        .collect::<Result<_, crashrig_stats::progress::Cancelled>>()?;
     let mut values = Vec::with_capacity(replicates);
     let mut failures = Vec::new();
     for (replicate, outcome) in outcomes.into_iter().enumerate() {
@@ -118,21 +111,16 @@ where
 
 /// Jackknife: the statistic on each leave-one-out sample (`0..n_items` without item `i`), in
 /// parallel, returned in item order. Needed for the BCa acceleration.
-pub fn jackknife<T, E, F>(n_items: usize, statistic: F) -> Result<Vec<Result<T, E>>, Error>
-where
-    T: Send,
-    E: Send,
-    F: Fn(&[usize]) -> Result<T, E> + Sync,
-{
-    jackknife_with_progress(n_items, statistic, None)
-}
-
-/// [`jackknife`] reporting `(leave-one-out values done, n_items)` to `progress`; the result is
-/// the same as without.
-pub fn jackknife_with_progress<T, E, F>(
+///
+/// `monitor` (optional) gets `(leave-one-out values done, n_items)` and may cancel, as in
+/// [`run`]; the result is the same with and without it.
+///
+/// # Errors
+/// [`Error::TooFewValues`] for fewer than two items, [`Error::Cancelled`].
+pub fn jackknife<T, E, F>(
     n_items: usize,
     statistic: F,
-    progress: Option<Progress<'_>>,
+    monitor: Option<&dyn Monitor>,
 ) -> Result<Vec<Result<T, E>>, Error>
 where
     T: Send,
@@ -145,16 +133,17 @@ where
             found: n_items,
         });
     }
-    let counter = Counter::new(progress, n_items);
+    let counter = Counter::monitored(monitor, n_items);
     Ok((0..n_items)
         .into_par_iter()
         .map(|i| {
+            counter.check()?;
             let idx: Vec<usize> = (0..n_items).filter(|&j| j != i).collect();
             let value = statistic(&idx);
             counter.add(1);
-            value
+            Ok(value)
         })
-        .collect())
+        .collect::<Result<_, crashrig_stats::progress::Cancelled>>()?)
 }
 
 #[cfg(test)]
@@ -168,14 +157,14 @@ mod tests {
     #[test]
     fn run_nominal_covers_every_replicate() {
         let data: Vec<f64> = (0..20).map(f64::from).collect();
-        let out = run(data.len(), 50, 3, |idx| {
+        let statistic = |idx: &[usize]| {
             if idx[0] == 0 {
                 Err("starts with item 0")
             } else {
                 mean_of(&data, idx)
             }
-        })
-        .unwrap();
+        };
+        let out = run(data.len(), 50, 3, statistic, None).unwrap();
         assert_eq!(out.replicates, 50);
         assert_eq!(out.values.len() + out.failures.len(), 50);
         let mut seen: Vec<usize> = out
@@ -202,7 +191,7 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap();
-            pool.install(|| run(data.len(), 300, 11, |idx| mean_of(&data, idx)).unwrap())
+            pool.install(|| run(data.len(), 300, 11, |idx| mean_of(&data, idx), None).unwrap())
         };
         let one = go(1);
         let two = go(2);
@@ -218,15 +207,14 @@ mod tests {
     }
 
     #[test]
-    fn run_with_progress_counts_every_replicate_and_changes_nothing() {
+    fn run_with_a_monitor_counts_every_replicate_and_changes_nothing() {
         let data: Vec<f64> = (0..31).map(|i| f64::from(i).cos()).collect();
         let seen = std::sync::Mutex::new(Vec::new());
         let report = |d: usize, t: usize| seen.lock().unwrap().push((d, t));
-        let with =
-            run_with_progress(data.len(), 40, 9, |idx| mean_of(&data, idx), Some(&report)).unwrap();
+        let with = run(data.len(), 40, 9, |idx| mean_of(&data, idx), Some(&report)).unwrap();
         assert_eq!(
             with,
-            run(data.len(), 40, 9, |idx| mean_of(&data, idx)).unwrap()
+            run(data.len(), 40, 9, |idx| mean_of(&data, idx), None).unwrap()
         );
         let mut seen = seen.into_inner().unwrap();
         assert_eq!(seen.len(), 40);
@@ -237,22 +225,56 @@ mod tests {
     }
 
     #[test]
-    fn jackknife_with_progress_counts_every_item_and_changes_nothing() {
+    fn jackknife_with_a_monitor_counts_every_item_and_changes_nothing() {
         let data = [1.0, 2.0, 3.0, 10.0, -4.0];
         let seen = std::sync::Mutex::new(Vec::new());
         let report = |d: usize, t: usize| seen.lock().unwrap().push((d, t));
-        let with = jackknife_with_progress(5, |idx| mean_of(&data, idx), Some(&report)).unwrap();
-        assert_eq!(with, jackknife(5, |idx| mean_of(&data, idx)).unwrap());
+        let with = jackknife(5, |idx| mean_of(&data, idx), Some(&report)).unwrap();
+        assert_eq!(with, jackknife(5, |idx| mean_of(&data, idx), None).unwrap());
         let mut seen = seen.into_inner().unwrap();
         seen.sort_unstable();
         assert_eq!(seen, (1..=5).map(|d| (d, 5)).collect::<Vec<_>>());
     }
 
+    /// Cancels once `after` replicates are done.
+    struct StopAfter(usize, std::sync::atomic::AtomicUsize);
+
+    impl Monitor for StopAfter {
+        fn report(&self, done: usize, _: usize) {
+            self.1.fetch_max(done, std::sync::atomic::Ordering::Relaxed);
+        }
+        fn cancelled(&self) -> bool {
+            self.1.load(std::sync::atomic::Ordering::Relaxed) >= self.0
+        }
+    }
+
+    #[test]
+    fn run_and_jackknife_stop_when_cancelled() {
+        let data: Vec<f64> = (0..31).map(f64::from).collect();
+        let calls = std::sync::atomic::AtomicUsize::new(0);
+        let counted = |idx: &[usize]| {
+            calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            mean_of(&data, idx)
+        };
+        let stop = StopAfter(5, 0.into());
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let e = pool.install(|| run(data.len(), 1000, 9, counted, Some(&stop)).unwrap_err());
+        assert_eq!(e, Error::Cancelled(crashrig_stats::progress::Cancelled));
+        // One thread: the statistic ran for the five replicates before the cancellation only.
+        assert_eq!(calls.load(std::sync::atomic::Ordering::Relaxed), 5);
+        let e = jackknife(data.len(), counted, Some(&StopAfter(0, 0.into()))).unwrap_err();
+        assert_eq!(e.to_string(), "cancelled");
+        assert_eq!(calls.load(std::sync::atomic::Ordering::Relaxed), 5);
+    }
+
     #[test]
     fn run_rejects_empty_inputs() {
         let f = |_: &[usize]| Ok::<f64, ()>(0.0);
-        assert_eq!(run(0, 10, 1, f).unwrap_err(), Error::NoItems);
-        assert_eq!(run(5, 0, 1, f).unwrap_err(), Error::NoReplicates);
+        assert_eq!(run(0, 10, 1, f, None).unwrap_err(), Error::NoItems);
+        assert_eq!(run(5, 0, 1, f, None).unwrap_err(), Error::NoReplicates);
     }
 
     #[test]
@@ -272,13 +294,13 @@ mod tests {
     #[test]
     fn jackknife_nominal_leaves_one_out() {
         let data = [1.0, 2.0, 3.0, 10.0];
-        let jk = jackknife(4, |idx| mean_of(&data, idx)).unwrap();
+        let jk = jackknife(4, |idx| mean_of(&data, idx), None).unwrap();
         let got: Vec<f64> = jk.into_iter().map(Result::unwrap).collect();
         // Hand computed: (15/3, 14/3, 13/3, 6/3).
         approx::assert_relative_eq!(got[0], 5.0, epsilon = 1e-15);
         approx::assert_relative_eq!(got[3], 2.0, epsilon = 1e-15);
         assert_eq!(
-            jackknife(1, |idx| mean_of(&data, idx)).unwrap_err(),
+            jackknife(1, |idx| mean_of(&data, idx), None).unwrap_err(),
             Error::TooFewValues {
                 needed: 2,
                 found: 1

@@ -39,6 +39,9 @@ pub enum Error {
         /// Which condition failed.
         reason: BcaReason,
     },
+    /// The caller's monitor cancelled the run.
+    #[error(transparent)]
+    Cancelled(#[from] crashrig_stats::progress::Cancelled),
 }
 
 /// Why a BCa interval cannot be formed.

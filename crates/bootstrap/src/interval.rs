@@ -156,7 +156,7 @@ mod tests {
         let s = (data.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n as f64 - 1.0)).sqrt();
         let ideal = s / (n as f64).sqrt() * ((n as f64 - 1.0) / n as f64).sqrt();
         let b = 4000;
-        let reps = run(n, b, 7, |idx| mean_at(&data, idx)).unwrap();
+        let reps = run(n, b, 7, |idx| mean_at(&data, idx), None).unwrap();
         let v: Vec<f64> = reps.values_only().copied().collect();
         // The replicate mean is ~normal, so σ from B replicates has relative standard error
         // 1/√(2(B−1)) = 1.1 %; 4 of those is 4.5 %.
@@ -178,7 +178,7 @@ mod tests {
         let p_hat = 0.4;
         let ideal = (p_hat * (1.0 - p_hat) / n as f64).sqrt();
         let b = 4000;
-        let v: Vec<f64> = run(n, b, 21, |idx| mean_at(&data, idx))
+        let v: Vec<f64> = run(n, b, 21, |idx| mean_at(&data, idx), None)
             .unwrap()
             .values_only()
             .copied()
@@ -200,7 +200,7 @@ mod tests {
         let n = 50;
         let data = normal_data(n, 2);
         let m = mean(&data);
-        let v: Vec<f64> = run(n, 4000, 9, |idx| mean_at(&data, idx))
+        let v: Vec<f64> = run(n, 4000, 9, |idx| mean_at(&data, idx), None)
             .unwrap()
             .values_only()
             .copied()
@@ -218,7 +218,7 @@ mod tests {
     fn acceleration_nominal_mean_closed_form() {
         // For the mean, θ̄ − θ₍ᵢ₎ = (xᵢ − x̄)/(n − 1), so a = Σd³/(6(Σd²)^{3/2}) with d = xᵢ − x̄.
         let data = [0.3, 1.7, -2.0, 4.5, 0.0, 0.9];
-        let jk: Vec<f64> = jackknife(data.len(), |idx| mean_at(&data, idx))
+        let jk: Vec<f64> = jackknife(data.len(), |idx| mean_at(&data, idx), None)
             .unwrap()
             .into_iter()
             .map(Result::unwrap)
@@ -246,14 +246,14 @@ mod tests {
         // invariant up to the jackknife's second-order terms, so compare with a tolerance).
         let data: Vec<f64> = normal_data(30, 4).iter().map(|x| 1.0 + 0.2 * x).collect();
         let stat = |idx: &[usize]| mean_at(&data, idx);
-        let reps: Vec<f64> = run(30, 2000, 5, stat)
+        let reps: Vec<f64> = run(30, 2000, 5, stat, None)
             .unwrap()
             .values_only()
             .copied()
             .collect();
         let all: Vec<usize> = (0..30).collect();
         let est = stat(&all).unwrap();
-        let jk: Vec<f64> = jackknife(30, stat)
+        let jk: Vec<f64> = jackknife(30, stat, None)
             .unwrap()
             .into_iter()
             .map(Result::unwrap)
@@ -304,14 +304,14 @@ mod tests {
         for d in 0..datasets {
             let data = normal_data(n, 1000 + d as u64);
             let stat = |idx: &[usize]| mean_at(&data, idx);
-            let reps: Vec<f64> = run(n, b, d as u64, stat)
+            let reps: Vec<f64> = run(n, b, d as u64, stat, None)
                 .unwrap()
                 .values_only()
                 .copied()
                 .collect();
             let all: Vec<usize> = (0..n).collect();
             let est = stat(&all).unwrap();
-            let jk: Vec<f64> = jackknife(n, stat)
+            let jk: Vec<f64> = jackknife(n, stat, None)
                 .unwrap()
                 .into_iter()
                 .map(Result::unwrap)

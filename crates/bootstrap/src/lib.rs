@@ -15,9 +15,9 @@
 //!   are type 7 (NumPy's default).
 //!
 //! # Entry points
-//! - [`run`]: the parallel bootstrap ([`run_with_progress`]: with `(done, total)` reports);
-//!   [`resample`]: the indices of one replicate.
-//! - [`jackknife`]: leave-one-out values (for the BCa acceleration; [`jackknife_with_progress`]).
+//! - [`run`]: the parallel bootstrap (an optional [`Monitor`] gets `(done, total)` reports
+//!   and may cancel); [`resample`]: the indices of one replicate.
+//! - [`jackknife`]: leave-one-out values (for the BCa acceleration).
 //! - [`sigma`], [`bias`], [`percentile_interval`], [`bca_interval`]: scalar summaries.
 //! - [`normal::cdf`], [`normal::inverse_cdf`]: Φ and Φ⁻¹.
 //!
@@ -30,12 +30,12 @@
 //! let mean = |idx: &[usize]| -> Result<f64, ()> {
 //!     Ok(idx.iter().map(|&i| data[i]).sum::<f64>() / idx.len() as f64)
 //! };
-//! let reps = run(data.len(), 1000, 42, mean).unwrap();
+//! let reps = run(data.len(), 1000, 42, mean, None).unwrap();
 //! assert_eq!(reps.failures.len(), 0);
 //! let values: Vec<f64> = reps.values_only().copied().collect();
 //! let se = sigma(&values).unwrap();
 //! let all: Vec<usize> = (0..data.len()).collect();
-//! let jk: Vec<f64> = jackknife(data.len(), mean).unwrap().into_iter().map(Result::unwrap).collect();
+//! let jk: Vec<f64> = jackknife(data.len(), mean, None).unwrap().into_iter().map(Result::unwrap).collect();
 //! let ci = bca_interval(&values, mean(&all).unwrap(), &jk, 0.95).unwrap();
 //! assert!(ci.lo < ci.hi && se > 0.0);
 //! ```
@@ -46,15 +46,13 @@ mod error;
 mod interval;
 pub mod normal;
 
-pub use crashrig_stats::progress::Progress;
+pub use crashrig_stats::progress::{Cancelled, Monitor, Progress};
 
 /// Largest number of bootstrap replicates a user may ask for (`bootstrap --iterations`, a
 /// study's `[tie] iterations`): checked before the replicates are allocated
 /// (`docs/LIMITS.md`).
 pub const MAX_ITERATIONS: usize = 1_000_000;
-pub use engine::{
-    Failure, Replicates, jackknife, jackknife_with_progress, resample, run, run_with_progress,
-};
+pub use engine::{Failure, Replicates, jackknife, resample, run};
 pub use error::{BcaReason, Error};
 pub use interval::{
     Interval, acceleration, bca_interval, bias, bias_correction, percentile_interval, sigma,

@@ -1,7 +1,7 @@
 //! Progress bars on stderr, only when stderr is a terminal (none in pipes, logs and tests).
 //!
-//! The libraries report `(done, total)` through plain callbacks
-//! ([`crashrig_stats::progress::Progress`]; `study` adds a stage name:
+//! The libraries report `(done, total)` through a [`crashrig_stats::progress::Monitor`] or a
+//! plain callback ([`crashrig_stats::progress::Progress`]; `study` adds a stage name:
 //! [`crashrig_study::pipeline::Progress`]); this module is the only place that draws. When
 //! stderr is not a terminal no callback is handed to the libraries at all.
 
@@ -54,12 +54,13 @@ impl Bar {
         }
     }
 
-    /// `Some(callback)` when the bar is drawn, else `None` (the library then counts nothing).
-    pub fn hook<'a>(
+    /// `Some(monitor)` when the bar is drawn, else `None` (the library then counts nothing);
+    /// the command line never cancels (Ctrl-C ends the process).
+    pub fn monitor<'a>(
         &self,
-        callback: &'a (dyn Fn(usize, usize) + Sync),
-    ) -> Option<&'a (dyn Fn(usize, usize) + Sync)> {
-        self.is_shown().then_some(callback)
+        monitor: &'a dyn crashrig_stats::progress::Monitor,
+    ) -> Option<&'a dyn crashrig_stats::progress::Monitor> {
+        self.is_shown().then_some(monitor)
     }
 
     /// The bar as the libraries' progress argument: `Some` when it is drawn, else `None`

@@ -43,6 +43,9 @@ mod regressions;
 #[path = "contract/study.rs"]
 mod study;
 
+#[path = "contract/study_lines.rs"]
+mod study_lines;
+
 #[path = "contract/uncertain.rs"]
 mod uncertain;
 

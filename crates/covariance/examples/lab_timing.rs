@@ -1,10 +1,12 @@
 //! Whole-computation timing on the benchmark scene of issue 24: 140 epochs of A, ~2 000 lab
 //! points, ~100 000 observations (the synthetic lab of `crashrig_covariance::synthetic`).
 //!
-//! `cargo run --release -p crashrig-covariance --example lab_timing -- [OUT_DIR]` prints the
-//! scene's size and the time of `covariance` (σ̂₀, all intrinsics marginalised); with OUT_DIR it
-//! also writes the model (binary) and `control_points.csv` there, for the pycolmap bundle
-//! adjustment it is compared with (`fixtures/gen/covariance_bench.py`).
+//! `cargo run --release -p crashrig-covariance --example lab_timing -- [OUT_DIR [EPOCHS POINTS]]`
+//! prints the scene's size and the time of `covariance` (σ̂₀, all intrinsics marginalised);
+//! with OUT_DIR it also writes the model (binary) and `control_points.csv` there, for the
+//! pycolmap bundle adjustment it is compared with (`fixtures/gen/covariance_bench.py`).
+//! EPOCHS and POINTS (default 140 and 2000) size the scene, e.g. for the memory-against-size
+//! check of docs/performance.md.
 
 use crashrig_colmap::{CameraSelector, ModelFormat};
 use crashrig_covariance::synthetic::{LabSettings, lab_scene};
@@ -12,9 +14,17 @@ use crashrig_covariance::{ControlPoints, Intrinsics, Options, covariance};
 use std::time::Instant;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let size = |k: usize, default: usize| -> Result<usize, Box<dyn std::error::Error>> {
+        Ok(args
+            .get(k)
+            .map(|s| s.parse())
+            .transpose()?
+            .unwrap_or(default))
+    };
     let scene = lab_scene(&LabSettings {
-        epochs: 140,
-        points: 2000,
+        epochs: size(1, 140)?,
+        points: size(2, 2000)?,
         path_length: 10.0,
         noise_px: 0.3,
         seed: 24,
@@ -27,7 +37,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         m.num_observations(),
         scene.control_ids.len()
     );
-    if let Some(dir) = std::env::args().nth(1) {
+    if let Some(dir) = args.first() {
         let dir = std::path::PathBuf::from(dir);
         std::fs::create_dir_all(dir.join("model"))?;
         m.write(&dir.join("model"), ModelFormat::Binary)?;

@@ -39,7 +39,9 @@
 use crate::Error;
 use crate::filter::{Cfc, CfcSpec};
 use crate::input::{Inward, JointA, Observation};
-use crate::kinematics::{self, KinRow, Kinematics, Run, RunAcc, Scratch};
+use crate::kinematics::{
+    self, Differences, KinRow, Kinematics, LANES, Lanes, Run, RunAcc, Scratch,
+};
 use crate::sequence::frame_number;
 use crashrig_camera::Camera;
 use crashrig_geometry::triangulate::{self, View};
@@ -474,18 +476,47 @@ fn joint_stream(b: usize) -> u64 {
     u64::MAX - (1 << 40) - b as u64
 }
 
+/// A factor `L` of A's joint covariance (`L·Lᵀ = Σ`), [`joint_factor`]'s result.
+#[derive(Debug, Clone)]
+struct JointFactor {
+    l: DMatrix<f64>,
+    /// `L` is lower triangular (a Cholesky factor; else `V·√Λ`, a full matrix).
+    lower: bool,
+}
+
+/// Rows of `L` multiplied per call in [`joint_draws`] (8 epochs): the product of a row block
+/// stops at the block's last column, so the triangle's zeros are not multiplied.
+const JOINT_ROWS: usize = 48;
+
 /// A's joint draws of the `len` replicates of block `block`: `out[e][r]` = `δ_A` of measured
 /// epoch `e` in replicate `r` (`L·ε`, one 6m-vector `ε` per replicate, in replicate order).
-fn joint_draws(factor: &DMatrix<f64>, seed: u64, block: usize, len: usize) -> Vec<Vec<Vec6>> {
+///
+/// A lower-triangular `L` is multiplied by row blocks of [`JOINT_ROWS`], each only over the
+/// columns up to its last row: about half the work of the full product, with its bits — every
+/// element is the same general matrix product (the same kernel, the same blocks of the inner
+/// dimension from column 0) with the exact zeros above the diagonal left out, and a zero term
+/// adds nothing (`joint_draws_triangle_is_the_full_product_bit_for_bit`).
+fn joint_draws(factor: &JointFactor, seed: u64, block: usize, len: usize) -> Vec<Vec<Vec6>> {
     let mut rng = stream(seed, joint_stream(block));
-    let n = factor.nrows();
+    let l = &factor.l;
+    let n = l.nrows();
     let mut eps = DMatrix::<f64>::zeros(n, len);
     for r in 0..len {
         for k in 0..n {
             eps[(k, r)] = rng.sample(StandardNormal);
         }
     }
-    let d = factor * eps;
+    let d = if factor.lower {
+        let mut d = DMatrix::<f64>::zeros(n, len);
+        for r0 in (0..n).step_by(JOINT_ROWS) {
+            let r1 = (r0 + JOINT_ROWS).min(n);
+            d.rows_mut(r0, r1 - r0)
+                .copy_from(&(l.view((r0, 0), (r1 - r0, r1)) * eps.rows(0, r1)));
+        }
+        d
+    } else {
+        l * eps
+    };
     (0..n / 6)
         .map(|e| {
             (0..len)
@@ -507,7 +538,7 @@ fn joint_factor(
     joint: &JointA,
     epochs: &[Epoch],
     measured: &[usize],
-) -> Result<DMatrix<f64>, Error> {
+) -> Result<JointFactor, Error> {
     let index: HashMap<&str, usize> = joint
         .epochs
         .iter()
@@ -535,7 +566,10 @@ fn joint_factor(
         joint.covariance[(6 * blocks[i / 6] + i % 6, 6 * blocks[j / 6] + j % 6)]
     });
     if let Some(c) = sub.clone().cholesky() {
-        return Ok(c.unpack());
+        return Ok(JointFactor {
+            l: c.unpack(),
+            lower: true,
+        });
     }
     let eig = sub.symmetric_eigen();
     let tol = crashrig_geometry::uncertain::COVARIANCE_RELATIVE_TOLERANCE * joint.covariance.amax();
@@ -555,7 +589,10 @@ fn joint_factor(
     let root = eig
         .eigenvalues
         .map(|l| if l > floor { l.sqrt() } else { 0.0 });
-    Ok(&eig.eigenvectors * DMatrix::from_diagonal(&root))
+    Ok(JointFactor {
+        l: &eig.eigenvectors * DMatrix::from_diagonal(&root),
+        lower: false,
+    })
 }
 
 /// Stream index of epoch `e` in block `b`.
@@ -1187,7 +1224,7 @@ fn assemble_kinematics(
         n += p.slots.len();
     }
     let mut rows = vec![KinRow::default(); n_rows];
-    let mut scratch = Scratch::default();
+    let mut scratch = Scratch::<Vec3>::default();
     let mut with = 0;
     for (runs, racc) in kin.runs.iter().zip(accs) {
         for (run, acc) in runs.iter().zip(racc) {
@@ -1249,7 +1286,7 @@ struct KinWork<'a> {
 fn run_monte_carlo(
     preps: &[EpochPrep],
     link: &LinkPrep,
-    a_factor: Option<&DMatrix<f64>>,
+    a_factor: Option<&JointFactor>,
     settings: &Settings,
     reference: usize,
     track: Option<&ATrack>,
@@ -1357,8 +1394,12 @@ fn feed_rows(
 
 /// Filters one run of one marker in each of the `m` replicates of a chunk and feeds its
 /// moments (a replicate with a failed intersection in the run, or at the reference epoch, is
-/// left out). The chunk's positions are gathered run-major first (`bufs[e]` holds the chunk's
-/// replicates of a slot contiguously), then each replicate's series is filtered.
+/// left out). [`LANES`] replicates at a time: their displacement series are gathered side by
+/// side ([`Lanes`]; `bufs[e]` holds the chunk's replicates of a slot contiguously), filtered
+/// together — each replicate with exactly the arithmetic of its own record — and their
+/// velocity and acceleration taken at each epoch as the moments are fed. Every accumulator
+/// still takes the replicates in replicate order, so the moments have the bits of a
+/// replicate-by-replicate loop.
 #[allow(clippy::too_many_arguments)]
 fn feed_run(
     filter: &Cfc,
@@ -1368,34 +1409,47 @@ fn feed_run(
     bufs: &[Vec<Vec3>],
     reference: usize,
     m: usize,
-    scratch: &mut Scratch,
+    scratch: &mut Scratch<Lanes>,
 ) {
     let slot = |e: usize| preps[e].slot_of[run.marker].expect("a run's epochs see its marker");
     let rs = slot(reference);
+    let diff = Differences::new(1.0 / filter.frame_rate_hz());
+    let (len, groups) = (run.len, m.div_ceil(LANES));
     let xr = &bufs[reference][rs * m..rs * m + m];
-    let len = run.len;
+    // One pass over the chunk's positions (each epoch's replicates are contiguous): group `g`
+    // of replicates `g·LANES…` at run epoch `i` goes to `d[g·len + i]`.
     let mut d = std::mem::take(&mut scratch.d);
     d.clear();
-    d.resize(m * len, Vec3::zeros());
+    d.resize(groups * len, Lanes([0.0; 3 * LANES]));
+    let mut taken = vec![true; m];
     for i in 0..len {
         let e = run.start + i;
         let s = slot(e);
         for (r, (x, xr)) in bufs[e][s * m..s * m + m].iter().zip(xr).enumerate() {
-            d[r * len + i] = x - xr;
+            let dx = x - xr;
+            taken[r] &= finite(&dx);
+            d[(r / LANES) * len + i].set_lane(r % LANES, &dx);
         }
     }
-    for r in 0..m {
-        let series = &d[r * len..(r + 1) * len];
-        if !series.iter().all(finite) {
-            continue;
+    for g in 0..groups {
+        let (r0, lanes) = (g * LANES, LANES.min(m - g * LANES));
+        let taken = &taken[r0..r0 + lanes];
+        scratch.filter(filter, &d[g * len..(g + 1) * len]);
+        let mut inv_n = [0.0; LANES];
+        for l in 0..lanes {
+            if taken[l] {
+                acc.n += 1;
+                inv_n[l] = 1.0 / acc.n as f64;
+            }
         }
-        scratch.filter_and_differentiate(filter, series);
-        acc.n += 1;
-        let inv_n = 1.0 / acc.n as f64;
+        let f = &scratch.f;
         for (i, q) in acc.m.iter_mut().enumerate() {
-            q[0].push(&scratch.f[i], inv_n);
-            q[1].push(&scratch.v[i], inv_n);
-            q[2].push(&scratch.a[i], inv_n);
+            let (v, a) = (diff.velocity(f, i), diff.acceleration(f, i));
+            for l in (0..lanes).filter(|&l| taken[l]) {
+                q[0].push(&f[i].lane(l), inv_n[l]);
+                q[1].push(&v.lane(l), inv_n[l]);
+                q[2].push(&a.lane(l), inv_n[l]);
+            }
         }
     }
     scratch.d = d;
@@ -1556,7 +1610,10 @@ mod tests {
         // with B's entries from a fixed formula.
         let b = DMatrix::from_fn(n, n, |i, j| ((i * 7 + j * 13) % 11) as f64 / 11.0 - 0.4);
         let sigma = &b * b.transpose() + DMatrix::identity(n, n) * 0.1;
-        let l = sigma.clone().cholesky().unwrap().unpack();
+        let l = JointFactor {
+            l: sigma.clone().cholesky().unwrap().unpack(),
+            lower: true,
+        };
         let blocks = 40;
         let mut draws: Vec<Vec<Vec6>> = vec![Vec::new(); 3];
         for blk in 0..blocks {
@@ -1589,5 +1646,29 @@ mod tests {
         }
         // Bit-identical on a second call (one stream per block).
         assert_eq!(joint_draws(&l, 5, 3, 7), joint_draws(&l, 5, 3, 7));
+    }
+
+    /// The triangular product gives the full product's bits: a Cholesky factor of 100 epochs
+    /// (600 rows: several row blocks, and an inner dimension beyond the product kernel's
+    /// blocks of it), once as lower triangular and once as a general matrix, the same draws.
+    #[test]
+    fn joint_draws_triangle_is_the_full_product_bit_for_bit() {
+        let n = 600;
+        let b = DMatrix::from_fn(n, n, |i, j| ((i * 7 + j * 13) % 11) as f64 / 11.0 - 0.4);
+        let sigma = &b * b.transpose() + DMatrix::identity(n, n) * 0.1;
+        let l = sigma.cholesky().unwrap().unpack();
+        let tri = JointFactor {
+            l: l.clone(),
+            lower: true,
+        };
+        let full = JointFactor { l, lower: false };
+        let (a, f) = (joint_draws(&tri, 9, 2, 5), joint_draws(&full, 9, 2, 5));
+        assert_eq!(a.len(), 100);
+        for (a, f) in a.iter().flatten().zip(f.iter().flatten()) {
+            for (x, y) in a.iter().zip(f.iter()) {
+                assert_eq!(x.to_bits(), y.to_bits());
+            }
+        }
+        assert!(a[99][4].norm() > 0.0, "the last epoch is drawn");
     }
 }

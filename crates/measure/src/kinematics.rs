@@ -34,7 +34,7 @@
 //! assert!(a.iter().all(|a| (a.x - 1.0).abs() < 1e-6));
 //! ```
 
-use crate::filter::{Cfc, MIN_SAMPLES};
+use crate::filter::{Cfc, MIN_SAMPLES, Sample};
 use crashrig_geometry::Vec3;
 
 /// The filtered kinematics of one (epoch, marker) row; every field is `None` where the row is
@@ -70,27 +70,123 @@ pub struct Kinematics {
 
 /// Velocity (m/s) and acceleration (m/s²) of a filtered displacement run `f` (mm) sampled at
 /// `dt` (s), by the central differences of the module docs; `v` and `a` are overwritten. Runs
-/// shorter than 3 samples give empty outputs.
-pub fn differentiate(f: &[Vec3], dt: f64, v: &mut Vec<Vec3>, a: &mut Vec<Vec3>) {
+/// shorter than 3 samples give empty outputs. `T` is a [`Vec3`] (or any [`Sample`]: each
+/// component is differentiated as its own record).
+pub fn differentiate<T: Sample>(f: &[T], dt: f64, v: &mut Vec<T>, a: &mut Vec<T>) {
     v.clear();
     a.clear();
-    let n = f.len();
-    if n < 3 {
+    if f.len() < 3 {
         return;
     }
-    let to_m = 1e-3;
-    v.push((f[1] - f[0]) * (to_m / dt));
-    for i in 1..n - 1 {
-        v.push((f[i + 1] - f[i - 1]) * (to_m / (2.0 * dt)));
-    }
-    v.push((f[n - 1] - f[n - 2]) * (to_m / dt));
-    let second = |i: usize| (f[i + 1] - f[i] * 2.0 + f[i - 1]) * (to_m / (dt * dt));
-    a.push(second(1));
-    for i in 1..n - 1 {
-        a.push(second(i));
-    }
-    a.push(second(n - 2));
+    let d = Differences::new(dt);
+    v.extend((0..f.len()).map(|i| d.velocity(f, i)));
+    a.extend((0..f.len()).map(|i| d.acceleration(f, i)));
 }
+
+/// The difference quotients of [`differentiate`] at one sample of a run (`f.len() ≥ 3`): the
+/// one place their formulas live.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Differences {
+    /// mm → m over `Δt`, over `2Δt`, over `Δt²`.
+    one_sided: f64,
+    central: f64,
+    second: f64,
+}
+
+impl Differences {
+    pub fn new(dt: f64) -> Differences {
+        let to_m = 1e-3;
+        Differences {
+            one_sided: to_m / dt,
+            central: to_m / (2.0 * dt),
+            second: to_m / (dt * dt),
+        }
+    }
+
+    /// Velocity at sample `i` (central inside, one-sided at the ends).
+    #[inline]
+    pub fn velocity<T: Sample>(&self, f: &[T], i: usize) -> T {
+        let n = f.len();
+        if i == 0 {
+            (f[1] - f[0]) * self.one_sided
+        } else if i == n - 1 {
+            (f[n - 1] - f[n - 2]) * self.one_sided
+        } else {
+            (f[i + 1] - f[i - 1]) * self.central
+        }
+    }
+
+    /// Acceleration at sample `i` (the second difference of the nearest interior sample).
+    #[inline]
+    pub fn acceleration<T: Sample>(&self, f: &[T], i: usize) -> T {
+        let j = i.clamp(1, f.len() - 2);
+        (f[j + 1] - f[j] * 2.0 + f[j - 1]) * self.second
+    }
+}
+
+/// Replicates filtered side by side by the Monte Carlo ([`Lanes`]).
+pub(crate) const LANES: usize = 4;
+
+/// The displacements of [`LANES`] replicates at one epoch (`[x₀ y₀ z₀ x₁ y₁ z₁ …]`): a
+/// [`Sample`] whose components the filter and the differences treat as independent records,
+/// each with exactly the arithmetic of a [`Vec3`] record (the same bits), while the
+/// replicates' recurrences run side by side in the CPU's vector lanes instead of one after
+/// another.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Lanes(pub [f64; 3 * LANES]);
+
+impl Lanes {
+    /// Replicate `l`'s displacement.
+    #[inline]
+    pub fn lane(&self, l: usize) -> Vec3 {
+        Vec3::new(self.0[3 * l], self.0[3 * l + 1], self.0[3 * l + 2])
+    }
+
+    /// Sets replicate `l`'s displacement.
+    #[inline]
+    pub fn set_lane(&mut self, l: usize, x: &Vec3) {
+        self.0[3 * l..3 * l + 3].copy_from_slice(x.as_slice());
+    }
+
+    #[inline]
+    fn zip(self, o: Lanes, f: impl Fn(f64, f64) -> f64) -> Lanes {
+        Lanes(std::array::from_fn(|k| f(self.0[k], o.0[k])))
+    }
+}
+
+impl std::ops::Add for Lanes {
+    type Output = Lanes;
+    #[inline]
+    fn add(self, o: Lanes) -> Lanes {
+        self.zip(o, |a, b| a + b)
+    }
+}
+
+impl std::ops::Sub for Lanes {
+    type Output = Lanes;
+    #[inline]
+    fn sub(self, o: Lanes) -> Lanes {
+        self.zip(o, |a, b| a - b)
+    }
+}
+
+impl std::ops::Mul<f64> for Lanes {
+    type Output = Lanes;
+    #[inline]
+    fn mul(self, c: f64) -> Lanes {
+        Lanes(self.0.map(|a| a * c))
+    }
+}
+
+impl std::ops::Div<f64> for Lanes {
+    type Output = Lanes;
+    #[inline]
+    fn div(self, c: f64) -> Lanes {
+        Lanes(self.0.map(|a| a / c))
+    }
+}
+
+impl Sample for Lanes {}
 
 /// One unbroken run of a marker: measured epochs `start..start + len`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -176,25 +272,44 @@ impl RunAcc {
     }
 }
 
-/// Reusable buffers of one filtering task.
-#[derive(Debug, Default)]
-pub(crate) struct Scratch {
-    work: Vec<Vec3>,
-    /// The displacement runs of a chunk's replicates, replicate-major (filled by the caller).
-    pub d: Vec<Vec3>,
-    pub f: Vec<Vec3>,
-    pub v: Vec<Vec3>,
-    pub a: Vec<Vec3>,
+/// Reusable buffers of one filtering task (`T`: a [`Vec3`] for the nominal series, [`Lanes`]
+/// for the Monte Carlo's replicates).
+#[derive(Debug)]
+pub(crate) struct Scratch<T> {
+    work: Vec<T>,
+    /// The displacement run to filter (filled by the caller).
+    pub d: Vec<T>,
+    pub f: Vec<T>,
+    pub v: Vec<T>,
+    pub a: Vec<T>,
 }
 
-impl Scratch {
-    /// Filters the displacement run `d` (mm; the three axes at once, each exactly as a scalar
-    /// record, [`crate::filter::Sample`]) and differentiates it: the results are in `self.f`,
-    /// `self.v`, `self.a`.
-    pub fn filter_and_differentiate(&mut self, filter: &Cfc, d: &[Vec3]) {
+impl<T> Default for Scratch<T> {
+    fn default() -> Scratch<T> {
+        Scratch {
+            work: Vec::new(),
+            d: Vec::new(),
+            f: Vec::new(),
+            v: Vec::new(),
+            a: Vec::new(),
+        }
+    }
+}
+
+impl<T: Sample> Scratch<T> {
+    /// Filters the displacement run `d` (mm; each component exactly as a scalar record,
+    /// [`crate::filter::Sample`]) into `self.f`.
+    pub fn filter(&mut self, filter: &Cfc, d: &[T]) {
+        // Every element is overwritten by the filter: the copy only sizes the output.
         self.f.clear();
-        self.f.resize(d.len(), Vec3::zeros());
+        self.f.extend_from_slice(d);
         filter.filter_into(d, &mut self.f, &mut self.work);
+    }
+
+    /// [`Scratch::filter`], then differentiates: the results are in `self.f`, `self.v`,
+    /// `self.a`.
+    pub fn filter_and_differentiate(&mut self, filter: &Cfc, d: &[T]) {
+        self.filter(filter, d);
         differentiate(
             &self.f,
             1.0 / filter.frame_rate_hz(),

@@ -102,6 +102,10 @@ impl Score {
 }
 
 impl Table {
+    /// Bytes of one (grid point, candidate) entry of the table, the unit of
+    /// [`crate::MAX_TERMS`] (a candidate's two 3 × 3 matrices and its line of sight).
+    pub const BYTES_PER_TERM: usize = std::mem::size_of::<Option<Seen>>();
+
     /// The terms of `study` (its first `base` observers are the scenario's own, the rest the
     /// candidates) at every grid point, in parallel; `progress` counts points.
     ///

@@ -31,6 +31,14 @@ pub enum Error {
     /// The output directory.
     #[error(transparent)]
     OutDir(#[from] crashrig_outdir::Error),
+    /// A shard directory given to `merge` (or its inputs) does not fit the run.
+    #[error("{}: {problem}", path.display())]
+    Shard {
+        /// The shard file (or directory) at fault.
+        path: PathBuf,
+        /// What is wrong.
+        problem: String,
+    },
     /// `placement.json` could not be formatted.
     #[error("{}: formatting placement.json: {problem}", out.display())]
     Output {

@@ -36,6 +36,7 @@
 pub mod approx;
 mod error;
 pub mod search;
+pub mod shard;
 
 pub use error::Error;
 
@@ -137,141 +138,241 @@ fn replaceable(name: &str) -> bool {
     name == "placement.json" || name == "grid/" || name.starts_with(".tmp")
 }
 
+/// The inputs of a placement, read and checked before any work.
+pub(crate) struct Inputs {
+    pub(crate) scenario: Scenario,
+    pub(crate) candidates: Vec<Observer>,
+    pub(crate) threshold_mm: f64,
+    pub(crate) k: usize,
+    pub(crate) samples: usize,
+    pub(crate) seed: u64,
+    pub(crate) points: usize,
+}
+
+impl Inputs {
+    /// Reads the scenario and the candidates of `config` and checks `--choose`, `--samples` and
+    /// the size of the first-order table.
+    pub(crate) fn read(config: &PlaceConfig) -> Result<Inputs, Error> {
+        let scenario = Scenario::from_path_for_placement(&config.scenario)
+            .map_err(|e| Error::input(&config.scenario, e))?;
+        let Some(grid) = scenario.grid.clone() else {
+            return Err(Error::input(&config.scenario, crashrig_mc::Error::NoGrid));
+        };
+        let candidates = crashrig_mc::read_candidates(&config.candidates, &scenario)
+            .map_err(|e| Error::input(&config.candidates, e))?;
+        let (base, n, k) = (grid.observers.len(), candidates.len(), config.choose);
+        let choose = |problem: String| Error::Setting {
+            name: "--choose",
+            problem,
+        };
+        if k == 0 {
+            return Err(choose("must be at least 1".into()));
+        }
+        if k > n {
+            return Err(choose(format!(
+                "{k} exceeds the {n} candidates of {}",
+                config.candidates.display()
+            )));
+        }
+        if base + k < 2 {
+            return Err(choose(format!(
+                "{} has {base} observer(s) of its own; choose at least {} so that points are seen twice",
+                config.scenario.display(),
+                2 - base
+            )));
+        }
+        let samples = crashrig_study::grid_run::resolve_samples(config.samples, &scenario)?;
+        let seed = config.seed.unwrap_or(scenario.seed);
+        // Counted, not listed: nothing sized by the grid is allocated before the checks.
+        let points = [grid.x.count, grid.y.count, grid.z.count]
+            .iter()
+            .fold(1usize, |a, &c| a.saturating_mul(c));
+        if grid.adaptive.is_none() {
+            crashrig_mc::limits::check_grid_draws(points, samples).map_err(|e| Error::Setting {
+                name: "--samples",
+                problem: format!("{samples}: {e}"),
+            })?;
+        }
+        check_terms(points, n)?;
+        Ok(Inputs {
+            scenario,
+            candidates,
+            threshold_mm: grid.threshold_mm,
+            k,
+            samples,
+            seed,
+            points,
+        })
+    }
+
+    /// The layout with the candidates `order` (indices, in pick order) mounted.
+    pub(crate) fn layout(&self, order: &[usize]) -> Scenario {
+        let chosen: Vec<Observer> = order.iter().map(|&c| self.candidates[c].clone()).collect();
+        layout(&self.scenario, &chosen)
+    }
+
+    /// The names of the candidates `order`.
+    pub(crate) fn names(&self, order: &[usize]) -> Vec<String> {
+        order
+            .iter()
+            .map(|&c| self.candidates[c].name.clone())
+            .collect()
+    }
+}
+
+/// Checks `points × candidates` against [`MAX_TERMS`] (before the table is allocated); the
+/// message gives the memory the table would need.
+///
+/// # Errors
+/// [`Error::Setting`] naming `--candidates`.
+pub fn check_terms(points: usize, candidates: usize) -> Result<(), Error> {
+    let terms = points.saturating_mul(candidates);
+    if terms > MAX_TERMS {
+        let mib = terms as f64 * approx::Table::BYTES_PER_TERM as f64 / (1u64 << 20) as f64;
+        return Err(Error::Setting {
+            name: "--candidates",
+            problem: format!(
+                "{points} grid points × {candidates} candidates = {terms} first-order terms exceed the limit of {MAX_TERMS} (the table would need {mib:.0} MiB; docs/LIMITS.md)"
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// What the search chose for the Monte Carlo: the layouts in the approximation's rank order,
+/// each as candidate indices in pick order with its approximate score.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Shortlist {
+    pub(crate) method: &'static str,
+    pub(crate) evaluated: u64,
+    pub(crate) layouts: Vec<(approx::Score, Vec<usize>)>,
+}
+
+impl Shortlist {
+    /// Builds the first-order table of `inputs`, searches it and keeps the layouts worth a
+    /// Monte Carlo run.
+    pub(crate) fn find(
+        inputs: &Inputs,
+        config: &PlaceConfig,
+        progress: Option<&dyn Reporter>,
+    ) -> Result<Shortlist, Error> {
+        let own = inputs
+            .scenario
+            .grid
+            .as_ref()
+            .map_or(0, |g| g.observers.len());
+        let all = layout(&inputs.scenario, &inputs.candidates);
+        let study = GridStudy::new(&all, inputs.samples, inputs.seed)
+            .map_err(|e| Error::input(&config.candidates, e))?;
+        let hook = progress.map(|r| progress::stage(r, "first-order terms"));
+        let hook = hook.as_ref().map(|h| h as &(dyn Fn(usize, usize) + Sync));
+        let table = approx::Table::build(&study, own, hook)
+            .map_err(|e| Error::input(&config.candidates, e))?;
+        drop(study);
+        let found = search::search(&table, inputs.k, MAX_CONFIRMED);
+        let best_share = found.board.entries.first().map_or(0.0, |(s, _)| s.share());
+        let layouts = found
+            .board
+            .entries
+            .iter()
+            .filter(|(s, _)| s.share() >= best_share - CONFIRM_MARGIN)
+            .map(|(s, set)| (*s, search::order_within(&table, set, set.len())))
+            .collect();
+        Ok(Shortlist {
+            method: found.method,
+            evaluated: found.evaluated,
+            layouts,
+        })
+    }
+
+    /// `placement.json` from the Monte Carlo scores of the layouts (in shortlist order), and
+    /// the winner's position: the best confirmed objective, ties in the approximation's order.
+    pub(crate) fn decide(&self, inputs: &Inputs, mc: &[approx::Score]) -> (usize, Placement) {
+        let mut winner = 0;
+        for (i, s) in mc.iter().enumerate() {
+            if s.compare(&mc[winner]) == std::cmp::Ordering::Greater {
+                winner = i;
+            }
+        }
+        let confirmed: Vec<Confirmed> = self
+            .layouts
+            .iter()
+            .zip(mc)
+            .map(|((approx, order), score)| Confirmed {
+                chosen: inputs.names(order),
+                share_below_threshold: score.share(),
+                mean_sigma_max_mm: score.mean_sigma_max_mm(),
+                approximate_share_below_threshold: approx.share(),
+                approximate_mean_sigma_max_mm: approx.mean_sigma_max_mm(),
+            })
+            .collect();
+        let w = &confirmed[winner];
+        let placement = Placement {
+            chosen: w.chosen.clone(),
+            share_below_threshold: w.share_below_threshold,
+            mean_sigma_max_mm: w.mean_sigma_max_mm,
+            method: self.method,
+            evaluated: self.evaluated,
+            samples: inputs.samples,
+            seed: inputs.seed,
+            choose: inputs.k,
+            candidates: inputs.candidates.len(),
+            threshold_mm: inputs.threshold_mm,
+            points: inputs.points,
+            confirmed,
+        };
+        (winner, placement)
+    }
+}
+
+/// Writes `placement.json` to `staged` and commits it.
+pub(crate) fn commit(
+    placement: &Placement,
+    mut staged: crashrig_outdir::Staged,
+    out: &std::path::Path,
+) -> Result<(), Error> {
+    let json = serde_json::to_vec_pretty(placement).map_err(|e| Error::Output {
+        out: out.to_path_buf(),
+        problem: e.to_string(),
+    })?;
+    staged.write("placement.json", &json)?;
+    staged.commit()?;
+    Ok(())
+}
+
 /// Runs the placement search of `config` and writes `OUT/placement.json` and `OUT/grid/` as one
 /// unit (nothing is written on an error); `progress` watches the stages.
 ///
 /// # Errors
 /// [`Error::Input`] (the scenario or candidates file, with the line), [`Error::Setting`]
-/// (`--choose`, `--samples`), [`Error::OutDir`] — all before any work — and [`Error::Grid`].
+/// (`--choose`, `--samples`, `--candidates`), [`Error::OutDir`] — all before any work — and
+/// [`Error::Grid`].
 pub fn run(config: &PlaceConfig, progress: Option<&dyn Reporter>) -> Result<PlaceRun, Error> {
-    let scenario = Scenario::from_path_for_placement(&config.scenario)
-        .map_err(|e| Error::input(&config.scenario, e))?;
-    let Some(grid) = scenario.grid.clone() else {
-        return Err(Error::input(&config.scenario, crashrig_mc::Error::NoGrid));
-    };
-    let candidates = crashrig_mc::read_candidates(&config.candidates, &scenario)
-        .map_err(|e| Error::input(&config.candidates, e))?;
-    let (base, n, k) = (grid.observers.len(), candidates.len(), config.choose);
-    let choose = |problem: String| Error::Setting {
-        name: "--choose",
-        problem,
-    };
-    if k == 0 {
-        return Err(choose("must be at least 1".into()));
-    }
-    if k > n {
-        return Err(choose(format!(
-            "{k} exceeds the {n} candidates of {}",
-            config.candidates.display()
-        )));
-    }
-    if base + k < 2 {
-        return Err(choose(format!(
-            "{} has {base} observer(s) of its own; choose at least {} so that points are seen twice",
-            config.scenario.display(),
-            2 - base
-        )));
-    }
-    let samples = crashrig_study::grid_run::resolve_samples(config.samples, &scenario)?;
-    let seed = config.seed.unwrap_or(scenario.seed);
-    let points = grid.points().len();
-    if grid.adaptive.is_none() {
-        crashrig_mc::limits::check_grid_draws(points, samples).map_err(|e| Error::Setting {
-            name: "--samples",
-            problem: format!("{samples}: {e}"),
-        })?;
-    }
-    if points.saturating_mul(n) > MAX_TERMS {
-        return Err(Error::Setting {
-            name: "--candidates",
-            problem: format!(
-                "{points} grid points × {n} candidates exceed the limit of {MAX_TERMS} (docs/PLACE.md)"
-            ),
-        });
-    }
+    let inputs = Inputs::read(config)?;
     // Fails before any work when OUT holds files `place` does not write.
-    let mut staged = crashrig_outdir::Staged::new(&config.out, replaceable)?;
+    let staged = crashrig_outdir::Staged::new(&config.out, replaceable)?;
+    let shortlist = Shortlist::find(&inputs, config, progress)?;
 
-    // 1. The approximation's table over every candidate.
-    let all = with_observers(&scenario, grid.observers.iter().chain(&candidates).cloned());
-    let study =
-        GridStudy::new(&all, samples, seed).map_err(|e| Error::input(&config.candidates, e))?;
-    let hook = progress.map(|r| progress::stage(r, "first-order terms"));
-    let hook = hook.as_ref().map(|h| h as &(dyn Fn(usize, usize) + Sync));
-    let table = approx::Table::build(&study, base, hook)
-        .map_err(|e| Error::input(&config.candidates, e))?;
-    drop(study);
-
-    // 2. The search.
-    let found = search::search(&table, k, MAX_CONFIRMED);
-    let best_share = found.board.entries.first().map_or(0.0, |(s, _)| s.share());
-    let shortlist: Vec<_> = found
-        .board
-        .entries
-        .iter()
-        .filter(|(s, _)| s.share() >= best_share - CONFIRM_MARGIN)
-        .collect();
-
-    // 3. Confirmation by the Monte Carlo.
-    let mut confirmed = Vec::with_capacity(shortlist.len());
-    let mut layouts = Vec::with_capacity(shortlist.len());
-    for (i, (approx_score, set)) in shortlist.iter().enumerate() {
-        let order = search::order_within(&table, set, set.len());
-        let layout = with_observers(
-            &scenario,
-            grid.observers
-                .iter()
-                .cloned()
-                .chain(order.iter().map(|&c| candidates[c].clone())),
-        );
-        let stage = format!("confirming layout {} of {}", i + 1, shortlist.len());
-        let score = monte_carlo_score(&layout, samples, seed, progress, &stage)
+    // Confirmation by the Monte Carlo.
+    let mut scores = Vec::with_capacity(shortlist.layouts.len());
+    for (i, (_, order)) in shortlist.layouts.iter().enumerate() {
+        let stage = format!("confirming layout {} of {}", i + 1, shortlist.layouts.len());
+        let layout = inputs.layout(order);
+        let score = monte_carlo_score(&layout, inputs.samples, inputs.seed, progress, &stage)
             .map_err(|e| Error::input(&config.candidates, e))?;
-        confirmed.push(Confirmed {
-            chosen: order.iter().map(|&c| candidates[c].name.clone()).collect(),
-            share_below_threshold: score.share(),
-            mean_sigma_max_mm: score.mean_sigma_max_mm(),
-            approximate_share_below_threshold: approx_score.share(),
-            approximate_mean_sigma_max_mm: approx_score.mean_sigma_max_mm(),
-        });
-        layouts.push((score, layout));
+        scores.push(score);
     }
-    // The best confirmed objective; ties keep the approximation's order.
-    let mut winner = 0;
-    for (i, (s, _)) in layouts.iter().enumerate() {
-        if s.compare(&layouts[winner].0) == std::cmp::Ordering::Greater {
-            winner = i;
-        }
-    }
+    let (winner, placement) = shortlist.decide(&inputs, &scores);
     let grid_config = GridConfig {
         scenario: config.scenario.clone(),
         out: staged.dir().join("grid"),
-        samples: Some(samples),
-        seed: Some(seed),
+        samples: Some(inputs.samples),
+        seed: Some(inputs.seed),
         plots: config.plots,
     };
-    let grid_run = crashrig_study::run_grid_scenario(&layouts[winner].1, &grid_config, progress)?;
-    let w = &confirmed[winner];
-    let placement = Placement {
-        chosen: w.chosen.clone(),
-        share_below_threshold: w.share_below_threshold,
-        mean_sigma_max_mm: w.mean_sigma_max_mm,
-        method: found.method,
-        evaluated: found.evaluated,
-        samples,
-        seed,
-        choose: k,
-        candidates: n,
-        threshold_mm: grid.threshold_mm,
-        points,
-        confirmed,
-    };
-    let json = serde_json::to_vec_pretty(&placement).map_err(|e| Error::Output {
-        out: config.out.clone(),
-        problem: e.to_string(),
-    })?;
-    staged.write("placement.json", &json)?;
-    staged.commit()?;
+    let winner_layout = inputs.layout(&shortlist.layouts[winner].1);
+    let grid_run = crashrig_study::run_grid_scenario(&winner_layout, &grid_config, progress)?;
+    commit(&placement, staged, &config.out)?;
     Ok(PlaceRun {
         placement,
         grid: grid_run,
@@ -308,10 +409,18 @@ pub fn monte_carlo_score(
     let study = GridStudy::new(layout, samples, seed)?;
     let hook = progress.map(|r| progress::stage(r, stage));
     let hook = hook.as_ref().map(|h| h as &(dyn Fn(usize, usize) + Sync));
-    let mut result = study.evaluate_with_progress(hook)?;
-    crashrig_mc::degenerate::mask_degenerate(&mut result, study.grid());
-    Ok(approx::Score::of(
+    let result = study.evaluate_with_progress(hook)?;
+    Ok(score_of(result, study.grid()))
+}
+
+/// The Monte Carlo objective of a grid result (degenerate points blanked as `grid` blanks them).
+pub(crate) fn score_of(
+    mut result: crashrig_mc::GridResult,
+    grid: &crashrig_mc::Grid,
+) -> approx::Score {
+    crashrig_mc::degenerate::mask_degenerate(&mut result, grid);
+    approx::Score::of(
         result.points.iter().map(|p| Some(p.sigma_max_mm)),
-        study.grid().threshold_mm,
-    ))
+        grid.threshold_mm,
+    )
 }

@@ -61,6 +61,11 @@ impl Board {
     }
 }
 
+/// [`Found::method`] of the search over every subset.
+pub const EXHAUSTIVE: &str = "exhaustive";
+/// [`Found::method`] of greedy forward selection with swap refinement.
+pub const GREEDY_SWAP: &str = "greedy+swap";
+
 /// What the search found.
 #[derive(Debug, Clone)]
 pub struct Found {
@@ -133,7 +138,7 @@ fn exhaustive(table: &Table, k: usize, keep: usize) -> Found {
         .into_iter()
         .fold(Board::new(keep), |acc, b| acc.merge(b));
     Found {
-        method: "exhaustive",
+        method: EXHAUSTIVE,
         evaluated: 0,
         board,
     }
@@ -210,7 +215,7 @@ fn greedy_swap(table: &Table, k: usize, keep: usize) -> Found {
         }
     }
     Found {
-        method: "greedy+swap",
+        method: GREEDY_SWAP,
         evaluated: 0,
         board,
     }

@@ -68,7 +68,7 @@ fn calibrate<'py>(
     plots: Option<&Bound<'py, PyAny>>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    use crashrig_study::calibration::{CalibrationConfig, Scale, calibrate_with_progress};
+    use crashrig_study::calibration::{CalibrationConfig, Scale, calibrate};
     let options = ScaleOptions {
         scale_points,
         scale_length_mm,
@@ -87,7 +87,7 @@ fn calibrate<'py>(
     let plots = args::opt_path(plots, "plots")?;
     let r = watch::run(py, progress, |w: &Watch| {
         let rounds = w.stage("refinement: weighting rounds");
-        calibrate_with_progress(&config, Some(&rounds))
+        calibrate(&config, Some(&rounds))
     })?
     .map_err(to_py_err)?;
     warn_all(py, &r.warnings)?;
@@ -168,7 +168,7 @@ fn bootstrap<'py>(
     };
     let r = watch::run(py, progress, |w: &Watch| {
         let replicates = w.stage("replicates + jackknife");
-        tie::bootstrap_with_progress(&config, Some(&replicates))
+        tie::bootstrap(&config, Some(&replicates))
     })?
     .map_err(to_py_err)?;
     warn_all(py, &r.warnings())?;

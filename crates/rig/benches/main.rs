@@ -66,7 +66,7 @@ fn bench_refine(c: &mut Criterion) {
     for n in [20usize, 140] {
         let e = epochs(n, 2);
         g.bench_with_input(BenchmarkId::from_parameter(n), &e, |b, e| {
-            b.iter(|| refine(black_box(e), 1.0, &RefineOptions::default()).unwrap())
+            b.iter(|| refine(black_box(e), 1.0, &RefineOptions::default(), None).unwrap())
         });
     }
     g.finish();

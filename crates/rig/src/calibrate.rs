@@ -3,12 +3,13 @@
 //! refinement (floored at the uncertainty of the mean).
 
 use crate::drift::{DriftReport, drift_report};
-use crate::refine::{RefineOptions, Refinement, refine_with_progress};
+use crate::refine::{RefineOptions, Refinement, refine};
 use crate::robust::{OutlierReport, flag_outliers};
 use crate::sem::{SemEstimate, sem_covariance, sem_iid};
 use crate::stats::{LinkStatistics, link_statistics};
 use crate::{Epoch, Error, Link, links_of};
 use crashrig_geometry::{Rigid3, UncertainPose, Vec6};
+use crashrig_stats::progress::{Monitor, Part};
 
 /// Relative size, against the coordinates of the sequence, of a base spread at numerical zero
 /// (10⁻¹⁰: ~10⁶ ulps; a measured spread is many orders of magnitude larger).
@@ -129,30 +130,21 @@ fn spread_and_sem(
 
 /// Calibrates the rig from `epochs` (poses in model units, `mm_per_unit` to mm).
 ///
+/// `monitor` (optional) follows the refinements (the slow part): `(weighting rounds done,
+/// rounds)` over the refinement of all epochs and, when epochs are flagged, the one without
+/// them (see [`crate::refine::refine`]), and may cancel between rounds; the result is the same
+/// with and without it.
+///
 /// # Errors
 /// [`Error::TooFewEpochs`] for fewer than two epochs, [`Error::RigConstrained`] when every
-/// epoch gives the same link and [`CalibrateOptions::accept_rig_constrained`] is false, and
-/// the errors of [`links_of`], [`link_statistics`] and [`crate::refine::refine`].
+/// epoch gives the same link and [`CalibrateOptions::accept_rig_constrained`] is false, the
+/// errors of [`links_of`], [`link_statistics`] and [`crate::refine::refine`], and
+/// [`Error::Cancelled`].
 pub fn calibrate(
     epochs: &[Epoch],
     mm_per_unit: f64,
     options: &CalibrateOptions,
-) -> Result<Calibration, Error> {
-    calibrate_with_progress(epochs, mm_per_unit, options, None)
-}
-
-/// [`calibrate`] reporting the progress of its refinements (the slow part) to `progress`:
-/// `(weighting rounds done, rounds)` over the refinement of all epochs and, when epochs are
-/// flagged, the one without them (see [`crate::refine::refine_with_progress`]). The result is
-/// the same as without.
-///
-/// # Errors
-/// As [`calibrate`].
-pub fn calibrate_with_progress(
-    epochs: &[Epoch],
-    mm_per_unit: f64,
-    options: &CalibrateOptions,
-    progress: Option<crashrig_stats::progress::Progress<'_>>,
+    monitor: Option<&dyn Monitor>,
 ) -> Result<Calibration, Error> {
     let links = links_of(epochs, mm_per_unit)?;
     let all = link_statistics(&links)?;
@@ -191,22 +183,17 @@ pub fn calibrate_with_progress(
     } else {
         1
     };
-    let part = |k: usize| {
-        move |d: usize, t: usize| {
-            if let Some(p) = progress {
-                p(k * t + d, parts * t);
-            }
-        }
-    };
-    let (first, second) = (part(0), part(1));
-    let (first, second): (
-        crashrig_stats::progress::Progress<'_>,
-        crashrig_stats::progress::Progress<'_>,
-    ) = (&first, &second);
+    let first = monitor.map(|m| Part::new(m, 0, parts));
+    let second = monitor.map(|m| Part::new(m, 1, parts));
     let refined = match &options.refine {
         Some(o) => Some(
-            refine_with_progress(epochs, mm_per_unit, o, progress.and(Some(first)))?
-                .floored(&sem.covariance),
+            refine(
+                epochs,
+                mm_per_unit,
+                o,
+                first.as_ref().map(|m| m as &dyn Monitor),
+            )?
+            .floored(&sem.covariance),
         ),
         None => None,
     };
@@ -220,8 +207,13 @@ pub fn calibrate_with_progress(
                 .collect();
             let (_, _, kept_sem) = spread_and_sem(&kept, zero)?;
             Some(
-                refine_with_progress(&kept_epochs, mm_per_unit, o, progress.and(Some(second)))?
-                    .floored(&kept_sem.covariance),
+                refine(
+                    &kept_epochs,
+                    mm_per_unit,
+                    o,
+                    second.as_ref().map(|m| m as &dyn Monitor),
+                )?
+                .floored(&kept_sem.covariance),
             )
         }
         _ => None,

@@ -60,4 +60,7 @@ pub enum Error {
     /// A geometric operation failed (degenerate rotation mean, gimbal lock, …).
     #[error(transparent)]
     Geometry(#[from] crashrig_geometry::Error),
+    /// The caller's monitor cancelled the calibration.
+    #[error(transparent)]
+    Cancelled(#[from] crashrig_stats::progress::Cancelled),
 }

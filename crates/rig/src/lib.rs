@@ -58,7 +58,7 @@
 //!         }
 //!     })
 //!     .collect();
-//! let c = calibrate(&epochs, 1.0, &CalibrateOptions::default())?;
+//! let c = calibrate(&epochs, 1.0, &CalibrateOptions::default(), None)?;
 //! assert_eq!(c.all.n, 5);
 //! assert!((c.all.base_mm.x - 62.0).abs() < 1e-9);
 //! assert!((c.all.angles.x.to_degrees() - 179.9).abs() < 1e-9);
@@ -80,13 +80,13 @@ pub mod sem;
 pub mod stats;
 
 pub use calibrate::{
-    CalibrateOptions, Calibration, ZERO_SPREAD_RAD, ZERO_SPREAD_RELATIVE, calibrate,
-    calibrate_with_progress, epoch_spread,
+    CalibrateOptions, Calibration, ZERO_SPREAD_RAD, ZERO_SPREAD_RELATIVE, calibrate, epoch_spread,
 };
+pub use crashrig_stats::progress::{Cancelled, Monitor};
 pub use drift::{DriftReport, drift_report};
 pub use error::Error;
 pub use link::{Epoch, Link, check_scale, link_of, links_of};
-pub use refine::{RefineOptions, Refinement, refine, refine_with_progress};
+pub use refine::{RefineOptions, Refinement, refine};
 pub use robust::{OutlierReport, flag_outliers, outlier_threshold};
 pub use sem::SemEstimate;
 pub use stats::{LinkStatistics, link_statistics};

@@ -36,6 +36,7 @@
 use crate::link::{check_epoch, check_scale, scaled};
 use crate::{Epoch, Error};
 use crashrig_geometry::{Mat3, Mat6, Rigid3, Rot3, Vec3, mean, opk, so3};
+use crashrig_stats::progress::{Counter, Monitor};
 use faer::linalg::solvers::Solve;
 use nalgebra::{SMatrix, SVector, Translation3};
 
@@ -300,36 +301,28 @@ fn normal_equations(
 
 /// Estimates one `A_from_B` jointly with all epoch poses of A (see the module doc).
 ///
-/// `epochs` are in model units; `mm_per_unit` converts them to mm.
+/// `epochs` are in model units; `mm_per_unit` converts them to mm. `monitor` (optional) gets
+/// `(weighting rounds done, rounds)` after each re-weighting round (at most
+/// [`RefineOptions::variance_iterations`]; the last report is the total, also when the weights
+/// converge earlier) and is asked before each round whether the call was cancelled; the result
+/// is the same with and without it.
 ///
 /// # Errors
 /// [`Error::TooFewEpochs`] for fewer than two epochs, [`Error::InvalidScale`],
 /// [`Error::NonFinitePose`], [`Error::SingularNormalMatrix`], [`Error::NoConvergence`],
-/// and [`Error::Geometry`] when the epoch rotations have no chordal mean.
+/// [`Error::Geometry`] when the epoch rotations have no chordal mean, and
+/// [`Error::Cancelled`].
 pub fn refine(
     epochs: &[Epoch],
     mm_per_unit: f64,
     options: &RefineOptions,
+    monitor: Option<&dyn Monitor>,
 ) -> Result<Refinement, Error> {
-    refine_with_progress(epochs, mm_per_unit, options, None)
-}
-
-/// [`refine`] reporting `(weighting rounds done, rounds)` to `progress` after each
-/// re-weighting round (at most [`RefineOptions::variance_iterations`]; the last report is the
-/// total, also when the weights converge earlier). The result is the same as without.
-///
-/// # Errors
-/// As [`refine`].
-pub fn refine_with_progress(
-    epochs: &[Epoch],
-    mm_per_unit: f64,
-    options: &RefineOptions,
-    progress: Option<crashrig_stats::progress::Progress<'_>>,
-) -> Result<Refinement, Error> {
-    let rounds =
-        crashrig_stats::progress::Counter::new(progress, options.variance_iterations.max(1));
+    let rounds = Counter::monitored(monitor, options.variance_iterations.max(1));
     let r = refine_rounds(epochs, mm_per_unit, options, &rounds);
-    rounds.finish();
+    if !matches!(r, Err(Error::Cancelled(_))) {
+        rounds.finish();
+    }
     r
 }
 
@@ -337,7 +330,7 @@ fn refine_rounds(
     epochs: &[Epoch],
     mm_per_unit: f64,
     options: &RefineOptions,
-    rounds: &crashrig_stats::progress::Counter<'_>,
+    rounds: &Counter<'_>,
 ) -> Result<Refinement, Error> {
     check_scale(mm_per_unit)?;
     let n = epochs.len();
@@ -381,6 +374,7 @@ fn refine_rounds(
     let mut iterations = 0;
     let mut llt = None;
     for _round in 0..options.variance_iterations.max(1) {
+        rounds.check()?;
         let mut converged = false;
         let mut last_step = f64::INFINITY;
         for _ in 0..options.max_iterations.max(1) {
@@ -595,7 +589,7 @@ mod tests {
                 b_from_world: scaled(&e.b_from_world, 1.0 / 2.5),
             })
             .collect();
-        let r = refine(&epochs, 2.5, &RefineOptions::default()).unwrap();
+        let r = refine(&epochs, 2.5, &RefineOptions::default(), None).unwrap();
         let truth = paper_link();
         // Exact data: only rounding of 2000 mm poses remains.
         assert_abs_diff_eq!(r.base_mm, truth.translation.vector, epsilon = 1e-9);
@@ -615,7 +609,7 @@ mod tests {
     fn refine_noisy_estimates_variance_components() {
         // 140 epochs like the paper: σ_rot = 0.5 mrad, σ_pos = 1.5 mm on each pose.
         let epochs = sequence(140, 7, 5e-4, 1.5);
-        let r = refine(&epochs, 1.0, &RefineOptions::default()).unwrap();
+        let r = refine(&epochs, 1.0, &RefineOptions::default(), None).unwrap();
         assert_eq!(r.n_unknowns, 846);
         // VCE recovers the injected σ on each axis: with n − 1 = 139 redundant residuals per
         // group, the relative standard error of σ̂ is ~1/√(2·139) ≈ 6 %; allow 4 of them.
@@ -643,7 +637,7 @@ mod tests {
         let truth = paper_link();
         for rep in 0..reps {
             let epochs = sequence(10, 1000 + rep as u64, 5e-4, 1.5);
-            let r = refine(&epochs, 1.0, &RefineOptions::default()).unwrap();
+            let r = refine(&epochs, 1.0, &RefineOptions::default(), None).unwrap();
             let d = so3::log(
                 &(truth.rotation.to_rotation_matrix().inverse()
                     * r.a_from_b.rotation.to_rotation_matrix()),
@@ -701,7 +695,7 @@ mod tests {
     #[test]
     fn refine_floored_never_below_floor() {
         let epochs = sequence(20, 5, 5e-4, 1.5);
-        let r = refine(&epochs, 1.0, &RefineOptions::default()).unwrap();
+        let r = refine(&epochs, 1.0, &RefineOptions::default(), None).unwrap();
         let c = r.tangent_covariance_independent;
         // Floor: 4× the variance on axes 0 and 4, a tenth of it elsewhere.
         let floor = Mat6::from_fn(|i, j| {
@@ -746,7 +740,7 @@ mod tests {
                 }
             })
             .collect();
-        let r = refine(&epochs, 1.0, &RefineOptions::default()).unwrap();
+        let r = refine(&epochs, 1.0, &RefineOptions::default(), None).unwrap();
         // x offsets −1 … 1 mm average to 0; the exact axes come out exact (rounding only).
         assert_abs_diff_eq!(r.base_mm, link.translation.vector, epsilon = 1e-9);
         assert!(r.base_sigma_mm.x > 1e3 * r.base_sigma_mm.y);
@@ -776,7 +770,7 @@ mod tests {
                 }
             })
             .collect();
-        let r = refine(&epochs, 1.0, &RefineOptions::default()).unwrap();
+        let r = refine(&epochs, 1.0, &RefineOptions::default(), None).unwrap();
         assert!(r.base_sigma_mm.iter().all(|v| v.is_finite() && *v > 0.0));
         assert!(r.angles_sigma[0].is_nan());
         assert!(r.tangent_covariance.iter().all(|v| v.is_finite()));
@@ -786,7 +780,7 @@ mod tests {
     fn refine_one_epoch_is_error() {
         let epochs = sequence(1, 3, 0.0, 0.0);
         assert!(matches!(
-            refine(&epochs, 1.0, &RefineOptions::default()),
+            refine(&epochs, 1.0, &RefineOptions::default(), None),
             Err(Error::TooFewEpochs { found: 1, .. })
         ));
     }

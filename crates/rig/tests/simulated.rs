@@ -253,7 +253,7 @@ fn coverage(seed: u64, reps: u64, rho: f64) -> (f64, f64) {
     let (mut rule, mut plain, mut total) = (0usize, 0usize, 0usize);
     for rep in 0..reps {
         let (truth, links) = ar1_links(seed, rep, rho);
-        let c = calibrate(&epochs_of(&links), 1.0, &options).unwrap();
+        let c = calibrate(&epochs_of(&links), 1.0, &options, None).unwrap();
         let e = c.link.tangent_of(&truth);
         for j in 0..6 {
             total += 1;
@@ -293,7 +293,7 @@ fn sem_rule_white_noise_is_not_wildly_conservative_fast() {
     let (mut covered, mut total, mut ratio) = (0usize, 0usize, 0.0);
     for rep in 0..200 {
         let (truth, links) = ar1_links(91, rep, 0.0);
-        let c = calibrate(&epochs_of(&links), 1.0, &options).unwrap();
+        let c = calibrate(&epochs_of(&links), 1.0, &options, None).unwrap();
         let e = c.link.tangent_of(&truth);
         for j in 0..6 {
             let se = c.link.covariance[(j, j)].sqrt();
@@ -430,7 +430,7 @@ fn rig_constrained_sequence_is_refused() {
     // Identical links in every epoch (a bundle adjusted with a rig constraint).
     let link = opk_pose(&[61.98, -1.71, 179.76, 179.92, -0.09, 179.76]);
     let epochs = epochs_of(&vec![link; 30]);
-    let r = calibrate(&epochs, 1.0, &CalibrateOptions::default());
+    let r = calibrate(&epochs, 1.0, &CalibrateOptions::default(), None);
     match r {
         Err(Error::RigConstrained {
             n_epochs,
@@ -452,7 +452,7 @@ fn rig_constrained_sequence_is_refused() {
         refine: Some(RefineOptions::default()),
         ..CalibrateOptions::default()
     };
-    let c = calibrate(&epochs, 1.0, &options).unwrap();
+    let c = calibrate(&epochs, 1.0, &options, None).unwrap();
     assert!(c.rig_constrained && c.drift.is_none());
     assert_eq!(c.sem.rule, crashrig_rig::sem::RULE_IID);
     assert!(c.outliers.indices().is_empty());
@@ -463,11 +463,11 @@ fn rig_constrained_sequence_is_refused() {
             opk_pose(&[61.98 + d, -1.71, 179.76, 179.92 + d * 0.057, -0.09, 179.76])
         })
         .collect();
-    let c = calibrate(&epochs_of(&tiny), 1.0, &CalibrateOptions::default()).unwrap();
+    let c = calibrate(&epochs_of(&tiny), 1.0, &CalibrateOptions::default(), None).unwrap();
     assert!(!c.rig_constrained);
 }
 
-/// Progress of `calibrate_with_progress`: with flagged epochs both refinements report, within
+/// Progress of `calibrate` with a monitor: with flagged epochs both refinements report, within
 /// the total (2 × the weighting rounds), ending at it; the result is the same as without.
 #[test]
 fn calibrate_progress_covers_both_refinements_and_changes_nothing() {
@@ -478,9 +478,8 @@ fn calibrate_progress_covers_both_refinements_and_changes_nothing() {
     let options = CalibrateOptions::default();
     let seen = std::sync::Mutex::new(Vec::new());
     let report = |d: usize, t: usize| seen.lock().unwrap().push((d, t));
-    let with =
-        crashrig_rig::calibrate_with_progress(&epochs, 1.0, &options, Some(&report)).unwrap();
-    assert_eq!(with, calibrate(&epochs, 1.0, &options).unwrap());
+    let with = calibrate(&epochs, 1.0, &options, Some(&report)).unwrap();
+    assert_eq!(with, calibrate(&epochs, 1.0, &options, None).unwrap());
     assert!(with.refined_without_outliers.is_some());
     let seen = seen.into_inner().unwrap();
     let total = 2 * RefineOptions::default().variance_iterations;
@@ -495,4 +494,37 @@ fn calibrate_progress_covers_both_refinements_and_changes_nothing() {
         seen.iter().any(|&(d, _)| d > total / 2 && d < total),
         "{seen:?}"
     );
+}
+
+/// A monitor that cancels once a report reaches `after` rounds.
+struct StopAt(usize, std::sync::atomic::AtomicUsize);
+
+impl crashrig_rig::Monitor for StopAt {
+    fn report(&self, done: usize, _: usize) {
+        self.1.fetch_max(done, std::sync::atomic::Ordering::Relaxed);
+    }
+    fn cancelled(&self) -> bool {
+        self.1.load(std::sync::atomic::Ordering::Relaxed) >= self.0
+    }
+}
+
+/// A cancelled calibration returns `Cancelled`, from either refinement, and reports no more.
+#[test]
+fn calibrate_cancelled_in_either_refinement_returns_cancelled() {
+    let mut p = clean_parameters(90, 0);
+    p[17][0] += 20.0 * SIGMA[0];
+    let epochs = epochs_of(&p.iter().map(opk_pose).collect::<Vec<_>>());
+    let options = CalibrateOptions::default();
+    let rounds = RefineOptions::default().variance_iterations;
+    // Before the first round, and after the first refinement's rounds (in the second).
+    for after in [0, rounds] {
+        let stop = StopAt(after, 0.into());
+        let e = calibrate(&epochs, 1.0, &options, Some(&stop)).unwrap_err();
+        assert!(
+            matches!(e, crashrig_rig::Error::Cancelled(_)),
+            "{after}: {e}"
+        );
+        assert_eq!(e.to_string(), "cancelled");
+        assert_eq!(stop.1.into_inner(), after);
+    }
 }

@@ -12,7 +12,8 @@
 //! - [`stream`]: the RNG for replicate `index` of a run seeded with `seed`.
 //! - [`Moments`]: streaming mean / covariance of fixed-size vectors (Welford, mergeable).
 //! - [`summary::Summary`], [`summary::quantile`]: batch summaries of a slice.
-//! - [`progress::Counter`]: `(done, total)` progress reports of long calls (no UI).
+//! - [`progress::Monitor`], [`progress::Counter`]: `(done, total)` progress reports and
+//!   cancellation of long calls (no UI).
 //!
 //! # Example
 //! ```

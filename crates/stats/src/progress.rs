@@ -1,6 +1,9 @@
-//! Progress reporting for long library calls, without any user interface: a caller passes a
-//! [`Progress`] callback, the library counts finished units of work (replicates, grid points,
-//! chunks of draws, iterations) with a [`Counter`] and calls it with `(done, total)`.
+//! Progress reporting and cancellation for long library calls, without any user interface: a
+//! caller passes one optional [`Monitor`] (or a plain [`Progress`] callback, or a [`Reporter`]
+//! for an entry with named stages), the library counts finished units of work (replicates, grid
+//! points, chunks of draws, iterations) with a [`Counter`], which reports `(done, total)` and,
+//! between units, asks [`Monitor::cancelled`]; a cancelled call returns [`Cancelled`] (wrapped in
+//! its crate's error enum).
 //!
 //! A counter costs one atomic increment per unit (units are chunks or points, never single
 //! draws) and never changes what is computed: results are the same with and without a callback.
@@ -25,6 +28,105 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 /// A progress callback: `(done, total)` units of work, `done ≤ total`.
 pub type Progress<'a> = &'a (dyn Fn(usize, usize) + Sync);
 
+/// The one optional argument of a long library step (`Option<&dyn Monitor>`): where it reports
+/// `(done, total)` and whether its caller wants it to stop. Any `Fn(usize, usize) + Sync`
+/// closure is a monitor that never cancels.
+pub trait Monitor: Sync {
+    /// `done` of `total` units are finished (`done ≤ total`; parallel work may report slightly
+    /// out of order).
+    fn report(&self, done: usize, total: usize);
+
+    /// Whether the caller asks the call to stop: polled between units of work; the call then
+    /// returns [`Cancelled`]. Never cancels unless overridden.
+    fn cancelled(&self) -> bool {
+        false
+    }
+}
+
+impl<F: Fn(usize, usize) + Sync> Monitor for F {
+    fn report(&self, done: usize, total: usize) {
+        self(done, total);
+    }
+}
+
+/// The error of a call whose [`Monitor`] (or [`Reporter`]) said it was cancelled: nothing was
+/// returned and no output was written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("cancelled")]
+pub struct Cancelled;
+
+/// Fails with [`Cancelled`] when `monitor` says the call was cancelled.
+///
+/// # Errors
+/// [`Cancelled`] when `monitor` is given and [`Monitor::cancelled`] is true.
+pub fn check(monitor: Option<&dyn Monitor>) -> Result<(), Cancelled> {
+    match monitor {
+        Some(m) if m.cancelled() => Err(Cancelled),
+        _ => Ok(()),
+    }
+}
+
+/// Part `index` of `parts` equal parts of one monitored call: reports `(index·t + done,
+/// parts·t)` to `parent` and forwards its cancellation (a step that runs a sub-step several
+/// times, such as a calibration's two refinements, shows one bar).
+pub struct Part<'a> {
+    parent: &'a dyn Monitor,
+    index: usize,
+    parts: usize,
+}
+
+impl<'a> Part<'a> {
+    /// Part `index` (from 0) of `parts`.
+    pub fn new(parent: &'a dyn Monitor, index: usize, parts: usize) -> Self {
+        Self {
+            parent,
+            index,
+            parts,
+        }
+    }
+}
+
+impl Monitor for Part<'_> {
+    fn report(&self, done: usize, total: usize) {
+        self.parent
+            .report(self.index * total + done, self.parts * total);
+    }
+
+    fn cancelled(&self) -> bool {
+        self.parent.cancelled()
+    }
+}
+
+/// A sub-step of a monitored call whose units follow `offset` finished units of a call of
+/// `total` units: reports `(offset + done, total)` to `parent`, forwarding its cancellation
+/// (a tie bootstrap's replicates, then its leave-one-out values, on one bar).
+pub struct Offset<'a> {
+    parent: &'a dyn Monitor,
+    offset: usize,
+    total: usize,
+}
+
+impl<'a> Offset<'a> {
+    /// Units after `offset` of `total`.
+    pub fn new(parent: &'a dyn Monitor, offset: usize, total: usize) -> Self {
+        Self {
+            parent,
+            offset,
+            total,
+        }
+    }
+}
+
+impl Monitor for Offset<'_> {
+    fn report(&self, done: usize, _: usize) {
+        self.parent.report(self.offset + done, self.total);
+    }
+
+    fn cancelled(&self) -> bool {
+        self.parent.cancelled()
+    }
+}
+
 /// Progress of a library entry with named stages (`crashrig_study::run_grid`, …): the one
 /// optional argument through which a front end watches a long call. The entry turns it into a
 /// [`Progress`] per stage ([`stage`]); results never depend on it.
@@ -32,6 +134,11 @@ pub trait Reporter: Sync {
     /// `done` of `total` units of `stage` are finished (`done ≤ total`; parallel work may
     /// report slightly out of order).
     fn report(&self, stage: &str, done: usize, total: usize);
+
+    /// Whether the caller asks the call to stop (see [`Monitor::cancelled`]).
+    fn cancelled(&self) -> bool {
+        false
+    }
 }
 
 /// A `(done, total)` callback of `stage` reporting to `reporter`.
@@ -39,9 +146,40 @@ pub fn stage<'a>(reporter: &'a dyn Reporter, stage: &'a str) -> impl Fn(usize, u
     move |done, total| reporter.report(stage, done, total)
 }
 
-/// Counts finished units of work and reports them to an optional [`Progress`].
+/// Stage `stage` of `reporter` as a [`Monitor`] (reports and cancellation).
+pub struct Stage<'a> {
+    reporter: &'a dyn Reporter,
+    stage: &'a str,
+}
+
+impl<'a> Stage<'a> {
+    /// The monitor of `stage`.
+    pub fn new(reporter: &'a dyn Reporter, stage: &'a str) -> Self {
+        Self { reporter, stage }
+    }
+}
+
+impl Monitor for Stage<'_> {
+    fn report(&self, done: usize, total: usize) {
+        self.reporter.report(self.stage, done, total);
+    }
+
+    fn cancelled(&self) -> bool {
+        self.reporter.cancelled()
+    }
+}
+
+/// Where a [`Counter`] reports.
+#[derive(Clone, Copy)]
+enum Sink<'a> {
+    Callback(Progress<'a>),
+    Monitor(&'a dyn Monitor),
+}
+
+/// Counts finished units of work and reports them to an optional [`Progress`] callback or
+/// [`Monitor`].
 pub struct Counter<'a> {
-    report: Option<Progress<'a>>,
+    report: Option<Sink<'a>>,
     done: AtomicUsize,
     total: usize,
 }
@@ -50,9 +188,39 @@ impl<'a> Counter<'a> {
     /// A counter of `total` units reporting to `report` (nothing when `None`).
     pub fn new(report: Option<Progress<'a>>, total: usize) -> Self {
         Self {
-            report,
+            report: report.map(Sink::Callback),
             done: AtomicUsize::new(0),
             total,
+        }
+    }
+
+    /// A counter of `total` units reporting to `monitor` (nothing when `None`); [`Self::check`]
+    /// asks it whether the call was cancelled.
+    pub fn monitored(monitor: Option<&'a dyn Monitor>, total: usize) -> Self {
+        Self {
+            report: monitor.map(Sink::Monitor),
+            done: AtomicUsize::new(0),
+            total,
+        }
+    }
+
+    /// Fails with [`Cancelled`] when the monitor says the call was cancelled (a plain
+    /// callback never cancels): polled between units of work.
+    ///
+    /// # Errors
+    /// [`Cancelled`] as above.
+    pub fn check(&self) -> Result<(), Cancelled> {
+        match self.report {
+            Some(Sink::Monitor(m)) if m.cancelled() => Err(Cancelled),
+            _ => Ok(()),
+        }
+    }
+
+    fn send(&self, done: usize) {
+        match self.report {
+            Some(Sink::Callback(f)) => f(done, self.total),
+            Some(Sink::Monitor(m)) => m.report(done, self.total),
+            None => {}
         }
     }
 
@@ -73,18 +241,18 @@ impl<'a> Counter<'a> {
 
     /// `n` more units are finished (the report is clamped to the total).
     pub fn add(&self, n: usize) {
-        if let Some(f) = self.report {
+        if self.report.is_some() {
             let done = self.done.fetch_add(n, Ordering::Relaxed) + n;
-            f(done.min(self.total), self.total);
+            self.send(done.min(self.total));
         }
     }
 
     /// Everything is finished: reports `(total, total)` (for work that ends early, such as an
     /// iteration that converges before its limit, or units that needed no work).
     pub fn finish(&self) {
-        if let Some(f) = self.report {
+        if self.report.is_some() {
             self.done.store(self.total, Ordering::Relaxed);
-            f(self.total, self.total);
+            self.send(self.total);
         }
     }
 }
@@ -108,5 +276,66 @@ mod tests {
         s.add(3);
         s.finish();
         assert!(!s.is_reporting());
+        assert_eq!(s.check(), Ok(()));
+    }
+
+    /// A monitor that cancels after `after` reports.
+    struct StopAfter {
+        after: usize,
+        seen: Mutex<Vec<(usize, usize)>>,
+    }
+
+    impl Monitor for StopAfter {
+        fn report(&self, done: usize, total: usize) {
+            self.seen.lock().unwrap().push((done, total));
+        }
+        fn cancelled(&self) -> bool {
+            self.seen.lock().unwrap().len() >= self.after
+        }
+    }
+
+    #[test]
+    fn counter_monitored_reports_and_checks_cancellation() {
+        let m = StopAfter {
+            after: 2,
+            seen: Mutex::new(Vec::new()),
+        };
+        let c = Counter::monitored(Some(&m), 3);
+        c.add(1);
+        assert_eq!(c.check(), Ok(()));
+        c.add(1);
+        assert_eq!(c.check(), Err(Cancelled));
+        assert_eq!(check(Some(&m)), Err(Cancelled));
+        assert_eq!(check(None), Ok(()));
+        assert_eq!(*m.seen.lock().unwrap(), vec![(1, 3), (2, 3)]);
+        // A closure is a monitor that never cancels.
+        let quiet = |_: usize, _: usize| {};
+        assert_eq!(Counter::monitored(Some(&quiet), 1).check(), Ok(()));
+    }
+
+    #[test]
+    fn part_and_offset_map_onto_the_parent_and_forward_cancellation() {
+        let m = StopAfter {
+            after: 3,
+            seen: Mutex::new(Vec::new()),
+        };
+        Part::new(&m, 1, 2).report(4, 10);
+        Offset::new(&m, 7, 12).report(2, 5);
+        assert!(!Part::new(&m, 0, 2).cancelled());
+        assert!(!Stage::new(&Stopped(false), "x").cancelled());
+        assert!(Stage::new(&Stopped(true), "x").cancelled());
+        m.report(0, 0);
+        assert!(Part::new(&m, 0, 2).cancelled() && Offset::new(&m, 0, 1).cancelled());
+        assert_eq!(*m.seen.lock().unwrap(), vec![(14, 20), (9, 12), (0, 0)]);
+    }
+
+    /// A reporter that is (or is not) cancelled.
+    struct Stopped(bool);
+
+    impl Reporter for Stopped {
+        fn report(&self, _: &str, _: usize, _: usize) {}
+        fn cancelled(&self) -> bool {
+            self.0
+        }
     }
 }

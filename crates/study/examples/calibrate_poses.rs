@@ -36,7 +36,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         refine: None,
         ..CalibrateOptions::default()
     };
-    let c = calibrate(&epochs, 1.0, &options)?;
+    let c = calibrate(&epochs, 1.0, &options, None)?;
     println!(
         "{} epochs: base {:.3?} mm ± {:.3?} (σ), SEM {:.3?}",
         c.all.n, c.all.base_mm, c.all.base_sigma_mm, c.all.base_sem_mm

@@ -22,7 +22,7 @@
 //!     scale: Scale::ScaleBar { points: [1, 2], length_mm: 2000.0 },
 //!     ..CalibrationConfig::default()
 //! };
-//! let result = calibrate(&config)?;
+//! let result = calibrate(&config, None)?;
 //! // The mean link A_from_B with the uncertainty of the mean (mm, rad): what a chain uses.
 //! let link = result.link;
 //! println!("{}", result.to_json());
@@ -36,6 +36,7 @@ use crashrig_rig::refine::RefineOptions;
 use crashrig_rig::robust::outlier_rule_description;
 use crashrig_rig::stats::LinkStatistics;
 use crashrig_rig::{CalibrateOptions, Calibration, DriftReport, Error as RigError, Refinement};
+use crashrig_stats::progress::{Cancelled, Monitor};
 use serde_json::{Value, json};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -198,6 +199,9 @@ pub enum CalibrationError {
         /// The I/O error.
         source: std::io::Error,
     },
+    /// The caller's monitor cancelled the calibration.
+    #[error(transparent)]
+    Cancelled(#[from] Cancelled),
 }
 
 /// Where the scale (mm per model unit) comes from.
@@ -364,32 +368,27 @@ pub struct CalibrationResult {
 /// Calibrates as `crashrig calibrate` does (see the module doc).
 ///
 /// A refinement that fails to converge or is singular does not fail the calibration: the
-/// epoch statistics do not depend on it; it is left out with a warning.
+/// epoch statistics do not depend on it; it is left out with a warning. `monitor` (optional)
+/// follows the rig-constrained refinement (weighting rounds, see [`crashrig_rig::calibrate`])
+/// and may cancel it; the result is the same with and without it.
 ///
 /// # Errors
 /// Every [`CalibrationError`]: an unreadable model, a bad selector or scale, no epochs, a
-/// rig-constrained model (unless accepted), too few epochs.
-pub fn calibrate(config: &CalibrationConfig) -> Result<CalibrationResult, CalibrationError> {
-    calibrate_with_progress(config, None)
-}
-
-/// [`calibrate`] reporting the progress of the rig-constrained refinement (weighting rounds,
-/// see [`crashrig_rig::calibrate_with_progress`]) to `progress`; the result is the same as
-/// without.
-///
-/// # Errors
-/// As [`calibrate`].
-pub fn calibrate_with_progress(
+/// rig-constrained model (unless accepted), too few epochs; [`CalibrationError::Cancelled`].
+pub fn calibrate(
     config: &CalibrationConfig,
-    progress: Option<crashrig_stats::progress::Progress<'_>>,
+    monitor: Option<&dyn Monitor>,
 ) -> Result<CalibrationResult, CalibrationError> {
     let model = Reconstruction::read(&config.model)?;
     let sel_a = CameraSelector::parse(&config.camera_a);
     let sel_b = CameraSelector::parse(&config.camera_b);
     let set = epochs_from_model(&model, &sel_a, &sel_b)?;
-    let rig_err = |source: RigError| CalibrationError::Rig {
-        model: config.model.clone(),
-        source,
+    let rig_err = |source: RigError| match source {
+        RigError::Cancelled(c) => CalibrationError::Cancelled(c),
+        source => CalibrationError::Rig {
+            model: config.model.clone(),
+            source,
+        },
     };
     let scale = match &config.scale {
         Scale::ScaleBar { points, length_mm } => {
@@ -408,7 +407,7 @@ pub fn calibrate_with_progress(
     };
     let split_half = crate::quality::split_half(&set.epochs, scale.mm_per_unit(), &options);
     let run = |o: &CalibrateOptions| {
-        crashrig_rig::calibrate_with_progress(&set.epochs, scale.mm_per_unit(), o, progress)
+        crashrig_rig::calibrate(&set.epochs, scale.mm_per_unit(), o, monitor)
     };
     let cal = match run(&options) {
         Ok(c) => c,

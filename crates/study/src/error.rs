@@ -44,8 +44,8 @@ pub enum Error {
         message: String,
     },
     /// A step of the study failed on its inputs; `key` is the study-file section that
-    /// configured it (its inputs are named in `message`).
-    #[error("{}{}: [{key}]: {message}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
+    /// configured it (its inputs are named by `source`).
+    #[error("{}{}: [{key}]: {source}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
     Step {
         /// The study file.
         path: PathBuf,
@@ -53,8 +53,9 @@ pub enum Error {
         line: Option<usize>,
         /// The section (`calibration`, `tie`, `layout[0]`, …).
         key: String,
-        /// The step's own error message (names the data file at fault).
-        message: String,
+        /// The step's own error (names the data file at fault; boxed, it is large).
+        #[source]
+        source: Box<StepError>,
     },
     /// The Monte Carlo library refused the chain or a layout built from the study.
     #[error("{}: {source}", path.display())]
@@ -141,4 +142,35 @@ pub enum Error {
     /// end spells them ([`crashrig_geometry::options::Spelling`]).
     #[error("{0}")]
     Usage(String),
+}
+
+/// Why a step of a study failed: the typed error of the library that ran it (the source of
+/// [`Error::Step`]; its message is the library's own).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum StepError {
+    /// The calibration (`[calibration]`).
+    #[error(transparent)]
+    Calibration(#[from] crate::calibration::CalibrationError),
+    /// The tie bootstrap (`[tie]`).
+    #[error(transparent)]
+    Tie(#[from] crate::tie::TieError),
+    /// The Monte Carlo library refused the chain (`[outward]`) or a layout.
+    #[error(transparent)]
+    Mc(#[from] crashrig_mc::Error),
+    /// The measurement of the test sequence (`[measure]`).
+    #[error(transparent)]
+    Measure(#[from] crashrig_measure::Error),
+    /// The bundle covariance of camera A (`[measure]` with `a_covariance = "bundle"`).
+    #[error(transparent)]
+    Covariance(#[from] crashrig_covariance::Error),
+    /// A layout whose grid exceeds the limits (`docs/LIMITS.md`).
+    #[error("{problem}")]
+    LayoutSize {
+        /// The limit exceeded and by how much.
+        problem: String,
+    },
+    /// `[measure] camera_c` without a `[tie]` to link camera C.
+    #[error("camera_c needs a [tie] section (the link B_from_C)")]
+    CameraCWithoutTie,
 }

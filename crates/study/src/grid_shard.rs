@@ -35,7 +35,9 @@
 //! ```
 
 use crate::Error;
-use crate::grid_run::{Computed, GridConfig, GridRun, Pending, compute, finish, prepare};
+use crate::grid_run::{
+    Computed, GridConfig, GridRun, Pending, Prepared, compute, finish, prepare, prepare_scenario,
+};
 use crashrig_mc::{GridResult, PointStats, Scenario};
 use crashrig_outdir::shard::{MANIFEST, Manifest, Shard, fingerprint};
 use crashrig_stats::progress::Reporter;
@@ -68,18 +70,34 @@ pub struct ShardRun {
 /// The fingerprint of a grid run's inputs: the scenario file's bytes and the scenario as read
 /// (which holds the content of every file it names, e.g. `from = "link.json"`).
 fn input_fingerprint(path: &Path, scenario: &Scenario) -> Result<String, Error> {
-    let bytes =
-        crashrig_colmap::input_file::read_limited(path, crashrig_mc::limits::MAX_FILE_BYTES)
-            .map_err(|source| Error::Read {
-                path: path.to_path_buf(),
-                source,
-            })?;
-    let resolved = format!("{scenario:?}");
-    Ok(fingerprint(&[
-        COMMAND.as_bytes(),
-        &bytes,
-        resolved.as_bytes(),
-    ]))
+    fingerprint_inputs(COMMAND, &[path], &[format!("{scenario:?}")])
+}
+
+/// The fingerprint of a sharded run's inputs ([`crashrig_outdir::shard::fingerprint`]): the
+/// command, the bytes of every input file (each read with the scenario files' size bound) and
+/// the inputs as read (`resolved`: e.g. the scenario's `Debug` form, which holds the content of
+/// every file it names, and the options that shape the work).
+///
+/// # Errors
+/// [`Error::Read`] for a file that cannot be read.
+pub fn fingerprint_inputs(
+    command: &str,
+    files: &[&Path],
+    resolved: &[String],
+) -> Result<String, Error> {
+    let mut parts = vec![command.as_bytes().to_vec()];
+    for path in files {
+        let bytes =
+            crashrig_colmap::input_file::read_limited(path, crashrig_mc::limits::MAX_FILE_BYTES)
+                .map_err(|source| Error::Read {
+                    path: path.to_path_buf(),
+                    source,
+                })?;
+        parts.push(bytes);
+    }
+    parts.extend(resolved.iter().map(|r| r.as_bytes().to_vec()));
+    let refs: Vec<&[u8]> = parts.iter().map(Vec::as_slice).collect();
+    Ok(fingerprint(&refs))
 }
 
 /// Runs shard `shard` of `config`'s grid and writes the shard directory `config.out`
@@ -96,35 +114,212 @@ pub fn run_grid_shard(
     let mut files = Pending::new(&config.out, shard_replaceable)?;
     let total = p.study.grid().points().len();
     let range = shard.range(total);
-    let study = p
-        .study
-        .with_points(range.clone())
-        .map_err(|e| Error::Scenario {
-            path: Some(config.scenario.clone()),
-            source: e,
-        })?;
-    let c = compute(&p, &study, &config.scenario, progress)?;
+    let rows = shard_rows(&p, range.clone(), &config.scenario, "", progress)?;
     let input = std::fs::canonicalize(&config.scenario).unwrap_or(config.scenario.clone());
     let mut manifest = Manifest::new(
         COMMAND,
         shard,
         total,
-        range.clone(),
+        range,
         input_fingerprint(&config.scenario, &p.scenario)?,
         p.seed,
         p.samples as u64,
         input,
     );
-    manifest.elapsed_s = c.elapsed_s;
-    manifest.threads = c.threads;
-    files.write(POINTS_FILE, &rows_csv(range.start, &c.result.points)?)?;
-    if let Some(ind) = &c.independent {
-        files.write(INDEPENDENT_FILE, &rows_csv(range.start, &ind.points)?)?;
+    manifest.elapsed_s = rows.elapsed_s;
+    manifest.threads = rows.threads;
+    for (name, bytes) in &rows.files {
+        files.write(name, bytes)?;
     }
     files.write(MANIFEST, &manifest.to_json())?;
     Ok(ShardRun {
         manifest,
         files: files.commit()?,
+    })
+}
+
+/// A shard's rows of one grid: the files and the run's seconds and threads.
+struct Rows {
+    files: Vec<(String, Vec<u8>)>,
+    elapsed_s: f64,
+    threads: usize,
+}
+
+/// Runs the points `range` of `p`'s grid; the rows go to `{prefix}points.csv` and, in
+/// correlated mode, `{prefix}points_independent.csv`.
+fn shard_rows(
+    p: &Prepared,
+    range: Range<usize>,
+    path: &Path,
+    prefix: &str,
+    progress: Option<&dyn Reporter>,
+) -> Result<Rows, Error> {
+    let study = p
+        .study
+        .with_points(range.clone())
+        .map_err(|e| Error::Scenario {
+            path: Some(path.to_path_buf()),
+            source: e,
+        })?;
+    let c = compute(p, &study, path, progress)?;
+    let mut files = vec![(
+        format!("{prefix}{POINTS_FILE}"),
+        rows_csv(range.start, &c.result.points)?,
+    )];
+    if let Some(ind) = &c.independent {
+        files.push((
+            format!("{prefix}{INDEPENDENT_FILE}"),
+            rows_csv(range.start, &ind.points)?,
+        ));
+    }
+    Ok(Rows {
+        files,
+        elapsed_s: c.elapsed_s,
+        threads: c.threads,
+    })
+}
+
+/// Runs the grid points `range` of `scenario` (read or built in memory, e.g. a layout of
+/// `crashrig place`; `path` names it in messages) exactly as a grid shard runs them, and
+/// writes their rows to `staged` as `{prefix}points.csv` (and
+/// `{prefix}points_independent.csv` in correlated mode), for [`read_scenario_rows`] to read
+/// back. Returns the number of files written.
+///
+/// # Errors
+/// As [`crate::run_grid_scenario`].
+#[allow(clippy::too_many_arguments)]
+pub fn write_scenario_rows(
+    scenario: &Scenario,
+    path: &Path,
+    samples: usize,
+    seed: u64,
+    range: Range<usize>,
+    prefix: &str,
+    staged: &mut crashrig_outdir::Staged,
+    progress: Option<&dyn Reporter>,
+) -> Result<usize, Error> {
+    let p = prepare_scenario(scenario.clone(), path, Some(samples), Some(seed))?;
+    let rows = shard_rows(&p, range, path, prefix, progress)?;
+    for (name, bytes) in &rows.files {
+        staged.write(name, bytes)?;
+    }
+    Ok(rows.files.len())
+}
+
+/// One grid's Monte Carlo statistics read back from its shards' rows
+/// ([`read_scenario_rows`]), to be reported through the code of `crashrig grid`
+/// ([`MergedRows::write`]).
+pub struct MergedRows {
+    p: Prepared,
+    computed: Computed,
+    path: PathBuf,
+}
+
+impl MergedRows {
+    /// The statistics of every grid point in `grid.csv` order (degenerate points not yet
+    /// blanked), bit-identical to the unsharded run's.
+    pub fn result(&self) -> &GridResult {
+        &self.computed.result
+    }
+
+    /// The grid.
+    pub fn grid(&self) -> &crashrig_mc::Grid {
+        self.p.study.grid()
+    }
+
+    /// Writes `out` exactly as `crashrig grid` writes it (timings: the shards' added up).
+    ///
+    /// # Errors
+    /// As [`crate::run_grid`].
+    pub fn write(self, out: &Path, plots: bool) -> Result<GridRun, Error> {
+        let files = Pending::new(out, crate::grid_run::replaceable)?;
+        finish(&self.p, self.computed, &self.path, plots, files)
+    }
+}
+
+/// Reads the rows [`write_scenario_rows`] wrote with `prefix` into each of `shards` (checked,
+/// in shard order, as [`crashrig_outdir::shard::read_set`] returns them) back into one grid
+/// result of `scenario` (`path` names it in messages).
+///
+/// # Errors
+/// [`Error::Shard`] for a shard file that cannot be read or does not hold the shard's points
+/// of this grid (file and line), and the errors of [`crate::run_grid_scenario`].
+pub fn read_scenario_rows(
+    scenario: Scenario,
+    path: &Path,
+    samples: usize,
+    seed: u64,
+    shards: &[(PathBuf, Manifest)],
+    prefix: &str,
+) -> Result<MergedRows, Error> {
+    let p = prepare_scenario(scenario, path, Some(samples), Some(seed))?;
+    read_prepared_rows(p, path, shards, prefix)
+}
+
+fn read_prepared_rows(
+    p: Prepared,
+    path: &Path,
+    shards: &[(PathBuf, Manifest)],
+    prefix: &str,
+) -> Result<MergedRows, Error> {
+    let Some((dir0, m0)) = shards.first() else {
+        return Err(Error::Shard {
+            path: PathBuf::from("merge"),
+            line: None,
+            problem: "no shard directory given".into(),
+        });
+    };
+    let all = p.study.grid().points();
+    if all.len() != m0.items.total {
+        return Err(Error::Shard {
+            path: dir0.join(MANIFEST),
+            line: None,
+            problem: format!(
+                "the shards hold {} grid points, the scenario has {}",
+                m0.items.total,
+                all.len()
+            ),
+        });
+    }
+    // The observers' resolved noise (the same in every shard): a run of no points.
+    let none = |s: &crashrig_mc::GridStudy| -> Result<GridResult, Error> {
+        s.with_points(0..0)
+            .and_then(|s| s.run(p.samples, p.seed))
+            .map_err(|e| Error::Scenario {
+                path: Some(path.to_path_buf()),
+                source: e,
+            })
+    };
+    let mut result = none(&p.study)?;
+    let mut independent = result
+        .correlated
+        .then(|| none(&p.study.independent()))
+        .transpose()?;
+    let (mut elapsed_s, mut threads) = (0.0, 0);
+    let points_file = format!("{prefix}{POINTS_FILE}");
+    let independent_file = format!("{prefix}{INDEPENDENT_FILE}");
+    for (dir, m) in shards {
+        let range = m.range();
+        result
+            .points
+            .extend(read_rows(&dir.join(&points_file), range.clone(), &all)?);
+        if let Some(ind) = &mut independent {
+            ind.points
+                .extend(read_rows(&dir.join(&independent_file), range, &all)?);
+        }
+        elapsed_s += m.elapsed_s;
+        threads = threads.max(m.threads);
+    }
+    let computed = Computed {
+        result,
+        independent,
+        elapsed_s,
+        threads,
+    };
+    Ok(MergedRows {
+        p,
+        computed,
+        path: path.to_path_buf(),
     })
 }
 
@@ -167,53 +362,9 @@ pub fn merge_grid(
             ),
         });
     }
-    let all = p.study.grid().points();
-    if all.len() != m0.items.total {
-        return Err(Error::Shard {
-            path: dir0.join(MANIFEST),
-            line: None,
-            problem: format!(
-                "the shards hold {} grid points, the scenario has {}",
-                m0.items.total,
-                all.len()
-            ),
-        });
-    }
-    // The observers' resolved noise (the same in every shard): a run of no points.
-    let none = |s: &crashrig_mc::GridStudy| -> Result<GridResult, Error> {
-        s.with_points(0..0)
-            .and_then(|s| s.run(p.samples, p.seed))
-            .map_err(|e| Error::Scenario {
-                path: Some(path.clone()),
-                source: e,
-            })
-    };
-    let mut result = none(&p.study)?;
-    let mut independent = result
-        .correlated
-        .then(|| none(&p.study.independent()))
-        .transpose()?;
-    let (mut elapsed_s, mut threads) = (0.0, 0);
-    for (dir, m) in shards {
-        let range = m.range();
-        result
-            .points
-            .extend(read_rows(&dir.join(POINTS_FILE), range.clone(), &all)?);
-        if let Some(ind) = &mut independent {
-            ind.points
-                .extend(read_rows(&dir.join(INDEPENDENT_FILE), range, &all)?);
-        }
-        elapsed_s += m.elapsed_s;
-        threads = threads.max(m.threads);
-    }
-    let computed = Computed {
-        result,
-        independent,
-        elapsed_s,
-        threads,
-    };
-    let files = Pending::new(out, crate::grid_run::replaceable)?;
-    finish(&p, computed, path, plots, files)
+    // Checked before the output directory is touched.
+    let rows = read_prepared_rows(p, path, shards, "")?;
+    rows.write(out, plots)
 }
 
 /// The columns of `points.csv`.

@@ -14,8 +14,8 @@
 //! handed to the measurement as [`ANoise::Covariance`] (per-epoch blocks and the joint
 //! covariance, so A's epochs of one replicate are drawn jointly) — no JSON in between.
 
-use crate::Error;
 use crate::study_file::{ABundle, MeasureANoise, MeasureSection, Study};
+use crate::{Error, StepError};
 use crashrig_covariance::{CovarianceConfig, CovarianceResult, Scale};
 use crashrig_geometry::UncertainPose;
 use crashrig_measure::engine::{Measurement, Settings};
@@ -104,13 +104,13 @@ pub fn run_measure(
     samples: usize,
     seed: u64,
 ) -> Result<MeasureResult, Error> {
-    let step = |e: &dyn std::fmt::Display| study.step_error("measure", 0, e.to_string());
+    let step = |e: StepError| study.step_error("measure", 0, e);
     if s.camera_c.is_some() && b_from_c.is_none() {
-        return Err(step(&"camera_c needs a [tie] section (the link B_from_C)"));
+        return Err(step(StepError::CameraCWithoutTie));
     }
     // Units are never guessed: the key, or the units the A covariance file states.
     let a_cov = match &s.a_noise {
-        MeasureANoise::File(p) => Some(input::read_a_covariance(p).map_err(|e| step(&e))?),
+        MeasureANoise::File(p) => Some(input::read_a_covariance(p).map_err(|e| step(e.into()))?),
         MeasureANoise::Sigmas(..) | MeasureANoise::Bundle(..) => None,
     };
     let mm_per_unit = input::model_scale(s.mm_per_unit, a_cov.as_ref(), "measure.mm_per_unit")
@@ -118,13 +118,13 @@ pub fn run_measure(
             crashrig_measure::Error::Setting { problem, .. } => {
                 study.key_error("measure", "mm_per_unit", problem)
             }
-            e => step(&e),
+            e => step(e.into()),
         })?;
     let mut warnings = Vec::new();
     let bundle = match &s.a_noise {
         MeasureANoise::Bundle(b) => {
-            let r = bundle_covariance(b, &s.camera_a, mm_per_unit).map_err(|e| step(&e))?;
-            let cov = a_covariance_of(&r, &b.model).map_err(|e| step(&e))?;
+            let r = bundle_covariance(b, &s.camera_a, mm_per_unit).map_err(|e| step(e.into()))?;
+            let cov = a_covariance_of(&r, &b.model).map_err(|e| step(e.into()))?;
             if cov.joint.is_none() {
                 warnings.push(format!(
                     "{} epochs of camera A are more than the {MAX_JOINT_EPOCHS} that measure draws jointly: A's epochs are drawn independently (each with its own covariance from the bundle)",
@@ -168,7 +168,7 @@ pub fn run_measure(
         },
         out: None,
     };
-    let r = crashrig_measure::run(&config).map_err(|e| step(&e))?;
+    let r = crashrig_measure::run(&config).map_err(|e| step(e.into()))?;
     warnings.extend(r.warnings);
     warnings.extend(crashrig_measure::plausible::warnings(
         &r.measurement,

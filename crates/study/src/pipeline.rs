@@ -8,6 +8,7 @@
 //! parsed back or rewritten as text.
 
 use crate::Error;
+use crate::StepError;
 use crate::calibration::{self, CalibrationConfig, CalibrationResult};
 use crate::grids::GridSummary;
 use crate::study_file::{
@@ -18,6 +19,7 @@ use crashrig_geometry::{Mat6, UncertainPose};
 use crashrig_mc::{
     CameraId, Chain, ChainBuilder, GridBuilder, GridResult, GridStudy, PoseLinear, PoseMc,
 };
+use crashrig_stats::progress::Monitor;
 use nalgebra::Vector3;
 use serde_json::{Value, json};
 
@@ -192,6 +194,40 @@ fn fixed_from_covariances<'c>(
     }
 }
 
+/// Whether a layout draws its `from` observers jointly from the chain — the physical,
+/// rigid-body model, where an error shared upstream (the outward camera's, the link's) moves
+/// every such observer as one body — or independently of each other.
+///
+/// `correlated` in the study file decides when given. Without it (issue 25 §5) the physical
+/// model is the default for observers fed from the same chain: jointly when the layout has at
+/// least two aimed observers with `from` and every one of them stands within
+/// [`crashrig_mc::CORRELATED_POSITION_TOLERANCE_MM`] of its chain camera's nominal world
+/// position (`chain_positions_mm`; the chain and the grid then share one frame); otherwise
+/// independently, and the report's verdict states that assumption. Fixed observers always take
+/// the chain camera's propagated covariance independently and are not counted.
+pub fn resolve_correlated(
+    layout: &Layout,
+    chain_positions_mm: &[(ChainCamera, Vector3<f64>)],
+) -> bool {
+    if let Some(given) = layout.correlated {
+        return given;
+    }
+    let mut fed = 0usize;
+    for o in layout.observers.iter().filter(|o| o.fixed.is_none()) {
+        let ObserverNoise::From(cam) = o.noise else {
+            continue;
+        };
+        let at_camera = chain_positions_mm.iter().any(|(c, p)| {
+            *c == cam && (o.position_mm - p).norm() <= crashrig_mc::CORRELATED_POSITION_TOLERANCE_MM
+        });
+        if !at_camera {
+            return false;
+        }
+        fed += 1;
+    }
+    fed >= 2
+}
+
 /// The layout's grid study on the chain built from the (scaled) inputs.
 fn layout_study(
     inputs: &[(ChainCamera, UncertainPose)],
@@ -202,10 +238,14 @@ fn layout_study(
 ) -> Result<GridStudy, crashrig_mc::Error> {
     let (chain, ids) = build_chain(inputs, s)?;
     let from_cov = fixed_from_covariances(&chain, &ids, layout, seed);
+    let positions: Vec<(ChainCamera, Vector3<f64>)> = ids
+        .iter()
+        .map(|(c, id)| (*c, chain.nominal()[id.index()].position_mm))
+        .collect();
     let mut g = GridBuilder::new(axis(layout.x_mm), axis(layout.y_mm), axis(layout.z_mm))
         .chain(chain.clone())
         .threshold_mm(layout.threshold_mm)
-        .correlated(layout.correlated);
+        .correlated(resolve_correlated(layout, &positions));
     if let Some((sigma_px, focal_px)) = layout.pixel {
         g = g.pixel_noise(crashrig_mc::PixelNoise { sigma_px, focal_px });
     }
@@ -316,7 +356,7 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
     }
     for (i, layout) in study.layouts.iter().enumerate() {
         crate::study_file::check_layout_size(layout, samples)
-            .map_err(|m| study.step_error("layout", i, m))?;
+            .map_err(|problem| study.step_error("layout", i, StepError::LayoutSize { problem }))?;
     }
     let n_sens: usize = if options.no_sensitivity {
         0
@@ -362,15 +402,17 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
     let on = options.progress.is_some();
 
     let sub = within("calibration".into());
-    let calibration =
-        calibration::calibrate_with_progress(&calibration_config(study), hook(on, &sub))
-            .map_err(|e| study.step_error("calibration", 0, e.to_string()))?;
+    let calibration = calibration::calibrate(
+        &calibration_config(study),
+        on.then_some(&sub as &dyn Monitor),
+    )
+    .map_err(|e| study.step_error("calibration", 0, e))?;
     tick("calibration");
     let tie = match &study.tie {
         Some(t) => {
             let sub = within("tie replicates + jackknife".into());
-            let r = tie::bootstrap_with_progress(&tie_config(t, seed), hook(on, &sub))
-                .map_err(|e| study.step_error("tie", 0, e.to_string()))?;
+            let r = tie::bootstrap(&tie_config(t, seed), on.then_some(&sub as &dyn Monitor))
+                .map_err(|e| study.step_error("tie", 0, e))?;
             tick("tie");
             Some(r)
         }
@@ -385,7 +427,7 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
         inputs.push((ChainCamera::Tie, t.link));
     }
     // The chain of outward → inward → tie: its errors name `[outward]`'s line.
-    let mc_err = |e: crashrig_mc::Error| study.step_error("outward", 0, e.to_string());
+    let mc_err = |e: crashrig_mc::Error| study.step_error("outward", 0, e);
     let (chain_mc, _) = build_chain(&inputs, &Scales::unit(0)).map_err(mc_err)?;
     let sub = within("propagation chunks".into());
     let mc = chain_mc.monte_carlo_with_progress(study.chain_samples, seed, hook(on, &sub));
@@ -412,7 +454,7 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
                 .iter()
                 .position(|l| std::ptr::eq(l, layout))
                 .unwrap_or(0);
-            study.step_error("layout", i, e.to_string())
+            study.step_error("layout", i, e)
         };
         let g = layout_study(&inputs, layout, s, samples, seed).map_err(at_layout)?;
         crashrig_mc::degenerate::check_layout(g.grid()).map_err(at_layout)?;
@@ -569,6 +611,7 @@ impl StudyResult {
                     "name": l.layout.name,
                     "dir": format!("grid/{}", l.layout.slug()),
                     "description": l.layout.description,
+                    "correlated": l.result.correlated,
                     "observers": l.grid.observers.iter().zip(&l.layout.observers).zip(&l.result.observer_covariance).map(|((o, lo), c)| {
                         let s = sigmas(c);
                         json!({
@@ -684,5 +727,150 @@ sigma_angles_deg = [0.01, 0.01, 0.01]
             .count();
         assert_eq!(l.summary.fraction_below_threshold, below as f64 / 24.0);
         assert!(crate::grids::grid_csv(&l.result).contains("\n400,0,0,,,,\n"));
+    }
+
+    fn observer(noise: ObserverNoise, position_mm: [f64; 3]) -> crate::study_file::Observer {
+        crate::study_file::Observer {
+            name: "o".into(),
+            position_mm: Vector3::from(position_mm),
+            noise,
+            fixed: None,
+        }
+    }
+
+    #[test]
+    fn resolve_correlated_defaults_to_the_physical_model_at_the_chain_cameras() {
+        use ChainCamera::{Inward, Outward, Tie};
+        let chain = [
+            (Outward, Vector3::new(0.0, 0.0, 0.0)),
+            (Inward, Vector3::new(100.0, 0.0, 0.0)),
+            (Tie, Vector3::new(900.0, 500.0, 0.0)),
+        ];
+        let given = || ObserverNoise::Given(Mat6::identity());
+        let layout = |correlated, observers| Layout {
+            name: "l".into(),
+            description: String::new(),
+            x_mm: (0.0, 1.0, 2),
+            y_mm: (0.0, 1.0, 2),
+            z_mm: (0.0, 0.0, 1),
+            threshold_mm: 5.0,
+            pixel: None,
+            correlated,
+            observers,
+        };
+        let at_cameras = || {
+            vec![
+                observer(ObserverNoise::From(Inward), [100.0, 0.0, 0.9]),
+                observer(ObserverNoise::From(Tie), [900.0, 500.0, 0.0]),
+                observer(given(), [0.0, 900.0, 0.0]),
+            ]
+        };
+        // Default: two aimed `from` observers, each within 1 mm of its camera: joint draws.
+        assert!(resolve_correlated(&layout(None, at_cameras()), &chain));
+        // The explicit key wins both ways.
+        assert!(!resolve_correlated(
+            &layout(Some(false), at_cameras()),
+            &chain
+        ));
+        assert!(resolve_correlated(&layout(Some(true), vec![]), &chain));
+        // One observer 1.1 mm away from its camera: the chain and the grid are not one frame.
+        let mut off = at_cameras();
+        off[0].position_mm.z = 1.1;
+        assert!(!resolve_correlated(&layout(None, off), &chain));
+        // Only one chain-fed observer: nothing is shared, independent.
+        let mut one = at_cameras();
+        one[1].noise = given();
+        assert!(!resolve_correlated(&layout(None, one), &chain));
+        // A fixed `from` observer is drawn independently and does not count (nor veto).
+        let mut fixed = at_cameras();
+        fixed[1].fixed = Some(Box::new(crashrig_mc::FixedCamera {
+            rotation: nalgebra::Matrix3::identity(),
+            angles_rad: Vector3::zeros(),
+            lens: crashrig_camera::Camera::new(
+                crashrig_camera::ModelId::Pinhole,
+                100,
+                50,
+                vec![100.0, 100.0, 50.0, 25.0],
+            )
+            .unwrap(),
+            pixel_sigma_px: 0.0,
+        }));
+        assert!(!resolve_correlated(&layout(None, fixed.clone()), &chain));
+        fixed.push(observer(ObserverNoise::From(Outward), [0.0, 0.0, 0.0]));
+        assert!(resolve_correlated(&layout(None, fixed.clone()), &chain));
+        fixed[1].position_mm.x = 5000.0;
+        assert!(resolve_correlated(&layout(None, fixed), &chain));
+    }
+
+    /// On the own project: a layout whose observers stand at the inward and tie cameras'
+    /// nominal world positions runs the joint (rigid-body) model without any key — the same
+    /// bits as `correlated = true` —, `correlated = false` opts out, and observers 2 mm away
+    /// from their camera stay independent.
+    #[test]
+    fn chain_fed_layout_defaults_to_joint_draws_and_false_opts_out() {
+        let path =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/study/own/study.toml");
+        let text = std::fs::read_to_string(&path).unwrap();
+        let head = &text[..text.find("[[layout]]").unwrap()];
+        let options = Options {
+            samples: Some(40),
+            no_sensitivity: true,
+            ..Options::default()
+        };
+        let given = "sigma_position_mm = [1.0, 1.0, 1.0]\nsigma_angles_deg = [0.01, 0.01, 0.01]";
+        let probe = format!(
+            "{head}[[layout]]\nname = \"probe\"\nx_mm = [400.0, 500.0, 2]\ny_mm = [-500.0, 500.0, 2]\nz_mm = [0.0, 0.0, 1]\n[[layout.observer]]\nposition_mm = [0.0, 100.0, 0.0]\n{given}\n[[layout.observer]]\nposition_mm = [0.0, -100.0, 0.0]\n{given}\n"
+        );
+        let r = run_study(&Study::from_toml_str(&probe, &path).unwrap(), &options).unwrap();
+        let at = |c: ChainCamera| {
+            r.chain
+                .iter()
+                .find(|p| p.camera == c)
+                .unwrap()
+                .mc
+                .nominal
+                .position_mm
+        };
+        let (b, c) = (at(ChainCamera::Inward), at(ChainCamera::Tie));
+        // A 2 × 2 grid 1 m to the side of the B–C baseline (rays well apart).
+        let d = Vector3::new(c.x - b.x, c.y - b.y, 0.0).normalize();
+        let centre = (b + c) / 2.0 + Vector3::new(-d.y, d.x, 0.0) * 1000.0;
+        let v = |p: Vector3<f64>| format!("[{}, {}, {}]", p.x, p.y, p.z);
+        let layout = |name: &str, key: &str, shift: f64| {
+            format!(
+                "[[layout]]\nname = \"{name}\"\n{key}\nx_mm = [{}, {}, 2]\ny_mm = [{}, {}, 2]\nz_mm = [{z}, {z}, 1]\n[[layout.observer]]\nposition_mm = {}\nfrom = \"inward\"\n[[layout.observer]]\nposition_mm = {}\nfrom = \"tie\"\n",
+                centre.x - 100.0,
+                centre.x + 100.0,
+                centre.y - 100.0,
+                centre.y + 100.0,
+                v(b + Vector3::new(0.0, 0.0, shift)),
+                v(c),
+                z = centre.z,
+            )
+        };
+        let text = format!(
+            "{head}{}{}{}{}",
+            layout("default", "", 0.0),
+            layout("joint", "correlated = true", 0.0),
+            layout("independent", "correlated = false", 0.0),
+            layout("off_by_2mm", "", 2.0),
+        );
+        let r = run_study(&Study::from_toml_str(&text, &path).unwrap(), &options).unwrap();
+        let model: Vec<bool> = r.layouts.iter().map(|l| l.result.correlated).collect();
+        assert_eq!(model, [true, true, false, false]);
+        let sigmas = |i: usize| -> Vec<u64> {
+            r.layouts[i]
+                .result
+                .points
+                .iter()
+                .map(|p| p.sigma_max_mm.to_bits())
+                .collect()
+        };
+        assert_eq!(sigmas(0), sigmas(1), "the default is the joint model");
+        assert_ne!(
+            sigmas(0),
+            sigmas(2),
+            "correlated = false draws independently"
+        );
     }
 }

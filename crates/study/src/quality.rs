@@ -154,8 +154,8 @@ pub fn split_half(
         refine: None,
         ..options.clone()
     };
-    let a = crashrig_rig::calibrate(&epochs[..h], mm_per_unit, &o).ok()?;
-    let b = crashrig_rig::calibrate(&epochs[h..], mm_per_unit, &o).ok()?;
+    let a = crashrig_rig::calibrate(&epochs[..h], mm_per_unit, &o, None).ok()?;
+    let b = crashrig_rig::calibrate(&epochs[h..], mm_per_unit, &o, None).ok()?;
     let d = a.link.tangent_of(&b.link.b_from_a);
     let diag = |c: &crashrig_geometry::Mat6| -> [f64; 6] { std::array::from_fn(|k| c[(k, k)]) };
     Some(SplitHalf::from_difference(

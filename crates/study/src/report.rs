@@ -619,14 +619,15 @@ fn unreliable_sem_note(c: &crate::calibration::CalibrationResult) -> String {
 }
 
 /// The assumption behind a layout whose observers take their σ from the same chain
-/// (`from = …`) but are drawn independently (`correlated = false`): stated in the verdict
-/// (issue 25 §5); `None` when no layout does that.
+/// (`from = …`) but are drawn independently — `correlated = false`, or observers that do not
+/// stand at their chain cameras (so the physical default, [`crate::pipeline::resolve_correlated`],
+/// cannot apply): stated in the verdict (issue 25 §5); `None` when no layout does that.
 fn independent_chain_observers_note(r: &StudyResult) -> Option<String> {
-    let names: Vec<&str> = r
+    let names: Vec<String> = r
         .layouts
         .iter()
         .filter(|l| {
-            !l.layout.correlated
+            !l.result.correlated
                 && l.layout
                     .observers
                     .iter()
@@ -634,10 +635,17 @@ fn independent_chain_observers_note(r: &StudyResult) -> Option<String> {
                     .count()
                     >= 2
         })
-        .map(|l| l.layout.name.as_str())
+        .map(|l| {
+            let why = if l.layout.correlated == Some(false) {
+                "`correlated = false`"
+            } else {
+                "observers not at their chain cameras"
+            };
+            format!("{} ({why})", l.layout.name)
+        })
         .collect();
     (!names.is_empty()).then(|| format!(
-        "Assumption of {}: the observers take their σ from the same chain (outward camera → link → tie) but are drawn independently of each other, although they share the outward camera's and the link's errors. The shared error then shifts the two rays by different random amounts instead of moving the whole rig as one rigid body, so σ_max there is not the physical (rigid-body) figure and can differ from it in either direction point by point; read these layouts as observers with independent errors of this run's size. `[[layout]] correlated = true` draws them jointly when the observers stand at their chain cameras (docs/REFERENCE.md).",
+        "Assumption of {}: the observers take their σ from the same chain (outward camera → link → tie) but are drawn independently of each other, although they share the outward camera's and the link's errors. The shared error then shifts the two rays by different random amounts instead of moving the whole rig as one rigid body, so σ_max there is not the physical (rigid-body) figure and can differ from it in either direction point by point; read these layouts as observers with independent errors of this run's size. A layout whose chain-fed observers stand at their chain cameras (the chain and the grid in one frame) is drawn jointly, as one rigid body, unless it sets `correlated = false` (docs/REFERENCE.md).",
         names.join(", ")
     ))
 }

@@ -9,7 +9,7 @@
 //!   propagated world covariance of that chain camera unchanged: the vehicle axes are taken as
 //!   parallel to the world axes (the covariance is not rotated).
 
-use crate::Error;
+use crate::{Error, StepError};
 use crashrig_geometry::{Mat6, Rigid3, UncertainPose, Vec3};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -160,8 +160,12 @@ pub struct Layout {
     pub threshold_mm: f64,
     /// Pixel noise σ (px) and focal length (px), optional.
     pub pixel: Option<(f64, f64)>,
-    /// Observers drawn jointly from one chain draw (`correlated = true`).
-    pub correlated: bool,
+    /// `correlated` as written: `Some(true)` draws the `from` observers jointly from one chain
+    /// draw (the physical, rigid-body model), `Some(false)` independently; `None` (key absent)
+    /// is the default the pipeline resolves against the chain's nominal poses
+    /// ([`crate::pipeline::physical_model_applies`]): jointly when at least two aimed `from`
+    /// observers stand at their chain cameras, else independently.
+    pub correlated: Option<bool>,
     /// At least two observers.
     pub observers: Vec<Observer>,
 }
@@ -1406,7 +1410,7 @@ impl Study {
                     .as_ref()
                     .map_or(Ok(5.0), |v| cx.positive(v, &k("threshold_mm")))?,
                 pixel,
-                correlated: l.correlated.unwrap_or(false),
+                correlated: l.correlated,
                 observers,
             };
             check_layout_size(&layout, samples).map_err(|message| Error::Key {
@@ -1464,13 +1468,13 @@ impl Study {
     }
 
     /// An [`Error::Step`] for a failure of the step configured by section `key`.
-    pub fn step_error(&self, key: &str, n: usize, message: impl Into<String>) -> Error {
+    pub fn step_error(&self, key: &str, n: usize, source: impl Into<StepError>) -> Error {
         let section = key.split('[').next().unwrap_or(key);
         Error::Step {
             path: self.path.clone(),
             line: self.section_line(section, n).or(Some(1)),
             key: key.to_string(),
-            message: message.into(),
+            source: Box::new(source.into()),
         }
     }
 }

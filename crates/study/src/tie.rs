@@ -40,7 +40,7 @@
 //!     mm_per_unit: 1000.0,
 //!     ..TieConfig::default()
 //! };
-//! let result = tie::bootstrap(&config)?;
+//! let result = tie::bootstrap(&config, None)?;
 //! // The link A_from_B with its 6×6 covariance (mm, rad) for the Monte Carlo chain:
 //! let link = result.link;
 //! println!("{}", result.text_report());
@@ -56,6 +56,7 @@ use crashrig_pose::{
     link_covariance_absolute, link_covariance_relative, link_parameters, normalize_pixels,
     refine_absolute_pose, refine_relative_pose, scaled_a_from_b,
 };
+use crashrig_stats::progress::{Cancelled, Monitor, Offset};
 use nalgebra::Vector2;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -118,6 +119,23 @@ pub enum TieError {
         /// What is wrong.
         message: String,
     },
+    /// The caller's monitor cancelled the run.
+    #[error(transparent)]
+    Cancelled(#[from] Cancelled),
+}
+
+impl TieError {
+    /// The error of a failed [`bootstrap_link`] on the correspondences of `path`, described by
+    /// `what` (a cancellation stays [`TieError::Cancelled`]).
+    fn estimation(e: LinkError, path: &std::path::Path, what: impl FnOnce() -> String) -> Self {
+        match e {
+            LinkError::Cancelled(c) => Self::Cancelled(c),
+            e => Self::Estimation {
+                path: path.to_path_buf(),
+                message: format!("{}: {e}", what()),
+            },
+        }
+    }
 }
 
 /// How B is posed relative to A.
@@ -303,40 +321,99 @@ fn seeded(ransac: &RansacOptions, idx: &[usize]) -> RansacOptions {
     }
 }
 
-/// Resection of B, then the bootstrap of the link (`iterations` replicates, seed `seed`).
-pub fn bootstrap_absolute<C: Projector + Sync>(
-    input: &AbsoluteInput<C>,
-    iterations: usize,
-    seed: u64,
-    ransac: &RansacOptions,
-    resample: Resample,
-    with_jackknife: bool,
-) -> Result<LinkBootstrap, String> {
-    bootstrap_absolute_with_progress(
-        input,
-        iterations,
-        seed,
-        ransac,
-        resample,
-        with_jackknife,
-        None,
-    )
+/// The correspondences of one tie bootstrap: B resected against the model's points, or the
+/// relative orientation of A and B.
+#[derive(Debug, Clone)]
+pub enum LinkInput<C> {
+    /// Resection of B ([`Method::Absolute`]).
+    Absolute(AbsoluteInput<C>),
+    /// Relative orientation A–B ([`Method::Relative`]).
+    Relative(RelativeInput<C>),
 }
 
-/// [`bootstrap_absolute`] reporting `(replicates + leave-one-out values done, iterations + n)`
-/// to `progress` (n: the inliers of the jackknife, 0 without it); the result is the same as
-/// without.
-pub fn bootstrap_absolute_with_progress<C: Projector + Sync>(
+/// How [`bootstrap_link`] resamples. No `Default`: it holds a seed and a replicate count.
+#[derive(Debug, Clone, Copy)]
+pub struct LinkBootstrapOptions {
+    /// Number of replicates.
+    pub iterations: usize,
+    /// Seed of the resampling (replicate `r` uses `crashrig_stats::stream(seed, r)`).
+    pub seed: u64,
+    /// The full-sample (and, with [`Resample::AllMatches`], per-replicate) RANSAC.
+    pub ransac: RansacOptions,
+    /// What each replicate resamples.
+    pub resample: Resample,
+    /// Also the leave-one-out values over the inliers (the BCa acceleration); without them
+    /// [`LinkBootstrap::jackknife`] is empty.
+    pub jackknife: bool,
+}
+
+/// Why [`bootstrap_link`] failed; the messages are those of the step that failed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum LinkError {
+    /// The full-sample resection of B failed.
+    #[error("resection of image B failed: {0}")]
+    Resection(#[source] crashrig_pose::Error),
+    /// The matched keypoints of image `image` (`'A'` or `'B'`) cannot be undistorted.
+    #[error("undistorting the matched keypoints of image {image}: {source}")]
+    Undistort {
+        /// `'A'` or `'B'`.
+        image: char,
+        /// What failed.
+        #[source]
+        source: crashrig_pose::Error,
+    },
+    /// The full-sample relative orientation failed.
+    #[error("relative orientation A-B failed: {0}")]
+    RelativeOrientation(#[source] crashrig_pose::Error),
+    /// The bootstrap engine refused the run (no items, no replicates, too few for the
+    /// jackknife).
+    #[error(transparent)]
+    Bootstrap(boot::Error),
+    /// The caller's monitor cancelled the run.
+    #[error(transparent)]
+    Cancelled(#[from] Cancelled),
+}
+
+impl From<boot::Error> for LinkError {
+    fn from(e: boot::Error) -> Self {
+        match e {
+            boot::Error::Cancelled(c) => Self::Cancelled(c),
+            e => Self::Bootstrap(e),
+        }
+    }
+}
+
+/// The full-sample estimate of the link `A_from_B`, then `options.iterations` bootstrap
+/// replicates of it and, if asked, the leave-one-out values (the paper's §2.3.1).
+///
+/// `monitor` (optional) gets `(replicates + leave-one-out values done, iterations + n)` (n: the
+/// inliers of the jackknife, 0 without it) and may cancel between replicates; the result is the
+/// same with and without it.
+///
+/// # Errors
+/// [`LinkError`]: the full-sample estimation failed, the engine refused the run, or the call
+/// was cancelled.
+pub fn bootstrap_link<C: Projector + Sync>(
+    input: &LinkInput<C>,
+    options: &LinkBootstrapOptions,
+    monitor: Option<&dyn Monitor>,
+) -> Result<LinkBootstrap, LinkError> {
+    match input {
+        LinkInput::Absolute(a) => bootstrap_absolute(a, options, monitor),
+        LinkInput::Relative(r) => bootstrap_relative(r, options, monitor),
+    }
+}
+
+/// Resection of B, then the bootstrap of the link.
+fn bootstrap_absolute<C: Projector + Sync>(
     input: &AbsoluteInput<C>,
-    iterations: usize,
-    seed: u64,
-    ransac: &RansacOptions,
-    resample: Resample,
-    with_jackknife: bool,
-    progress: Option<boot::Progress<'_>>,
-) -> Result<LinkBootstrap, String> {
+    options: &LinkBootstrapOptions,
+    monitor: Option<&dyn Monitor>,
+) -> Result<LinkBootstrap, LinkError> {
+    let ransac = &options.ransac;
     let est = estimate_absolute_pose(&input.camera_b, &input.pixels_b, &input.points_mm, ransac)
-        .map_err(|e| format!("resection of image B failed: {e}"))?;
+        .map_err(LinkError::Resection)?;
     let inliers = est.inliers;
     let full = est.refinement;
     let a_from_world = input.a_from_world;
@@ -362,18 +439,15 @@ pub fn bootstrap_absolute_with_progress<C: Projector + Sync>(
     };
     let n_candidates = input.pixels_b.len();
     let (replicates, jackknife) = resample_both(
-        resample,
         (n_candidates, &rerun),
         (inliers.len(), &warm),
-        iterations,
-        seed,
-        with_jackknife,
-        progress,
+        options,
+        monitor,
     )?;
     Ok(LinkBootstrap {
         n_candidates,
         n_inliers: inliers.len(),
-        resample,
+        resample: options.resample,
         estimate: link(&full.cam_from_world),
         replicates,
         jackknife,
@@ -394,48 +468,33 @@ type Estimate<'a> = &'a (dyn Fn(&[usize]) -> Result<Rigid3, String> + Sync);
 /// with `warm` in both modes (a RANSAC per left-out candidate would cost n full estimations).
 #[allow(clippy::type_complexity)]
 fn resample_both(
-    resample: Resample,
     (n_candidates, rerun): (usize, Estimate<'_>),
     (n_inliers, warm): (usize, Estimate<'_>),
-    iterations: usize,
-    seed: u64,
-    with_jackknife: bool,
-    progress: Option<boot::Progress<'_>>,
+    options: &LinkBootstrapOptions,
+    monitor: Option<&dyn Monitor>,
 ) -> Result<
     (
         boot::Replicates<Rigid3, String>,
         Vec<Result<Rigid3, String>>,
     ),
-    String,
+    LinkError,
 > {
+    let (iterations, seed) = (options.iterations, options.seed);
     // Progress over the replicates, then the leave-one-out values: (done, iterations + n).
-    let n_jackknife = if with_jackknife { n_inliers } else { 0 };
+    let n_jackknife = if options.jackknife { n_inliers } else { 0 };
     let total = iterations + n_jackknife;
-    let stage = |offset: usize| {
-        move |d: usize, _: usize| {
-            if let Some(p) = progress {
-                p(offset + d, total);
-            }
-        }
-    };
-    let (replicates_done, jackknife_done) = (stage(0), stage(iterations));
-    let (replicates_done, jackknife_done): (boot::Progress<'_>, boot::Progress<'_>) =
-        (&replicates_done, &jackknife_done);
+    let on_replicates = monitor.map(|m| Offset::new(m, 0, total));
+    let on_jackknife = monitor.map(|m| Offset::new(m, iterations, total));
     let (on_replicates, on_jackknife) = (
-        progress.and(Some(replicates_done)),
-        progress.and(Some(jackknife_done)),
+        on_replicates.as_ref().map(|m| m as &dyn Monitor),
+        on_jackknife.as_ref().map(|m| m as &dyn Monitor),
     );
-    let replicates = match resample {
-        Resample::Inliers => {
-            boot::run_with_progress(n_inliers, iterations, seed, warm, on_replicates)
-        }
-        Resample::AllMatches => {
-            boot::run_with_progress(n_candidates, iterations, seed, rerun, on_replicates)
-        }
-    }
-    .map_err(|e| e.to_string())?;
-    let jackknife = if with_jackknife {
-        boot::jackknife_with_progress(n_inliers, warm, on_jackknife).map_err(|e| e.to_string())?
+    let replicates = match options.resample {
+        Resample::Inliers => boot::run(n_inliers, iterations, seed, warm, on_replicates)?,
+        Resample::AllMatches => boot::run(n_candidates, iterations, seed, rerun, on_replicates)?,
+    };
+    let jackknife = if options.jackknife {
+        boot::jackknife(n_inliers, warm, on_jackknife)?
     } else {
         Vec::new()
     };
@@ -443,43 +502,19 @@ fn resample_both(
 }
 
 /// Relative orientation A–B, then the bootstrap of the link.
-pub fn bootstrap_relative<C: Projector + Sync>(
+fn bootstrap_relative<C: Projector + Sync>(
     input: &RelativeInput<C>,
-    iterations: usize,
-    seed: u64,
-    ransac: &RansacOptions,
-    resample: Resample,
-    with_jackknife: bool,
-) -> Result<LinkBootstrap, String> {
-    bootstrap_relative_with_progress(
-        input,
-        iterations,
-        seed,
-        ransac,
-        resample,
-        with_jackknife,
-        None,
-    )
-}
-
-/// [`bootstrap_relative`] reporting progress as [`bootstrap_absolute_with_progress`] does; the
-/// result is the same as without.
-pub fn bootstrap_relative_with_progress<C: Projector + Sync>(
-    input: &RelativeInput<C>,
-    iterations: usize,
-    seed: u64,
-    ransac: &RansacOptions,
-    resample: Resample,
-    with_jackknife: bool,
-    progress: Option<boot::Progress<'_>>,
-) -> Result<LinkBootstrap, String> {
+    options: &LinkBootstrapOptions,
+    monitor: Option<&dyn Monitor>,
+) -> Result<LinkBootstrap, LinkError> {
+    let ransac = &options.ransac;
     let xa = normalize_pixels(&input.camera_a, &input.pixels_a)
-        .map_err(|e| format!("undistorting the matched keypoints of image A: {e}"))?;
+        .map_err(|source| LinkError::Undistort { image: 'A', source })?;
     let xb = normalize_pixels(&input.camera_b, &input.pixels_b)
-        .map_err(|e| format!("undistorting the matched keypoints of image B: {e}"))?;
+        .map_err(|source| LinkError::Undistort { image: 'B', source })?;
     let focal = 0.5 * (input.camera_a.focal_px() + input.camera_b.focal_px());
-    let est = estimate_relative_pose(&xa, &xb, focal, ransac)
-        .map_err(|e| format!("relative orientation A-B failed: {e}"))?;
+    let est =
+        estimate_relative_pose(&xa, &xb, focal, ransac).map_err(LinkError::RelativeOrientation)?;
     let inliers = est.inliers;
     let full = est.refinement;
     let base = input.base_mm;
@@ -499,18 +534,15 @@ pub fn bootstrap_relative_with_progress<C: Projector + Sync>(
     };
     let n_candidates = input.pixels_a.len();
     let (replicates, jackknife) = resample_both(
-        resample,
         (n_candidates, &rerun),
         (inliers.len(), &warm),
-        iterations,
-        seed,
-        with_jackknife,
-        progress,
+        options,
+        monitor,
     )?;
     Ok(LinkBootstrap {
         n_candidates,
         n_inliers: inliers.len(),
-        resample,
+        resample: options.resample,
         estimate: link(&full.b_from_a),
         replicates,
         jackknife,
@@ -962,20 +994,14 @@ fn check_config(c: &TieConfig) -> Result<(), TieError> {
 /// The tie bootstrap as `crashrig bootstrap` runs it: reads the model and database, extracts
 /// the correspondences, estimates B relative to A on the full sample, bootstraps
 /// `config.iterations` replicates (with the jackknife for BCa) and summarises.
-pub fn bootstrap(config: &TieConfig) -> Result<TieResult, TieError> {
-    bootstrap_with_progress(config, None)
-}
-
-/// [`bootstrap`] reporting `(done, total)` over the replicates and then the jackknife's
-/// leave-one-out values (see [`bootstrap_absolute_with_progress`]); the result is the same as
-/// without.
+///
+/// `monitor` (optional) gets `(done, total)` over the replicates and then the jackknife's
+/// leave-one-out values (see [`bootstrap_link`]) and may cancel; the result is the same with
+/// and without it.
 ///
 /// # Errors
-/// As [`bootstrap`].
-pub fn bootstrap_with_progress(
-    config: &TieConfig,
-    progress: Option<boot::Progress<'_>>,
-) -> Result<TieResult, TieError> {
+/// Every [`TieError`]; [`TieError::Cancelled`] when `monitor` cancelled the run.
+pub fn bootstrap(config: &TieConfig, monitor: Option<&dyn Monitor>) -> Result<TieResult, TieError> {
     check_config(config)?;
     let src = TieSource::open(
         &config.model,
@@ -986,31 +1012,30 @@ pub fn bootstrap_with_progress(
     )?;
     let mut ransac = RansacOptions::new(config.seed);
     ransac.max_error_px = config.max_error_px;
+    let options = LinkBootstrapOptions {
+        iterations: config.iterations,
+        seed: config.seed,
+        ransac,
+        resample: config.resample,
+        jackknife: true,
+    };
     let lb = match config.method {
         Method::Absolute => {
             let c = src.absolute(config.mm_per_unit)?;
-            let input = AbsoluteInput {
+            let n = c.pixels_b.len();
+            let input = LinkInput::Absolute(AbsoluteInput {
                 camera_b: c.b.camera.clone(),
                 pixels_b: c.pixels_b,
                 points_mm: c.points_mm,
                 a_from_world: c.a.cam_from_world,
-            };
-            bootstrap_absolute_with_progress(
-                &input,
-                config.iterations,
-                config.seed,
-                &ransac,
-                config.resample,
-                true,
-                progress,
-            )
-            .map_err(|message| TieError::Estimation {
-                path: config.model.clone(),
-                message: format!(
-                    "image {:?} ({} observations of 3-D points): {message}",
-                    config.image_b,
-                    input.pixels_b.len()
-                ),
+            });
+            bootstrap_link(&input, &options, monitor).map_err(|e| {
+                TieError::estimation(e, &config.model, || {
+                    format!(
+                        "image {:?} ({n} observations of 3-D points)",
+                        config.image_b
+                    )
+                })
             })?
         }
         Method::Relative => {
@@ -1041,28 +1066,17 @@ pub fn bootstrap_with_progress(
             };
             let n = m.pixels_a.len();
             let ModelImage { camera: cam_a, .. } = m.a;
-            let input = RelativeInput {
+            let input = LinkInput::Relative(RelativeInput {
                 camera_a: cam_a,
                 camera_b: m.b.camera,
                 pixels_a: m.pixels_a,
                 pixels_b: m.pixels_b,
                 base_mm,
-            };
-            bootstrap_relative_with_progress(
-                &input,
-                config.iterations,
-                config.seed,
-                &ransac,
-                config.resample,
-                true,
-                progress,
-            )
-            .map_err(|message| TieError::Estimation {
-                path: config.database.clone(),
-                message: format!(
-                    "{n} {what} {:?}-{:?}: {message}",
-                    config.image_a, config.image_b
-                ),
+            });
+            bootstrap_link(&input, &options, monitor).map_err(|e| {
+                TieError::estimation(e, &config.database, || {
+                    format!("{n} {what} {:?}-{:?}", config.image_a, config.image_b)
+                })
             })?
         }
     };

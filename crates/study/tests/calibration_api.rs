@@ -25,13 +25,16 @@ fn config(name: &str, scale: Scale) -> CalibrationConfig {
 }
 
 fn paper() -> crashrig_study::calibration::CalibrationResult {
-    calibrate(&config(
-        "paper",
-        Scale::ScaleBar {
-            points: [1, 2],
-            length_mm: 2000.0,
-        },
-    ))
+    calibrate(
+        &config(
+            "paper",
+            Scale::ScaleBar {
+                points: [1, 2],
+                length_mm: 2000.0,
+            },
+        ),
+        None,
+    )
     .unwrap()
 }
 
@@ -145,7 +148,7 @@ fn calibration_text_nominal_shows_tables() {
 #[test]
 fn calibration_plots_are_written() {
     let dir = tempfile::tempdir().unwrap();
-    let r = calibrate(&config("wrap", Scale::MmPerUnit(1.0))).unwrap();
+    let r = calibrate(&config("wrap", Scale::MmPerUnit(1.0)), None).unwrap();
     r.write_plots(dir.path()).unwrap();
     for p in ["x", "y", "z", "omega", "phi", "kappa"] {
         for kind in ["series", "hist", "acf"] {
@@ -174,7 +177,7 @@ fn calibration_rig_constrained_is_refused_with_advice() {
     let mut c = config("shared_frame", Scale::Default);
     c.camera_a = "1".into();
     c.camera_b = "2".into();
-    let e = calibrate(&c).unwrap_err();
+    let e = calibrate(&c, None).unwrap_err();
     assert!(matches!(
         e,
         CalibrationError::RigConstrained { n_epochs: 6, .. }
@@ -190,7 +193,7 @@ fn calibration_rig_constrained_is_refused_with_advice() {
         assert!(msg.contains(needle), "{needle}: {msg}");
     }
     c.accept_rig_constrained = true;
-    let r = calibrate(&c).unwrap();
+    let r = calibrate(&c, None).unwrap();
     assert!(r.calibration.rig_constrained);
     assert!(r.warnings.iter().any(|w| w.contains("rig-constrained")));
     assert_eq!(r.to_json()["rig_constrained"], true);
@@ -198,15 +201,18 @@ fn calibration_rig_constrained_is_refused_with_advice() {
 
 #[test]
 fn calibration_bad_scale_names_the_model() {
-    let e = calibrate(&config("paper", Scale::MmPerUnit(-1.0))).unwrap_err();
+    let e = calibrate(&config("paper", Scale::MmPerUnit(-1.0)), None).unwrap_err();
     assert!(e.to_string().contains("paper"), "{e}");
-    let e = calibrate(&config(
-        "paper",
-        Scale::ScaleBar {
-            points: [1, 2],
-            length_mm: 0.0,
-        },
-    ))
+    let e = calibrate(
+        &config(
+            "paper",
+            Scale::ScaleBar {
+                points: [1, 2],
+                length_mm: 0.0,
+            },
+        ),
+        None,
+    )
     .unwrap_err();
     assert!(e.to_string().contains("--scale-length-mm"), "{e}");
 }
@@ -228,4 +234,28 @@ fn calibration_verdict_lists_its_warnings() {
         v.lines.last().map(String::as_str),
         Some("warning: a test warning")
     );
+}
+
+/// Cancels at once.
+struct Stop;
+
+impl crashrig_stats::progress::Monitor for Stop {
+    fn report(&self, _: usize, _: usize) {}
+    fn cancelled(&self) -> bool {
+        true
+    }
+}
+
+/// A cancelled calibration is `CalibrationError::Cancelled`, not a skipped refinement.
+#[test]
+fn calibration_cancelled_returns_cancelled() {
+    let c = config(
+        "paper",
+        Scale::ScaleBar {
+            points: [1, 2],
+            length_mm: 2000.0,
+        },
+    );
+    let e = calibrate(&c, Some(&Stop)).unwrap_err();
+    assert!(matches!(e, CalibrationError::Cancelled(_)), "{e}");
 }

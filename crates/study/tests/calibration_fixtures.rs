@@ -39,7 +39,7 @@ fn sel(s: &str) -> CameraSelector {
 fn run(name: &str, mm_per_unit: f64) -> Calibration {
     let model = Reconstruction::read(&fixture(name)).unwrap();
     let set = epochs_from_model(&model, &sel("cam_out/"), &sel("cam_in/")).unwrap();
-    calibrate(&set.epochs, mm_per_unit, &CalibrateOptions::default()).unwrap()
+    calibrate(&set.epochs, mm_per_unit, &CalibrateOptions::default(), None).unwrap()
 }
 
 /// Compares the statistics with the numpy values of `expected.json` (angles in degrees).
@@ -258,7 +258,7 @@ mod pairing {
         assert_eq!(set.paired_by_name, 8);
         assert_eq!(set.unpaired_a, vec!["cam_out/000100.png".to_string()]);
         assert_eq!(set.unpaired_b, vec!["cam_in/000200.png".to_string()]);
-        let c = calibrate(&set.epochs, 1.0, &CalibrateOptions::default()).unwrap();
+        let c = calibrate(&set.epochs, 1.0, &CalibrateOptions::default(), None).unwrap();
         check_stats(&c.all, &e["stats"]);
     }
 
@@ -276,7 +276,7 @@ mod pairing {
         // link, so the epochs are no independent evidence of it (issue 12).
         let model = Reconstruction::read(&fixture("shared_frame")).unwrap();
         let set = epochs_from_model(&model, &sel("1"), &sel("2")).unwrap();
-        let r = calibrate(&set.epochs, 1.0, &CalibrateOptions::default());
+        let r = calibrate(&set.epochs, 1.0, &CalibrateOptions::default(), None);
         assert!(
             matches!(
                 r,
@@ -297,7 +297,7 @@ mod pairing {
             accept_rig_constrained: true,
             ..CalibrateOptions::default()
         };
-        let c = calibrate(&set.epochs, 1.0, &options).unwrap();
+        let c = calibrate(&set.epochs, 1.0, &options, None).unwrap();
         // Accepted for inspection: flagged, no autocorrelation analysis of rounding noise.
         assert!(c.rig_constrained);
         assert!(c.drift.is_none());

@@ -47,3 +47,43 @@ fn study_progress_stays_within_totals_and_changes_nothing() {
         );
     }
 }
+
+/// A step that fails carries its library's typed error as the source of `Error::Step`, and
+/// the one-line message is the study file's line and section, then the library's message.
+#[test]
+fn study_step_error_has_a_typed_source() {
+    use crashrig_study::calibration::CalibrationError;
+    use crashrig_study::{Error, StepError};
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/study/own/study.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    // `camera_a` of [calibration] (line 8) matches no image of the model.
+    let text = text.replacen("camera_a = \"cam_out/\"", "camera_a = \"nowhere/\"", 1);
+    let study = Study::from_toml_str(&text, &path).expect("study");
+    let options = Options {
+        samples: Some(200),
+        no_sensitivity: true,
+        ..Options::default()
+    };
+    let e = run_study(&study, &options).unwrap_err();
+    let Error::Step {
+        line, key, source, ..
+    } = &e
+    else {
+        panic!("not a step error: {e}");
+    };
+    assert_eq!((*line, key.as_str()), (Some(6), "calibration"));
+    assert!(
+        matches!(
+            **source,
+            StepError::Calibration(CalibrationError::NoImagesForCamera { role: 'A', .. })
+        ),
+        "{source:?}"
+    );
+    let prefix = format!("{}:6: [calibration]: ", path.display());
+    assert_eq!(e.to_string(), format!("{prefix}{source}"));
+    assert!(
+        e.to_string()
+            .contains("camera A `nowhere/` matches no image"),
+        "{e}"
+    );
+}

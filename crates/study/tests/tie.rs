@@ -5,8 +5,8 @@ use crashrig_geometry::angles::wrapped_stats;
 use crashrig_geometry::{Mat6, Rigid3, UncertainPose, Vec3, opk};
 use crashrig_pose::{Pinhole, Projector, RansacOptions, link_parameters};
 use crashrig_study::tie::{
-    self, AbsoluteInput, LinkBootstrap, Method, PARAMS, REPLICATES_CSV_HEADER, RelativeInput,
-    Resample, TieConfig, TieError, bootstrap_absolute, bootstrap_relative, summarize,
+    self, AbsoluteInput, LinkBootstrap, LinkBootstrapOptions, LinkInput, Method, PARAMS,
+    REPLICATES_CSV_HEADER, RelativeInput, Resample, TieConfig, TieError, bootstrap_link, summarize,
 };
 use nalgebra::{Translation3, Vector2};
 use serde_json::Value;
@@ -111,29 +111,30 @@ fn relative_input(s: &Scene, draw: u64) -> RelativeInput<Pinhole> {
     }
 }
 
-fn boot(relative: bool, s: &Scene, draw: u64, b: usize, seed: u64) -> LinkBootstrap {
-    let ransac = RansacOptions::new(5);
-    if relative {
-        bootstrap_relative(
-            &relative_input(s, draw),
-            b,
-            seed,
-            &ransac,
-            Resample::Inliers,
-            false,
-        )
-        .unwrap()
-    } else {
-        bootstrap_absolute(
-            &absolute_input(s, draw),
-            b,
-            seed,
-            &ransac,
-            Resample::Inliers,
-            false,
-        )
-        .unwrap()
+/// Options of `bootstrap_link`: `iterations` replicates with `seed`, RANSAC seeded `ransac`.
+fn options(
+    iterations: usize,
+    seed: u64,
+    ransac: u64,
+    resample: Resample,
+    jackknife: bool,
+) -> LinkBootstrapOptions {
+    LinkBootstrapOptions {
+        iterations,
+        seed,
+        ransac: RansacOptions::new(ransac),
+        resample,
+        jackknife,
     }
+}
+
+fn boot(relative: bool, s: &Scene, draw: u64, b: usize, seed: u64) -> LinkBootstrap {
+    let input = if relative {
+        LinkInput::Relative(relative_input(s, draw))
+    } else {
+        LinkInput::Absolute(absolute_input(s, draw))
+    };
+    bootstrap_link(&input, &options(b, seed, 5, Resample::Inliers, false), None).unwrap()
 }
 
 /// (true spread over `draws` noise draws, mean bootstrap σ over `boot_draws` draws with `b`
@@ -221,15 +222,14 @@ fn slow_validity_absolute_and_relative() {
 #[test]
 fn determinism_one_and_two_threads_both_modes() {
     let s = scene(120);
-    let ransac = RansacOptions::new(9);
     let go = |threads: usize, resample: Resample| {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap();
         pool.install(|| {
-            let lb =
-                bootstrap_absolute(&absolute_input(&s, 0), 24, 3, &ransac, resample, true).unwrap();
+            let input = LinkInput::Absolute(absolute_input(&s, 0));
+            let lb = bootstrap_link(&input, &options(24, 3, 9, resample, true), None).unwrap();
             let sm = summarize(&lb).unwrap();
             let cfg = TieConfig {
                 iterations: 24,
@@ -268,16 +268,10 @@ fn relative_degenerate_pure_rotation() {
         pixels_b: noisy(&px_b, 0.5, 1, 1),
         base_mm: 100.0,
     };
-    let msg = bootstrap_relative(
-        &input,
-        10,
-        1,
-        &RansacOptions::new(1),
-        Resample::Inliers,
-        false,
-    )
-    .err()
-    .unwrap();
+    let input = LinkInput::Relative(input);
+    let msg = bootstrap_link(&input, &options(10, 1, 1, Resample::Inliers, false), None)
+        .unwrap_err()
+        .to_string();
     assert!(
         msg.contains("degenerate") || msg.contains("RANSAC found no pose"),
         "{msg}"
@@ -287,16 +281,14 @@ fn relative_degenerate_pure_rotation() {
 #[test]
 fn absolute_too_few_correspondences() {
     let s = scene(10);
-    let msg = bootstrap_absolute(
-        &absolute_input(&s, 0),
-        10,
-        1,
-        &RansacOptions::new(1),
-        Resample::AllMatches,
-        false,
+    let input = LinkInput::Absolute(absolute_input(&s, 0));
+    let msg = bootstrap_link(
+        &input,
+        &options(10, 1, 1, Resample::AllMatches, false),
+        None,
     )
-    .err()
-    .unwrap();
+    .unwrap_err()
+    .to_string();
     assert!(msg.contains("too few correspondences"), "{msg}");
 }
 
@@ -375,7 +367,7 @@ fn check_against_truth(what: &str, c: Mat6, truth: &Value, n: usize, b: usize) {
 
 fn evidence(method: Method, resample: Resample, iterations: usize) {
     let truth = truth();
-    let r = tie::bootstrap(&config(method, resample, iterations)).unwrap();
+    let r = tie::bootstrap(&config(method, resample, iterations), None).unwrap();
     assert!(r.failures.is_empty(), "{:?}", r.failures.first());
     // The fixture has 12 gross mismatches among 262 candidates (B's observations of 3-D
     // points, or the raw matches); the verified matches are the 250 true ones.
@@ -421,7 +413,7 @@ fn slow_evidence_all_matches_vs_pycolmap_sampling_covariance() {
 
 #[test]
 fn replicates_csv_round_trips_covariance_tangent() {
-    let r = tie::bootstrap(&config(Method::Absolute, Resample::Inliers, 40)).unwrap();
+    let r = tie::bootstrap(&config(Method::Absolute, Resample::Inliers, 40), None).unwrap();
     let csv = r.replicates_csv();
     let mut lines = csv.lines();
     assert_eq!(lines.next(), Some(REPLICATES_CSV_HEADER));
@@ -468,7 +460,7 @@ fn replicates_csv_round_trips_covariance_tangent() {
 fn errors_name_the_file_or_option() {
     let mut c = config(Method::Absolute, Resample::Inliers, 10);
     c.mm_per_unit = 0.0;
-    let e = tie::bootstrap(&c).unwrap_err();
+    let e = tie::bootstrap(&c, None).unwrap_err();
     assert!(
         matches!(
             e,
@@ -481,13 +473,45 @@ fn errors_name_the_file_or_option() {
     );
     let mut c = config(Method::Relative, Resample::AllMatches, 10);
     c.image_b = "nope.png".into();
-    let e = tie::bootstrap(&c).unwrap_err().to_string();
+    let e = tie::bootstrap(&c, None).unwrap_err().to_string();
     assert!(
         e.contains("tie_sampling/model") && e.contains("\"nope.png\" is not in the model"),
         "{e}"
     );
     let mut c = config(Method::Relative, Resample::Inliers, 10);
     c.database = fixture("bootstrap/tie_sampling/missing.db");
-    let e = tie::bootstrap(&c).unwrap_err().to_string();
+    let e = tie::bootstrap(&c, None).unwrap_err().to_string();
     assert!(e.contains("missing.db"), "{e}");
+}
+
+/// Cancels once a report reaches `after` units.
+struct StopAt(usize, std::sync::atomic::AtomicUsize);
+
+impl crashrig_stats::progress::Monitor for StopAt {
+    fn report(&self, done: usize, _: usize) {
+        self.1.fetch_max(done, std::sync::atomic::Ordering::Relaxed);
+    }
+    fn cancelled(&self) -> bool {
+        self.1.load(std::sync::atomic::Ordering::Relaxed) >= self.0
+    }
+}
+
+/// A monitor that cancels stops the link bootstrap in its replicates and in its jackknife
+/// (typed `Cancelled`, not an estimation message), and `tie::bootstrap` on the fixture.
+#[test]
+fn bootstrap_link_cancelled_returns_cancelled() {
+    let s = scene(120);
+    let input = LinkInput::Absolute(absolute_input(&s, 0));
+    let o = options(20, 3, 9, Resample::Inliers, true);
+    // 5: in the replicates; 20: the first leave-one-out value (after the 20 replicates).
+    for after in [5, 20] {
+        let e = bootstrap_link(&input, &o, Some(&StopAt(after, 0.into()))).unwrap_err();
+        assert!(matches!(e, tie::LinkError::Cancelled(_)), "{after}: {e}");
+    }
+    let e = tie::bootstrap(
+        &config(Method::Absolute, Resample::Inliers, 40),
+        Some(&StopAt(0, 0.into())),
+    )
+    .unwrap_err();
+    assert!(matches!(e, TieError::Cancelled(_)), "{e}");
 }

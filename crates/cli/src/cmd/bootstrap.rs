@@ -99,7 +99,7 @@ pub struct BootstrapRun {
 pub fn compute(a: &BootstrapArgs, seed: u64) -> anyhow::Result<BootstrapRun> {
     let bar = crate::progress::Bar::new("crashrig bootstrap");
     let replicates = bar.stage("replicates + jackknife");
-    let r = tie::bootstrap_with_progress(&a.config(seed), bar.hook(&replicates))?;
+    let r = tie::bootstrap(&a.config(seed), bar.monitor(&replicates))?;
     bar.finish();
     for w in r.warnings() {
         eprintln!("warning: {w}");

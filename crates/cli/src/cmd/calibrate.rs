@@ -6,7 +6,7 @@
 
 use crate::Global;
 use crashrig_geometry::options::{ScaleOptions, Spelling};
-use crashrig_study::calibration::{CalibrationConfig, Scale, calibrate_with_progress};
+use crashrig_study::calibration::{CalibrationConfig, Scale, calibrate};
 use std::path::PathBuf;
 
 /// Arguments of `crashrig calibrate`.
@@ -75,7 +75,7 @@ impl CalibrateArgs {
 pub fn run(a: CalibrateArgs, g: &Global) -> anyhow::Result<()> {
     let bar = crate::progress::Bar::new("crashrig calibrate");
     let rounds = bar.stage("refinement: weighting rounds");
-    let r = calibrate_with_progress(&a.config()?, bar.hook(&rounds))?;
+    let r = calibrate(&a.config()?, bar.monitor(&rounds))?;
     bar.finish();
     for w in &r.warnings {
         eprintln!("warning: {w}");

@@ -3,7 +3,7 @@
 
 use crate::Global;
 use crashrig_place::PlaceConfig;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `crashrig place`.
 #[derive(Debug, clap::Args)]
@@ -25,6 +25,10 @@ pub struct PlaceArgs {
     /// Skip the chosen layout's heat maps (PNG/SVG).
     #[arg(long)]
     pub no_plots: bool,
+    /// Run only shard i of N (1 ≤ i ≤ N) and write a shard directory to --out; `crashrig
+    /// merge` turns the N shard directories into the unsharded output (docs/SCALE.md).
+    #[arg(long, value_name = "I/N", value_parser = crate::limits::parse_shard)]
+    pub shard: Option<crashrig_outdir::shard::Shard>,
 }
 
 /// Runs `crashrig place`.
@@ -39,8 +43,18 @@ pub fn run(a: PlaceArgs, g: &Global) -> anyhow::Result<()> {
         plots: !a.no_plots,
     };
     let bar = crate::progress::Bar::new("crashrig place");
+    if let Some(shard) = a.shard {
+        let r = crashrig_place::shard::run_shard(&config, shard, bar.reporter())?;
+        bar.finish();
+        return super::merge::print_shard(&r.manifest, r.files, &config.out, g);
+    }
     let r = crashrig_place::run(&config, bar.reporter())?;
     bar.finish();
+    print(&r, &config.out, g)
+}
+
+/// Prints a placement (`crashrig place`, and `crashrig merge` of place shards).
+pub fn print(r: &crashrig_place::PlaceRun, out: &Path, g: &Global) -> anyhow::Result<()> {
     crate::output::warn_all(&r.grid.warnings);
     let p = &r.placement;
     if g.json {
@@ -84,7 +98,7 @@ pub fn run(a: PlaceArgs, g: &Global) -> anyhow::Result<()> {
             w,
             "wrote placement.json and {} files to {}",
             r.grid.files,
-            config.out.join("grid").display()
+            out.join("grid").display()
         )
     };
     super::propagate::quiet_pipe(print())

@@ -261,3 +261,74 @@ fn slurm_job_array_and_merge_equal_the_unsharded_run() {
         without_timing(read_json(&out.join("summary.json")))
     );
 }
+
+fn example(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/place")
+        .join(name)
+}
+
+/// `place --shard i/N` + `merge`: bad `--shard` values name the flag; the merge of three
+/// shards (given in reverse order) writes the unsharded `placement.json` byte for byte and the
+/// same `grid/`; a missing shard is refused by name.
+#[test]
+fn place_shards_merge_to_the_unsharded_placement() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (scen, cands) = (example("scenario.toml"), example("candidates.toml"));
+    let place = |out: &Path, extra: &[&str]| {
+        let mut args = vec![
+            "place",
+            s(&scen),
+            "--candidates",
+            s(&cands),
+            "--choose",
+            "2",
+            "--samples",
+            "100",
+            "--no-plots",
+            "--out",
+            s(out),
+        ];
+        args.extend_from_slice(extra);
+        run(&args)
+    };
+    let bad_out = tmp.path().join("bad");
+    for bad in ["0/3", "4/3", "a/b", "1/0"] {
+        let r = place(&bad_out, &["--shard", bad]);
+        assert_clean_error(&r, &["--shard", bad]);
+        assert!(!bad_out.exists(), "--shard {bad}: something was written");
+    }
+    let whole = tmp.path().join("whole");
+    let r = place(&whole, &[]);
+    assert!(r.success, "{}", r.stderr);
+    let dirs: Vec<PathBuf> = (1..=3).map(|i| tmp.path().join(format!("p{i}"))).collect();
+    for (k, d) in dirs.iter().enumerate() {
+        let spec = format!("{}/3", k + 1);
+        let r = place(d, &["--shard", &spec]);
+        assert!(r.success, "{spec}: {}", r.stderr);
+        assert!(r.stdout.contains(&format!("shard {spec}")), "{}", r.stdout);
+    }
+    let merged = tmp.path().join("merged");
+    let merge = |ds: &[&PathBuf]| {
+        let mut args: Vec<&str> = vec!["merge"];
+        args.extend(ds.iter().map(|d| s(d)));
+        args.extend(["--out", s(&merged), "--no-plots"]);
+        run(&args)
+    };
+    let r = merge(&[&dirs[0], &dirs[2]]);
+    assert_clean_error(&r, &["missing", "2/3"]);
+    assert!(!merged.exists());
+    let r = merge(&[&dirs[2], &dirs[1], &dirs[0]]);
+    assert!(r.success, "{}", r.stderr);
+    assert!(r.stdout.contains("confirmed"), "{}", r.stdout);
+    for f in ["placement.json", "grid/grid.csv", "grid/grid_detail.csv"] {
+        assert!(
+            std::fs::read(whole.join(f)).unwrap() == std::fs::read(merged.join(f)).unwrap(),
+            "{f} differs"
+        );
+    }
+    assert_eq!(
+        without_timing(read_json(&whole.join("grid/summary.json"))),
+        without_timing(read_json(&merged.join("grid/summary.json")))
+    );
+}
