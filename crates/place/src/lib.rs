@@ -35,6 +35,7 @@
 
 pub mod approx;
 mod error;
+pub mod merge;
 pub mod search;
 pub mod shard;
 

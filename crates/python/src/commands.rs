@@ -569,7 +569,8 @@ fn place<'py>(
 }
 
 /// Merges the shard directories of a `--shard i/N` run into `out` (`crashrig merge --json`):
-/// exactly what the unsharded run writes; returns its summary (`grid` shards: `summary.json`).
+/// exactly what the unsharded run writes; returns its `--json` document (`grid` shards:
+/// `summary.json`; `place` shards: `placement.json`).
 ///
 /// Example:
 ///
@@ -589,7 +590,8 @@ fn merge<'py>(
     out: &Bound<'py, PyAny>,
     plots: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
-    use crashrig_study::merge::{MergeRun, merge_shards};
+    use crashrig_place::merge::{Merged, merge_shards};
+    use crashrig_study::merge::MergeRun;
     if shards.is_instance_of::<pyo3::types::PyString>() {
         return Err(pyo3::exceptions::PyTypeError::new_err(
             "shards: expected a list of shard directories, got one str",
@@ -603,11 +605,15 @@ fn merge<'py>(
     let r =
         watch::run(py, None, |_: &Watch| merge_shards(&dirs, &out, plots))?.map_err(to_py_err)?;
     match r {
-        MergeRun::Grid(r) => {
+        Merged::Place(r) => {
+            warn_all(py, &r.grid.warnings)?;
+            document(py, &r.placement)
+        }
+        Merged::Study(MergeRun::Grid(r)) => {
             warn_all(py, &r.warnings)?;
             document(py, &r.summary)
         }
-        _ => Err(py_error("this crashrig cannot return what it merged")),
+        Merged::Study(_) => Err(py_error("this crashrig cannot return what it merged")),
     }
 }
 

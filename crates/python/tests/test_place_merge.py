@@ -92,3 +92,15 @@ def test_bootstrap_plots_and_replicates_equal_cli(cli, tmp_path):
         assert (tmp_path / "py" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes()
     rows = (tmp_path / "py.csv").read_text().splitlines()
     assert rows[0].startswith("replicate,") and len(rows) > 20, "a header and the replicates"
+
+
+def test_merge_of_place_shards_equals_cli(cli, tmp_path):
+    dirs = [tmp_path / "shards" / str(i) for i in (1, 2)]
+    for i, d in enumerate(dirs, start=1):
+        cli("place", PLACE / "scenario.toml", "--candidates", PLACE / "candidates.toml",
+            "--choose", "2", "--out", d, "--samples", "200", "--seed", "3", "--shard", f"{i}/2")
+    got = crashrig.merge(dirs, out=tmp_path / "py", plots=False)
+    want = cli("merge", *dirs, "--out", tmp_path / "cli", "--no-plots")
+    assert strip_timing(got) == strip_timing(want)
+    assert len(got["chosen"]) == 2
+    assert (tmp_path / "py" / "placement.json").is_file()

@@ -1,7 +1,6 @@
 //! `crashrig merge`: the shard directories of a `--shard i/N` run → the unsharded output.
-//! Arguments → [`crashrig_outdir::shard::read_set`] (refuses missing, repeated and foreign
-//! shards) → `place` shards: [`crashrig_place::shard::merge`]; others:
-//! [`crashrig_study::merge::merge_shards`] (merges by the command that wrote them) → print.
+//! Arguments → [`crashrig_place::merge::merge_shards`] (refuses missing, repeated and foreign
+//! shards; merges by the command that wrote them) → print.
 
 use crate::Global;
 use crashrig_outdir::shard::{MAX_SHARDS, Manifest};
@@ -23,16 +22,12 @@ pub struct MergeArgs {
 
 /// Runs `crashrig merge`.
 pub fn run(a: MergeArgs, g: &Global) -> anyhow::Result<()> {
-    use crashrig_study::merge::{MergeRun, merge_shards};
-    // Place shards are merged by crashrig-place (it sits above crashrig-study in the DAG).
-    let shards = crashrig_outdir::shard::read_set(&a.shards)?;
-    if shards[0].1.command == crashrig_place::shard::COMMAND {
-        let r = crashrig_place::shard::merge(&shards, &a.out, !a.no_plots)?;
-        return super::place::print(&r, &a.out, g);
-    }
+    use crashrig_place::merge::{Merged, merge_shards};
+    use crashrig_study::merge::MergeRun;
     match merge_shards(&a.shards, &a.out, !a.no_plots)? {
-        MergeRun::Grid(r) => super::grid::print(&r, &a.out, g),
-        _ => anyhow::bail!("this crashrig cannot print what it merged"),
+        Merged::Place(r) => super::place::print(&r, &a.out, g),
+        Merged::Study(MergeRun::Grid(r)) => super::grid::print(&r, &a.out, g),
+        Merged::Study(_) => anyhow::bail!("this crashrig cannot print what it merged"),
     }
 }
 

@@ -1,0 +1,47 @@
+//! [`merge_shards`], the library entry of `crashrig merge`: the shard directories of a
+//! `--shard i/N` run → exactly what the unsharded run writes, by the command that wrote them
+//! (`place` shards here, the others by [`crashrig_study::merge::merge_shards`]; this crate
+//! sits above `crashrig-study` in the DAG, so the whole dispatch lives here).
+//!
+//! ```no_run
+//! use crashrig_place::merge::{Merged, merge_shards};
+//! use crashrig_study::merge::MergeRun;
+//! let dirs: Vec<std::path::PathBuf> = (1..=4).map(|i| format!("out.shards/{i}").into()).collect();
+//! match merge_shards(&dirs, std::path::Path::new("out"), true)? {
+//!     Merged::Place(r) => println!("chose {:?}", r.placement.chosen),
+//!     Merged::Study(MergeRun::Grid(r)) => println!("{} points", r.summary.points),
+//!     Merged::Study(_) => {}
+//! }
+//! # Ok::<(), crashrig_place::Error>(())
+//! ```
+
+use crate::{Error, PlaceRun, shard};
+use crashrig_study::merge::MergeRun;
+use std::path::{Path, PathBuf};
+
+/// What a merge wrote.
+#[derive(Debug, Clone)]
+pub enum Merged {
+    /// `place` shards: the placement, as [`crate::run`] returns it.
+    Place(PlaceRun),
+    /// The shards of a command merged by `crashrig-study` (`grid`).
+    Study(MergeRun),
+}
+
+/// Reads the shard set (refusing missing, repeated and foreign shards) and merges it into
+/// `out` (`plots`: as the unsharded run without `--no-plots`).
+///
+/// # Errors
+/// [`Error::OutDir`] for the shard set; [`shard::merge`]'s and
+/// [`crashrig_study::merge::merge_shards`]'s errors.
+pub fn merge_shards(dirs: &[PathBuf], out: &Path, plots: bool) -> Result<Merged, Error> {
+    let shards = crashrig_outdir::shard::read_set(dirs)?;
+    match shards.first() {
+        Some((_, m)) if m.command == shard::COMMAND => {
+            Ok(Merged::Place(shard::merge(&shards, out, plots)?))
+        }
+        _ => Ok(Merged::Study(crashrig_study::merge::merge_shards(
+            dirs, out, plots,
+        )?)),
+    }
+}
