@@ -163,7 +163,7 @@ pub struct Layout {
     /// `correlated` as written: `Some(true)` draws the `from` observers jointly from one chain
     /// draw (the physical, rigid-body model), `Some(false)` independently; `None` (key absent)
     /// is the default the pipeline resolves against the chain's nominal poses
-    /// ([`crate::pipeline::physical_model_applies`]): jointly when at least two aimed `from`
+    /// ([`crate::pipeline::resolve_correlated`]): jointly when at least two aimed `from`
     /// observers stand at their chain cameras, else independently.
     pub correlated: Option<bool>,
     /// At least two observers.
