@@ -272,7 +272,7 @@ pub fn check_cli_commands(sources: &[Source]) -> Vec<String> {
 pub fn check_json_literals(root: &Path, sources: &[Source]) -> Vec<String> {
     let mut problems = Vec::new();
     let mut used = BTreeSet::new();
-    for (s, line, code) in library_code(sources).filter(|(_, _, code)| json_literal(code)) {
+    for (s, line, _) in library_code(sources).filter(|(_, _, code)| json_literal(code)) {
         if let Some(a) = JSON_ALLOWED.iter().find(|p| **p == s.rel) {
             used.insert(*a);
             continue;

@@ -239,8 +239,11 @@ impl Reconstruction {
         };
         let camera_idx = index_cameras(&cameras, &files.cameras)?;
         let rig_idx = index_rigs(&rigs, &camera_idx, rigs_path)?;
-        let (image_idx, name_idx, num_observations) =
-            index_images(&images, &camera_idx, &files.images)?;
+        let ImageIndex {
+            by_id: image_idx,
+            by_name: name_idx,
+            num_observations,
+        } = index_images(&images, &camera_idx, &files.images)?;
         let point_idx = index_points(&points, &files.points3d)?;
         let links = Links {
             rigs: &rigs,
@@ -576,13 +579,22 @@ fn index_rigs(
     Ok(rig_idx)
 }
 
-/// Image id → index, name → index (the first image of a name) and the number of observations;
-/// image ids are unique and images name existing cameras.
+/// The indices of the images.
+struct ImageIndex {
+    /// Image id → index.
+    by_id: HashMap<u32, usize>,
+    /// Name → index of the first image of that name.
+    by_name: HashMap<String, usize>,
+    /// Observations of 3-D points, all images together.
+    num_observations: usize,
+}
+
+/// Indexes the images; image ids are unique and images name existing cameras.
 fn index_images(
     images: &[Image],
     camera_idx: &HashMap<u32, usize>,
     path: &Path,
-) -> Result<(HashMap<u32, usize>, HashMap<String, usize>, usize)> {
+) -> Result<ImageIndex> {
     let mut image_idx = HashMap::with_capacity(images.len());
     let mut name_idx = HashMap::with_capacity(images.len());
     let mut num_observations = 0usize;
@@ -601,7 +613,11 @@ fn index_images(
         }
         num_observations += im.num_points3d();
     }
-    Ok((image_idx, name_idx, num_observations))
+    Ok(ImageIndex {
+        by_id: image_idx,
+        by_name: name_idx,
+        num_observations,
+    })
 }
 
 /// Point3D id → index; point ids are unique.
