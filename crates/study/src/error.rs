@@ -140,7 +140,8 @@ pub enum Error {
     #[error("internal: {problem}")]
     Bundled {
         /// What is wrong.
-        problem: String,
+        #[source]
+        problem: BundledError,
     },
     /// A scenario without cameras given to `propagate`.
     #[error("{}: `camera`: the scenario has no camera", path.display())]
@@ -396,5 +397,80 @@ pub(crate) fn measure_plot_error(e: crashrig_measure::Error, figure: &'static st
                 message: other.to_string(),
             },
         },
+    }
+}
+
+/// What is wrong with a bundled input of `crashrig paper` (the source of [`Error::Bundled`]).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum BundledError {
+    /// The generated study file does not serialise as TOML.
+    #[error("the study file does not serialise: {0}")]
+    Toml(#[source] toml::ser::Error),
+    /// `scenarios/{stem}.toml` is not bundled.
+    #[error("no bundled scenario {stem}")]
+    NoScenario {
+        /// The scenario's file stem.
+        stem: String,
+    },
+    /// The bundled scenario has no `[grid]`.
+    #[error("bundled scenario {stem} without a grid")]
+    NoGrid {
+        /// The scenario's file stem.
+        stem: String,
+    },
+    /// The bundled scenario's observers do not match the paper's layout table.
+    #[error("scenario {stem} has {observers} observers, the paper's layout table {expected}")]
+    Observers {
+        /// The scenario's file stem.
+        stem: String,
+        /// Observers in the scenario.
+        observers: usize,
+        /// Observers in the paper's layout table.
+        expected: usize,
+    },
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bundled_messages_are_the_former_strings_and_keep_their_source() {
+        let e = Error::Bundled {
+            problem: BundledError::NoScenario { stem: "s1".into() },
+        };
+        assert_eq!(e.to_string(), "internal: no bundled scenario s1");
+        let e = Error::Bundled {
+            problem: BundledError::NoGrid { stem: "s1".into() },
+        };
+        assert_eq!(
+            e.to_string(),
+            "internal: bundled scenario s1 without a grid"
+        );
+        let e = Error::Bundled {
+            problem: BundledError::Observers {
+                stem: "s1".into(),
+                observers: 3,
+                expected: 2,
+            },
+        };
+        assert_eq!(
+            e.to_string(),
+            "internal: scenario s1 has 3 observers, the paper's layout table 2"
+        );
+        // A bare number is no TOML document: a real serialiser error as the source.
+        let toml_error = toml::to_string(&1.5_f64).unwrap_err();
+        let text = toml_error.to_string();
+        let e = Error::Bundled {
+            problem: BundledError::Toml(toml_error),
+        };
+        assert_eq!(
+            e.to_string(),
+            format!("internal: the study file does not serialise: {text}")
+        );
+        let problem = std::error::Error::source(&e).expect("the typed problem");
+        let toml = problem.source().expect("the serialiser's error");
+        assert!(toml.downcast_ref::<toml::ser::Error>().is_some());
     }
 }

@@ -60,7 +60,7 @@ pub mod study_file;
 pub mod study_run;
 pub mod tie;
 
-pub use error::{Error, StepError};
+pub use error::{BundledError, Error, StepError};
 pub use grid_run::{GridConfig, GridRun, run_grid, run_grid_scenario};
 pub use pipeline::{Options, StudyResult, run_study};
 pub use propagate_run::{PropagateConfig, PropagateRun, run_propagate};
