@@ -180,7 +180,8 @@ fn fixed_from_covariances<'c>(
         .observers
         .iter()
         .any(|o| o.fixed.is_some() && matches!(o.noise, ObserverNoise::From(_)));
-    let mc = needed.then(|| chain.monte_carlo(crashrig_mc::CHAIN_SAMPLES_MIN, seed));
+    let options = crashrig_mc::ChainOptions::new(crashrig_mc::CHAIN_SAMPLES_MIN, seed);
+    let mc = needed.then(|| chain.monte_carlo(&options, None));
     move |cam: ChainCamera| {
         let i = ids.iter().position(|(c, _)| *c == cam).ok_or_else(|| {
             crashrig_mc::Error::UnknownCamera {
@@ -188,9 +189,12 @@ fn fixed_from_covariances<'c>(
                 name: cam.name().into(),
             }
         })?;
-        Ok(mc
-            .as_ref()
-            .map_or(Mat6::zeros(), |m| m[i].covariance_tangent))
+        Ok(match &mc {
+            Some(Ok(m)) => m[i].covariance_tangent,
+            // Its only error, and without a monitor it never happens.
+            Some(Err(_)) => return Err(crashrig_stats::progress::Cancelled.into()),
+            None => Mat6::zeros(),
+        })
     }
 }
 
@@ -396,9 +400,6 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
             }
         }
     };
-    fn hook(on: bool, f: &(dyn Fn(usize, usize) + Sync)) -> Option<&(dyn Fn(usize, usize) + Sync)> {
-        on.then_some(f)
-    }
     let on = options.progress.is_some();
 
     let sub = within("calibration".into());
@@ -430,7 +431,12 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
     let mc_err = |e: crashrig_mc::Error| study.step_error("outward", 0, e);
     let (chain_mc, _) = build_chain(&inputs, &Scales::unit(0)).map_err(mc_err)?;
     let sub = within("propagation chunks".into());
-    let mc = chain_mc.monte_carlo_with_progress(study.chain_samples, seed, hook(on, &sub));
+    let mc = chain_mc
+        .monte_carlo(
+            &crashrig_mc::ChainOptions::new(study.chain_samples, seed),
+            on.then_some(&sub as &dyn Monitor),
+        )
+        .map_err(mc_err)?;
     let linear = chain_mc.linear();
     let chain: Vec<ChainPose> = inputs
         .iter()
@@ -460,7 +466,7 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
         crashrig_mc::degenerate::check_layout(g.grid()).map_err(at_layout)?;
         let sub = within(format!("{stage}: points"));
         let mut r = g
-            .evaluate_with_progress(hook(on, &sub))
+            .run(&g.options(), on.then_some(&sub as &dyn Monitor))
             .map_err(at_layout)?;
         let mut grid = g.grid().clone();
         // Degenerate points (rays nearly parallel) are blanked (NaN): kept out of colour
