@@ -13,7 +13,7 @@
 //! pixel noise, 16 normals per draw); `aimed` draws 12 normals and no pixel noise.
 //!
 //! Run: `cargo bench -p crashrig-benches --bench fixed`.
-use crashrig_mc::{GridStudy, Isa, Scenario};
+use crashrig_mc::{GridStudy, Isa, RunOptions, Scenario};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use std::hint::black_box;
 use std::path::Path;
@@ -75,7 +75,15 @@ fn fixed_vs_aimed(c: &mut Criterion) {
         let s =
             Scenario::from_toml_str(&scenario(kind), Path::new("bench.toml")).expect("scenario");
         let study = GridStudy::new(&s, s.samples, s.seed).expect("study");
-        let r = study.run_with(s.samples, s.seed, Isa::Auto).expect("run");
+        let r = study
+            .run(
+                &RunOptions {
+                    isa: Isa::Auto,
+                    ..RunOptions::samples(s.samples, s.seed)
+                },
+                None,
+            )
+            .expect("run");
         assert!(
             r.points.iter().all(|p| p.observers_seen == 2),
             "{kind}: not all seen"
@@ -85,7 +93,17 @@ fn fixed_vs_aimed(c: &mut Criterion) {
         g.bench_function(kind, |b| {
             b.iter(|| {
                 pool.install(|| {
-                    black_box(study.run_with(s.samples, s.seed, Isa::Auto).expect("run"))
+                    black_box(
+                        study
+                            .run(
+                                &RunOptions {
+                                    isa: Isa::Auto,
+                                    ..RunOptions::samples(s.samples, s.seed)
+                                },
+                                None,
+                            )
+                            .expect("run"),
+                    )
                 })
             })
         });

@@ -6,7 +6,7 @@
 //! Single-threaded numbers come from a 1-thread rayon pool; the 2-thread grid uses a 2-thread
 //! pool. See docs/performance.md for the numbers and the roofline note.
 use crashrig_benches::{CHAIN, TWO_OBSERVERS, kernel_paths, levels, one_point_kernel};
-use crashrig_mc::{Chain, GridStudy, Isa, Scenario};
+use crashrig_mc::{Chain, ChainOptions, GridStudy, Isa, RunOptions, Scenario};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use rand::RngExt;
 use rand_distr::StandardNormal;
@@ -78,7 +78,21 @@ fn kernel(c: &mut Criterion) {
     g.sample_size(10);
     for isa in levels() {
         g.bench_function(format!("two_observers_1thread/{}", isa.name()), |b| {
-            b.iter(|| one.install(|| black_box(study.run_with(n, 7, isa).expect("run"))))
+            b.iter(|| {
+                one.install(|| {
+                    black_box(
+                        study
+                            .run(
+                                &RunOptions {
+                                    isa,
+                                    ..RunOptions::samples(n, 7)
+                                },
+                                None,
+                            )
+                            .expect("run"),
+                    )
+                })
+            })
         });
     }
     g.finish();
@@ -97,7 +111,21 @@ fn paths(c: &mut Criterion) {
         let study = GridStudy::new(&sc, 0, 0).expect("study");
         for isa in levels() {
             g.bench_function(format!("{name}/{}", isa.name()), |b| {
-                b.iter(|| one.install(|| black_box(study.run_with(n, 7, isa).expect("run"))))
+                b.iter(|| {
+                    one.install(|| {
+                        black_box(
+                            study
+                                .run(
+                                    &RunOptions {
+                                        isa,
+                                        ..RunOptions::samples(n, 7)
+                                    },
+                                    None,
+                                )
+                                .expect("run"),
+                        )
+                    })
+                })
             });
         }
     }
@@ -119,7 +147,21 @@ fn paths_quick(c: &mut Criterion) {
         let sc = Scenario::from_toml_str(&toml, Path::new("bench.toml")).expect("scenario");
         let study = GridStudy::new(&sc, 0, 0).expect("study");
         g.bench_function(name, |b| {
-            b.iter(|| one.install(|| black_box(study.run_with(n, 7, Isa::Auto).expect("run"))))
+            b.iter(|| {
+                one.install(|| {
+                    black_box(
+                        study
+                            .run(
+                                &RunOptions {
+                                    isa: Isa::Auto,
+                                    ..RunOptions::samples(n, 7)
+                                },
+                                None,
+                            )
+                            .expect("run"),
+                    )
+                })
+            })
         });
     }
     g.finish();
@@ -140,7 +182,19 @@ fn grid(c: &mut Criterion) {
             &threads,
             |b, _| {
                 b.iter(|| {
-                    p.install(|| black_box(study.run_with(samples, 3, Isa::Auto).expect("run")))
+                    p.install(|| {
+                        black_box(
+                            study
+                                .run(
+                                    &RunOptions {
+                                        isa: Isa::Auto,
+                                        ..RunOptions::samples(samples, 3)
+                                    },
+                                    None,
+                                )
+                                .expect("run"),
+                        )
+                    })
                 })
             },
         );
@@ -160,7 +214,22 @@ fn chain(c: &mut Criterion) {
         g.bench_with_input(
             BenchmarkId::new("auto/threads", threads),
             &threads,
-            |b, _| b.iter(|| p.install(|| black_box(ch.monte_carlo_with(n, 3, Isa::Auto)))),
+            |b, _| {
+                b.iter(|| {
+                    p.install(|| {
+                        black_box(
+                            ch.monte_carlo(
+                                &ChainOptions {
+                                    isa: Isa::Auto,
+                                    ..ChainOptions::new(n, 3)
+                                },
+                                None,
+                            )
+                            .expect("run"),
+                        )
+                    })
+                })
+            },
         );
     }
     g.finish();

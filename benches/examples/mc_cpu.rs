@@ -7,9 +7,9 @@
 //! with WHAT = `normals` | `kernel` | `chain` | a kernel path of
 //! [`crashrig_benches::kernel_paths`] (`study`, `full_covariance`, `correlated`, …), ENGINE = `baseline` | `v3` | `v4` | `auto`, MILLIONS = draws (normals for `normals`) in millions. Runs on one thread and prints
 //! the rate per second of wall time and per second of the process's CPU time (Linux). Grid
-//! paths time `GridStudy::run_with` only (the study is set up before the clock starts).
+//! paths time `GridStudy::run` only (the study is set up before the clock starts).
 use crashrig_benches::{CHAIN, kernel_paths, level_of_name, one_point_kernel};
-use crashrig_mc::{Chain, GridStudy, Isa, Scenario};
+use crashrig_mc::{Chain, ChainOptions, GridStudy, Isa, RunOptions, Scenario};
 use std::hint::black_box;
 use std::path::Path;
 use std::time::Instant;
@@ -51,14 +51,32 @@ fn main() {
             black_box(s);
         }
         (_, Some(study)) => {
-            let r = study.run_with(n, 7, isa).expect("run");
+            let r = study
+                .run(
+                    &RunOptions {
+                        isa,
+                        ..RunOptions::samples(n, 7)
+                    },
+                    None,
+                )
+                .expect("run");
             // The exact result (shortest round-trip digits): before/after bit-identity.
             let p = &r.points[0];
             exact = format!("\n  mean {:?}\n  covariance {:?}", p.mean_mm, p.covariance);
         }
         _ => {
             let sc = Scenario::from_toml_str(CHAIN, Path::new("chain.toml")).expect("scenario");
-            black_box(Chain::new(&sc).monte_carlo_with(n, 3, isa));
+            black_box(
+                Chain::new(&sc)
+                    .monte_carlo(
+                        &ChainOptions {
+                            isa,
+                            ..ChainOptions::new(n, 3)
+                        },
+                        None,
+                    )
+                    .expect("run"),
+            );
         }
     }
     let s = t.elapsed().as_secs_f64();

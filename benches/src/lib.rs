@@ -127,7 +127,7 @@ pub fn level_of_name(name: &str) -> Option<Isa> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crashrig_mc::{GridStudy, Scenario};
+    use crashrig_mc::{GridStudy, RunOptions, Scenario};
     use std::path::Path;
 
     #[test]
@@ -143,7 +143,15 @@ mod tests {
             let sc = Scenario::from_toml_str(&toml, Path::new("bench.toml"))
                 .unwrap_or_else(|e| panic!("{name}: {e}"));
             let study = GridStudy::new(&sc, 0, 0).unwrap_or_else(|e| panic!("{name}: {e}"));
-            let r = study.run_with(200, 1, Isa::Auto).unwrap();
+            let r = study
+                .run(
+                    &RunOptions {
+                        isa: Isa::Auto,
+                        ..RunOptions::samples(200, 1)
+                    },
+                    None,
+                )
+                .unwrap();
             assert_eq!(r.points.len(), 1, "{name}");
             if name == "study" {
                 // Both full covariances replaced the σ keys, the observers are drawn jointly

@@ -25,8 +25,6 @@ pub const LONG_FN_ALLOWED: &[(&str, &str)] = &[];
 pub const ENV_ALLOWED: &[(&str, &str)] = &[
     // Fault injection of the all-or-nothing writer, for the robustness tests.
     ("crates/outdir/src/lib.rs", "CRASHRIG_OUTDIR_FAULT"),
-    // Removed by the Monte Carlo restructuring (issue 23, arch-mc).
-    ("crates/mc/src/simd.rs", "CRASHRIG_ISA"),
 ];
 
 /// CLI command modules over [`MAX_CMD_LINES`] still to be moved into their libraries.

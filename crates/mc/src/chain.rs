@@ -1,14 +1,14 @@
 //! Propagation through the camera chain: Monte Carlo draws and first-order (linear) covariance.
 
 use crate::error::Error;
-use crate::kernel::Isa;
 use crate::kernel::{exp_matrix, log_near_identity, rot_opk};
 use crate::model::{PoseSigma, RotationNoise, Scenario};
+use crate::options::ChainOptions;
 use crate::schedule::{CHUNK, Engine};
 use crashrig_geometry::{Rigid3, Rot3, UncertainPose, quat};
 #[cfg(test)]
 use crashrig_stats::Moments;
-use crashrig_stats::progress::{Counter, Progress};
+use crashrig_stats::progress::{Counter, Monitor};
 use lanes::{CamPlan, CamSums};
 use nalgebra::{DMatrix, Matrix3, Matrix6, Vector3, Vector6};
 
@@ -529,30 +529,29 @@ impl Chain {
         )
     }
 
-    /// Monte Carlo propagation with `samples` joint draws of every camera and link.
+    /// Monte Carlo propagation with `options.samples` joint draws of every camera and link
+    /// under `options.seed`, compiled for `options.isa`.
     ///
-    /// Draws are split in chunks of [`CHUNK`](crate::CHUNK); chunk `k` is Philox task `k` of `seed` and the
-    /// chunks are merged in index order, so the result is bit-identical for any number of
-    /// threads (and any instruction-set level).
-    pub fn monte_carlo(&self, samples: usize, seed: u64) -> Vec<PoseMc> {
-        self.monte_carlo_with(samples, seed, Isa::Auto)
-    }
-
-    /// [`Chain::monte_carlo`] compiled for an explicit instruction-set level (benchmarks and
-    /// tests; every level gives the same bits).
-    pub fn monte_carlo_with(&self, samples: usize, seed: u64, isa: Isa) -> Vec<PoseMc> {
-        self.monte_carlo_engine(samples, seed, Engine::Simd(isa), None)
-    }
-
-    /// [`Chain::monte_carlo`] reporting `(chunks done, chunks)` of [`CHUNK`](crate::CHUNK) draws to
-    /// `progress`; the result is the same as without.
-    pub fn monte_carlo_with_progress(
+    /// Draws are split in chunks of [`CHUNK`](crate::CHUNK); chunk `k` is Philox task `k` of
+    /// the seed and the chunks are merged in index order, so the result is bit-identical for
+    /// any number of threads and any instruction-set level.
+    ///
+    /// `monitor` (optional) gets `(chunks done, chunks)` and is asked before each chunk
+    /// whether the call was cancelled; the result is the same with and without it.
+    ///
+    /// # Errors
+    /// [`Error::Cancelled`] when `monitor` cancelled the run (nothing else fails).
+    pub fn monte_carlo(
         &self,
-        samples: usize,
-        seed: u64,
-        progress: Option<Progress<'_>>,
-    ) -> Vec<PoseMc> {
-        self.monte_carlo_engine(samples, seed, Engine::Simd(Isa::Auto), progress)
+        options: &ChainOptions,
+        monitor: Option<&dyn Monitor>,
+    ) -> Result<Vec<PoseMc>, Error> {
+        self.monte_carlo_engine(
+            options.samples,
+            options.seed,
+            Engine::Simd(options.isa),
+            monitor,
+        )
     }
 
     pub(crate) fn monte_carlo_engine(
@@ -560,26 +559,32 @@ impl Chain {
         samples: usize,
         seed: u64,
         engine: Engine,
-        progress: Option<Progress<'_>>,
-    ) -> Vec<PoseMc> {
+        monitor: Option<&dyn Monitor>,
+    ) -> Result<Vec<PoseMc>, Error> {
         let chunks = samples.div_ceil(CHUNK);
-        let ticks = Counter::new(progress, chunks);
+        let ticks = Counter::monitored(monitor, chunks);
         #[allow(clippy::infallible_destructuring_match)] // one variant outside the tests
         let isa = match engine {
             #[cfg(test)]
             Engine::Legacy => {
                 let r = self.monte_carlo_legacy(samples, seed, &ticks);
                 ticks.finish();
-                return r;
+                return Ok(r);
             }
             Engine::Simd(isa) => isa,
         };
         let n = self.len();
         let key = crate::kernel::philox::key_of_seed(seed);
         let mut total = vec![CamSums::new(); n];
+        let stopped = std::sync::atomic::AtomicBool::new(false);
         crate::kernel::ordered::map_fold_in_order(
             chunks,
             |k| {
+                if ticks.check().is_err() {
+                    // Skipped: the call returns `Cancelled`.
+                    stopped.store(true, std::sync::atomic::Ordering::Relaxed);
+                    return Vec::new();
+                }
                 let m = CHUNK.min(samples - k * CHUNK);
                 let part = crate::kernel::simd::dispatch(
                     isa,
@@ -595,8 +600,11 @@ impl Chain {
                 }
             },
         );
+        if stopped.into_inner() {
+            return Err(crashrig_stats::progress::Cancelled.into());
+        }
         ticks.finish();
-        total
+        Ok(total
             .iter()
             .enumerate()
             .map(|(i, t)| {
@@ -618,7 +626,7 @@ impl Chain {
                     angles_singular: self.angles_singular(i),
                 }
             })
-            .collect()
+            .collect())
     }
 
     /// The former loop (ChaCha8 streams, ziggurat normals, Welford moments per draw).

@@ -11,7 +11,7 @@
 //! with |x| < 1000 mm: 4 of the 6 points from −1500 to 1500 mm.
 //! ```
 //! use crashrig_mc::coverage::{self, Coverage};
-//! use crashrig_mc::{GridStudy, Scenario};
+//! use crashrig_mc::{GridStudy, RunOptions, Scenario};
 //! use std::path::Path;
 //!
 //! let text = r#"
@@ -35,7 +35,7 @@
 //! "#;
 //! let scenario = Scenario::from_toml_str(text, Path::new("s.toml"))?;
 //! let grid = scenario.grid.as_ref().expect("a grid");
-//! let result = GridStudy::new(&scenario, 10, 1)?.run(10, 1)?;
+//! let result = GridStudy::new(&scenario, 10, 1)?.run(&RunOptions::samples(10, 1), None)?;
 //! assert!(coverage::has_fixed(grid));
 //! let c = coverage::coverage(grid, &result);
 //! assert_eq!(c[0], Coverage { name: "fixed".into(), aim: "fixed", fraction_seen: 4.0 / 6.0 });

@@ -184,6 +184,9 @@ pub enum Error {
     /// An error of the geometry layer.
     #[error(transparent)]
     Geometry(#[from] crashrig_geometry::Error),
+    /// The run's [`crashrig_stats::progress::Monitor`] cancelled it: nothing was returned.
+    #[error(transparent)]
+    Cancelled(#[from] crashrig_stats::progress::Cancelled),
     /// A scenario error located in its file: the line of the offending key.
     #[error("{}:{line}: {source}", path.display())]
     Located {

@@ -421,7 +421,7 @@ pub(crate) fn linear_terms(
         .collect()
 }
 
-fn not_measurable(point: &Vector3<f64>, seen: usize) -> PointStats {
+pub(crate) fn not_measurable(point: &Vector3<f64>, seen: usize) -> PointStats {
     let nan3 = Vector3::from_element(f64::NAN);
     PointStats {
         point: *point,
@@ -527,6 +527,9 @@ pub(crate) fn run(
                     let (p, k) = (drawn[t / chunks], t % chunks);
                     let m = CHUNK.min(samples - k * CHUNK);
                     let mut acc = Acc3::new(points[p]);
+                    if progress.stop() {
+                        return acc;
+                    }
                     let task = task_index(first + p, k);
                     run_chunk(
                         &views[p], &blocks[p], chain, seed, task, m, &mut acc, engine,
@@ -552,7 +555,7 @@ pub(crate) fn run(
             .par_iter()
             .enumerate()
             .map(|(p, point)| {
-                if views[p].len() < 2 {
+                if views[p].len() < 2 || progress.stop() {
                     // Nothing to draw, nothing left to stabilise: `converged` is true so that
                     // every adaptive row says true/false and only points that stopped at
                     // `max_samples` are unconverged.

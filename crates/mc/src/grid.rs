@@ -13,10 +13,11 @@ use crate::kernel::lanes::NoiseFactor;
 #[cfg(test)]
 use crate::kernel::{exp_matrix, rot_opk};
 use crate::model::{Adaptive, Grid, ObserverSigma, PoseSigma, RotationNoise, Scenario};
+use crate::options::{ChainOptions, Draws, RunOptions};
 use crate::result::{GridResult, PointStats};
 use crate::schedule::{CHUNK, Engine, PointTicks, adaptive_draws, task_index};
 use crashrig_geometry::uncertain::psd_factor;
-use crashrig_stats::progress::Progress;
+use crashrig_stats::progress::Monitor;
 use nalgebra::{DMatrix, Matrix3, Matrix6, Vector3, Vector6};
 use rayon::prelude::*;
 
@@ -134,7 +135,8 @@ impl GridStudy {
             .iter()
             .any(|o| matches!(o.sigma, ObserverSigma::From(_)));
         let mc = if needs_chain {
-            chain.monte_carlo(samples.max(CHAIN_SAMPLES_MIN), seed ^ CHAIN_SEED_SALT)
+            let options = ChainOptions::new(samples.max(CHAIN_SAMPLES_MIN), seed ^ CHAIN_SEED_SALT);
+            chain.monte_carlo(&options, None)?
         } else {
             Vec::new()
         };
@@ -211,27 +213,18 @@ impl GridStudy {
         Ok(study)
     }
 
-    /// Runs the study with the draws and seed it was built with: [`GridStudy::run_adaptive`]
-    /// when the grid has [`crate::Adaptive`] settings, else [`GridStudy::run`].
-    ///
-    /// # Errors
-    /// As [`GridStudy::run`].
-    pub fn evaluate(&self) -> Result<GridResult, Error> {
-        self.evaluate_with_progress(None)
-    }
-
-    /// [`GridStudy::evaluate`] reporting `(points done, points)` to `progress`; the result is
-    /// the same as without.
-    ///
-    /// # Errors
-    /// As [`GridStudy::run`].
-    pub fn evaluate_with_progress(
-        &self,
-        progress: Option<Progress<'_>>,
-    ) -> Result<GridResult, Error> {
-        match &self.grid.adaptive {
-            Some(a) => self.run_adaptive_with_progress(a, self.seed, progress),
-            None => self.run_with_progress(self.samples, self.seed, progress),
+    /// The settings this study was built with: its grid's adaptive rule when it has one, else
+    /// its samples per point; its seed; the CPU's best instruction-set level. What
+    /// `study.run(&study.options(), None)` runs.
+    pub fn options(&self) -> RunOptions {
+        let draws = match self.grid.adaptive {
+            Some(a) => Draws::Adaptive(a),
+            None => Draws::Samples(self.samples),
+        };
+        RunOptions {
+            draws,
+            seed: self.seed,
+            isa: Isa::Auto,
         }
     }
 
@@ -313,33 +306,35 @@ impl GridStudy {
         }
     }
 
-    /// Runs `samples` draws per point.
+    /// Runs the study: `options.draws` per point ([`Draws::Samples`], or the adaptive rule of
+    /// [`Draws::Adaptive`]) under `options.seed`, compiled for `options.isa`.
     ///
-    /// Work is split into (point, chunk of [`CHUNK`](crate::CHUNK) draws) tasks; task (p, k) draws from
-    /// the Philox stream of `(seed, p·2²⁴ + k)` and chunks are merged in index order, so the
-    /// result is bit-identical for any number of threads (and any instruction-set level).
-    pub fn run(&self, samples: usize, seed: u64) -> Result<GridResult, Error> {
-        self.run_with(samples, seed, Isa::Auto)
-    }
-
-    /// [`GridStudy::run`] compiled for an explicit instruction-set level (benchmarks and
-    /// tests; every level gives the same bits, only the speed differs).
-    pub fn run_with(&self, samples: usize, seed: u64, isa: Isa) -> Result<GridResult, Error> {
-        self.run_engine(samples, seed, Engine::Simd(isa), None)
-    }
-
-    /// [`GridStudy::run`] reporting `(points done, points)` to `progress` (a point counts when
-    /// its last chunk of draws is done); the result is the same as without.
+    /// Work is split into (point, chunk of [`CHUNK`](crate::CHUNK) draws) tasks; task (p, k)
+    /// draws from the Philox stream of `(seed, p·2²⁴ + k)` and chunks are merged in index
+    /// order, so the result is bit-identical for any number of threads and any instruction-set
+    /// level. The adaptive rule (GUM-S1 §7.9) runs per point batches of `adaptive.batch` draws
+    /// (batch b of point p is task `p·2²⁴ + b`) until the mean coordinate and the σ of every
+    /// axis are stable (`2·s/√h ≤ δ`, see [`crate::Adaptive`]; at least
+    /// [`ADAPTIVE_MIN_BATCHES`](crate::ADAPTIVE_MIN_BATCHES) batches) or `max_samples` is
+    /// reached; the reported mean and σ are those of all draws.
+    ///
+    /// `monitor` (optional) gets `(points done, points)` (a point counts when its last chunk or
+    /// batch is done) and is asked before each chunk (adaptive: each point) whether the call
+    /// was cancelled; the result is the same with and without it.
     ///
     /// # Errors
-    /// As [`GridStudy::run`].
-    pub fn run_with_progress(
+    /// An aimed observer that cannot aim at a point ([`Error::VerticalAim`], …);
+    /// [`Error::Cancelled`] when `monitor` cancelled the run.
+    pub fn run(
         &self,
-        samples: usize,
-        seed: u64,
-        progress: Option<Progress<'_>>,
+        options: &RunOptions,
+        monitor: Option<&dyn Monitor>,
     ) -> Result<GridResult, Error> {
-        self.run_engine(samples, seed, Engine::Simd(Isa::Auto), progress)
+        let engine = Engine::Simd(options.isa);
+        match &options.draws {
+            Draws::Samples(samples) => self.run_engine(*samples, options.seed, engine, monitor),
+            Draws::Adaptive(a) => self.run_adaptive(a, options.seed, engine, monitor),
+        }
     }
 
     pub(crate) fn run_engine(
@@ -347,13 +342,14 @@ impl GridStudy {
         samples: usize,
         seed: u64,
         engine: Engine,
-        progress: Option<Progress<'_>>,
+        monitor: Option<&dyn Monitor>,
     ) -> Result<GridResult, Error> {
         let chunks = samples.div_ceil(CHUNK);
         let (first, points) = self.selected_points();
-        let ticks = PointTicks::new(progress, points.len(), chunks);
+        let ticks = PointTicks::new(monitor, points.len(), chunks);
         if self.has_fixed() {
             let r = self.run_fixed(crate::fixed::Draws::Samples(samples), seed, engine, &ticks);
+            ticks.cancelled()?;
             ticks.finish();
             return r;
         }
@@ -366,6 +362,9 @@ impl GridStudy {
                 let (p, k) = (t / chunks, t % chunks);
                 let m = CHUNK.min(samples - k * CHUNK);
                 let mut acc = Acc3::new(points[p]);
+                if ticks.stop() {
+                    return acc;
+                }
                 run_chunk(
                     &aimed[p],
                     &self.ctx,
@@ -380,6 +379,7 @@ impl GridStudy {
             },
             |t, part| sums[t / chunks].merge(&part),
         );
+        ticks.cancelled()?;
         ticks.finish();
         let stats = points
             .iter()
@@ -390,35 +390,24 @@ impl GridStudy {
         Ok(self.result(stats))
     }
 
-    /// Runs with the adaptive stopping rule of GUM-S1 §7.9 per point: batches of
-    /// `adaptive.batch` draws (batch b of point p is task `p·2²⁴ + b`) until the mean
-    /// coordinate and the σ of every axis are stable (`2·s/√h ≤ δ`, see
-    /// [`crate::Adaptive`]; at least [`ADAPTIVE_MIN_BATCHES`](crate::ADAPTIVE_MIN_BATCHES) batches) or `max_samples` is
-    /// reached. The reported mean and σ are those of all draws.
-    pub fn run_adaptive(&self, adaptive: &Adaptive, seed: u64) -> Result<GridResult, Error> {
-        self.run_adaptive_with_progress(adaptive, seed, None)
-    }
-
-    /// [`GridStudy::run_adaptive`] reporting `(points done, points)` to `progress`; the result
-    /// is the same as without.
-    ///
-    /// # Errors
-    /// As [`GridStudy::run`].
-    pub fn run_adaptive_with_progress(
+    /// The adaptive rule per point (see [`GridStudy::run`]).
+    fn run_adaptive(
         &self,
         adaptive: &Adaptive,
         seed: u64,
-        progress: Option<Progress<'_>>,
+        engine: Engine,
+        monitor: Option<&dyn Monitor>,
     ) -> Result<GridResult, Error> {
         let (first, points) = self.selected_points();
-        let ticks = PointTicks::new(progress, points.len(), 1);
+        let ticks = PointTicks::new(monitor, points.len(), 1);
         if self.has_fixed() {
             let r = self.run_fixed(
                 crate::fixed::Draws::Adaptive(adaptive),
                 seed,
-                Engine::Simd(Isa::Auto),
+                engine,
                 &ticks,
             );
+            ticks.cancelled()?;
             ticks.finish();
             return r;
         }
@@ -427,6 +416,10 @@ impl GridStudy {
             .par_iter()
             .enumerate()
             .map(|(p, point)| {
+                if ticks.stop() {
+                    // Skipped: the run returns `Cancelled`.
+                    return crate::fixed::not_measurable(point, 0);
+                }
                 let (total, converged) = adaptive_draws(point, adaptive, |b, m, acc| {
                     run_chunk(
                         &aimed[p],
@@ -435,7 +428,7 @@ impl GridStudy {
                         task_index(first + p, b),
                         m,
                         acc,
-                        Engine::Simd(Isa::Auto),
+                        engine,
                     )
                 });
                 ticks.point_done();
@@ -445,6 +438,7 @@ impl GridStudy {
                 }
             })
             .collect();
+        ticks.cancelled()?;
         ticks.finish();
         Ok(self.result(stats))
     }

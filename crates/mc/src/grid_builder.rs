@@ -30,7 +30,7 @@ use nalgebra::{Matrix6, Vector3};
 ///     .observer("door", Vector3::new(0.0, 300.0, 0.0), Matrix6::from_diagonal_element(1e-2))
 ///     .threshold_mm(2.0)
 ///     .build(2000, 7)?;
-/// let result = study.evaluate()?;
+/// let result = study.run(&study.options(), None)?;
 /// assert_eq!(result.points.len(), 2);
 /// # Ok::<(), crashrig_mc::Error>(())
 /// ```

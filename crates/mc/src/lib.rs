@@ -20,8 +20,9 @@
 //!   sums of deviations from the grid point, which vectorise and need no per-draw division).
 //! - Normals: Philox4x32-10 counter-based bits (key = seed, counter = (task, draw, slot)) into
 //!   a vectorised Box–Muller transform, 64 draws per block, compiled for the CPU's best
-//!   instruction set at run time ([`Isa::Auto`]; `run_with` / `monte_carlo_with` take an
-//!   explicit [`Isa`], a typed argument — no environment variable is read).
+//!   instruction set at run time ([`Isa::Auto`]; the `isa` field of [`RunOptions`] /
+//!   [`ChainOptions`] takes an explicit [`Isa`], a typed argument — no environment variable
+//!   is read).
 //! - Determinism: work is cut into fixed chunks of [`CHUNK`] draws (tasks), each with its own
 //!   counter range, merged in index order: the same seed gives bit-identical results on any
 //!   number of threads and on every instruction-set level.
@@ -42,8 +43,14 @@
 //!   (Tables 3/4 of the paper), each camera's world pose with its tangent covariance
 //!   ([`PoseMc::uncertain`], [`PoseLinear::uncertain`]).
 //! - [`GridBuilder`] → [`GridStudy`]: observers with a covariance or a chain camera's
-//!   (`observer_from`, optionally `correlated`); [`GridStudy::evaluate`] → [`GridResult`] of
+//!   (`observer_from`, optionally `correlated`); [`GridStudy::run`] → [`GridResult`] of
 //!   [`PointStats`] (σ per axis, covariance, ellipsoid, linear covariance).
+//! - One entry per engine, each taking a typed options value and an optional
+//!   [`crashrig_stats::progress::Monitor`] (progress and cancellation, [`Error::Cancelled`]):
+//!   [`GridStudy::run`]`(&`[`RunOptions`]`, monitor)` — draws per point ([`Draws::Samples`] or
+//!   the adaptive rule, [`Draws::Adaptive`]), seed, [`Isa`]; [`GridStudy::options`] gives the
+//!   settings the study was built with — and [`Chain::monte_carlo`]`(&`[`ChainOptions`]`,
+//!   monitor)`.
 //! - [`limits`]: the documented bounds every scenario value is checked against (counts that
 //!   size memory or work, magnitudes, array lengths), with errors naming key and line.
 //! - [`degenerate`]: the intersection angle of a grid point and the threshold below which it
@@ -55,7 +62,7 @@
 //!   uncertain link (what `from = "…"` in a scenario reads).
 //! - [`Scenario::from_path`] / [`Scenario::from_toml_str`]: read and validate a scenario.
 //! - [`Chain`]: [`Chain::monte_carlo`] and [`Chain::linear`] (Table 3/4 of the paper).
-//! - [`GridStudy`]: [`GridStudy::run`], [`GridStudy::run_adaptive`] → [`GridResult`] of
+//! - [`GridStudy`]: [`GridStudy::run`] (fixed draws or adaptive) → [`GridResult`] of
 //!   [`PointStats`] (σ per axis, covariance, ellipsoid, linear covariance, observers seen).
 //! - Fixed observers ([`Aim::Fixed`], `aim = "fixed"` with a COLMAP lens, `docs/FIXED_CAMERAS.md`):
 //!   a point is seen only inside a camera's image; each draw undistorts the true pixel plus
@@ -67,8 +74,9 @@
 //! # Example: the builders
 //! ```
 //! use crashrig_geometry::{Mat6, Rigid3, UncertainPose, Vec3, opk, quat};
-//! use crashrig_mc::{Axis, ChainBuilder, GridBuilder};
+//! use crashrig_mc::{Axis, ChainBuilder, ChainOptions, GridBuilder, Isa, RunOptions};
 //! use nalgebra::Vector3;
+//! use std::sync::atomic::{AtomicUsize, Ordering};
 //!
 //! // The outward camera in the world: 1 mm and 0.01° (about its own axes), independent.
 //! let world = UncertainPose::from_sigmas(
@@ -95,7 +103,8 @@
 //! let cam1 = b.world("cam1", world)?;
 //! let cam2 = b.link("cam2", cam1, link)?;
 //! let chain = b.build();
-//! let mc = chain.monte_carlo(20_000, 1);
+//! // 20 000 joint draws under seed 1, no monitor.
+//! let mc = chain.monte_carlo(&ChainOptions::new(20_000, 1), None)?;
 //! let lin = chain.linear();
 //! // cam2's world position σ: Monte Carlo and first order agree for small σ.
 //! let k = cam2.index();
@@ -111,15 +120,25 @@
 //!     .observer_from("rear", Vector3::new(0.0, 0.0, 0.0), cam2)
 //!     .observer("door", Vector3::new(1000.0, 0.0, 0.0), Mat6::from_diagonal_element(1e-4))
 //!     .build(2000, 7)?;
-//! let result = study.evaluate()?;
+//! // The settings it was built with (2000 draws per point, seed 7), watching the progress in
+//! // grid points (any `Fn(done, total)` closure is a monitor that never cancels).
+//! let done = AtomicUsize::new(0);
+//! let watch = |d: usize, _total: usize| {
+//!     done.fetch_max(d, Ordering::Relaxed);
+//! };
+//! let result = study.run(&study.options(), Some(&watch))?;
 //! assert_eq!(result.points.len(), 6);
+//! assert_eq!(done.load(Ordering::Relaxed), 6);
 //! assert!(result.points.iter().all(|p| p.sigma_max_mm > 0.0));
+//! // Another instruction-set level draws the same bits (only the speed differs).
+//! let baseline = RunOptions { isa: Isa::Baseline, ..study.options() };
+//! assert_eq!(study.run(&baseline, None)?, result);
 //! # Ok::<(), crashrig_mc::Error>(())
 //! ```
 //!
 //! # Example: a scenario file
 //! ```
-//! use crashrig_mc::{Chain, GridStudy, Scenario};
+//! use crashrig_mc::{Chain, ChainOptions, GridStudy, RunOptions, Scenario};
 //! use std::path::Path;
 //!
 //! let text = r#"
@@ -152,13 +171,13 @@
 //! "#;
 //! let scenario = Scenario::from_toml_str(text, Path::new("example.toml"))?;
 //! let chain = Chain::new(&scenario);
-//! let mc = chain.monte_carlo(scenario.samples, scenario.seed);
+//! let mc = chain.monte_carlo(&ChainOptions::new(scenario.samples, scenario.seed), None)?;
 //! let lin = chain.linear();
 //! // cam2's position σ: Monte Carlo and first order agree for small σ.
 //! assert!((mc[1].position_sigma_mm.x / lin[1].position_sigma_mm.x - 1.0).abs() < 0.1);
 //!
 //! let study = GridStudy::new(&scenario, scenario.samples, scenario.seed)?;
-//! let result = study.run(scenario.samples, scenario.seed)?;
+//! let result = study.run(&RunOptions::samples(scenario.samples, scenario.seed), None)?;
 //! assert_eq!(result.points.len(), 6);
 //! assert!(result.points.iter().all(|p| p.sigma_max_mm > 0.0));
 //! # Ok::<(), crashrig_mc::Error>(())
@@ -166,7 +185,7 @@
 //!
 //! Fixed cameras with lenses: a point is measurable only where two of them see it.
 //! ```
-//! use crashrig_mc::{GridStudy, Scenario};
+//! use crashrig_mc::{GridStudy, RunOptions, Scenario};
 //! use std::path::Path;
 //!
 //! let text = r#"
@@ -191,7 +210,7 @@
 //! sigma_angles_deg = [0.01, 0.01, 0.01]
 //! "#;
 //! let scenario = Scenario::from_toml_str(text, Path::new("fixed.toml"))?;
-//! let result = GridStudy::new(&scenario, 500, 1)?.run(500, 1)?;
+//! let result = GridStudy::new(&scenario, 500, 1)?.run(&RunOptions::samples(500, 1), None)?;
 //! // The narrow right camera sees only part of the line: the rest is not measurable.
 //! let seen: Vec<usize> = result.points.iter().map(|p| p.observers_seen).collect();
 //! assert!(seen.contains(&1) && seen.contains(&2));
@@ -214,6 +233,7 @@ mod grid_builder;
 mod kernel;
 pub mod limits;
 mod model;
+mod options;
 #[cfg(feature = "scenario")]
 pub mod reference;
 mod result;
@@ -234,6 +254,7 @@ pub use model::{
     MIN_OBSERVER_DISTANCE_MM, Observer, ObserverSigma, PixelNoise, PoseSigma, RotationNoise,
     Scenario, Tolerance, ndig_tolerance,
 };
+pub use options::{ChainOptions, Draws, RunOptions};
 #[cfg(feature = "scenario")]
 pub use reference::link_from_result_json;
 pub use result::{GridResult, PointStats};

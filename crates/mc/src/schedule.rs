@@ -6,9 +6,9 @@ use crate::kernel::Isa;
 use crate::kernel::accumulate::Acc3;
 use crate::model::Adaptive;
 use crashrig_stats::Moments;
-use crashrig_stats::progress::{Counter, Progress};
+use crashrig_stats::progress::{Cancelled, Counter, Monitor};
 use nalgebra::Vector3;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// Draws per work chunk (and per RNG stream). Fixed, so results do not depend on the thread
 /// count.
@@ -29,22 +29,54 @@ pub(crate) enum Engine {
 /// Progress of a grid run in grid points: a point counts when its last chunk of draws is done
 /// (`chunk_done`, runs split into `chunks` tasks per point) or when it is finished whole
 /// (`point_done`, adaptive runs); `finish` reports the total (points that drew nothing).
-/// Without a callback every call is a no-op and nothing is allocated.
+/// Without a monitor every call is a no-op and nothing is allocated.
+///
+/// Cancellation: every unit of work (a chunk, or an adaptive point) first asks [`Self::stop`],
+/// which polls the monitor and remembers a cancellation, and is skipped when it says so; the
+/// run then ends with [`Self::cancelled`] before using what it computed.
 pub(crate) struct PointTicks<'a> {
     counter: Counter<'a>,
-    /// Chunks still running per point (only with a callback and more than one chunk).
+    /// Chunks still running per point (only with a monitor and more than one chunk).
     left: Vec<AtomicUsize>,
+    /// A unit saw the monitor cancel the run.
+    stopped: AtomicBool,
 }
 
 impl<'a> PointTicks<'a> {
-    pub(crate) fn new(progress: Option<Progress<'a>>, points: usize, chunks: usize) -> Self {
-        let counter = Counter::new(progress, points);
+    pub(crate) fn new(monitor: Option<&'a dyn Monitor>, points: usize, chunks: usize) -> Self {
+        let counter = Counter::monitored(monitor, points);
         let left = if counter.is_reporting() && chunks > 1 {
             (0..points).map(|_| AtomicUsize::new(chunks)).collect()
         } else {
             Vec::new()
         };
-        Self { counter, left }
+        Self {
+            counter,
+            left,
+            stopped: AtomicBool::new(false),
+        }
+    }
+
+    /// Whether the next unit of work is to be skipped: the run was cancelled.
+    #[inline]
+    pub(crate) fn stop(&self) -> bool {
+        if self.stopped.load(Ordering::Relaxed) {
+            return true;
+        }
+        let stop = self.counter.check().is_err();
+        if stop {
+            self.stopped.store(true, Ordering::Relaxed);
+        }
+        stop
+    }
+
+    /// [`Cancelled`] when a unit was skipped ([`Self::stop`]): the run's sums are incomplete.
+    pub(crate) fn cancelled(&self) -> Result<(), Cancelled> {
+        if self.stopped.load(Ordering::Relaxed) {
+            Err(Cancelled)
+        } else {
+            Ok(())
+        }
     }
 
     /// One chunk of point `p` is done.

@@ -49,7 +49,12 @@ fn fixed_cameras_match_opencv_reference() {
     let scenario = Scenario::from_path(&fixtures().join("reference_layout.toml")).unwrap();
     let samples = scenario.samples; // 20 000
     let study = GridStudy::new(&scenario, samples, scenario.seed).unwrap();
-    let result = study.run(samples, scenario.seed).unwrap();
+    let result = study
+        .run(
+            &crashrig_mc::RunOptions::samples(samples, scenario.seed),
+            None,
+        )
+        .unwrap();
     let rows = reference();
     assert_eq!(rows.len(), result.points.len());
     let (mut seen_checked, mut sigma_checked) = (0, 0);
@@ -103,7 +108,10 @@ fn paper_fixed_layouts_cover_part_of_the_grid() {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/scenarios");
     for name in ["fixed_four_cameras.toml", "fixed_three_cameras.toml"] {
         let s = Scenario::from_path(&dir.join(name)).unwrap();
-        let r = GridStudy::new(&s, 200, 1).unwrap().run(200, 1).unwrap();
+        let r = GridStudy::new(&s, 200, 1)
+            .unwrap()
+            .run(&crashrig_mc::RunOptions::samples(200, 1), None)
+            .unwrap();
         assert_eq!(r.points.len(), 17 * 13 * 2, "{name}");
         for z in [0.0, 300.0] {
             let level: Vec<_> = r.points.iter().filter(|p| p.point.z == z).collect();

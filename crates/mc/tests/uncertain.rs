@@ -54,7 +54,9 @@ fn numpy_reference_chain_full_covariances() {
     let reference: serde_json::Value = serde_json::from_str(&text).unwrap();
     let chain = Chain::new(&sc);
     let n = 400_000;
-    let mc = chain.monte_carlo(n, sc.seed);
+    let mc = chain
+        .monte_carlo(&crashrig_mc::ChainOptions::new(n, sc.seed), None)
+        .unwrap();
     let lin = chain.linear();
     for (i, r) in reference["cameras"].as_array().unwrap().iter().enumerate() {
         assert_eq!(mc[i].name, r["name"].as_str().unwrap());
@@ -162,7 +164,7 @@ fn correlated_rig_yaw_moves_the_point_by_its_lever_arm() {
     .correlated(true)
     .build(20_000, 11)
     .unwrap();
-    let res = study.evaluate().unwrap();
+    let res = study.run(&study.options(), None).unwrap();
     let p = &res.points[0];
     let expect = 1500.0 * sigma;
     assert!((expect - 0.2618).abs() < 1e-4);
@@ -197,7 +199,9 @@ fn correlated_fixture_monte_carlo_matches_first_order() {
     g.y = axis(-300.0, 300.0, 2);
     let n = 40_000;
     let study = GridStudy::new(&sc, n, 3).unwrap();
-    let r = study.run(n, 3).unwrap();
+    let r = study
+        .run(&crashrig_mc::RunOptions::samples(n, 3), None)
+        .unwrap();
     assert!(r.correlated);
     let se = 1.0 / (2.0 * (n as f64 - 1.0)).sqrt();
     for p in &r.points {
@@ -212,7 +216,10 @@ fn correlated_fixture_monte_carlo_matches_first_order() {
         }
     }
     // Treating the same observers as independent misses the correlation by far more.
-    let ind = study.independent().run(2, 3).unwrap();
+    let ind = study
+        .independent()
+        .run(&crashrig_mc::RunOptions::samples(2, 3), None)
+        .unwrap();
     let off = r
         .points
         .iter()
@@ -276,8 +283,12 @@ fn builder_chain_equals_the_toml_front_end() {
     let built = b.build();
     // Same draws, same composition: bit-identical.
     assert_eq!(
-        built.monte_carlo(5000, 3),
-        Chain::new(&sc).monte_carlo(5000, 3)
+        built
+            .monte_carlo(&crashrig_mc::ChainOptions::new(5000, 3), None)
+            .unwrap(),
+        Chain::new(&sc)
+            .monte_carlo(&crashrig_mc::ChainOptions::new(5000, 3), None)
+            .unwrap()
     );
     assert_eq!(built.linear(), Chain::new(&sc).linear());
 }
@@ -330,7 +341,7 @@ fn grid_full_observer_covariance_matches_linear() {
     )
     .build(100_000, 21)
     .unwrap();
-    let r = study.evaluate().unwrap();
+    let r = study.run(&study.options(), None).unwrap();
     let p = &r.points[0];
     let se = 1.0 / (2.0 * 99_999f64).sqrt();
     for k in 0..3 {
@@ -360,7 +371,7 @@ fn grid_full_observer_covariance_matches_linear() {
     )
     .build(100_000, 21)
     .unwrap();
-    let pd = &study_d.evaluate().unwrap().points[0];
+    let pd = &study_d.run(&study_d.options(), None).unwrap().points[0];
     let diff = (0..3)
         .map(|k| (pd.linear_sigma_mm()[k] / p.linear_sigma_mm()[k] - 1.0).abs())
         .fold(0.0, f64::max);
@@ -385,7 +396,9 @@ sigma_angles_deg = [0.01, 0.01, 0.01]
 "#;
     let sc = Scenario::from_toml_str(&text, Path::new("s.toml")).unwrap();
     let study = GridStudy::new(&sc, 1000, 5).unwrap();
-    let r = study.run(1000, 5).unwrap();
+    let r = study
+        .run(&crashrig_mc::RunOptions::samples(1000, 5), None)
+        .unwrap();
     let got = to_deg(&r.observer_covariance[0]);
     let lin = to_deg(&Chain::new(&sc).linear()[2].covariance_tangent);
     // Propagated with ≥ 10⁵ chain draws: entries within 2 % of σᵢσⱼ (> 9 SE).
@@ -418,8 +431,12 @@ sigma_angles_deg = [0.01, 0.02, 0.03]"#;
     let a = Scenario::from_toml_str(&text(sigma), Path::new("a.toml")).unwrap();
     let b = Scenario::from_toml_str(&text(cov), Path::new("b.toml")).unwrap();
     let (ma, mb) = (
-        Chain::new(&a).monte_carlo(5000, 1),
-        Chain::new(&b).monte_carlo(5000, 1),
+        Chain::new(&a)
+            .monte_carlo(&crashrig_mc::ChainOptions::new(5000, 1), None)
+            .unwrap(),
+        Chain::new(&b)
+            .monte_carlo(&crashrig_mc::ChainOptions::new(5000, 1), None)
+            .unwrap(),
     );
     for (x, y) in ma.iter().zip(&mb) {
         let d = (x.covariance_tangent - y.covariance_tangent).amax();
@@ -453,7 +470,9 @@ sigma_angles_deg = [0.01, 0.01, 0.01]
 "#;
     let sc = Scenario::from_toml_str(text, Path::new("e.toml")).unwrap();
     let study = GridStudy::new(&sc, 2000, 1).unwrap();
-    let r = study.run(2000, 1).unwrap();
+    let r = study
+        .run(&crashrig_mc::RunOptions::samples(2000, 1), None)
+        .unwrap();
     let s = r.observer_sigma[0].angles_rad.map(f64::to_degrees);
     // Euler noise (a, b, c) on (0°, 90°, 0°): Rx(a)·Ry(90° + b)·Rz(c) = R̄·Exp(b e_y)·Exp((a + c) e_z)
     // to first order (R̄ᵀe_x = e_z), so the body-axis σ are (0, σφ, √(σω² + σκ²)).

@@ -408,7 +408,7 @@ pub fn layout(scenario: &Scenario, chosen: &[Observer]) -> Scenario {
 /// points blanked), share with σ_max ≤ threshold and mean σ_max; `progress` watches `stage`.
 ///
 /// # Errors
-/// As [`GridStudy::new`] and [`GridStudy::evaluate`].
+/// As [`GridStudy::new`] and [`GridStudy::run`].
 pub fn monte_carlo_score(
     layout: &Scenario,
     samples: usize,
@@ -417,9 +417,9 @@ pub fn monte_carlo_score(
     stage: &str,
 ) -> Result<approx::Score, crashrig_mc::Error> {
     let study = GridStudy::new(layout, samples, seed)?;
-    let hook = progress.map(|r| progress::stage(r, stage));
-    let hook = hook.as_ref().map(|h| h as &(dyn Fn(usize, usize) + Sync));
-    let result = study.evaluate_with_progress(hook)?;
+    let stage = progress.map(|r| progress::Stage::new(r, stage));
+    let monitor = stage.as_ref().map(|s| s as &dyn progress::Monitor);
+    let result = study.run(&study.options(), monitor)?;
     Ok(score_of(result, study.grid()))
 }
 

@@ -40,7 +40,9 @@ fn terms_reproduce_the_grid_first_order_map() {
         let obs: Vec<Observer> = chosen.iter().map(|&i| c[i].clone()).collect();
         let l = layout(&s, &obs);
         let study = GridStudy::new(&l, 64, 1).unwrap();
-        let mut r = study.run(64, 1).unwrap();
+        let mut r = study
+            .run(&crashrig_mc::RunOptions::samples(64, 1), None)
+            .unwrap();
         crashrig_mc::degenerate::mask_degenerate(&mut r, study.grid());
         for (p, stats) in r.points.iter().enumerate() {
             let ours = t.sigma_max(p, &chosen, &mut dirs);
@@ -77,7 +79,9 @@ fn first_order_sigma_agrees_with_the_monte_carlo() {
         let obs: Vec<Observer> = chosen.iter().map(|&i| c[i].clone()).collect();
         let l = layout(&s, &obs);
         let study = GridStudy::new(&l, 4000, 11).unwrap();
-        let mut r = study.run(4000, 11).unwrap();
+        let mut r = study
+            .run(&crashrig_mc::RunOptions::samples(4000, 11), None)
+            .unwrap();
         crashrig_mc::degenerate::mask_degenerate(&mut r, study.grid());
         let mut compared = 0;
         for (p, stats) in r.points.iter().enumerate() {

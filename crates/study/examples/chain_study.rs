@@ -4,7 +4,7 @@
 //! `cargo run -p crashrig-study --example chain_study`
 
 use crashrig_geometry::{Rigid3, UncertainPose, Vec3, opk::rotation_from_opk};
-use crashrig_mc::{Axis, ChainBuilder, GridBuilder};
+use crashrig_mc::{Axis, ChainBuilder, ChainOptions, GridBuilder};
 use nalgebra::Vector3;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -34,7 +34,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ),
     )?;
     let chain = chain.build();
-    for p in chain.monte_carlo(20_000, 1) {
+    for p in chain.monte_carlo(&ChainOptions::new(20_000, 1), None)? {
         println!(
             "{}: σ position {:.3?} mm, tangent σ {:.4?}°",
             p.name,
@@ -66,7 +66,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     )
     .threshold_mm(5.0)
     .build(500, 1)?;
-    let r = grid.evaluate()?;
+    let r = grid.run(&grid.options(), None)?;
     println!(
         "{:.0} % of the grid below 5 mm",
         100.0 * r.fraction_below(5.0)

@@ -20,7 +20,7 @@
 
 use crate::Error;
 use crate::grids::{MapSpec, MapStyle};
-use crashrig_mc::{Grid, GridResult, GridStudy, PointStats, Scenario};
+use crashrig_mc::{Grid, GridResult, GridStudy, PointStats, RunOptions, Scenario};
 use crashrig_stats::progress::{self, Reporter};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -340,15 +340,17 @@ pub(crate) fn compute(
     path: &Path,
     progress: Option<&dyn Reporter>,
 ) -> Result<Computed, Error> {
-    let (samples, seed) = (p.samples, p.seed);
+    let options = match study.grid().adaptive {
+        Some(ad) => RunOptions::adaptive(ad, p.seed),
+        None => RunOptions::samples(p.samples, p.seed),
+    };
     let start = std::time::Instant::now();
     let run = |s: &GridStudy, stage: &str| {
-        let hook = progress.map(|r| progress::stage(r, stage));
-        let hook = hook.as_ref().map(|h| h as &(dyn Fn(usize, usize) + Sync));
-        match &s.grid().adaptive {
-            Some(ad) => s.run_adaptive_with_progress(ad, seed, hook),
-            None => s.run_with_progress(samples, seed, hook),
-        }
+        let stage = progress.map(|r| progress::Stage::new(r, stage));
+        s.run(
+            &options,
+            stage.as_ref().map(|s| s as &dyn progress::Monitor),
+        )
         .map_err(|e| locate(e, path))
     };
     let result = run(study, "grid points")?;

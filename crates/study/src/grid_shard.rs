@@ -284,7 +284,7 @@ fn read_prepared_rows(
     // The observers' resolved noise (the same in every shard): a run of no points.
     let none = |s: &crashrig_mc::GridStudy| -> Result<GridResult, Error> {
         s.with_points(0..0)
-            .and_then(|s| s.run(p.samples, p.seed))
+            .and_then(|s| s.run(&crashrig_mc::RunOptions::samples(p.samples, p.seed), None))
             .map_err(|e| Error::Scenario {
                 path: Some(path.to_path_buf()),
                 source: e,

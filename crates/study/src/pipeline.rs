@@ -174,7 +174,8 @@ fn fixed_from_covariances<'c>(
         .observers
         .iter()
         .any(|o| o.fixed.is_some() && matches!(o.noise, ObserverNoise::From(_)));
-    let mc = needed.then(|| chain.monte_carlo(crashrig_mc::CHAIN_SAMPLES_MIN, seed));
+    let options = crashrig_mc::ChainOptions::new(crashrig_mc::CHAIN_SAMPLES_MIN, seed);
+    let mc = needed.then(|| chain.monte_carlo(&options, None));
     move |cam: ChainCamera| {
         let i = ids.iter().position(|(c, _)| *c == cam).ok_or_else(|| {
             crashrig_mc::Error::UnknownCamera {
@@ -182,9 +183,12 @@ fn fixed_from_covariances<'c>(
                 name: cam.name().into(),
             }
         })?;
-        Ok(mc
-            .as_ref()
-            .map_or(Mat6::zeros(), |m| m[i].covariance_tangent))
+        Ok(match &mc {
+            Some(Ok(m)) => m[i].covariance_tangent,
+            // Its only error, and without a monitor it never happens.
+            Some(Err(_)) => return Err(crashrig_stats::progress::Cancelled.into()),
+            None => Mat6::zeros(),
+        })
     }
 }
 
@@ -474,10 +478,6 @@ impl<'a> Steps<'a> {
     }
 }
 
-fn hook(on: bool, f: &(dyn Fn(usize, usize) + Sync)) -> Option<&(dyn Fn(usize, usize) + Sync)> {
-    on.then_some(f)
-}
-
 /// The chain of outward → inward → tie, Monte Carlo and first order: its errors name
 /// `[outward]`'s line.
 fn propagate(
@@ -489,7 +489,12 @@ fn propagate(
     let mc_err = |e: crashrig_mc::Error| study.step_error("outward", 0, e);
     let (chain_mc, _) = build_chain(inputs, &Scales::unit(0)).map_err(mc_err)?;
     let sub = steps.within("propagation chunks".into());
-    let mc = chain_mc.monte_carlo_with_progress(study.chain_samples, seed, hook(steps.on(), &sub));
+    let mc = chain_mc
+        .monte_carlo(
+            &crashrig_mc::ChainOptions::new(study.chain_samples, seed),
+            steps.on().then_some(&sub as &dyn Monitor),
+        )
+        .map_err(mc_err)?;
     let linear = chain_mc.linear();
     let chain = inputs
         .iter()
@@ -591,7 +596,10 @@ impl LayoutRun<'_> {
         crashrig_mc::degenerate::check_layout(g.grid()).map_err(at_layout)?;
         let sub = self.steps.within(format!("{stage}: points"));
         let mut r = g
-            .evaluate_with_progress(hook(self.steps.on(), &sub))
+            .run(
+                &g.options(),
+                self.steps.on().then_some(&sub as &dyn Monitor),
+            )
             .map_err(at_layout)?;
         let mut grid = g.grid().clone();
         // Degenerate points (rays nearly parallel) are blanked (NaN): kept out of colour

@@ -16,7 +16,7 @@
 
 use crate::Error;
 use crate::grid_run::{load_scenario, resolve_samples};
-use crashrig_mc::Chain;
+use crashrig_mc::{Chain, ChainOptions};
 use crashrig_stats::progress::{self, Reporter};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -146,9 +146,13 @@ pub fn run_propagate(
         ))
         .collect();
     let start = std::time::Instant::now();
-    let hook = progress.map(|r| progress::stage(r, "chunks of draws"));
-    let hook = hook.as_ref().map(|h| h as &(dyn Fn(usize, usize) + Sync));
-    let mc = chain.monte_carlo_with_progress(samples, seed, hook);
+    let stage = progress.map(|r| progress::Stage::new(r, "chunks of draws"));
+    let mc = chain
+        .monte_carlo(
+            &ChainOptions::new(samples, seed),
+            stage.as_ref().map(|s| s as &dyn progress::Monitor),
+        )
+        .map_err(|source| Error::Scenario { path: None, source })?;
     let elapsed_s = start.elapsed().as_secs_f64();
     let lin = chain.linear();
     let cameras: Vec<CameraJson> = mc

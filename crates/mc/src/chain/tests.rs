@@ -97,7 +97,9 @@ fn monte_carlo_nominal_matches_linear_within_3_se() {
     let sc = paper_chain("tangent", 1.0);
     let chain = Chain::new(&sc);
     let n = 40_000;
-    let mc = chain.monte_carlo(n, 5);
+    let mc = chain
+        .monte_carlo(&crate::ChainOptions::new(n, 5), None)
+        .unwrap();
     let lin = chain.linear();
     for (m, l) in mc.iter().zip(&lin) {
         // SE of a Gaussian σ estimate: σ/√(2(n−1)).
@@ -124,7 +126,9 @@ fn table4_orientation_sigma_reproduced() {
     for noise in ["tangent", "euler"] {
         let sc = paper_chain(noise, 1.0);
         let chain = Chain::new(&sc);
-        let mc = chain.monte_carlo(100_000, 2024);
+        let mc = chain
+            .monte_carlo(&crate::ChainOptions::new(100_000, 2024), None)
+            .unwrap();
         for (m, e) in mc.iter().zip(&expect) {
             for k in 0..3 {
                 // The paper rounds to 0.001°; MC SE at n = 1e5 is ≤ 0.024°·0.0022 = 5e-5°.
@@ -143,7 +147,11 @@ fn monte_carlo_same_for_one_and_two_threads() {
             .num_threads(t)
             .build()
             .unwrap()
-            .install(|| chain.monte_carlo(3 * crate::CHUNK + 17, 9))
+            .install(|| {
+                chain
+                    .monte_carlo(&crate::ChainOptions::new(3 * crate::CHUNK + 17, 9), None)
+                    .unwrap()
+            })
     };
     // Bit-identical: fixed chunks, fixed merge order.
     assert_eq!(run(1), run(2));
@@ -153,7 +161,9 @@ fn monte_carlo_same_for_one_and_two_threads() {
 fn monte_carlo_wraps_angles_near_180() {
     // cam2's ω is 179.92°: draws cross ±180°, the σ must stay ~0.011°, not ~100°.
     let sc = paper_chain("tangent", 10.0);
-    let mc = Chain::new(&sc).monte_carlo(2000, 1);
+    let mc = Chain::new(&sc)
+        .monte_carlo(&crate::ChainOptions::new(2000, 1), None)
+        .unwrap();
     assert!(mc[1].angles_sigma_rad[0].to_degrees() < 0.2);
     assert!(mc[1].angles_mean_rad[0].to_degrees().abs() > 179.0);
 }
@@ -180,7 +190,9 @@ sigma_angles_deg = [0.01, 0.02, 0.03]
         Err(Error::GimbalLock { .. })
     ));
     let n = 20_000;
-    let mc = chain.monte_carlo(n, 3);
+    let mc = chain
+        .monte_carlo(&crate::ChainOptions::new(n, 3), None)
+        .unwrap();
     assert!(mc[0].angles_singular);
     assert!(chain.linear()[0].angles_sigma_rad.is_none());
     // The tangent σ are the inputs within 3 SE of a σ estimate (σ/√(2(n−1))).
@@ -213,7 +225,9 @@ fn slow_monte_carlo_matches_linear_large_n() {
     let sc = paper_chain("euler", 1.0);
     let chain = Chain::new(&sc);
     let n = 1_000_000;
-    let mc = chain.monte_carlo(n, 77);
+    let mc = chain
+        .monte_carlo(&crate::ChainOptions::new(n, 77), None)
+        .unwrap();
     let lin = chain.linear();
     let se = 1.0 / (2.0 * (n as f64 - 1.0)).sqrt();
     for (m, l) in mc.iter().zip(&lin) {
@@ -234,13 +248,29 @@ fn chain_every_isa_gives_identical_results() {
         for scale in [1.0, 60.0] {
             let chain = Chain::new(&paper_chain(noise, scale));
             let n = CHUNK + 70;
-            let base = chain.monte_carlo_with(n, 4, crate::Isa::Baseline);
+            let base = chain
+                .monte_carlo(
+                    &crate::ChainOptions {
+                        isa: crate::Isa::Baseline,
+                        ..crate::ChainOptions::new(n, 4)
+                    },
+                    None,
+                )
+                .unwrap();
             for isa in crate::Isa::LEVELS {
                 if !isa.is_available() {
                     eprintln!("{}: not available on this CPU, not compared", isa.name());
                     continue;
                 }
-                let got = chain.monte_carlo_with(n, 4, isa);
+                let got = chain
+                    .monte_carlo(
+                        &crate::ChainOptions {
+                            isa,
+                            ..crate::ChainOptions::new(n, 4)
+                        },
+                        None,
+                    )
+                    .unwrap();
                 assert_eq!(got, base, "{noise} ×{scale}: {} differs", isa.name());
             }
         }
@@ -258,8 +288,12 @@ fn chain_legacy_and_simd_agree_statistically_including_fallback_lanes() {
     for noise in ["tangent", "euler"] {
         for scale in [1.0, 60.0] {
             let chain = Chain::new(&paper_chain(noise, scale));
-            let a = chain.monte_carlo_engine(n, 8, crate::schedule::Engine::Legacy, None);
-            let b = chain.monte_carlo(n, 8);
+            let a = chain
+                .monte_carlo_engine(n, 8, crate::schedule::Engine::Legacy, None)
+                .unwrap();
+            let b = chain
+                .monte_carlo(&crate::ChainOptions::new(n, 8), None)
+                .unwrap();
             for (x, y) in a.iter().zip(&b) {
                 for (u, v) in [
                     (x.position_sigma_mm, y.position_sigma_mm),

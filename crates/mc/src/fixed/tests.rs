@@ -259,7 +259,11 @@ fn fixed_aimed_at_point_equals_aimed_observer() {
     let run = |text: &str| {
         let s = parse(text).unwrap();
         let study = GridStudy::new(&s, s.samples, s.seed).unwrap();
-        study.run(s.samples, s.seed).unwrap().points[0].clone()
+        study
+            .run(&crate::RunOptions::samples(s.samples, s.seed), None)
+            .unwrap()
+            .points[0]
+            .clone()
     };
     let a = run(&aimed);
     let f = run(&fixed);
@@ -297,7 +301,9 @@ fn fixed_deterministic_across_threads() {
             .unwrap();
         pool.install(|| {
             let study = GridStudy::new(&s, 5000, 11).unwrap();
-            study.run(5000, 11).unwrap()
+            study
+                .run(&crate::RunOptions::samples(5000, 11), None)
+                .unwrap()
         })
     };
     let (a, b) = (run(1), run(2));
@@ -339,7 +345,10 @@ sigma_position_mm = [1.0, 1.0, 1.0]
 sigma_angles_deg = [0.01, 0.01, 0.01]
 "#;
     let s = parse(text).unwrap();
-    let r = GridStudy::new(&s, 100, 1).unwrap().run(100, 1).unwrap();
+    let r = GridStudy::new(&s, 100, 1)
+        .unwrap()
+        .run(&crate::RunOptions::samples(100, 1), None)
+        .unwrap();
     assert_eq!(r.points.len(), 9);
     for p in &r.points {
         assert_eq!(
@@ -592,7 +601,9 @@ sigma_from = "cam2"
 "#;
     let s = parse(text).unwrap();
     let study = GridStudy::new(&s, s.samples, 9).unwrap();
-    let r = study.run(s.samples, 9).unwrap();
+    let r = study
+        .run(&crate::RunOptions::samples(s.samples, 9), None)
+        .unwrap();
     assert!(r.correlated);
     for p in &r.points {
         assert_eq!(p.observers_seen, 2);
@@ -606,7 +617,10 @@ sigma_from = "cam2"
         }
     }
     // Drawn independently the two shifts do not cancel: the point moves differently.
-    let ind = study.independent().run(s.samples, 9).unwrap();
+    let ind = study
+        .independent()
+        .run(&crate::RunOptions::samples(s.samples, 9), None)
+        .unwrap();
     assert!(
         ind.points
             .iter()
@@ -635,7 +649,7 @@ fn fixed_adaptive_stops_and_skips_unmeasurable() {
     let ad = grid.adaptive.unwrap();
     let r = GridStudy::new(&s, 1000, 2)
         .unwrap()
-        .run_adaptive(&ad, 2)
+        .run(&crate::RunOptions::adaptive(ad, 2), None)
         .unwrap();
     assert!(r.points.iter().any(|p| p.is_measurable()));
     assert!(
@@ -730,14 +744,30 @@ fn fixed_every_isa_gives_identical_grids() {
     use crate::Isa;
     let n = crate::CHUNK + 70;
     for (name, study) in fixed_kernel_paths() {
-        let base = study.run_with(n, 9, Isa::Baseline).unwrap();
+        let base = study
+            .run(
+                &crate::RunOptions {
+                    isa: Isa::Baseline,
+                    ..crate::RunOptions::samples(n, 9)
+                },
+                None,
+            )
+            .unwrap();
         assert!(base.points.iter().any(|p| p.is_measurable()), "{name}");
         for isa in Isa::LEVELS {
             if !isa.is_available() {
                 eprintln!("{}: not available on this CPU, not compared", isa.name());
                 continue;
             }
-            let got = study.run_with(n, 9, isa).unwrap();
+            let got = study
+                .run(
+                    &crate::RunOptions {
+                        isa,
+                        ..crate::RunOptions::samples(n, 9)
+                    },
+                    None,
+                )
+                .unwrap();
             assert_eq!(got, base, "{name}: {} differs from baseline", isa.name());
         }
     }
@@ -753,7 +783,7 @@ fn fixed_block_and_legacy_engines_agree_statistically() {
         let a = study
             .run_engine(n, 5, crate::schedule::Engine::Legacy, None)
             .unwrap();
-        let b = study.run(n, 5).unwrap();
+        let b = study.run(&crate::RunOptions::samples(n, 5), None).unwrap();
         for (pa, pb) in a.points.iter().zip(&b.points) {
             assert_eq!(pa.observers_seen, pb.observers_seen);
             if !pa.is_measurable() {

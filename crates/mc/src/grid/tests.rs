@@ -46,7 +46,7 @@ fn grid_nominal_symmetric_closed_form() {
     let sc = scenario("", TWO_OBS, "", "tangent");
     let study = GridStudy::new(&sc, 0, 0).unwrap();
     let n = 200_000;
-    let r = study.run(n, 42).unwrap();
+    let r = study.run(&crate::RunOptions::samples(n, 42), None).unwrap();
     let p = &r.points[0];
     let (b, d, s) = (600.0f64, 1000.0f64, 0.01f64.to_radians());
     let rho = b.hypot(d);
@@ -131,7 +131,10 @@ fn grid_monte_carlo_matches_linear_for_every_noise_kind() {
         let sc = scenario(extra, &obs, "", noise);
         let study = GridStudy::new(&sc, 0, 0).unwrap();
         let n = 60_000;
-        let p = &study.run(n, 8).unwrap().points[0];
+        let p = &study
+            .run(&crate::RunOptions::samples(n, 8), None)
+            .unwrap()
+            .points[0];
         let se = 1.0 / (2.0 * (n as f64 - 1.0)).sqrt();
         for k in 0..3 {
             let l = p.linear_sigma_mm()[k];
@@ -154,7 +157,10 @@ fn grid_pixel_noise_only_matches_linear() {
     );
     let study = GridStudy::new(&sc, 0, 0).unwrap();
     let n = 60_000;
-    let p = &study.run(n, 8).unwrap().points[0];
+    let p = &study
+        .run(&crate::RunOptions::samples(n, 8), None)
+        .unwrap()
+        .points[0];
     // A pixel error of σ/f rad moves each ray sideways like a rotation of the same size:
     // the closed form of the symmetric test with σ = 1/1000 rad.
     let (b, d, s) = (600.0f64, 1000.0f64, 1e-3f64);
@@ -180,7 +186,11 @@ fn grid_same_for_one_and_two_threads() {
             .num_threads(t)
             .build()
             .unwrap()
-            .install(|| study.run(2 * crate::CHUNK + 5, 77).unwrap())
+            .install(|| {
+                study
+                    .run(&crate::RunOptions::samples(2 * crate::CHUNK + 5, 77), None)
+                    .unwrap()
+            })
     };
     assert_eq!(run(1), run(2));
 }
@@ -226,12 +236,15 @@ fn grid_correlated_shared_translation_is_exact() {
     let sc = scenario("correlated = true", FROM_OBS, SHARED_CHAIN, "tangent");
     let study = GridStudy::new(&sc, 20_000, 1).unwrap();
     let n = 40_000;
-    let corr = study.run(n, 5).unwrap();
+    let corr = study.run(&crate::RunOptions::samples(n, 5), None).unwrap();
     let se = 1.0 / (2.0 * (n as f64 - 1.0)).sqrt();
     for k in 0..3 {
         assert_abs_diff_eq!(corr.points[0].sigma_mm[k], 1.0, epsilon = 3.0 * se);
     }
-    let ind = study.independent().run(n, 5).unwrap();
+    let ind = study
+        .independent()
+        .run(&crate::RunOptions::samples(n, 5), None)
+        .unwrap();
     let beta = (600.0f64 / 1000.0).atan();
     // Independent 1 mm shifts; the closed form with lateral σ = 1 mm per ray.
     let expect_y = 1.0 / (2f64.sqrt() * beta.sin());
@@ -254,7 +267,7 @@ fn grid_adaptive_stops_within_tolerance() {
     );
     let study = GridStudy::new(&sc, 0, 0).unwrap();
     let a = sc.grid.as_ref().unwrap().adaptive.unwrap();
-    let r = study.run_adaptive(&a, 4).unwrap();
+    let r = study.run(&crate::RunOptions::adaptive(a, 4), None).unwrap();
     let p = &r.points[0];
     assert!(p.count >= 2000 && p.count < 200_000, "count {}", p.count);
     assert_eq!(p.count % 500, 0);
@@ -264,14 +277,20 @@ fn grid_adaptive_stops_within_tolerance() {
         1000f64.hypot(600.0) * 0.01f64.to_radians() / (2f64.sqrt() * (0.6f64).atan().sin());
     assert_abs_diff_eq!(p.sigma_mm.y, expect_y, epsilon = 0.02);
     // Deterministic.
-    assert_eq!(r, study.run_adaptive(&a, 4).unwrap());
+    assert_eq!(
+        r,
+        study.run(&crate::RunOptions::adaptive(a, 4), None).unwrap()
+    );
 }
 
 #[test]
 fn ellipsoid_semi_axes_nominal() {
     let sc = scenario("", TWO_OBS, "", "tangent");
     let study = GridStudy::new(&sc, 0, 0).unwrap();
-    let p = &study.run(20_000, 1).unwrap().points[0];
+    let p = &study
+        .run(&crate::RunOptions::samples(20_000, 1), None)
+        .unwrap()
+        .points[0];
     let ax = p.ellipsoid_semi_axes_mm();
     // The symmetric geometry has axes along x, y, z: semi-axes are the sorted σ.
     let mut s: Vec<f64> = p.sigma_mm.iter().copied().collect();
@@ -289,7 +308,11 @@ fn ellipsoid_semi_axes_nominal() {
 fn sigma_worst_is_the_largest_eigen_axis() {
     let sc = scenario("", TWO_OBS, "", "tangent");
     let study = GridStudy::new(&sc, 0, 0).unwrap();
-    let mut p = study.run(100, 1).unwrap().points[0].clone();
+    let mut p = study
+        .run(&crate::RunOptions::samples(100, 1), None)
+        .unwrap()
+        .points[0]
+        .clone();
     p.covariance = Matrix3::new(4.0, 3.0, 0.0, 3.0, 4.0, 0.0, 0.0, 0.0, 1.0);
     p.sigma_mm = Vector3::new(2.0, 2.0, 1.0);
     p.sigma_max_mm = 2.0;
@@ -310,7 +333,10 @@ fn slow_grid_closed_form_large_n() {
     let sc = scenario("", TWO_OBS, "", "tangent");
     let study = GridStudy::new(&sc, 0, 0).unwrap();
     let n = 4_000_000;
-    let p = &study.run(n, 4242).unwrap().points[0];
+    let p = &study
+        .run(&crate::RunOptions::samples(n, 4242), None)
+        .unwrap()
+        .points[0];
     let (b, d, s) = (600.0f64, 1000.0f64, 0.01f64.to_radians());
     let rho = b.hypot(d);
     let beta = (b / d).atan();
@@ -366,13 +392,29 @@ fn every_isa_gives_identical_grids() {
     // kernel path, with a partial final block.
     let n = crate::CHUNK + 70;
     for (name, study) in kernel_paths() {
-        let base = study.run_with(n, 9, crate::Isa::Baseline).unwrap();
+        let base = study
+            .run(
+                &crate::RunOptions {
+                    isa: crate::Isa::Baseline,
+                    ..crate::RunOptions::samples(n, 9)
+                },
+                None,
+            )
+            .unwrap();
         for isa in crate::Isa::LEVELS {
             if !isa.is_available() {
                 eprintln!("{}: not available on this CPU, not compared", isa.name());
                 continue;
             }
-            let got = study.run_with(n, 9, isa).unwrap();
+            let got = study
+                .run(
+                    &crate::RunOptions {
+                        isa,
+                        ..crate::RunOptions::samples(n, 9)
+                    },
+                    None,
+                )
+                .unwrap();
             assert_eq!(got, base, "{name}: {} differs from baseline", isa.name());
         }
     }
@@ -389,9 +431,23 @@ fn wide_and_narrow_loop_shapes_give_identical_grids() {
     use std::sync::atomic::Ordering::Relaxed;
     let n = crate::CHUNK + 70;
     for (name, study) in kernel_paths() {
-        let auto = study.run_with(n, 9, crate::Isa::Auto).unwrap();
+        let auto = study
+            .run(
+                &crate::RunOptions {
+                    isa: crate::Isa::Auto,
+                    ..crate::RunOptions::samples(n, 9)
+                },
+                None,
+            )
+            .unwrap();
         FORCE_NARROW.store(true, Relaxed);
-        let narrow = study.run_with(n, 9, crate::Isa::Auto);
+        let narrow = study.run(
+            &crate::RunOptions {
+                isa: crate::Isa::Auto,
+                ..crate::RunOptions::samples(n, 9)
+            },
+            None,
+        );
         FORCE_NARROW.store(false, Relaxed);
         assert_eq!(auto, narrow.unwrap(), "{name}: the loop shapes differ");
     }
@@ -407,7 +463,7 @@ fn legacy_and_simd_engines_agree_statistically() {
         let a = study
             .run_engine(n, 5, crate::schedule::Engine::Legacy, None)
             .unwrap();
-        let b = study.run(n, 5).unwrap();
+        let b = study.run(&crate::RunOptions::samples(n, 5), None).unwrap();
         for (pa, pb) in a.points.iter().zip(&b.points) {
             for k in 0..3 {
                 let s = pa.sigma_mm[k];
@@ -653,7 +709,7 @@ fn grid_adaptive_ndig_stops_within_significant_digits() {
     let a = sc.grid.as_ref().unwrap().adaptive.unwrap();
     assert_eq!(a.tolerance, crate::Tolerance::SignificantDigits(2));
     let study = GridStudy::new(&sc, 0, 0).unwrap();
-    let r = study.run_adaptive(&a, 4).unwrap();
+    let r = study.run(&crate::RunOptions::adaptive(a, 4), None).unwrap();
     let p = &r.points[0];
     assert_eq!(p.converged, Some(true));
     assert!(p.count >= 4000 && p.count < 1_000_000, "count {}", p.count);
@@ -760,8 +816,8 @@ fn progress_reports_complete_and_results_unchanged() {
         let study = GridStudy::new(&sc, sc.samples, sc.seed).unwrap();
         let rec = Recorder::new();
         let report = |d: usize, t: usize| rec.report(d, t);
-        let with = study.evaluate_with_progress(Some(&report)).unwrap();
-        assert_eq!(with, study.evaluate().unwrap());
+        let with = study.run(&study.options(), Some(&report)).unwrap();
+        assert_eq!(with, study.run(&study.options(), None).unwrap());
         rec.assert_complete(6);
         // One report per measurable point (when its last chunk or batch is done), then the
         // final one.
@@ -779,9 +835,85 @@ fn progress_reports_complete_and_results_unchanged() {
     let chain = Chain::new(&sc);
     let rec = Recorder::new();
     let report = |d: usize, t: usize| rec.report(d, t);
-    let with = chain.monte_carlo_with_progress(9000, 3, Some(&report));
-    assert_eq!(with, chain.monte_carlo(9000, 3));
+    let options = crate::ChainOptions::new(9000, 3);
+    let with = chain.monte_carlo(&options, Some(&report)).unwrap();
+    assert_eq!(with, chain.monte_carlo(&options, None).unwrap());
     rec.assert_complete(3);
     // One report per chunk plus the final one.
     assert_eq!(rec.0.lock().unwrap().len(), 4);
+}
+
+/// A monitor that cancels once `after` reports have arrived.
+struct StopAfter {
+    after: usize,
+    seen: std::sync::atomic::AtomicUsize,
+}
+
+impl StopAfter {
+    fn new(after: usize) -> Self {
+        Self {
+            after,
+            seen: std::sync::atomic::AtomicUsize::new(0),
+        }
+    }
+
+    fn seen(&self) -> usize {
+        self.seen.load(std::sync::atomic::Ordering::Relaxed)
+    }
+}
+
+impl crashrig_stats::progress::Monitor for StopAfter {
+    fn report(&self, _: usize, _: usize) {
+        self.seen.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    }
+
+    fn cancelled(&self) -> bool {
+        self.seen() >= self.after
+    }
+}
+
+/// A monitor that cancels makes both entries return the typed `Cancelled` error, and no unit
+/// of work starts after it said so (one thread: the first finished point, or chunk, is the
+/// only report): aimed and fixed observers, fixed and adaptive draws, and the chain.
+#[test]
+fn cancelled_runs_return_cancelled_and_stop_working() {
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let grid = |adaptive: &str, obs: &str| {
+        let text = format!(
+            "seed = 5\nsamples = 9000\n[grid]\nx_mm = [900.0, 1500.0, 3]\ny_mm = [-200.0, 200.0, 2]\nz_mm = [0.0, 0.0, 1]\n{adaptive}\n{obs}"
+        );
+        Scenario::from_toml_str(&text, Path::new("p.toml")).unwrap()
+    };
+    let aimed_obs = TWO_OBS.replace("600.0, 0.0, 0.0", "600.0, 0.0, 300.0");
+    let adaptive = "[grid.adaptive]\ntolerance_mm = 0.05\nbatch = 500\nmax_samples = 5000";
+    for sc in [
+        grid("", &aimed_obs),
+        grid(adaptive, &aimed_obs),
+        grid("", FIXED_TWO),
+        grid(adaptive, FIXED_TWO),
+    ] {
+        let study = GridStudy::new(&sc, sc.samples, sc.seed).unwrap();
+        for after in [0, 1] {
+            let stop = StopAfter::new(after);
+            let r = one.install(|| study.run(&study.options(), Some(&stop)));
+            assert!(matches!(r, Err(Error::Cancelled(_))), "{r:?}");
+            assert_eq!(stop.seen(), after);
+        }
+    }
+    let sc = scenario(
+        "",
+        TWO_OBS,
+        "[[camera]]\nname = \"a\"\nposition_mm = [0.0, 0.0, 0.0]\nangles_deg = [0.0, 0.0, 0.0]\nsigma_position_mm = [1.0, 1.0, 1.0]\nsigma_angles_deg = [0.1, 0.1, 0.1]\n",
+        "tangent",
+    );
+    let chain = Chain::new(&sc);
+    for after in [0, 1] {
+        let stop = StopAfter::new(after);
+        let r = one.install(|| chain.monte_carlo(&crate::ChainOptions::new(9000, 3), Some(&stop)));
+        assert!(matches!(r, Err(Error::Cancelled(_))), "{r:?}");
+        assert_eq!(stop.seen(), after);
+    }
 }
