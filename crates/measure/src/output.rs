@@ -640,7 +640,10 @@ pub(crate) fn check_out_dir(dir: &Path) -> Result<(), Error> {
     if entries.next().is_none() {
         return Ok(());
     }
-    if !(dir.join("trajectories.csv").is_file() && dir.join("summary.json").is_file()) {
+    let previous_shard = dir.join(crate::shard::MOMENTS).is_file()
+        && dir.join(crashrig_outdir::shard::MANIFEST).is_file();
+    let previous = dir.join("trajectories.csv").is_file() && dir.join("summary.json").is_file();
+    if !(previous || previous_shard) {
         return Err(bad(
             "exists and is not empty and not a previous `measure` output; choose another --out"
                 .into(),
@@ -654,7 +657,14 @@ pub(crate) fn check_out_dir(dir: &Path) -> Result<(), Error> {
 fn replaceable(name: &str) -> bool {
     matches!(
         name,
-        "trajectories.csv" | "displacements.csv" | "kinematics.csv" | "summary.json" | "plots/"
+        "trajectories.csv"
+            | "displacements.csv"
+            | "kinematics.csv"
+            | "summary.json"
+            | "plots/"
+            | crashrig_outdir::shard::MANIFEST
+            | crate::shard::OPTIONS
+            | crate::shard::MOMENTS
     )
 }
 
