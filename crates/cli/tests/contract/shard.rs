@@ -437,3 +437,31 @@ fn measure_shards_merge_to_the_unsharded_run() {
     assert_clean_error(&r, &["missing", "2/3"]);
     assert!(!out.exists(), "a refused merge wrote its output");
 }
+
+/// `cargo xtask shards` runs `measure` shards too (the command named after `--`).
+#[test]
+fn xtask_shards_runs_measure_shards_and_merges() {
+    let tmp = tempfile::tempdir().unwrap();
+    let whole = tmp.path().join("whole");
+    let r = run(measure_args(s(&whole), &["--no-plots"]));
+    assert!(r.success, "{}", r.stderr);
+    let out = tmp.path().join("merged");
+    let mut args: Vec<String> = ["2", "-P", "2", "--out", s(&out), "--"]
+        .iter()
+        .map(|a| a.to_string())
+        .collect();
+    // measure_args without its `--out DIR` (the last two), with --no-plots.
+    let m = measure_args("x", &["--no-plots"]);
+    args.extend(m[..m.len() - 3].iter().cloned());
+    args.push("--no-plots".into());
+    let (plan, _) = crate::xtask_shards::parse(&args).unwrap();
+    assert_eq!(plan.command, "measure");
+    let dirs = crate::xtask_shards::run(&plan, Path::new(env!("CARGO_BIN_EXE_crashrig"))).unwrap();
+    assert_eq!(dirs.len(), 2);
+    for f in ["trajectories.csv", "displacements.csv", "kinematics.csv"] {
+        assert!(
+            std::fs::read(whole.join(f)).unwrap() == std::fs::read(out.join(f)).unwrap(),
+            "{f}"
+        );
+    }
+}
