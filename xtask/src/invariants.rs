@@ -19,13 +19,7 @@ pub const MAX_FN_LINES: usize = 150;
 pub const MAX_CMD_LINES: usize = 150;
 
 /// Functions over [`MAX_FN_LINES`] still to be split: `(file, function)`.
-pub const LONG_FN_ALLOWED: &[(&str, &str)] = &[
-    // Issue 23, not yet split.
-    ("crates/study/src/study_file.rs", "from_toml_str"),
-    ("crates/colmap/src/reconstruction.rs", "build"),
-    ("crates/study/src/calibration.rs", "text_report"),
-    ("crates/study/src/pipeline.rs", "run_study"),
-];
+pub const LONG_FN_ALLOWED: &[(&str, &str)] = &[];
 
 /// Environment variables a library crate may read: test hooks that exist today.
 pub const ENV_ALLOWED: &[(&str, &str)] = &[
@@ -36,78 +30,112 @@ pub const ENV_ALLOWED: &[(&str, &str)] = &[
 ];
 
 /// CLI command modules over [`MAX_CMD_LINES`] still to be moved into their libraries.
-pub const CMD_ALLOWED: &[&str] = &["crates/cli/src/cmd/colmap.rs"];
+pub const CMD_ALLOWED: &[&str] = &[];
 
 /// Library files that still build a JSON document with `json!` instead of the structs of a
 /// `contract` module (issue 23, step 4, not yet converted).
-pub const JSON_ALLOWED: &[&str] = &[
-    "crates/study/src/calibration.rs",
-    "crates/study/src/pipeline.rs",
-];
+pub const JSON_ALLOWED: &[&str] = &[];
 
-/// Crates whose top-level modules still import each other in a cycle: `mc` until its
-/// restructuring (issue 23, arch-mc); `study`: `epochs` takes its error type from
-/// `calibration`, which calls `epochs` (move `CalibrationError` down to break it).
-pub const CYCLE_ALLOWED: &[&str] = &["study"];
+/// Crates whose top-level modules still import each other in a cycle (none left).
+pub const CYCLE_ALLOWED: &[&str] = &[];
 
 /// Binary crates (may read the environment: they are the user interface).
 const BINARIES: &[&str] = &["cli"];
 
-/// Every check of this module.
+/// Every check of this module, over the sources read once.
 pub fn check(root: &Path) -> Result<Vec<String>> {
-    let mut p = check_function_length(root)?;
-    p.extend(check_env_reads(root)?);
-    p.extend(check_cli_commands(root)?);
-    p.extend(check_json_literals(root)?);
-    p.extend(check_module_cycles(root)?);
+    let sources = crate_sources(root)?;
+    let mut p = check_function_length(root, &sources);
+    p.extend(check_env_reads(&sources));
+    p.extend(check_cli_commands(&sources));
+    p.extend(check_json_literals(root, &sources));
+    p.extend(check_module_cycles(&sources));
     Ok(p)
 }
 
-/// `crates/<name>/src/**.rs`, relative to `root`, by crate name.
-fn crate_sources(root: &Path) -> Result<BTreeMap<String, Vec<PathBuf>>> {
-    let mut out = BTreeMap::new();
-    for e in std::fs::read_dir(root.join("crates")).context("listing crates/")? {
-        let dir = e?.path();
-        if !dir.join("Cargo.toml").exists() {
-            continue;
+/// A source file of a crate under `crates/`: the one walker every check reads.
+pub struct Source {
+    /// The crate's directory name (`colmap`, `cli`, ...).
+    krate: String,
+    /// The path relative to the root, `/`-separated (as in the allow-lists).
+    rel: String,
+    /// The path relative to the crate's `src/`.
+    in_src: PathBuf,
+    text: String,
+}
+
+impl Source {
+    /// The lines before the file's tests (a top-level `#[cfg(test)]`).
+    fn code_lines(&self) -> Vec<&str> {
+        self.text
+            .lines()
+            .take_while(|l| !l.starts_with("#[cfg(test)]"))
+            .collect()
+    }
+
+    /// Whether the file belongs to a library crate (binaries are the user interface).
+    fn in_library(&self) -> bool {
+        !BINARIES.contains(&self.krate.as_str())
+    }
+}
+
+/// Every `crates/<name>/src/**.rs`, read, by crate name then path.
+pub fn crate_sources(root: &Path) -> Result<Vec<Source>> {
+    let mut out = Vec::new();
+    let mut crates: Vec<PathBuf> = std::fs::read_dir(root.join("crates"))
+        .context("listing crates/")?
+        .map(|e| e.map(|e| e.path()))
+        .collect::<std::io::Result<_>>()?;
+    crates.sort();
+    for dir in crates.into_iter().filter(|d| d.join("Cargo.toml").exists()) {
+        let krate = dir.file_name().and_then(|n| n.to_str()).unwrap_or("");
+        let src = dir.join("src");
+        for f in rust_files(&src)? {
+            let text =
+                std::fs::read_to_string(&f).with_context(|| format!("reading {}", f.display()))?;
+            out.push(Source {
+                krate: krate.to_string(),
+                rel: unix(f.strip_prefix(root).unwrap_or(&f)),
+                in_src: f.strip_prefix(&src).unwrap_or(&f).to_path_buf(),
+                text,
+            });
         }
-        let name = dir
-            .file_name()
-            .and_then(|n| n.to_str())
-            .unwrap_or("")
-            .to_string();
-        let mut files = Vec::new();
-        collect(&dir.join("src"), &mut files)?;
-        let files = files
-            .into_iter()
-            .map(|f| f.strip_prefix(root).map(Path::to_path_buf).unwrap_or(f))
-            .collect();
-        out.insert(name, files);
     }
     Ok(out)
 }
 
-fn collect(dir: &Path, out: &mut Vec<PathBuf>) -> Result<()> {
-    if !dir.exists() {
-        return Ok(());
-    }
-    for e in std::fs::read_dir(dir).with_context(|| format!("listing {}", dir.display()))? {
-        let p = e?.path();
-        if p.is_dir() {
-            collect(&p, out)?;
-        } else if p.extension().is_some_and(|x| x == "rs") {
-            out.push(p);
-        }
-    }
-    out.sort();
-    Ok(())
+/// Each code line of the library files outside tests (the part before a `//` comment), with
+/// its file and 1-based line number.
+fn library_code(sources: &[Source]) -> impl Iterator<Item = (&Source, usize, &str)> {
+    sources.iter().filter(|s| s.in_library()).flat_map(|s| {
+        s.code_lines()
+            .into_iter()
+            .enumerate()
+            .map(move |(i, l)| (s, i + 1, l.split("//").next().unwrap_or("")))
+    })
 }
 
-/// The lines of a file before its tests (a top-level `#[cfg(test)]`).
-fn code_lines(text: &str) -> Vec<&str> {
-    text.lines()
-        .take_while(|l| !l.starts_with("#[cfg(test)]"))
-        .collect()
+/// The `.rs` files below `dir`, sorted (none when `dir` does not exist; `target` and
+/// `test_data` directories are skipped).
+pub fn rust_files(dir: &Path) -> Result<Vec<PathBuf>> {
+    fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> Result<()> {
+        for e in std::fs::read_dir(dir).with_context(|| format!("listing {}", dir.display()))? {
+            let p = e?.path();
+            let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+            if p.is_dir() && name != "target" && name != "test_data" {
+                walk(&p, out)?;
+            } else if p.extension().is_some_and(|x| x == "rs") {
+                out.push(p);
+            }
+        }
+        Ok(())
+    }
+    let mut out = Vec::new();
+    if dir.exists() {
+        walk(dir, &mut out)?;
+    }
+    out.sort();
+    Ok(out)
 }
 
 fn unix(p: &Path) -> String {
@@ -160,28 +188,25 @@ fn functions<'a>(lines: &[&'a str]) -> Vec<(&'a str, usize, usize)> {
 }
 
 /// No function over [`MAX_FN_LINES`] lines outside tests, except [`LONG_FN_ALLOWED`].
-pub fn check_function_length(root: &Path) -> Result<Vec<String>> {
+pub fn check_function_length(root: &Path, sources: &[Source]) -> Vec<String> {
     let mut problems = Vec::new();
     let mut used = BTreeSet::new();
-    for files in crate_sources(root)?.values() {
-        for f in files {
-            let text = std::fs::read_to_string(root.join(f))?;
-            let rel = unix(f);
-            for (name, line, len) in functions(&code_lines(&text)) {
-                if len <= MAX_FN_LINES {
-                    continue;
-                }
-                if let Some(a) = LONG_FN_ALLOWED
-                    .iter()
-                    .find(|(p, n)| *p == rel && *n == name)
-                {
-                    used.insert(*a);
-                    continue;
-                }
-                problems.push(format!(
-                    "{rel}:{line}: fn {name} is {len} lines (at most {MAX_FN_LINES} outside tests; split it)"
-                ));
+    for s in sources {
+        for (name, line, len) in functions(&s.code_lines()) {
+            if len <= MAX_FN_LINES {
+                continue;
             }
+            let rel = s.rel.as_str();
+            if let Some(a) = LONG_FN_ALLOWED
+                .iter()
+                .find(|(p, n)| *p == rel && *n == name)
+            {
+                used.insert(*a);
+                continue;
+            }
+            problems.push(format!(
+                "{rel}:{line}: fn {name} is {len} lines (at most {MAX_FN_LINES} outside tests; split it)"
+            ));
         }
     }
     for a in LONG_FN_ALLOWED {
@@ -192,42 +217,33 @@ pub fn check_function_length(root: &Path) -> Result<Vec<String>> {
             ));
         }
     }
-    Ok(problems)
+    problems
 }
 
 /// No `std::env::var` / `var_os` in a library crate outside tests, except [`ENV_ALLOWED`].
-pub fn check_env_reads(root: &Path) -> Result<Vec<String>> {
-    let mut problems = Vec::new();
-    for (krate, files) in crate_sources(root)? {
-        if BINARIES.contains(&krate.as_str()) {
-            continue;
-        }
-        for f in files {
-            let text = std::fs::read_to_string(root.join(&f))?;
-            let rel = unix(&f);
-            let allowed = ENV_ALLOWED.iter().any(|(p, _)| *p == rel);
-            for (i, l) in code_lines(&text).iter().enumerate() {
-                let code = l.split("//").next().unwrap_or("");
-                if (code.contains("env::var(") || code.contains("env::var_os(")) && !allowed {
-                    problems.push(format!(
-                        "{rel}:{}: a library reads an environment variable (take it as an argument)",
-                        i + 1
-                    ));
-                }
-            }
-        }
-    }
-    Ok(problems)
+pub fn check_env_reads(sources: &[Source]) -> Vec<String> {
+    library_code(sources)
+        .filter(|(s, _, code)| {
+            (code.contains("env::var(") || code.contains("env::var_os("))
+                && !ENV_ALLOWED.iter().any(|(p, _)| *p == s.rel)
+        })
+        .map(|(s, line, _)| {
+            format!(
+                "{}:{line}: a library reads an environment variable (take it as an argument)",
+                s.rel
+            )
+        })
+        .collect()
 }
 
 /// Every `crates/cli/src/cmd/**.rs` under [`MAX_CMD_LINES`] lines, except [`CMD_ALLOWED`].
-pub fn check_cli_commands(root: &Path) -> Result<Vec<String>> {
-    let mut files = Vec::new();
-    collect(&root.join("crates/cli/src/cmd"), &mut files)?;
+pub fn check_cli_commands(sources: &[Source]) -> Vec<String> {
     let mut problems = Vec::new();
-    for f in files {
-        let rel = unix(f.strip_prefix(root).unwrap_or(&f));
-        let n = std::fs::read_to_string(&f)?.lines().count();
+    for s in sources
+        .iter()
+        .filter(|s| s.rel.starts_with("crates/cli/src/cmd/"))
+    {
+        let (rel, n) = (&s.rel, s.text.lines().count());
         let allowed = CMD_ALLOWED.contains(&rel.as_str());
         if n >= MAX_CMD_LINES && !allowed {
             problems.push(format!(
@@ -239,34 +255,22 @@ pub fn check_cli_commands(root: &Path) -> Result<Vec<String>> {
             ));
         }
     }
-    Ok(problems)
+    problems
 }
 
 /// No `json!` in a library crate outside tests and doc comments, except [`JSON_ALLOWED`].
-pub fn check_json_literals(root: &Path) -> Result<Vec<String>> {
+pub fn check_json_literals(root: &Path, sources: &[Source]) -> Vec<String> {
     let mut problems = Vec::new();
     let mut used = BTreeSet::new();
-    for (krate, files) in crate_sources(root)? {
-        if BINARIES.contains(&krate.as_str()) {
+    for (s, line, _) in library_code(sources).filter(|(_, _, code)| json_literal(code)) {
+        if let Some(a) = JSON_ALLOWED.iter().find(|p| **p == s.rel) {
+            used.insert(*a);
             continue;
         }
-        for f in files {
-            let text = std::fs::read_to_string(root.join(&f))?;
-            let rel = unix(&f);
-            for (i, l) in code_lines(&text).iter().enumerate() {
-                if !json_literal(l) {
-                    continue;
-                }
-                if let Some(a) = JSON_ALLOWED.iter().find(|p| **p == rel) {
-                    used.insert(*a);
-                    continue;
-                }
-                problems.push(format!(
-                    "{rel}:{}: a library builds JSON with `json!` (a serde struct in the crate's `contract` module)",
-                    i + 1
-                ));
-            }
-        }
+        problems.push(format!(
+            "{}:{line}: a library builds JSON with `json!` (a serde struct in the crate's `contract` module)",
+            s.rel
+        ));
     }
     for a in JSON_ALLOWED {
         if !used.contains(a) && root.join(a).exists() {
@@ -275,7 +279,7 @@ pub fn check_json_literals(root: &Path) -> Result<Vec<String>> {
             ));
         }
     }
-    Ok(problems)
+    problems
 }
 
 /// Whether `line` uses the `json!` macro in code (not in a comment).
@@ -298,62 +302,68 @@ fn top_module(rel_to_src: &Path) -> Option<String> {
 
 /// No cycle among the top-level modules of a crate (edges: `crate::<module>` in code outside
 /// tests), except the crates in [`CYCLE_ALLOWED`].
-pub fn check_module_cycles(root: &Path) -> Result<Vec<String>> {
+pub fn check_module_cycles(sources: &[Source]) -> Vec<String> {
+    let mut by_crate: BTreeMap<&str, Vec<&Source>> = BTreeMap::new();
+    for s in sources {
+        by_crate.entry(&s.krate).or_default().push(s);
+    }
     let mut problems = Vec::new();
-    for (krate, files) in crate_sources(root)? {
-        let src = PathBuf::from("crates").join(&krate).join("src");
-        let mods: BTreeSet<String> = files
-            .iter()
-            .filter_map(|f| top_module(f.strip_prefix(&src).ok()?))
-            .collect();
+    for (krate, files) in by_crate {
+        let mods: BTreeSet<String> = files.iter().filter_map(|s| top_module(&s.in_src)).collect();
         let mut edges: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
-        for f in &files {
-            let Some(from) = f.strip_prefix(&src).ok().and_then(top_module) else {
+        for s in &files {
+            let Some(from) = top_module(&s.in_src) else {
                 continue;
             };
-            let text = std::fs::read_to_string(root.join(f))?;
-            for l in code_lines(&text) {
+            for l in s.code_lines() {
                 let code = l.split("//").next().unwrap_or("");
-                for (pos, _) in code.match_indices("crate::") {
-                    let before = code[..pos].chars().last();
-                    if before.is_some_and(|c| c.is_alphanumeric() || c == '_') {
-                        continue; // `crashrig_x::` etc.
-                    }
-                    let rest = &code[pos + 7..];
-                    let name: String = rest
-                        .chars()
-                        .take_while(|c| c.is_alphanumeric() || *c == '_')
-                        .collect();
-                    let mut targets = vec![name];
-                    // `use crate::{a, b::c}`
-                    if let Some(list) = rest.strip_prefix('{') {
-                        targets = list
-                            .split([',', '}'])
-                            .map(|s| s.trim().split("::").next().unwrap_or("").to_string())
-                            .collect();
-                    }
-                    for t in targets {
-                        if t != from && mods.contains(&t) {
-                            edges.entry(from.clone()).or_default().insert(t);
-                        }
+                for t in crate_imports(code) {
+                    if t != from && mods.contains(&t) {
+                        edges.entry(from.clone()).or_default().insert(t);
                     }
                 }
             }
         }
         if let Some(cycle) = find_cycle(&edges) {
-            if !CYCLE_ALLOWED.contains(&krate.as_str()) {
+            if !CYCLE_ALLOWED.contains(&krate) {
                 problems.push(format!(
                     "crates/{krate}: modules import each other in a cycle: {}",
                     cycle.join(" → ")
                 ));
             }
-        } else if CYCLE_ALLOWED.contains(&krate.as_str()) {
+        } else if CYCLE_ALLOWED.contains(&krate) {
             problems.push(format!(
                 "crates/{krate} is in CYCLE_ALLOWED but has no module cycle: remove the entry"
             ));
         }
     }
-    Ok(problems)
+    problems
+}
+
+/// The first path segments after each `crate::` of a code line (`use crate::{a, b::c}` gives
+/// both `a` and `b`).
+fn crate_imports(code: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    for (pos, _) in code.match_indices("crate::") {
+        let before = code[..pos].chars().last();
+        if before.is_some_and(|c| c.is_alphanumeric() || c == '_') {
+            continue; // `crashrig_x::` etc.
+        }
+        let rest = &code[pos + 7..];
+        if let Some(list) = rest.strip_prefix('{') {
+            out.extend(
+                list.split([',', '}'])
+                    .map(|s| s.trim().split("::").next().unwrap_or("").to_string()),
+            );
+        } else {
+            out.push(
+                rest.chars()
+                    .take_while(|c| c.is_alphanumeric() || *c == '_')
+                    .collect(),
+            );
+        }
+    }
+    out
 }
 
 /// One cycle of the graph (its nodes, the first repeated at the end), if any.
@@ -396,6 +406,133 @@ mod tests {
     fn tidy_invariants_hold() {
         let problems = check(&crate::project_root()).unwrap();
         assert!(problems.is_empty(), "{problems:#?}");
+    }
+
+    /// A throw-away tree of crates under the system's temporary directory, removed on drop.
+    struct Tree(PathBuf);
+
+    impl Tree {
+        /// `files`: (path below the root, text); every `crates/<name>/` gets a Cargo.toml.
+        fn new(name: &str, files: &[(&str, &str)]) -> Tree {
+            let root =
+                std::env::temp_dir().join(format!("xtask-tidy-{}-{name}", std::process::id()));
+            let _ = std::fs::remove_dir_all(&root);
+            for (path, text) in files {
+                let path = root.join(path);
+                std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+                std::fs::write(&path, text).unwrap();
+                let krate = path
+                    .ancestors()
+                    .find(|a| a.parent().is_some_and(|p| p.ends_with("crates")));
+                std::fs::write(krate.unwrap().join("Cargo.toml"), "").unwrap();
+            }
+            Tree(root)
+        }
+
+        /// Every problem `check` finds in the tree.
+        fn problems(&self) -> Vec<String> {
+            check(&self.0).unwrap()
+        }
+    }
+
+    impl Drop for Tree {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+
+    #[test]
+    fn a_long_function_is_caught_outside_tests_only() {
+        let long = |name: &str| {
+            format!(
+                "fn {name}() {{\n{}}}\n",
+                "    x();\n".repeat(MAX_FN_LINES - 1)
+            )
+        };
+        let text = format!(
+            "//! k\n{}#[cfg(test)]\nmod tests {{\n{}}}\n",
+            long("a"),
+            long("b")
+        );
+        let t = Tree::new("fn", &[("crates/k/src/lib.rs", &text)]);
+        let n = MAX_FN_LINES + 1;
+        assert_eq!(
+            t.problems(),
+            [format!(
+                "crates/k/src/lib.rs:2: fn a is {n} lines (at most {MAX_FN_LINES} outside tests; split it)"
+            )]
+        );
+    }
+
+    #[test]
+    fn an_env_read_is_caught_in_a_library_not_in_the_cli() {
+        let read = "//! k\nfn f() {\n    let _ = std::env::var(\"X\"); // and var_os\n}\n";
+        let t = Tree::new(
+            "env",
+            &[
+                ("crates/k/src/a.rs", read),
+                ("crates/cli/src/main.rs", read),
+            ],
+        );
+        assert_eq!(
+            t.problems(),
+            [
+                "crates/k/src/a.rs:3: a library reads an environment variable (take it as an argument)"
+            ]
+        );
+    }
+
+    #[test]
+    fn a_long_command_module_is_caught() {
+        let text = "//! c\n".repeat(MAX_CMD_LINES);
+        let t = Tree::new(
+            "cmd",
+            &[
+                ("crates/cli/src/cmd/c.rs", &text),
+                ("crates/cli/src/cmd/d.rs", "//! d\n"),
+            ],
+        );
+        assert_eq!(
+            t.problems(),
+            [format!(
+                "crates/cli/src/cmd/c.rs: {MAX_CMD_LINES} lines; a command is arguments → config → one library call → print (under {MAX_CMD_LINES})"
+            )]
+        );
+    }
+
+    #[test]
+    fn a_json_literal_is_caught_in_library_code_only() {
+        let text = "//! k\n//! serde_json::json!({})\nfn f() {\n    g(json!(1));\n}\n#[cfg(test)]\nmod tests {\n    fn t() { json!(2); }\n}\n";
+        let t = Tree::new(
+            "json",
+            &[
+                ("crates/k/src/lib.rs", text),
+                ("crates/cli/src/main.rs", text),
+            ],
+        );
+        assert_eq!(
+            t.problems(),
+            [
+                "crates/k/src/lib.rs:4: a library builds JSON with `json!` (a serde struct in the crate's `contract` module)"
+            ]
+        );
+    }
+
+    #[test]
+    fn a_module_cycle_is_caught_and_an_import_list_counts() {
+        let t = Tree::new(
+            "cycle",
+            &[
+                ("crates/k/src/lib.rs", "//! k\nmod a;\nmod b;\nmod c;\n"),
+                ("crates/k/src/a.rs", "//! a\nuse crate::b::X;\n"),
+                ("crates/k/src/b.rs", "//! b\nuse crate::{c, lib};\n"),
+                ("crates/k/src/c/mod.rs", "//! c\nuse crate::a::Y;\n"),
+            ],
+        );
+        assert_eq!(
+            t.problems(),
+            ["crates/k: modules import each other in a cycle: a → b → c → a"]
+        );
     }
 
     #[test]

@@ -15,7 +15,10 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
     ("crashrig-plot", &[]),
     ("crashrig-camera", &[]),
     ("crashrig-outdir", &[]),
-    ("crashrig-colmap", &["crashrig-geometry", "crashrig-camera"]),
+    (
+        "crashrig-colmap",
+        &["crashrig-geometry", "crashrig-camera", "crashrig-outdir"],
+    ),
     ("crashrig-rig", &["crashrig-geometry", "crashrig-stats"]),
     (
         "crashrig-pose",
@@ -243,9 +246,7 @@ fn reaches(edges: &Edges, from: &str, target: &str) -> bool {
 pub fn check_module_docs(root: &Path) -> Result<Vec<String>> {
     let mut problems = Vec::new();
     for dir in ["crates", "xtask/src", "benches"] {
-        let mut files = Vec::new();
-        collect_rs(&root.join(dir), &mut files)?;
-        for f in files {
+        for f in crate::invariants::rust_files(&root.join(dir))? {
             let text =
                 std::fs::read_to_string(&f).with_context(|| format!("reading {}", f.display()))?;
             let first = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("");
@@ -259,24 +260,6 @@ pub fn check_module_docs(root: &Path) -> Result<Vec<String>> {
         }
     }
     Ok(problems)
-}
-
-fn collect_rs(dir: &Path, out: &mut Vec<std::path::PathBuf>) -> Result<()> {
-    if !dir.exists() {
-        return Ok(());
-    }
-    for e in std::fs::read_dir(dir).with_context(|| format!("listing {}", dir.display()))? {
-        let p = e?.path();
-        if p.is_dir() {
-            let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
-            if name != "target" && name != "test_data" {
-                collect_rs(&p, out)?;
-            }
-        } else if p.extension().is_some_and(|x| x == "rs") {
-            out.push(p);
-        }
-    }
-    Ok(())
 }
 
 /// Every crate under crates/ has a section in docs/ARCHITECTURE.md's code map.

@@ -1,63 +1,139 @@
-//! The one place where file records become `crashrig-geometry` types (normalized poses).
+//! `crashrig colmap convert`: any COLMAP model rewritten as all five files in the current
+//! layout, binary or text, swapped into the output directory as a whole.
+//!
+//! ```
+//! # fn main() -> crashrig_colmap::Result<()> {
+//! # let input = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/study/own/tie/model");
+//! use crashrig_colmap::ModelFormat;
+//! use crashrig_colmap::convert::{ConvertConfig, convert};
+//! let out = tempfile::tempdir().map_err(|source| crashrig_colmap::Error::Io {
+//!     path: "tempdir".into(),
+//!     source,
+//! })?;
+//! let output = out.path().join("txt");
+//! let done = convert(&ConvertConfig { input, output: output.clone(), format: ModelFormat::Text })?;
+//! assert!(output.join("rigs.txt").is_file());
+//! assert_eq!(done.format, ModelFormat::Text);
+//! # Ok(()) }
+//! ```
 
-use crashrig_geometry::{Rigid3, quat};
+use std::path::{Path, PathBuf};
 
-use crate::record::RawPose;
+use serde::Serialize;
 
-impl RawPose {
-    /// The pose as a [`Rigid3`] `b_from_a`, quaternion normalized; `None` when the quaternion
-    /// is zero or non-finite or the translation is non-finite.
-    pub fn to_rigid(&self) -> Option<Rigid3> {
-        quat::rigid_from_colmap(self.qvec, self.tvec).ok()
-    }
+use crate::{Error, ModelFormat, Reconstruction, Result};
 
-    /// The stored doubles of a [`Rigid3`] (unit quaternion `w, x, y, z`, translation).
-    pub fn from_rigid(p: &Rigid3) -> RawPose {
-        let (qvec, tvec) = quat::colmap_from_rigid(p);
-        RawPose { qvec, tvec }
+/// What to convert where.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ConvertConfig {
+    /// The input model directory (3.x or ≥ 3.12, binary or text).
+    pub input: PathBuf,
+    /// The output directory (created if missing; an older model in it is replaced as a whole).
+    pub output: PathBuf,
+    /// The format to write.
+    pub format: ModelFormat,
+}
+
+/// What was written (`crashrig colmap convert --json`).
+///
+/// The fields are in alphabetical order: the key order of the command's JSON.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Converted {
+    /// Number of cameras.
+    pub cameras: usize,
+    /// The format written.
+    pub format: ModelFormat,
+    /// Number of frames written.
+    pub frames: usize,
+    /// Number of images.
+    pub images: usize,
+    /// The input directory, as given.
+    pub input: String,
+    /// The input was a 3.x three-file model (its trivial rigs and frames were written).
+    pub legacy_input: bool,
+    /// The output directory, as given.
+    pub output: String,
+    /// Number of 3-D points.
+    #[serde(rename = "points3D")]
+    pub points3d: usize,
+    /// Number of rigs written.
+    pub rigs: usize,
+    /// Lines for stderr (each printed after `warning: `).
+    #[serde(skip)]
+    pub warnings: Vec<String>,
+}
+
+impl Converted {
+    /// The one line `crashrig colmap convert` prints on stderr without `--json`.
+    pub fn text_report(&self) -> String {
+        format!(
+            "wrote {} model to {} ({} cameras, {} images, {} points3D)\n",
+            self.format.name(),
+            self.output,
+            self.cameras,
+            self.images,
+            self.points3d
+        )
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use approx::assert_abs_diff_eq;
-    use crashrig_geometry::{Vec3, projection_center};
+/// Whether `name` is a file an older `colmap convert` (or COLMAP) writes into a model
+/// directory, so an old model made of such files may be replaced as a whole.
+fn model_file_name(name: &str) -> bool {
+    let stem_ok = |stem: &str| ["cameras", "images", "points3D", "rigs", "frames"].contains(&stem);
+    name.starts_with(".tmp")
+        || name
+            .rsplit_once('.')
+            .is_some_and(|(stem, ext)| (ext == "bin" || ext == "txt") && stem_ok(stem))
+}
 
-    #[test]
-    fn to_rigid_nominal() {
-        // 90° about z, stored unnormalized (×2) with w first: x_cam = R x_world + t.
-        let h = std::f64::consts::FRAC_1_SQRT_2;
-        let p = RawPose {
-            qvec: [2.0 * h, 0.0, 0.0, 2.0 * h],
-            tvec: [1.0, 2.0, 3.0],
-        };
-        let r = p.to_rigid().expect("valid pose");
-        let x = r * nalgebra::Point3::new(1.0, 0.0, 0.0);
-        // Exact up to a few ulps of the normalisation.
-        assert_abs_diff_eq!(x.coords, Vec3::new(1.0, 3.0, 3.0), epsilon = 1e-15);
-        let c = projection_center(&r);
-        assert_abs_diff_eq!(
-            (r * nalgebra::Point3::from(c)).coords,
-            Vec3::zeros(),
-            epsilon = 1e-15
-        );
-        let back = RawPose::from_rigid(&r);
-        assert_abs_diff_eq!(back.qvec[0], h, epsilon = 1e-15);
-        assert_abs_diff_eq!(back.qvec[3], h, epsilon = 1e-15);
+/// Reads `config.input` and writes it to `config.output` in `config.format`. The model is
+/// written into a staging directory beside the output and swapped in as a whole: an
+/// interrupted convert leaves the old output untouched, and no file of an older model (of
+/// either format) survives beside the new one.
+///
+/// # Errors
+/// [`Error::ConvertInPlace`] when the output is the input directory; any error of
+/// [`Reconstruction::read`]; [`Error::Staging`] when the output cannot be staged (e.g. it holds
+/// files that are not a model's); [`Error::Writing`] / [`Error::Commit`] when writing fails.
+pub fn convert(config: &ConvertConfig) -> Result<Converted> {
+    let (input, output, format) = (&config.input, &config.output, config.format);
+    let same = |a: &Path, b: &Path| matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y);
+    if same(input, output) {
+        return Err(Error::ConvertInPlace {
+            path: output.clone(),
+        });
     }
-
-    #[test]
-    fn to_rigid_rejects_zero_quaternion() {
-        let p = RawPose {
-            qvec: [0.0; 4],
-            tvec: [0.0; 3],
-        };
-        assert!(p.to_rigid().is_none());
-        let q = RawPose {
-            qvec: [1.0, 0.0, 0.0, 0.0],
-            tvec: [f64::NAN, 0.0, 0.0],
-        };
-        assert!(q.to_rigid().is_none());
-    }
+    let model = Reconstruction::read(input)?;
+    let warnings = match format {
+        ModelFormat::Text => model.text_format_warning().into_iter().collect(),
+        ModelFormat::Binary => Vec::new(),
+    };
+    let staged =
+        crashrig_outdir::Staged::new(output, model_file_name).map_err(|source| Error::Staging {
+            path: output.clone(),
+            source,
+        })?;
+    model
+        .write(staged.dir(), format)
+        .map_err(|source| Error::Writing {
+            path: output.clone(),
+            source: Box::new(source),
+        })?;
+    staged.commit().map_err(|source| Error::Commit {
+        path: output.clone(),
+        source,
+    })?;
+    Ok(Converted {
+        cameras: model.cameras().len(),
+        format,
+        frames: model.frames().len(),
+        images: model.images().len(),
+        input: input.display().to_string(),
+        legacy_input: model.is_legacy(),
+        output: output.display().to_string(),
+        points3d: model.points3d().len(),
+        rigs: model.rigs().len(),
+        warnings,
+    })
 }

@@ -148,23 +148,25 @@ pub struct PosePrior {
     pub coordinate_system: i64,
 }
 
-/// Row counts for `crashrig colmap info`.
+/// Row counts for `crashrig colmap info`. The fields are in alphabetical order: the key order
+/// of the command's JSON.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "commands", derive(serde::Serialize))]
 pub struct DbCounts {
-    /// `PRAGMA user_version`.
-    pub user_version: i64,
     /// Rows of `cameras`.
     pub cameras: u64,
-    /// Rows of `images`.
-    pub images: u64,
-    /// Rows of `rigs` (0 when the table is absent).
-    pub rigs: u64,
     /// Rows of `frames` (0 when the table is absent).
     pub frames: u64,
+    /// Rows of `images`.
+    pub images: u64,
     /// Images with a `keypoints` row.
     pub keypoints: u64,
     /// `matches` rows with at least one match.
     pub matched_pairs: u64,
+    /// Rows of `rigs` (0 when the table is absent).
+    pub rigs: u64,
+    /// `PRAGMA user_version`.
+    pub user_version: i64,
     /// `two_view_geometries` rows with at least one inlier.
     pub verified_pairs: u64,
 }

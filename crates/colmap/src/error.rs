@@ -162,6 +162,57 @@ pub enum Error {
         /// What is wrong.
         what: &'static str,
     },
+    /// `colmap convert` was asked to write into its input directory.
+    #[error("{}: is the input model directory; converting in place would replace the input, choose another output directory", path.display())]
+    ConvertInPlace {
+        /// The output (= input) directory.
+        path: PathBuf,
+    },
+    /// The output directory of `colmap convert` cannot be staged (it holds other files, ...).
+    #[cfg(feature = "commands")]
+    #[error("{source}")]
+    Staging {
+        /// The output directory.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: crashrig_outdir::Error,
+    },
+    /// Writing the converted model failed.
+    #[error("writing {}", path.display())]
+    Writing {
+        /// The output directory.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: Box<Error>,
+    },
+    /// Swapping the converted model into the output directory failed.
+    #[cfg(feature = "commands")]
+    #[error("writing {}", path.display())]
+    Commit {
+        /// The output directory.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: crashrig_outdir::Error,
+    },
+    /// The model has no 3-D point with this id.
+    #[error("{}: no point3D with id {id}", path.display())]
+    NoPoint3D {
+        /// The model directory.
+        path: PathBuf,
+        /// The id asked for.
+        id: u64,
+    },
+    /// The model has no image of this name.
+    #[error("{}: image {name:?} is not in the model", path.display())]
+    NoImage {
+        /// The model directory.
+        path: PathBuf,
+        /// The name asked for.
+        name: String,
+    },
 }
 
 /// Shorthand for `Result<T, crashrig_colmap::Error>`.
@@ -184,9 +235,15 @@ impl Error {
             | Error::WrongParamCount { path, .. }
             | Error::Invariant { path, .. }
             | Error::Unwritable { path, .. }
-            | Error::BadRow { path, .. } => path,
+            | Error::BadRow { path, .. }
+            | Error::ConvertInPlace { path }
+            | Error::Writing { path, .. }
+            | Error::NoPoint3D { path, .. }
+            | Error::NoImage { path, .. } => path,
             #[cfg(feature = "database")]
             Error::Sqlite { path, .. } => path,
+            #[cfg(feature = "commands")]
+            Error::Staging { path, .. } | Error::Commit { path, .. } => path,
         }
     }
 }

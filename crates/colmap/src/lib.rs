@@ -37,6 +37,9 @@
 //! - [`input_file::read_limited`]: the one reader of every input file of the workspace (a regular
 //!   file within a size limit; `/dev/zero`, FIFOs and directories are refused).
 //! - [`fmt::g17`]: `%.17g` number formatting as COLMAP's text writer.
+//! - The entries of `crashrig colmap` (feature `commands`, on by default): [`info::model_info`],
+//!   [`info::database_info`], [`convert::convert`] and [`lookup::points`], each a typed result
+//!   that serialises to the command's JSON and renders its text.
 //!
 //! # Example
 //! Write a one-image legacy model as text, read it back and get the camera centre.
@@ -70,13 +73,17 @@
 #![deny(missing_docs)]
 
 mod binary;
-mod convert;
+#[cfg(feature = "commands")]
+pub mod convert;
 #[cfg(feature = "database")]
 pub mod database;
 mod error;
 pub mod fmt;
+#[cfg(feature = "commands")]
+pub mod info;
 pub mod input_file;
 pub mod lookup;
+mod raw_pose;
 mod reconstruction;
 mod record;
 mod select;

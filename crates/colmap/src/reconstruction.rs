@@ -10,8 +10,13 @@ use crate::error::{Error, Result};
 use crate::record::{CameraRecord, DataId, Frame, Image, Point3D, Rig, SensorId, SensorType};
 use crate::{binary, text};
 
-/// On-disk flavour of a sparse model.
+/// On-disk flavour of a sparse model (serialised as its [`ModelFormat::name`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(
+    feature = "commands",
+    derive(serde::Serialize),
+    serde(rename_all = "lowercase")
+)]
 pub enum ModelFormat {
     /// `*.bin` files.
     Binary,
@@ -209,6 +214,8 @@ impl Reconstruction {
         )
     }
 
+    /// Checks the records of a model and indexes them (the steps below, in this order, so the
+    /// first broken rule in file order is the one reported).
     #[allow(clippy::too_many_arguments)]
     fn build(
         dir: &Path,
@@ -222,23 +229,7 @@ impl Reconstruction {
     ) -> Result<Reconstruction> {
         let files = Files::new(dir, format);
         if legacy {
-            rigs = cameras
-                .iter()
-                .map(|c| Rig {
-                    rig_id: c.camera_id,
-                    ref_sensor: Some(SensorId::camera(c.camera_id)),
-                    sensors: Vec::new(),
-                })
-                .collect();
-            frames = images
-                .iter()
-                .map(|im| Frame {
-                    frame_id: im.image_id,
-                    rig_id: im.camera_id,
-                    rig_from_world: im.stored_cam_from_world,
-                    data_ids: vec![im.data_id()],
-                })
-                .collect();
+            (rigs, frames) = trivial_rigs_and_frames(&cameras, &images);
         }
         // The synthesized rigs/frames of a legacy model come from cameras/images.
         let (rigs_path, frames_path) = if legacy {
@@ -246,232 +237,23 @@ impl Reconstruction {
         } else {
             (&files.rigs, &files.frames)
         };
-        let inv = |path: &Path, record: usize, what: &'static str, id: u64| Error::Invariant {
-            path: path.to_path_buf(),
-            record,
-            line: None,
-            what,
-            id,
+        let camera_idx = index_cameras(&cameras, &files.cameras)?;
+        let rig_idx = index_rigs(&rigs, &camera_idx, rigs_path)?;
+        let ImageIndex {
+            by_id: image_idx,
+            by_name: name_idx,
+            num_observations,
+        } = index_images(&images, &camera_idx, &files.images)?;
+        let point_idx = index_points(&points, &files.points3d)?;
+        let links = Links {
+            rigs: &rigs,
+            rig_idx: &rig_idx,
+            images: &images,
+            image_idx: &image_idx,
         };
-
-        let mut camera_idx = HashMap::with_capacity(cameras.len());
-        for (i, c) in cameras.iter().enumerate() {
-            if camera_idx.insert(c.camera_id, i).is_some() {
-                return Err(inv(
-                    &files.cameras,
-                    i,
-                    "duplicate camera id",
-                    c.camera_id.into(),
-                ));
-            }
-        }
-        let mut rig_idx = HashMap::with_capacity(rigs.len());
-        for (i, r) in rigs.iter().enumerate() {
-            if rig_idx.insert(r.rig_id, i).is_some() {
-                return Err(inv(rigs_path, i, "duplicate rig id", r.rig_id.into()));
-            }
-            let sensors = r
-                .ref_sensor
-                .iter()
-                .chain(r.sensors.iter().map(|s| &s.sensor));
-            for s in sensors {
-                if s.sensor_type == SensorType::Camera && !camera_idx.contains_key(&s.id) {
-                    return Err(inv(
-                        rigs_path,
-                        i,
-                        "rig sensor is a missing camera",
-                        s.id.into(),
-                    ));
-                }
-            }
-            for s in &r.sensors {
-                if s.sensor_from_rig.is_some_and(|p| p.to_rigid().is_none()) {
-                    return Err(inv(
-                        rigs_path,
-                        i,
-                        "sensor_from_rig is not a valid pose",
-                        r.rig_id.into(),
-                    ));
-                }
-            }
-        }
-        let mut image_idx = HashMap::with_capacity(images.len());
-        let mut name_idx = HashMap::with_capacity(images.len());
-        let mut num_observations = 0usize;
-        for (i, im) in images.iter().enumerate() {
-            if image_idx.insert(im.image_id, i).is_some() {
-                return Err(inv(
-                    &files.images,
-                    i,
-                    "duplicate image id",
-                    im.image_id.into(),
-                ));
-            }
-            name_idx.entry(im.name.clone()).or_insert(i);
-            if !camera_idx.contains_key(&im.camera_id) {
-                return Err(inv(
-                    &files.images,
-                    i,
-                    "image names a missing camera",
-                    im.camera_id.into(),
-                ));
-            }
-            num_observations += im.num_points3d();
-        }
-        let mut point_idx = HashMap::with_capacity(points.len());
-        for (i, p) in points.iter().enumerate() {
-            if point_idx.insert(p.point3d_id, i).is_some() {
-                return Err(inv(
-                    &files.points3d,
-                    i,
-                    "duplicate 3D point id",
-                    p.point3d_id,
-                ));
-            }
-        }
-
-        let mut frame_idx = HashMap::with_capacity(frames.len());
-        let mut image_frame = vec![usize::MAX; images.len()];
-        for (i, f) in frames.iter().enumerate() {
-            if frame_idx.insert(f.frame_id, i).is_some() {
-                return Err(inv(frames_path, i, "duplicate frame id", f.frame_id.into()));
-            }
-            let Some(&ri) = rig_idx.get(&f.rig_id) else {
-                return Err(inv(
-                    frames_path,
-                    i,
-                    "frame names a missing rig",
-                    f.rig_id.into(),
-                ));
-            };
-            if f.rig_from_world.to_rigid().is_none() {
-                let path = frames_path;
-                return Err(inv(
-                    path,
-                    i,
-                    "rig_from_world is not a valid pose",
-                    f.frame_id.into(),
-                ));
-            }
-            let rig = &rigs[ri];
-            for d in &f.data_ids {
-                if rig.sensor_from_rig(d.sensor).is_none() {
-                    return Err(inv(
-                        frames_path,
-                        i,
-                        "frame data sensor is not in the frame's rig",
-                        d.sensor.id.into(),
-                    ));
-                }
-                if d.sensor.sensor_type != SensorType::Camera {
-                    continue;
-                }
-                let Some(&ii) = u32::try_from(d.id).ok().and_then(|id| image_idx.get(&id)) else {
-                    return Err(inv(frames_path, i, "frame names a missing image", d.id));
-                };
-                if images[ii].camera_id != d.sensor.id {
-                    return Err(inv(
-                        frames_path,
-                        i,
-                        "frame data camera differs from the image's camera",
-                        d.id,
-                    ));
-                }
-                if image_frame[ii] != usize::MAX {
-                    return Err(inv(frames_path, i, "image is in two frames", d.id));
-                }
-                image_frame[ii] = i;
-            }
-        }
-        let mut cam_from_world = Vec::with_capacity(images.len());
-        for (i, im) in images.iter().enumerate() {
-            let fi = image_frame[i];
-            let Some(f) = frames.get(fi) else {
-                return Err(inv(
-                    &files.images,
-                    i,
-                    "image is in no frame",
-                    im.image_id.into(),
-                ));
-            };
-            let rig = rig_idx.get(&f.rig_id).map(|&ri| &rigs[ri]);
-            let sensor = SensorId::camera(im.camera_id);
-            let pose = match rig {
-                Some(r) if r.ref_sensor == Some(sensor) => f.rig_from_world.to_rigid(),
-                Some(r) => match r.sensor_from_rig(sensor) {
-                    Some(Some(s)) => s
-                        .to_rigid()
-                        .zip(f.rig_from_world.to_rigid())
-                        .map(|(s, f)| s * f),
-                    _ => None,
-                },
-                None => None,
-            };
-            cam_from_world.push(pose);
-        }
-
-        // Tracks and observations must describe the same links, both ways.
-        let mut seen: Vec<Vec<bool>> = images
-            .iter()
-            .map(|im| vec![false; im.points2d.len()])
-            .collect();
-        let mut linked = 0usize;
-        for (i, p) in points.iter().enumerate() {
-            for t in &p.track {
-                let Some(&ii) = image_idx.get(&t.image_id) else {
-                    return Err(inv(
-                        &files.points3d,
-                        i,
-                        "track names a missing image",
-                        t.image_id.into(),
-                    ));
-                };
-                let idx = t.point2d_idx as usize;
-                let Some(p2) = images[ii].points2d.get(idx) else {
-                    return Err(inv(
-                        &files.points3d,
-                        i,
-                        "track names a missing point2D index",
-                        t.point2d_idx.into(),
-                    ));
-                };
-                if p2.point3d_id != Some(p.point3d_id) {
-                    return Err(inv(
-                        &files.points3d,
-                        i,
-                        "track element's point2D observes another 3D point",
-                        p.point3d_id,
-                    ));
-                }
-                if let Some(flag) = seen.get_mut(ii).and_then(|s| s.get_mut(idx)) {
-                    if *flag {
-                        return Err(inv(
-                            &files.points3d,
-                            i,
-                            "duplicate track element",
-                            t.image_id.into(),
-                        ));
-                    }
-                    *flag = true;
-                }
-                linked += 1;
-            }
-        }
-        if linked != num_observations {
-            for (i, im) in images.iter().enumerate() {
-                for (k, p2) in im.points2d.iter().enumerate() {
-                    let marked = seen.get(i).and_then(|s| s.get(k)).copied().unwrap_or(false);
-                    if let (Some(pid), false) = (p2.point3d_id, marked) {
-                        let what = if point_idx.contains_key(&pid) {
-                            "point2D observes a 3D point whose track lacks it"
-                        } else {
-                            "point2D observes a missing 3D point"
-                        };
-                        return Err(inv(&files.images, i, what, pid));
-                    }
-                }
-            }
-        }
+        let (frame_idx, image_frame) = index_frames(&frames, &links, frames_path)?;
+        let cam_from_world = images_cam_from_world(&frames, &links, &image_frame, &files.images)?;
+        check_tracks(&points, &point_idx, &links, num_observations, &files)?;
 
         Ok(Reconstruction {
             dir: dir.to_path_buf(),
@@ -706,4 +488,331 @@ impl Reconstruction {
             .filter_map(|d| u32::try_from(d.id).ok().and_then(|id| self.image(id)))
             .collect()
     }
+}
+
+/// [`Error::Invariant`] for record `record` of the file `path`.
+fn invariant(path: &Path, record: usize, what: &'static str, id: u64) -> Error {
+    Error::Invariant {
+        path: path.to_path_buf(),
+        record,
+        line: None,
+        what,
+        id,
+    }
+}
+
+/// COLMAP's rigs and frames of a legacy model: one rig per camera (the camera its reference
+/// sensor), one frame per image (the image's stored pose as `rig_from_world`).
+fn trivial_rigs_and_frames(cameras: &[CameraRecord], images: &[Image]) -> (Vec<Rig>, Vec<Frame>) {
+    let rigs = cameras
+        .iter()
+        .map(|c| Rig {
+            rig_id: c.camera_id,
+            ref_sensor: Some(SensorId::camera(c.camera_id)),
+            sensors: Vec::new(),
+        })
+        .collect();
+    let frames = images
+        .iter()
+        .map(|im| Frame {
+            frame_id: im.image_id,
+            rig_id: im.camera_id,
+            rig_from_world: im.stored_cam_from_world,
+            data_ids: vec![im.data_id()],
+        })
+        .collect();
+    (rigs, frames)
+}
+
+/// Camera id → index; camera ids are unique.
+fn index_cameras(cameras: &[CameraRecord], path: &Path) -> Result<HashMap<u32, usize>> {
+    let mut camera_idx = HashMap::with_capacity(cameras.len());
+    for (i, c) in cameras.iter().enumerate() {
+        if camera_idx.insert(c.camera_id, i).is_some() {
+            return Err(invariant(
+                path,
+                i,
+                "duplicate camera id",
+                c.camera_id.into(),
+            ));
+        }
+    }
+    Ok(camera_idx)
+}
+
+/// Rig id → index; rig ids are unique, camera sensors exist, `sensor_from_rig` poses are valid.
+fn index_rigs(
+    rigs: &[Rig],
+    camera_idx: &HashMap<u32, usize>,
+    path: &Path,
+) -> Result<HashMap<u32, usize>> {
+    let mut rig_idx = HashMap::with_capacity(rigs.len());
+    for (i, r) in rigs.iter().enumerate() {
+        if rig_idx.insert(r.rig_id, i).is_some() {
+            return Err(invariant(path, i, "duplicate rig id", r.rig_id.into()));
+        }
+        let sensors = r
+            .ref_sensor
+            .iter()
+            .chain(r.sensors.iter().map(|s| &s.sensor));
+        for s in sensors {
+            if s.sensor_type == SensorType::Camera && !camera_idx.contains_key(&s.id) {
+                return Err(invariant(
+                    path,
+                    i,
+                    "rig sensor is a missing camera",
+                    s.id.into(),
+                ));
+            }
+        }
+        for s in &r.sensors {
+            if s.sensor_from_rig.is_some_and(|p| p.to_rigid().is_none()) {
+                return Err(invariant(
+                    path,
+                    i,
+                    "sensor_from_rig is not a valid pose",
+                    r.rig_id.into(),
+                ));
+            }
+        }
+    }
+    Ok(rig_idx)
+}
+
+/// The indices of the images.
+struct ImageIndex {
+    /// Image id → index.
+    by_id: HashMap<u32, usize>,
+    /// Name → index of the first image of that name.
+    by_name: HashMap<String, usize>,
+    /// Observations of 3-D points, all images together.
+    num_observations: usize,
+}
+
+/// Indexes the images; image ids are unique and images name existing cameras.
+fn index_images(
+    images: &[Image],
+    camera_idx: &HashMap<u32, usize>,
+    path: &Path,
+) -> Result<ImageIndex> {
+    let mut image_idx = HashMap::with_capacity(images.len());
+    let mut name_idx = HashMap::with_capacity(images.len());
+    let mut num_observations = 0usize;
+    for (i, im) in images.iter().enumerate() {
+        if image_idx.insert(im.image_id, i).is_some() {
+            return Err(invariant(path, i, "duplicate image id", im.image_id.into()));
+        }
+        name_idx.entry(im.name.clone()).or_insert(i);
+        if !camera_idx.contains_key(&im.camera_id) {
+            return Err(invariant(
+                path,
+                i,
+                "image names a missing camera",
+                im.camera_id.into(),
+            ));
+        }
+        num_observations += im.num_points3d();
+    }
+    Ok(ImageIndex {
+        by_id: image_idx,
+        by_name: name_idx,
+        num_observations,
+    })
+}
+
+/// Point3D id → index; point ids are unique.
+fn index_points(points: &[Point3D], path: &Path) -> Result<HashMap<u64, usize>> {
+    let mut point_idx = HashMap::with_capacity(points.len());
+    for (i, p) in points.iter().enumerate() {
+        if point_idx.insert(p.point3d_id, i).is_some() {
+            return Err(invariant(path, i, "duplicate 3D point id", p.point3d_id));
+        }
+    }
+    Ok(point_idx)
+}
+
+/// The rigs and images already indexed, which frames and tracks link to.
+struct Links<'a> {
+    rigs: &'a [Rig],
+    rig_idx: &'a HashMap<u32, usize>,
+    images: &'a [Image],
+    image_idx: &'a HashMap<u32, usize>,
+}
+
+/// Frame id → index and, per image, the index of its frame (`usize::MAX` for none yet); frame
+/// ids are unique, frames name existing rigs, valid poses, sensors of their rig and existing
+/// images of the same camera, and no image is in two frames.
+fn index_frames(
+    frames: &[Frame],
+    links: &Links<'_>,
+    path: &Path,
+) -> Result<(HashMap<u32, usize>, Vec<usize>)> {
+    let mut frame_idx = HashMap::with_capacity(frames.len());
+    let mut image_frame = vec![usize::MAX; links.images.len()];
+    for (i, f) in frames.iter().enumerate() {
+        if frame_idx.insert(f.frame_id, i).is_some() {
+            return Err(invariant(path, i, "duplicate frame id", f.frame_id.into()));
+        }
+        let Some(&ri) = links.rig_idx.get(&f.rig_id) else {
+            return Err(invariant(
+                path,
+                i,
+                "frame names a missing rig",
+                f.rig_id.into(),
+            ));
+        };
+        if f.rig_from_world.to_rigid().is_none() {
+            return Err(invariant(
+                path,
+                i,
+                "rig_from_world is not a valid pose",
+                f.frame_id.into(),
+            ));
+        }
+        let rig = &links.rigs[ri];
+        for d in &f.data_ids {
+            if rig.sensor_from_rig(d.sensor).is_none() {
+                return Err(invariant(
+                    path,
+                    i,
+                    "frame data sensor is not in the frame's rig",
+                    d.sensor.id.into(),
+                ));
+            }
+            if d.sensor.sensor_type != SensorType::Camera {
+                continue;
+            }
+            let Some(&ii) = u32::try_from(d.id)
+                .ok()
+                .and_then(|id| links.image_idx.get(&id))
+            else {
+                return Err(invariant(path, i, "frame names a missing image", d.id));
+            };
+            if links.images[ii].camera_id != d.sensor.id {
+                return Err(invariant(
+                    path,
+                    i,
+                    "frame data camera differs from the image's camera",
+                    d.id,
+                ));
+            }
+            if image_frame[ii] != usize::MAX {
+                return Err(invariant(path, i, "image is in two frames", d.id));
+            }
+            image_frame[ii] = i;
+        }
+    }
+    Ok((frame_idx, image_frame))
+}
+
+/// Per image, `cam_from_world` as COLMAP composes it (`sensor_from_rig ∘ rig_from_world` of its
+/// frame; `None` when the camera's `sensor_from_rig` is unknown); every image is in a frame.
+fn images_cam_from_world(
+    frames: &[Frame],
+    links: &Links<'_>,
+    image_frame: &[usize],
+    images_path: &Path,
+) -> Result<Vec<Option<Rigid3>>> {
+    let mut cam_from_world = Vec::with_capacity(links.images.len());
+    for (i, im) in links.images.iter().enumerate() {
+        let Some(f) = frames.get(image_frame[i]) else {
+            return Err(invariant(
+                images_path,
+                i,
+                "image is in no frame",
+                im.image_id.into(),
+            ));
+        };
+        let rig = links.rig_idx.get(&f.rig_id).map(|&ri| &links.rigs[ri]);
+        let sensor = SensorId::camera(im.camera_id);
+        let pose = match rig {
+            Some(r) if r.ref_sensor == Some(sensor) => f.rig_from_world.to_rigid(),
+            Some(r) => match r.sensor_from_rig(sensor) {
+                Some(Some(s)) => s
+                    .to_rigid()
+                    .zip(f.rig_from_world.to_rigid())
+                    .map(|(s, f)| s * f),
+                _ => None,
+            },
+            None => None,
+        };
+        cam_from_world.push(pose);
+    }
+    Ok(cam_from_world)
+}
+
+/// Tracks and observations describe the same links, both ways: every track element names an
+/// existing image and point2D that observes the track's point, once; every observation is in
+/// its point's track.
+fn check_tracks(
+    points: &[Point3D],
+    point_idx: &HashMap<u64, usize>,
+    links: &Links<'_>,
+    num_observations: usize,
+    files: &Files,
+) -> Result<()> {
+    let images = links.images;
+    let mut seen: Vec<Vec<bool>> = images
+        .iter()
+        .map(|im| vec![false; im.points2d.len()])
+        .collect();
+    let mut linked = 0usize;
+    for (i, p) in points.iter().enumerate() {
+        for t in &p.track {
+            let Some(&ii) = links.image_idx.get(&t.image_id) else {
+                return Err(invariant(
+                    &files.points3d,
+                    i,
+                    "track names a missing image",
+                    t.image_id.into(),
+                ));
+            };
+            let idx = t.point2d_idx as usize;
+            let Some(p2) = images[ii].points2d.get(idx) else {
+                return Err(invariant(
+                    &files.points3d,
+                    i,
+                    "track names a missing point2D index",
+                    t.point2d_idx.into(),
+                ));
+            };
+            if p2.point3d_id != Some(p.point3d_id) {
+                return Err(invariant(
+                    &files.points3d,
+                    i,
+                    "track element's point2D observes another 3D point",
+                    p.point3d_id,
+                ));
+            }
+            if let Some(flag) = seen.get_mut(ii).and_then(|s| s.get_mut(idx)) {
+                if *flag {
+                    return Err(invariant(
+                        &files.points3d,
+                        i,
+                        "duplicate track element",
+                        t.image_id.into(),
+                    ));
+                }
+                *flag = true;
+            }
+            linked += 1;
+        }
+    }
+    if linked == num_observations {
+        return Ok(());
+    }
+    for (i, im) in images.iter().enumerate() {
+        for (k, p2) in im.points2d.iter().enumerate() {
+            let marked = seen.get(i).and_then(|s| s.get(k)).copied().unwrap_or(false);
+            if let (Some(pid), false) = (p2.point3d_id, marked) {
+                let what = if point_idx.contains_key(&pid) {
+                    "point2D observes a 3D point whose track lacks it"
+                } else {
+                    "point2D observes a missing 3D point"
+                };
+                return Err(invariant(&files.images, i, what, pid));
+            }
+        }
+    }
+    Ok(())
 }

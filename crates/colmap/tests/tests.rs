@@ -1,5 +1,6 @@
 //! Integration tests of crashrig-colmap against pycolmap-written fixtures (`fixtures/colmap`).
 
+mod commands;
 mod common;
 mod database;
 mod fuzz;

@@ -731,6 +731,7 @@ fn epoch_positions(
     }
 }
 
+#[inline(always)]
 fn finite(x: &Vec3) -> bool {
     x.iter().all(|v| v.is_finite())
 }
@@ -1556,6 +1557,62 @@ fn feed_run(
     m: usize,
     scratch: &mut Scratch<Lanes>,
 ) {
+    crate::simd::vectorized(FeedRun {
+        filter,
+        run,
+        acc,
+        preps,
+        bufs,
+        reference,
+        m,
+        scratch,
+    });
+}
+
+/// [`feed_run`]'s arguments, as the job the vector level runs (a struct rather than a closure:
+/// its `with_simd` is `#[inline(always)]`, so the whole body is compiled for the level).
+struct FeedRun<'a> {
+    filter: &'a Cfc,
+    run: &'a Run,
+    acc: &'a mut RunAcc,
+    preps: &'a [EpochPrep],
+    bufs: &'a [Vec<Vec3>],
+    reference: usize,
+    m: usize,
+    scratch: &'a mut Scratch<Lanes>,
+}
+
+impl pulp::WithSimd for FeedRun<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        let FeedRun {
+            filter,
+            run,
+            acc,
+            preps,
+            bufs,
+            reference,
+            m,
+            scratch,
+        } = self;
+        feed_run_body(filter, run, acc, preps, bufs, reference, m, scratch);
+    }
+}
+
+/// [`feed_run`]'s loops, compiled inside the vector level's function (`crate::simd`).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn feed_run_body(
+    filter: &Cfc,
+    run: &Run,
+    acc: &mut RunAcc,
+    preps: &[EpochPrep],
+    bufs: &[Vec<Vec3>],
+    reference: usize,
+    m: usize,
+    scratch: &mut Scratch<Lanes>,
+) {
     let slot = |e: usize| preps[e].slot_of[run.marker].expect("a run's epochs see its marker");
     let rs = slot(reference);
     let diff = Differences::new(1.0 / filter.frame_rate_hz());
@@ -1563,13 +1620,20 @@ fn feed_run(
     let xr = &bufs[reference][rs * m..rs * m + m];
     // One pass over the chunk's positions (each epoch's replicates are contiguous): group `g`
     // of replicates `g·LANES…` at run epoch `i` goes to `d[g·len + i]`.
+    // Every taken lane of `d` is overwritten below; a lane past `m` in the last group keeps
+    // whatever it held (it is filtered alongside but never fed), so `d` is only resized.
     let mut d = std::mem::take(&mut scratch.d);
-    d.clear();
     d.resize(groups * len, Lanes([0.0; 3 * LANES]));
-    let mut taken = vec![true; m];
-    for i in 0..len {
+    // The epochs' slots first, in a loop of independent lookups (the CPU overlaps their cache
+    // misses), then the gather reads each epoch's replicates at a known address.
+    let mut slots = std::mem::take(&mut scratch.slots);
+    slots.clear();
+    slots.extend((run.start..run.start + len).map(slot));
+    let mut taken = std::mem::take(&mut scratch.taken);
+    taken.clear();
+    taken.resize(m, true);
+    for (i, &s) in slots.iter().enumerate() {
         let e = run.start + i;
-        let s = slot(e);
         for (r, (x, xr)) in bufs[e][s * m..s * m + m].iter().zip(xr).enumerate() {
             let dx = x - xr;
             taken[r] &= finite(&dx);
@@ -1598,6 +1662,8 @@ fn feed_run(
         }
     }
     scratch.d = d;
+    scratch.slots = slots;
+    scratch.taken = taken;
 }
 
 fn sigma_of(m: &Moments<3>) -> Option<Vec3> {

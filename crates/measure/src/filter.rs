@@ -159,7 +159,7 @@ impl Coefficients {
     /// One step of the section: input `x0` with the two previous inputs and outputs (the same
     /// products and sums in the same order for every [`Sample`], so a 3-vector's components are
     /// filtered bit for bit as three scalar records).
-    #[inline]
+    #[inline(always)]
     fn step<T: Sample>(&self, x0: T, x1: T, x2: T, y1: T, y2: T) -> T {
         x0 * self.a0 + x1 * self.a1 + x2 * self.a2 + y1 * self.b1 + y2 * self.b2
     }
@@ -285,6 +285,7 @@ impl Cfc {
     ///
     /// # Panics
     /// When `out.len() != x.len()` (a programming error).
+    #[inline(always)]
     pub fn filter_into<T: Sample>(&self, x: &[T], out: &mut [T], scratch: &mut Vec<T>) {
         assert_eq!(x.len(), out.len(), "filter_into: output length");
         let n = x.len();
@@ -294,10 +295,10 @@ impl Cfc {
         }
         match self.standard {
             Standard::J211 => {
+                // Forward from `x` into `out`, then backward over `out` in place (each step
+                // reads its input before it writes its output).
                 self.pass_at_rest(x.iter().copied(), out.iter_mut());
-                scratch.clear();
-                scratch.extend_from_slice(out);
-                self.pass_at_rest(scratch.iter().rev().copied(), out.iter_mut().rev());
+                j211_backward_in_place(&self.c, out);
             }
             Standard::Iso6487 => {
                 let k = self.iso_extension(n);
@@ -314,6 +315,7 @@ impl Cfc {
     }
 
     /// One J211 pass over `input` into `output`, started at rest on the first input.
+    #[inline(always)]
     fn pass_at_rest<'a, T: Sample + 'a>(
         &self,
         input: impl Iterator<Item = T>,
@@ -330,8 +332,23 @@ impl Cfc {
     }
 }
 
+/// The backward J211 pass in place over `v` (the forward pass's output), started at rest on
+/// its last value: the arithmetic of [`Cfc::pass_at_rest`] over `v` reversed.
+#[inline(always)]
+fn j211_backward_in_place<T: Sample>(c: &Coefficients, v: &mut [T]) {
+    let Some(&x0) = v.last() else { return };
+    let (mut x1, mut x2, mut y1, mut y2) = (x0, x0, x0, x0);
+    for y in v.iter_mut().rev() {
+        let x = *y;
+        let out = c.step(x, x1, x2, y1, y2);
+        *y = out;
+        (x2, x1, y2, y1) = (x1, x, y1, out);
+    }
+}
+
 /// One ISO 6487 pass in place (forward, or backward when `reverse`): the first two outputs are
 /// the mean of the first ten values the pass reads; from the third on, the section.
+#[inline(always)]
 fn iso_pass<T: Sample>(c: &Coefficients, v: &mut [T], reverse: bool) {
     let n = v.len();
     let at = |i: usize| if reverse { n - 1 - i } else { i };

@@ -104,7 +104,7 @@ impl Differences {
     }
 
     /// Velocity at sample `i` (central inside, one-sided at the ends).
-    #[inline]
+    #[inline(always)]
     pub fn velocity<T: Sample>(&self, f: &[T], i: usize) -> T {
         let n = f.len();
         if i == 0 {
@@ -117,7 +117,7 @@ impl Differences {
     }
 
     /// Acceleration at sample `i` (the second difference of the nearest interior sample).
-    #[inline]
+    #[inline(always)]
     pub fn acceleration<T: Sample>(&self, f: &[T], i: usize) -> T {
         let j = i.clamp(1, f.len() - 2);
         (f[j + 1] - f[j] * 2.0 + f[j - 1]) * self.second
@@ -137,18 +137,18 @@ pub(crate) struct Lanes(pub [f64; 3 * LANES]);
 
 impl Lanes {
     /// Replicate `l`'s displacement.
-    #[inline]
+    #[inline(always)]
     pub fn lane(&self, l: usize) -> Vec3 {
         Vec3::new(self.0[3 * l], self.0[3 * l + 1], self.0[3 * l + 2])
     }
 
     /// Sets replicate `l`'s displacement.
-    #[inline]
+    #[inline(always)]
     pub fn set_lane(&mut self, l: usize, x: &Vec3) {
         self.0[3 * l..3 * l + 3].copy_from_slice(x.as_slice());
     }
 
-    #[inline]
+    #[inline(always)]
     fn zip(self, o: Lanes, f: impl Fn(f64, f64) -> f64) -> Lanes {
         Lanes(std::array::from_fn(|k| f(self.0[k], o.0[k])))
     }
@@ -156,7 +156,7 @@ impl Lanes {
 
 impl std::ops::Add for Lanes {
     type Output = Lanes;
-    #[inline]
+    #[inline(always)]
     fn add(self, o: Lanes) -> Lanes {
         self.zip(o, |a, b| a + b)
     }
@@ -164,7 +164,7 @@ impl std::ops::Add for Lanes {
 
 impl std::ops::Sub for Lanes {
     type Output = Lanes;
-    #[inline]
+    #[inline(always)]
     fn sub(self, o: Lanes) -> Lanes {
         self.zip(o, |a, b| a - b)
     }
@@ -172,7 +172,7 @@ impl std::ops::Sub for Lanes {
 
 impl std::ops::Mul<f64> for Lanes {
     type Output = Lanes;
-    #[inline]
+    #[inline(always)]
     fn mul(self, c: f64) -> Lanes {
         Lanes(self.0.map(|a| a * c))
     }
@@ -180,7 +180,7 @@ impl std::ops::Mul<f64> for Lanes {
 
 impl std::ops::Div<f64> for Lanes {
     type Output = Lanes;
-    #[inline]
+    #[inline(always)]
     fn div(self, c: f64) -> Lanes {
         Lanes(self.0.map(|a| a / c))
     }
@@ -242,7 +242,7 @@ pub(crate) struct AxisMoments {
 
 impl AxisMoments {
     /// Adds the `n`-th sample, `inv_n = 1/n`.
-    #[inline]
+    #[inline(always)]
     pub fn push(&mut self, x: &Vec3, inv_n: f64) {
         let delta = x - self.mean;
         self.mean += delta * inv_n;
@@ -282,6 +282,9 @@ pub(crate) struct Scratch<T> {
     pub f: Vec<T>,
     pub v: Vec<T>,
     pub a: Vec<T>,
+    /// The Monte Carlo's gather: each run epoch's slot, and which replicates are taken.
+    pub slots: Vec<usize>,
+    pub taken: Vec<bool>,
 }
 
 impl<T> Default for Scratch<T> {
@@ -292,6 +295,8 @@ impl<T> Default for Scratch<T> {
             f: Vec::new(),
             v: Vec::new(),
             a: Vec::new(),
+            slots: Vec::new(),
+            taken: Vec::new(),
         }
     }
 }
@@ -299,10 +304,14 @@ impl<T> Default for Scratch<T> {
 impl<T: Sample> Scratch<T> {
     /// Filters the displacement run `d` (mm; each component exactly as a scalar record,
     /// [`crate::filter::Sample`]) into `self.f`.
+    #[inline(always)]
     pub fn filter(&mut self, filter: &Cfc, d: &[T]) {
-        // Every element is overwritten by the filter: the copy only sizes the output.
-        self.f.clear();
-        self.f.extend_from_slice(d);
+        // Every element is overwritten by the filter: only the length matters (unchanged, so
+        // nothing is written, when the previous record had the same length).
+        if let Some(&x0) = d.first() {
+            self.f.resize(d.len(), x0);
+        }
+        self.f.truncate(d.len());
         filter.filter_into(d, &mut self.f, &mut self.work);
     }
 

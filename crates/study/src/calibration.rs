@@ -29,15 +29,20 @@
 //! # Ok::<(), crashrig_study::calibration::CalibrationError>(())
 //! ```
 
+use crate::contract::{
+    CalibrationDocument, DriftDocument, EpochDocument, LinkDocument, LinkStatisticsDocument,
+    PairingDocument, RefinedDocument, ScaleDocument, SemDetailDocument,
+};
 use crate::epochs::{CameraSelector, EpochSet, ScaleBar, epochs_from_model, scale_from_points};
+pub use crate::error::CalibrationError;
 use crashrig_colmap::Reconstruction;
 use crashrig_geometry::{Mat6, UncertainPose, Vec3, opk};
 use crashrig_rig::refine::RefineOptions;
 use crashrig_rig::robust::outlier_rule_description;
 use crashrig_rig::stats::LinkStatistics;
 use crashrig_rig::{CalibrateOptions, Calibration, DriftReport, Error as RigError, Refinement};
-use crashrig_stats::progress::{Cancelled, Monitor};
-use serde_json::{Value, json};
+use crashrig_stats::progress::Monitor;
+use serde_json::Value;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -54,155 +59,6 @@ const LABELS: [&str; 6] = [
     "phi [deg]",
     "kappa [deg]",
 ];
-
-/// Everything that can go wrong in a calibration; each message names the model directory (and
-/// the option at fault).
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum CalibrationError {
-    /// Reading the COLMAP model failed (the message names the file).
-    #[error(transparent)]
-    Colmap(#[from] crashrig_colmap::Error),
-    /// The known length of a scale bar is zero, negative or not finite.
-    #[error(
-        "{}: invalid scale-bar length {length_mm} mm (--scale-length-mm / scale_length_mm must be finite and > 0)",
-        model.display()
-    )]
-    InvalidScaleLength {
-        /// The model directory.
-        model: PathBuf,
-        /// The rejected value.
-        length_mm: f64,
-    },
-    /// The two scale-bar points coincide (zero model distance), so no scale follows.
-    #[error(
-        "{}: scale-bar points {point_1} and {point_2} are {distance} model units apart; \
-         a scale needs two distinct points",
-        model.display()
-    )]
-    ZeroLengthScaleBar {
-        /// The model directory.
-        model: PathBuf,
-        /// First point3D id.
-        point_1: u64,
-        /// Second point3D id.
-        point_2: u64,
-        /// Their distance in model units.
-        distance: f64,
-    },
-    /// A point3D id that is not in the model.
-    #[error("{}: no point3D with id {point_id} (--scale-points / scale_points)", model.display())]
-    UnknownPoint {
-        /// The model directory.
-        model: PathBuf,
-        /// The missing id.
-        point_id: u64,
-    },
-    /// A camera selector (prefix or camera id) that matches no image of the model.
-    #[error(
-        "{}: camera {role} `{selector}` matches no image (a name prefix such as `cam_out/`, \
-         or a camera id; the model has {n_images} images)",
-        model.display()
-    )]
-    NoImagesForCamera {
-        /// The model directory.
-        model: PathBuf,
-        /// `'A'` or `'B'`.
-        role: char,
-        /// The selector as given.
-        selector: String,
-        /// Number of images in the model.
-        n_images: usize,
-    },
-    /// Cameras A and B select the same images.
-    #[error("{}: cameras A and B both select image `{image}`", model.display())]
-    OverlappingCameras {
-        /// The model directory.
-        model: PathBuf,
-        /// An image selected by both.
-        image: String,
-    },
-    /// Images of both cameras exist but none pair up.
-    #[error(
-        "{}: no epoch pairs camera A and B: {unpaired_a} image(s) of A and {unpaired_b} of B \
-         share neither a name (after removing the prefix) nor a frame",
-        model.display()
-    )]
-    NoEpochs {
-        /// The model directory.
-        model: PathBuf,
-        /// Number of A images without a partner.
-        unpaired_a: usize,
-        /// Number of B images without a partner.
-        unpaired_b: usize,
-    },
-    /// Two images of the same camera claim the same epoch key.
-    #[error("{}: images `{first}` and `{second}` of camera {role} both pair as epoch `{key}`", model.display())]
-    DuplicateEpoch {
-        /// The model directory.
-        model: PathBuf,
-        /// `'A'` or `'B'`.
-        role: char,
-        /// The epoch key.
-        key: String,
-        /// First image name.
-        first: String,
-        /// Second image name.
-        second: String,
-    },
-    /// Every epoch gives the same link: the model was adjusted with a rig constraint.
-    #[error(
-        "{}: all {n_epochs} epochs give the same link A_from_B (spread {spread_mm:.1e} mm, \
-         {spread_deg:.1e} deg: numerical zero). The model was adjusted with a rig constraint \
-         (frames sharing one sensor_from_rig), so its epochs are not independent measurements \
-         of the link and σ = σ/√n = 0 would mean nothing. Calibrate a model reconstructed \
-         without rig constraints (each image in its own frame, as COLMAP's rig workflow does \
-         before `rig_configurator`), or pass --accept-rig-constrained \
-         (study file: accept_rig_constrained = true) to inspect this one",
-        model.display()
-    )]
-    RigConstrained {
-        /// The model directory.
-        model: PathBuf,
-        /// Number of epochs.
-        n_epochs: usize,
-        /// Largest σ of the base over the epochs (mm).
-        spread_mm: f64,
-        /// Largest σ of the rotation over the epochs (deg).
-        spread_deg: f64,
-    },
-    /// The calibration of the epochs failed (scale, too few epochs, degenerate rotations).
-    #[error("{}: calibration failed: {source}", model.display())]
-    Rig {
-        /// The model directory.
-        model: PathBuf,
-        /// What failed.
-        source: RigError,
-    },
-    /// A plot could not be drawn.
-    #[error("{}: plotting {what}: {source}", dir.display())]
-    Plot {
-        /// The plot directory.
-        dir: PathBuf,
-        /// Which figure.
-        what: String,
-        /// What failed.
-        source: crashrig_plot::Error,
-    },
-    /// A plot file could not be written.
-    #[error("{}: {what}: {source}", path.display())]
-    Io {
-        /// The file or directory.
-        path: PathBuf,
-        /// What was being done.
-        what: &'static str,
-        /// The I/O error.
-        source: std::io::Error,
-    },
-    /// The caller's monitor cancelled the calibration.
-    #[error(transparent)]
-    Cancelled(#[from] Cancelled),
-}
 
 /// Where the scale (mm per model unit) comes from.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -544,18 +400,18 @@ fn cov_deg(c: &Mat6) -> Vec<Vec<f64>> {
         .collect()
 }
 
-fn stats_json(s: &LinkStatistics) -> Value {
-    json!({
-        "n_epochs": s.n,
-        "base_mm": arr3(&s.base_mm),
-        "base_sigma_mm": arr3(&s.base_sigma_mm),
-        "base_sem_mm": arr3(&s.base_sem_mm),
-        "angles_deg": deg3(&s.angles),
-        "angles_sigma_deg": deg3(&s.angles_sigma),
-        "angles_sem_deg": deg3(&s.angles_sem),
-        "mean_rotation_angles_deg": deg3(&s.mean_rotation_angles),
-        "covariance": cov_deg(&s.covariance),
-    })
+fn stats_document(s: &LinkStatistics) -> LinkStatisticsDocument {
+    LinkStatisticsDocument {
+        angles_deg: deg3(&s.angles),
+        angles_sem_deg: deg3(&s.angles_sem),
+        angles_sigma_deg: deg3(&s.angles_sigma),
+        base_mm: arr3(&s.base_mm),
+        base_sem_mm: arr3(&s.base_sem_mm),
+        base_sigma_mm: arr3(&s.base_sigma_mm),
+        covariance: cov_deg(&s.covariance),
+        mean_rotation_angles_deg: deg3(&s.mean_rotation_angles),
+        n_epochs: s.n,
+    }
 }
 
 /// What the refinement's covariance is (in the JSON and the report).
@@ -563,24 +419,36 @@ const REFINED_LABEL: &str = "a weighted mean of the same per-epoch poses (not in
 evidence); covariance from the normal equations, which treat the epochs as independent, \
 raised on each tangent axis to at least sem_covariance_tangent";
 
-fn refined_json(r: &Refinement) -> Value {
-    json!({
-        "base_mm": arr3(&r.base_mm),
-        "base_sigma_mm": arr3(&r.base_sigma_mm),
-        "angles_deg": deg3(&r.angles),
-        "angles_sigma_deg": deg3(&r.angles_sigma),
-        "covariance": cov_deg(&r.covariance),
-        "covariance_tangent": cov_deg(&r.tangent_covariance),
-        "covariance_tangent_independent": cov_deg(&r.tangent_covariance_independent),
-        "floor_factors": r.floor_factors,
-        "what": REFINED_LABEL,
-        "sigma_rotation_deg": deg3(&r.sigma_rotation),
-        "sigma_position_mm": arr3(&r.sigma_position_mm),
-        "variance_factor": r.variance_factor,
-        "n_unknowns": r.n_unknowns,
-        "redundancy": r.redundancy,
-        "iterations": r.iterations,
-    })
+fn refined_document(r: &Refinement) -> RefinedDocument {
+    RefinedDocument {
+        angles_deg: deg3(&r.angles),
+        angles_sigma_deg: deg3(&r.angles_sigma),
+        base_mm: arr3(&r.base_mm),
+        base_sigma_mm: arr3(&r.base_sigma_mm),
+        covariance: cov_deg(&r.covariance),
+        covariance_tangent: cov_deg(&r.tangent_covariance),
+        covariance_tangent_independent: cov_deg(&r.tangent_covariance_independent),
+        floor_factors: r.floor_factors,
+        iterations: r.iterations,
+        n_unknowns: r.n_unknowns,
+        redundancy: r.redundancy,
+        sigma_position_mm: arr3(&r.sigma_position_mm),
+        sigma_rotation_deg: deg3(&r.sigma_rotation),
+        variance_factor: r.variance_factor,
+        what: REFINED_LABEL,
+    }
+}
+
+fn drift_document(d: &DriftReport) -> DriftDocument {
+    DriftDocument {
+        effective_n: d.effective_n,
+        lags: d.autocorrelation.clone(),
+        order: PARAMS,
+        sem_inflation: d.sem_inflation,
+        sem_optimistic: d.optimistic,
+        warning: d.any_optimistic(),
+        white_noise_band: d.white_noise_band,
+    }
 }
 
 /// ω φ κ (deg) of a rotation.
@@ -596,101 +464,123 @@ fn opk_deg(u: &UncertainPose) -> [f64; 3] {
 impl CalibrationResult {
     /// The `calibrate --json` document: the contract's fields, `covariance_tangent`,
     /// `sem_covariance_tangent`, `sem_rule`, and the extension fields of `docs/CALIBRATE.md`.
-    pub fn to_json(&self) -> Value {
+    pub fn document(&self) -> CalibrationDocument {
         let c = &self.calibration;
-        let epochs: Vec<Value> = c
+        let epochs = c
             .links
             .iter()
             .zip(&c.outliers.outlier)
             .zip(&c.outliers.z_scores)
-            .map(|((l, o), z)| {
-                json!({
-                    "name": l.name,
-                    "base_mm": arr3(&l.base_mm),
-                    "angles_deg": deg3(&l.angles),
-                    "outlier": o,
-                    "z_scores": z,
-                })
+            .map(|((l, o), z)| EpochDocument {
+                angles_deg: deg3(&l.angles),
+                base_mm: arr3(&l.base_mm),
+                name: l.name.clone(),
+                outlier: *o,
+                z_scores: *z,
             })
             .collect();
-        let scale_json = match &self.scale {
-            ResolvedScale::Bar(b) => json!({
-                "source": "scale_bar", "point_ids": [b.point_1, b.point_2],
-                "length_mm": b.length_mm, "distance_units": b.distance_units,
-            }),
-            ResolvedScale::Given(_) => json!({"source": "mm_per_unit"}),
-            ResolvedScale::Default => json!({"source": "default"}),
+        let scale = match &self.scale {
+            ResolvedScale::Bar(b) => ScaleDocument {
+                distance_units: Some(b.distance_units),
+                length_mm: Some(b.length_mm),
+                point_ids: Some([b.point_1, b.point_2]),
+                source: "scale_bar",
+            },
+            ResolvedScale::Given(_) => ScaleDocument::source("mm_per_unit"),
+            ResolvedScale::Default => ScaleDocument::source("default"),
         };
-        let drift = c.drift.as_ref().map(|d| {
-            json!({
-                "order": PARAMS,
-                "lags": d.autocorrelation,
-                "effective_n": d.effective_n,
-                "sem_inflation": d.sem_inflation,
-                "white_noise_band": d.white_noise_band,
-                "sem_optimistic": d.optimistic,
-                "warning": d.any_optimistic(),
-            })
-        });
         let set = &self.pairing;
-        // The contract's statistics over all epochs are exactly `stats_json` of them; the rest
-        // are extension fields.
-        let mut out = stats_json(&c.all);
-        let extra = json!({
-            "model": self.config.model.display().to_string(),
-            "camera_a": self.config.camera_a,
-            "camera_b": self.config.camera_b,
-            "mm_per_unit": c.mm_per_unit,
-            "scale_factor": c.mm_per_unit,
-            "scale": scale_json,
-            "link": {
-                "base_mm": arr3(&self.link.center()),
-                "angles_deg": opk_deg(&self.link),
+        // The contract's statistics over all epochs are exactly `stats_document` of them; the
+        // rest are extension fields.
+        let LinkStatisticsDocument {
+            angles_deg,
+            angles_sem_deg,
+            angles_sigma_deg,
+            base_mm,
+            base_sem_mm,
+            base_sigma_mm,
+            covariance,
+            mean_rotation_angles_deg,
+            n_epochs,
+        } = stats_document(&c.all);
+        CalibrationDocument {
+            angles_deg,
+            angles_sem_deg,
+            angles_sigma_deg,
+            autocorrelation: c.drift.as_ref().map(drift_document),
+            base_mm,
+            base_sem_mm,
+            base_sigma_mm,
+            camera_a: self.config.camera_a.clone(),
+            camera_b: self.config.camera_b.clone(),
+            covariance,
+            covariance_tangent: cov_deg(&self.epoch_covariance),
+            effective_n: self.effective_n,
+            epochs,
+            link: LinkDocument {
+                angles_deg: opk_deg(&self.link),
+                base_mm: arr3(&self.link.center()),
             },
-            "covariance_tangent": cov_deg(&self.epoch_covariance),
-            "sem_covariance_tangent": cov_deg(&self.link.covariance),
-            "sem_rule": self.sem_rule,
-            "effective_n": self.effective_n,
-            "sem_reliable": self.sem_reliable,
-            "sem_detail": {
-                "order": TANGENT,
-                "lag1": c.sem.lag1,
-                "drift_rho": c.sem.drift_rho,
-                "drift_share": c.sem.drift_share,
-                "small_sample_factor": c.sem.small_sample_factor,
-                "autocorrelated": c.sem.autocorrelated,
-                "variance_inflation": c.sem.inflation,
+            mean_rotation_angles_deg,
+            mm_per_unit: c.mm_per_unit,
+            model: self.config.model.display().to_string(),
+            n_epochs,
+            n_outliers: c.outliers.indices().len(),
+            outlier_rule: outlier_rule_description(c.links.len()),
+            outlier_threshold: c.outliers.threshold,
+            outlier_thresholds: c.outliers.thresholds,
+            pairing: PairingDocument {
+                by_frame: set.paired_by_frame,
+                by_name: set.paired_by_name,
+                unpaired_a: set.unpaired_a.clone(),
+                unpaired_b: set.unpaired_b.clone(),
+                without_pose: set.without_pose.clone(),
             },
-            "rig_constrained": c.rig_constrained,
-            "outlier_rule": outlier_rule_description(c.links.len()),
-            "outlier_threshold": c.outliers.threshold,
-            "outlier_thresholds": c.outliers.thresholds,
-            "n_outliers": c.outliers.indices().len(),
-            "without_outliers": c.without_outliers.as_ref().map(stats_json),
-            "autocorrelation": drift,
-            "refined": c.refined.as_ref().map(refined_json),
-            "refined_without_outliers": c.refined_without_outliers.as_ref().map(refined_json),
-            "pairing": {
-                "by_name": set.paired_by_name,
-                "by_frame": set.paired_by_frame,
-                "unpaired_a": set.unpaired_a,
-                "unpaired_b": set.unpaired_b,
-                "without_pose": set.without_pose,
+            refined: c.refined.as_ref().map(refined_document),
+            refined_without_outliers: c.refined_without_outliers.as_ref().map(refined_document),
+            rig_constrained: c.rig_constrained,
+            scale,
+            scale_factor: c.mm_per_unit,
+            sem_covariance_tangent: cov_deg(&self.link.covariance),
+            sem_detail: SemDetailDocument {
+                autocorrelated: c.sem.autocorrelated,
+                drift_rho: c.sem.drift_rho,
+                drift_share: c.sem.drift_share,
+                lag1: c.sem.lag1,
+                order: TANGENT,
+                small_sample_factor: c.sem.small_sample_factor,
+                variance_inflation: c.sem.inflation,
             },
-            "warnings": self.warnings,
-            "epochs": epochs,
-        });
-        if let (Some(o), Value::Object(e)) = (out.as_object_mut(), extra) {
-            o.extend(e);
+            sem_reliable: self.sem_reliable,
+            sem_rule: self.sem_rule.clone(),
+            warnings: self.warnings.clone(),
+            without_outliers: c.without_outliers.as_ref().map(stats_document),
         }
-        out
+    }
+
+    /// [`Self::document`] as a JSON value (what `crashrig calibrate --json` prints).
+    pub fn to_json(&self) -> Value {
+        // Serialising plain numbers, strings and arrays cannot fail; non-finite numbers
+        // become null.
+        serde_json::to_value(self.document()).unwrap_or(Value::Null)
     }
 
     /// What `crashrig calibrate` prints without `--json`: Tables 1–2 and the rest.
     pub fn text_report(&self) -> String {
+        let mut o = String::new();
+        self.report_header(&mut o);
+        self.report_tables(&mut o);
+        self.report_tangent(&mut o);
+        self.report_outliers(&mut o);
+        self.report_drift(&mut o);
+        self.report_refinement(&mut o);
+        o
+    }
+
+    /// The title line (model, cameras, epochs, pairing), the scale and the rig-constrained warning.
+    fn report_header(&self, o: &mut String) {
         let c = &self.calibration;
         let set = &self.pairing;
-        let mut o = String::new();
         let s = &c.all;
         let _ = writeln!(
             o,
@@ -720,16 +610,26 @@ impl CalibrationResult {
                  the σ, SEM and covariances below are 0 and mean nothing."
             );
         }
+    }
+
+    /// Tables 1–2: the base and ω φ κ over all epochs (mean, σ, σ/√n) and the SO(3) mean.
+    fn report_tables(&self, o: &mut String) {
+        let s = &self.calibration.all;
         let _ = writeln!(o);
         let _ = writeln!(o, "Table 1 – base: B's projection centre in A's frame (mm)");
-        header(&mut o, ["X", "Y", "Z"]);
-        stats_rows(&mut o, s, true);
+        header(o, ["X", "Y", "Z"]);
+        stats_rows(o, s, true);
         let _ = writeln!(o);
         let _ = writeln!(o, "Table 2 – orientation: ω φ κ of R_A_from_B (deg)");
-        header(&mut o, ["ω", "φ", "κ"]);
-        stats_rows(&mut o, s, false);
-        row(&mut o, "SO(3) mean", deg3(&s.mean_rotation_angles), 4);
+        header(o, ["ω", "φ", "κ"]);
+        stats_rows(o, s, false);
+        row(o, "SO(3) mean", deg3(&s.mean_rotation_angles), 4);
         let _ = writeln!(o);
+    }
+
+    /// The tangent covariance: σ of one epoch and SE of the mean per axis, with the SE rule.
+    fn report_tangent(&self, o: &mut String) {
+        let c = &self.calibration;
         let sd = |m: &Mat6, j: usize| {
             let f = if j < 3 { 1.0 } else { 1f64.to_degrees() };
             m[(j, j)].max(0.0).sqrt() * f
@@ -767,6 +667,11 @@ impl CalibrationResult {
             self.sem_rule
         );
         let _ = writeln!(o);
+    }
+
+    /// The outlier epochs with their z-scores, and the statistics without them.
+    fn report_outliers(&self, o: &mut String) {
+        let c = &self.calibration;
         let idx = c.outliers.indices();
         let _ = writeln!(
             o,
@@ -790,16 +695,21 @@ impl CalibrationResult {
             match &c.without_outliers {
                 Some(w) => {
                     let _ = writeln!(o, "Without outliers ({} epochs):", w.n);
-                    header(&mut o, ["X (mm)", "Y (mm)", "Z (mm)"]);
-                    stats_rows(&mut o, w, true);
-                    header(&mut o, ["ω (deg)", "φ (deg)", "κ (deg)"]);
-                    stats_rows(&mut o, w, false);
+                    header(o, ["X (mm)", "Y (mm)", "Z (mm)"]);
+                    stats_rows(o, w, true);
+                    header(o, ["ω (deg)", "φ (deg)", "κ (deg)"]);
+                    stats_rows(o, w, false);
                 }
                 None => {
                     let _ = writeln!(o, "Without outliers: fewer than two epochs remain");
                 }
             }
         }
+    }
+
+    /// The drift report: lag-1 autocorrelation, effective n and SEM inflation per parameter.
+    fn report_drift(&self, o: &mut String) {
+        let c = &self.calibration;
         if let Some(d) = &c.drift {
             let _ = writeln!(o);
             let _ = writeln!(
@@ -823,6 +733,13 @@ impl CalibrationResult {
                 );
             }
         }
+    }
+
+    /// The rig-constrained refinement (with and without the outliers) against the epoch mean.
+    fn report_refinement(&self, o: &mut String) {
+        let c = &self.calibration;
+        let s = &c.all;
+        let idx = c.outliers.indices();
         if let Some(r) = &c.refined {
             let _ = writeln!(o);
             let _ = writeln!(
@@ -898,7 +815,6 @@ impl CalibrationResult {
                 let _ = writeln!(o, "  {name:<8}{:>43.d$} ± {:>8.d$}", v, sd, d = d);
             }
         }
-        o
     }
 
     /// The per-epoch series, histograms and autocorrelation plots of the six parameters, as

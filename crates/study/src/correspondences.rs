@@ -8,7 +8,7 @@
 //!
 //! Lengths are converted to mm with `mm_per_unit` here; nothing downstream sees model units.
 
-use crate::tie::TieError;
+use crate::error::TieError;
 use crashrig_camera::Camera;
 use crashrig_colmap::Reconstruction;
 use crashrig_colmap::database::Database;

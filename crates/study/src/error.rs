@@ -1,5 +1,9 @@
-//! The one error type of `crashrig-study`.
+//! The error types of `crashrig-study`: [`Error`] (every command and the study), and the
+//! step errors it carries ([`StepError`], [`CalibrationError`], [`TieError`]). They import
+//! nothing from the other modules, so every module can use them (no module cycle).
 
+use crashrig_rig::Error as RigError;
+use crashrig_stats::progress::Cancelled;
 use std::path::PathBuf;
 
 /// Everything that can go wrong while reading a study file or running a study.
@@ -136,7 +140,8 @@ pub enum Error {
     #[error("internal: {problem}")]
     Bundled {
         /// What is wrong.
-        problem: String,
+        #[source]
+        problem: BundledError,
     },
     /// A scenario without cameras given to `propagate`.
     #[error("{}: `camera`: the scenario has no camera", path.display())]
@@ -157,10 +162,10 @@ pub enum Error {
 pub enum StepError {
     /// The calibration (`[calibration]`).
     #[error(transparent)]
-    Calibration(#[from] crate::calibration::CalibrationError),
+    Calibration(#[from] CalibrationError),
     /// The tie bootstrap (`[tie]`).
     #[error(transparent)]
-    Tie(#[from] crate::tie::TieError),
+    Tie(#[from] TieError),
     /// The Monte Carlo library refused the chain (`[outward]`) or a layout.
     #[error(transparent)]
     Mc(#[from] crashrig_mc::Error),
@@ -179,4 +184,293 @@ pub enum StepError {
     /// `[measure] camera_c` without a `[tie]` to link camera C.
     #[error("camera_c needs a [tie] section (the link B_from_C)")]
     CameraCWithoutTie,
+}
+
+/// Everything that can go wrong in a calibration; each message names the model directory (and
+/// the option at fault).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CalibrationError {
+    /// Reading the COLMAP model failed (the message names the file).
+    #[error(transparent)]
+    Colmap(#[from] crashrig_colmap::Error),
+    /// The known length of a scale bar is zero, negative or not finite.
+    #[error(
+        "{}: invalid scale-bar length {length_mm} mm (--scale-length-mm / scale_length_mm must be finite and > 0)",
+        model.display()
+    )]
+    InvalidScaleLength {
+        /// The model directory.
+        model: PathBuf,
+        /// The rejected value.
+        length_mm: f64,
+    },
+    /// The two scale-bar points coincide (zero model distance), so no scale follows.
+    #[error(
+        "{}: scale-bar points {point_1} and {point_2} are {distance} model units apart; \
+         a scale needs two distinct points",
+        model.display()
+    )]
+    ZeroLengthScaleBar {
+        /// The model directory.
+        model: PathBuf,
+        /// First point3D id.
+        point_1: u64,
+        /// Second point3D id.
+        point_2: u64,
+        /// Their distance in model units.
+        distance: f64,
+    },
+    /// A point3D id that is not in the model.
+    #[error("{}: no point3D with id {point_id} (--scale-points / scale_points)", model.display())]
+    UnknownPoint {
+        /// The model directory.
+        model: PathBuf,
+        /// The missing id.
+        point_id: u64,
+    },
+    /// A camera selector (prefix or camera id) that matches no image of the model.
+    #[error(
+        "{}: camera {role} `{selector}` matches no image (a name prefix such as `cam_out/`, \
+         or a camera id; the model has {n_images} images)",
+        model.display()
+    )]
+    NoImagesForCamera {
+        /// The model directory.
+        model: PathBuf,
+        /// `'A'` or `'B'`.
+        role: char,
+        /// The selector as given.
+        selector: String,
+        /// Number of images in the model.
+        n_images: usize,
+    },
+    /// Cameras A and B select the same images.
+    #[error("{}: cameras A and B both select image `{image}`", model.display())]
+    OverlappingCameras {
+        /// The model directory.
+        model: PathBuf,
+        /// An image selected by both.
+        image: String,
+    },
+    /// Images of both cameras exist but none pair up.
+    #[error(
+        "{}: no epoch pairs camera A and B: {unpaired_a} image(s) of A and {unpaired_b} of B \
+         share neither a name (after removing the prefix) nor a frame",
+        model.display()
+    )]
+    NoEpochs {
+        /// The model directory.
+        model: PathBuf,
+        /// Number of A images without a partner.
+        unpaired_a: usize,
+        /// Number of B images without a partner.
+        unpaired_b: usize,
+    },
+    /// Two images of the same camera claim the same epoch key.
+    #[error("{}: images `{first}` and `{second}` of camera {role} both pair as epoch `{key}`", model.display())]
+    DuplicateEpoch {
+        /// The model directory.
+        model: PathBuf,
+        /// `'A'` or `'B'`.
+        role: char,
+        /// The epoch key.
+        key: String,
+        /// First image name.
+        first: String,
+        /// Second image name.
+        second: String,
+    },
+    /// Every epoch gives the same link: the model was adjusted with a rig constraint.
+    #[error(
+        "{}: all {n_epochs} epochs give the same link A_from_B (spread {spread_mm:.1e} mm, \
+         {spread_deg:.1e} deg: numerical zero). The model was adjusted with a rig constraint \
+         (frames sharing one sensor_from_rig), so its epochs are not independent measurements \
+         of the link and σ = σ/√n = 0 would mean nothing. Calibrate a model reconstructed \
+         without rig constraints (each image in its own frame, as COLMAP's rig workflow does \
+         before `rig_configurator`), or pass --accept-rig-constrained \
+         (study file: accept_rig_constrained = true) to inspect this one",
+        model.display()
+    )]
+    RigConstrained {
+        /// The model directory.
+        model: PathBuf,
+        /// Number of epochs.
+        n_epochs: usize,
+        /// Largest σ of the base over the epochs (mm).
+        spread_mm: f64,
+        /// Largest σ of the rotation over the epochs (deg).
+        spread_deg: f64,
+    },
+    /// The calibration of the epochs failed (scale, too few epochs, degenerate rotations).
+    #[error("{}: calibration failed: {source}", model.display())]
+    Rig {
+        /// The model directory.
+        model: PathBuf,
+        /// What failed.
+        source: RigError,
+    },
+    /// A plot could not be drawn.
+    #[error("{}: plotting {what}: {source}", dir.display())]
+    Plot {
+        /// The plot directory.
+        dir: PathBuf,
+        /// Which figure.
+        what: String,
+        /// What failed.
+        source: crashrig_plot::Error,
+    },
+    /// A plot file could not be written.
+    #[error("{}: {what}: {source}", path.display())]
+    Io {
+        /// The file or directory.
+        path: PathBuf,
+        /// What was being done.
+        what: &'static str,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The caller's monitor cancelled the calibration.
+    #[error(transparent)]
+    Cancelled(#[from] Cancelled),
+}
+
+/// Why a tie bootstrap failed. Every message names the file or option at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum TieError {
+    /// A configuration value is out of range.
+    #[error("{message}")]
+    Option {
+        /// The option (CLI spelling, e.g. `--mm-per-unit`).
+        option: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+    /// The COLMAP model cannot be read or lacks what the tie needs.
+    #[error("{}: {message}", path.display())]
+    Model {
+        /// The model directory.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// The COLMAP database cannot be read or lacks what the tie needs.
+    #[error("{}: {message}", path.display())]
+    Database {
+        /// The database file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// The pose estimation on the full sample failed (the file holding the correspondences).
+    #[error("{}: {message}", path.display())]
+    Estimation {
+        /// The model (absolute) or database (relative) the correspondences came from.
+        path: PathBuf,
+        /// What failed.
+        message: String,
+    },
+    /// Too few replicates succeeded, or the replicate summary is undefined.
+    #[error("{message}")]
+    Replicates {
+        /// What is wrong.
+        message: String,
+    },
+    /// The caller's monitor cancelled the run.
+    #[error(transparent)]
+    Cancelled(#[from] Cancelled),
+}
+
+/// A plot error of the measure crate's writers as the study's [`Error::Plot`]; `figure` names
+/// the kind of plot (`trajectory`, `kinematics`).
+pub(crate) fn measure_plot_error(e: crashrig_measure::Error, figure: &'static str) -> Error {
+    match e {
+        crashrig_measure::Error::Plot { marker, source } => Error::Plot {
+            what: format!("{figure} of marker {marker}"),
+            source,
+        },
+        // The plot writers fail only with `Plot`; anything else keeps its message.
+        other => Error::Plot {
+            what: format!("{figure} plots"),
+            source: crashrig_plot::Error::Draw {
+                figure,
+                message: other.to_string(),
+            },
+        },
+    }
+}
+
+/// What is wrong with a bundled input of `crashrig paper` (the source of [`Error::Bundled`]).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum BundledError {
+    /// The generated study file does not serialise as TOML.
+    #[error("the study file does not serialise: {0}")]
+    Toml(#[source] toml::ser::Error),
+    /// `scenarios/{stem}.toml` is not bundled.
+    #[error("no bundled scenario {stem}")]
+    NoScenario {
+        /// The scenario's file stem.
+        stem: String,
+    },
+    /// The bundled scenario has no `[grid]`.
+    #[error("bundled scenario {stem} without a grid")]
+    NoGrid {
+        /// The scenario's file stem.
+        stem: String,
+    },
+    /// The bundled scenario's observers do not match the paper's layout table.
+    #[error("scenario {stem} has {observers} observers, the paper's layout table {expected}")]
+    Observers {
+        /// The scenario's file stem.
+        stem: String,
+        /// Observers in the scenario.
+        observers: usize,
+        /// Observers in the paper's layout table.
+        expected: usize,
+    },
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bundled_messages_are_the_former_strings_and_keep_their_source() {
+        let e = Error::Bundled {
+            problem: BundledError::NoScenario { stem: "s1".into() },
+        };
+        assert_eq!(e.to_string(), "internal: no bundled scenario s1");
+        let e = Error::Bundled {
+            problem: BundledError::NoGrid { stem: "s1".into() },
+        };
+        assert_eq!(
+            e.to_string(),
+            "internal: bundled scenario s1 without a grid"
+        );
+        let e = Error::Bundled {
+            problem: BundledError::Observers {
+                stem: "s1".into(),
+                observers: 3,
+                expected: 2,
+            },
+        };
+        assert_eq!(
+            e.to_string(),
+            "internal: scenario s1 has 3 observers, the paper's layout table 2"
+        );
+        // A bare number is no TOML document: a real serialiser error as the source.
+        let toml_error = toml::to_string(&1.5_f64).unwrap_err();
+        let text = toml_error.to_string();
+        let e = Error::Bundled {
+            problem: BundledError::Toml(toml_error),
+        };
+        assert_eq!(
+            e.to_string(),
+            format!("internal: the study file does not serialise: {text}")
+        );
+        let problem = std::error::Error::source(&e).expect("the typed problem");
+        let toml = problem.source().expect("the serialiser's error");
+        assert!(toml.downcast_ref::<toml::ser::Error>().is_some());
+    }
 }

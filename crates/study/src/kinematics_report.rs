@@ -122,7 +122,7 @@ pub fn write(d: &Path, m: &MeasureResult) -> Result<Vec<MarkerPlot>, Error> {
     };
     crate::grids::write(d, "kinematics.csv", csv.as_bytes())?;
     let plots = measure_output::kinematics_plots(ms)
-        .map_err(|e| crate::report::measure_plot_error(e, "kinematics"))?;
+        .map_err(|e| crate::error::measure_plot_error(e, "kinematics"))?;
     for p in &plots {
         crate::grids::write(&d.join("plots"), &format!("{}.png", p.stem), &p.png)?;
         crate::grids::write(&d.join("plots"), &format!("{}.svg", p.stem), &p.svg)?;

@@ -2,6 +2,7 @@
 //!
 //! Each step is a function with typed inputs and a typed result; the `crashrig` binary only
 //! turns arguments into a configuration, calls one function and prints the result.
+//! - [`contract`]: the JSON documents (`calibrate --json`, `results.json`) as serde structs;
 //! - [`study_file`]: the study file (TOML) → a validated [`Study`];
 //! - [`calibration`]: COLMAP model → epochs → the rig link `A_from_B` with its covariance;
 //! - [`tie`]: database + model → correspondences → bootstrap → the tie link with its covariance;
@@ -18,6 +19,8 @@
 //! - [`measure_step`]: `[measure]` — a test sequence measured with the study's own link;
 //! - [`quality`]: calibration quality — reprojection residuals per camera and the split-half
 //!   check of the link;
+//! - [`quality_report`]: the calibration's verdict box and the report section "Calibration
+//!   quality";
 //! - [`report`]: `results.json`, every step's files and the self-contained `report.html`.
 //!
 //! # Example
@@ -34,6 +37,7 @@
 #![deny(missing_docs)]
 
 pub mod calibration;
+pub mod contract;
 pub mod correspondences;
 pub mod epochs;
 mod error;
@@ -50,12 +54,13 @@ pub mod paper_study;
 pub mod pipeline;
 pub mod propagate_run;
 pub mod quality;
+pub mod quality_report;
 pub mod report;
 pub mod study_file;
 pub mod study_run;
 pub mod tie;
 
-pub use error::{Error, StepError};
+pub use error::{BundledError, Error, StepError};
 pub use grid_run::{GridConfig, GridRun, run_grid, run_grid_scenario};
 pub use pipeline::{Options, StudyResult, run_study};
 pub use propagate_run::{PropagateConfig, PropagateRun, run_propagate};

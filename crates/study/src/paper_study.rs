@@ -5,8 +5,8 @@
 //! The command embeds the inputs and writes them next to this file; the layouts' grids are
 //! read from the bundled scenarios, so the study file and the scenarios cannot disagree.
 
-use crate::Error;
 use crate::study_file::ChainCamera;
+use crate::{BundledError, Error};
 use serde::Serialize;
 use std::path::Path;
 
@@ -164,11 +164,11 @@ struct Layouts<'a> {
 }
 
 fn toml_text<T: Serialize>(value: &T) -> Result<String, Error> {
-    toml::to_string(value).map_err(|e| bundled(format!("the study file does not serialise: {e}")))
+    toml::to_string(value).map_err(|e| bundled(BundledError::Toml(e)))
 }
 
 /// An error of the bundled inputs (a bug of the program, not of the user's input).
-fn bundled(problem: String) -> Error {
+fn bundled(problem: BundledError) -> Error {
     Error::Bundled { problem }
 }
 
@@ -178,12 +178,19 @@ fn grid_axis(a: crashrig_mc::Axis) -> (f64, f64, usize) {
 
 /// The grid of the bundled scenario `stem` (`scenarios/{stem}.toml` of `inputs`).
 fn bundled_grid(stem: &str, inputs: &Inputs<'_>) -> Result<crashrig_mc::Grid, Error> {
-    let text = inputs(&format!("scenarios/{stem}.toml"))
-        .ok_or_else(|| bundled(format!("no bundled scenario {stem}")))?;
+    let text = inputs(&format!("scenarios/{stem}.toml")).ok_or_else(|| {
+        bundled(BundledError::NoScenario {
+            stem: stem.to_string(),
+        })
+    })?;
     crashrig_mc::Scenario::from_toml_str(text, Path::new(stem))
         .map_err(|source| Error::Scenario { path: None, source })?
         .grid
-        .ok_or_else(|| bundled(format!("bundled scenario {stem} without a grid")))
+        .ok_or_else(|| {
+            bundled(BundledError::NoGrid {
+                stem: stem.to_string(),
+            })
+        })
 }
 
 /// A layout of the paper on the grid of a bundled scenario: its observers take the paper's
@@ -199,11 +206,11 @@ fn paper_layout(
 ) -> Result<LayoutKeys, Error> {
     let g = bundled_grid(stem, inputs)?;
     if g.observers.len() != feeds.len() {
-        return Err(bundled(format!(
-            "scenario {stem} has {} observers, the paper's layout table {}",
-            g.observers.len(),
-            feeds.len()
-        )));
+        return Err(bundled(BundledError::Observers {
+            stem: stem.to_string(),
+            observers: g.observers.len(),
+            expected: feeds.len(),
+        }));
     }
     let observer = g
         .observers

@@ -10,6 +10,10 @@
 use crate::Error;
 use crate::StepError;
 use crate::calibration::{self, CalibrationConfig, CalibrationResult};
+use crate::contract::{
+    ACovarianceSummary, ChainCameraDocument, LayoutDocument, LinearDocument, MeasureDocument,
+    ObserverDocument, PropagationDocument, StudyDocument,
+};
 use crate::grids::GridSummary;
 use crate::study_file::{
     ChainCamera, Layout, ObserverNoise, Study, StudyScale, TieMethod, TieResample,
@@ -21,7 +25,7 @@ use crashrig_mc::{
 };
 use crashrig_stats::progress::Monitor;
 use nalgebra::Vector3;
-use serde_json::{Value, json};
+use serde_json::Value;
 
 /// A progress report: `(stage, done, total)`, with `done ≤ total`.
 pub type Progress<'a> = &'a (dyn Fn(&str, u64, u64) + Sync);
@@ -50,17 +54,7 @@ pub struct ChainPose {
     pub linear: PoseLinear,
 }
 
-/// The one-at-a-time sensitivity of a layout to one input.
-#[derive(Debug, Clone, serde::Serialize)]
-pub struct Sensitivity {
-    /// The input whose σ is halved (`outward`, `link` (calibration), `tie`, or an observer's
-    /// name for a given σ).
-    pub input: String,
-    /// Median σ_max (mm) with that input's σ halved.
-    pub median_sigma_max_mm: f64,
-    /// Fraction below the threshold with that input's σ halved.
-    pub fraction_below_threshold: f64,
-}
+pub use crate::contract::Sensitivity;
 
 /// The result of one layout.
 #[derive(Debug, Clone)]
@@ -345,6 +339,69 @@ fn chain_inputs_used(layout: &Layout) -> [bool; 3] {
 pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Error> {
     let seed = options.seed.unwrap_or(study.seed);
     let samples = options.samples.unwrap_or(study.samples);
+    check_sizes(study, samples)?;
+    let steps = Steps::new(study, options);
+
+    let sub = steps.within("calibration".into());
+    let calibration = calibration::calibrate(
+        &calibration_config(study),
+        steps.on().then_some(&sub as &dyn Monitor),
+    )
+    .map_err(|e| study.step_error("calibration", 0, e))?;
+    steps.tick("calibration");
+    let tie = match &study.tie {
+        Some(t) => {
+            let sub = steps.within("tie replicates + jackknife".into());
+            let r = tie::bootstrap(
+                &tie_config(t, seed),
+                steps.on().then_some(&sub as &dyn Monitor),
+            )
+            .map_err(|e| study.step_error("tie", 0, e))?;
+            steps.tick("tie");
+            Some(r)
+        }
+        None => None,
+    };
+
+    let mut inputs = vec![
+        (ChainCamera::Outward, study.outward),
+        (ChainCamera::Inward, calibration.link),
+    ];
+    if let Some(t) = &tie {
+        inputs.push((ChainCamera::Tie, t.link));
+    }
+    let chain = propagate(study, &inputs, seed, &steps)?;
+    let run = LayoutRun {
+        study,
+        inputs: &inputs,
+        samples,
+        seed,
+        steps: &steps,
+    };
+    let layouts = study
+        .layouts
+        .iter()
+        .map(|layout| run.layout_result(layout, options.no_sensitivity))
+        .collect::<Result<Vec<_>, Error>>()?;
+    let measure = measure_sequence(study, &calibration, tie.as_ref(), samples, seed)?;
+    if measure.is_some() {
+        steps.tick("measure");
+    }
+    Ok(StudyResult {
+        seed,
+        samples,
+        chain_samples: study.chain_samples,
+        calibration,
+        tie,
+        inputs,
+        chain,
+        layouts,
+        measure,
+    })
+}
+
+/// The run's sizes within their limits: `samples` and every layout's grid (`docs/LIMITS.md`).
+fn check_sizes(study: &Study, samples: usize) -> Result<(), Error> {
     let max = crashrig_mc::limits::MAX_SAMPLES;
     if !(2..=max).contains(&samples) {
         return Err(Error::Key {
@@ -358,81 +415,83 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
         crate::study_file::check_layout_size(layout, samples)
             .map_err(|problem| study.step_error("layout", i, StepError::LayoutSize { problem }))?;
     }
-    let n_sens: usize = if options.no_sensitivity {
-        0
-    } else {
-        study
-            .layouts
-            .iter()
-            .map(|l| {
-                chain_inputs_used(l).iter().filter(|u| **u).count()
-                    + l.observers
-                        .iter()
-                        .filter(|o| matches!(o.noise, ObserverNoise::Given(_)))
-                        .count()
-            })
-            .sum()
-    };
-    let total = (2
-        + usize::from(study.tie.is_some())
-        + usize::from(study.measure.is_some())
-        + study.layouts.len()
-        + n_sens) as u64;
-    let done = std::sync::atomic::AtomicU64::new(0);
-    let tick = |stage: &str| {
-        let d = (done.load(std::sync::atomic::Ordering::Relaxed) + 1).min(total);
-        done.store(d, std::sync::atomic::Ordering::Relaxed);
-        if let Some(p) = options.progress {
-            p(stage, d, total);
+    Ok(())
+}
+
+/// The progress of a run: one step per calibration, tie, propagation, measure, layout and
+/// sensitivity run, reported through [`Options::progress`].
+struct Steps<'a> {
+    done: std::sync::atomic::AtomicU64,
+    total: u64,
+    progress: Option<Progress<'a>>,
+}
+
+impl<'a> Steps<'a> {
+    fn new(study: &Study, options: &Options<'a>) -> Self {
+        let n_sens: usize = if options.no_sensitivity {
+            0
+        } else {
+            study
+                .layouts
+                .iter()
+                .map(|l| sensitivity_variants(l, &Scales::unit(l.observers.len())).len())
+                .sum()
+        };
+        let total = (2
+            + usize::from(study.tie.is_some())
+            + usize::from(study.measure.is_some())
+            + study.layouts.len()
+            + n_sens) as u64;
+        Steps {
+            done: std::sync::atomic::AtomicU64::new(0),
+            total,
+            progress: options.progress,
         }
-    };
-    // Finer progress inside a step: `stage d/t` as the message, the step count unchanged.
-    let within = |stage: String| {
-        let done = &done;
+    }
+
+    /// Whether anyone listens (finer progress is only computed then).
+    fn on(&self) -> bool {
+        self.progress.is_some()
+    }
+
+    /// One step done.
+    fn tick(&self, stage: &str) {
+        let d = (self.done.load(std::sync::atomic::Ordering::Relaxed) + 1).min(self.total);
+        self.done.store(d, std::sync::atomic::Ordering::Relaxed);
+        if let Some(p) = self.progress {
+            p(stage, d, self.total);
+        }
+    }
+
+    /// Finer progress inside a step: `stage d/t` as the message, the step count unchanged.
+    fn within(&self, stage: String) -> impl Fn(usize, usize) + Sync + '_ {
         move |d: usize, t: usize| {
-            if let Some(p) = options.progress {
-                let steps = done.load(std::sync::atomic::Ordering::Relaxed);
-                p(&format!("{stage} {d}/{t}"), steps, total);
+            if let Some(p) = self.progress {
+                let steps = self.done.load(std::sync::atomic::Ordering::Relaxed);
+                p(&format!("{stage} {d}/{t}"), steps, self.total);
             }
         }
-    };
-    fn hook(on: bool, f: &(dyn Fn(usize, usize) + Sync)) -> Option<&(dyn Fn(usize, usize) + Sync)> {
-        on.then_some(f)
     }
-    let on = options.progress.is_some();
+}
 
-    let sub = within("calibration".into());
-    let calibration = calibration::calibrate(
-        &calibration_config(study),
-        on.then_some(&sub as &dyn Monitor),
-    )
-    .map_err(|e| study.step_error("calibration", 0, e))?;
-    tick("calibration");
-    let tie = match &study.tie {
-        Some(t) => {
-            let sub = within("tie replicates + jackknife".into());
-            let r = tie::bootstrap(&tie_config(t, seed), on.then_some(&sub as &dyn Monitor))
-                .map_err(|e| study.step_error("tie", 0, e))?;
-            tick("tie");
-            Some(r)
-        }
-        None => None,
-    };
+fn hook(on: bool, f: &(dyn Fn(usize, usize) + Sync)) -> Option<&(dyn Fn(usize, usize) + Sync)> {
+    on.then_some(f)
+}
 
-    let mut inputs = vec![
-        (ChainCamera::Outward, study.outward),
-        (ChainCamera::Inward, calibration.link),
-    ];
-    if let Some(t) = &tie {
-        inputs.push((ChainCamera::Tie, t.link));
-    }
-    // The chain of outward → inward → tie: its errors name `[outward]`'s line.
+/// The chain of outward → inward → tie, Monte Carlo and first order: its errors name
+/// `[outward]`'s line.
+fn propagate(
+    study: &Study,
+    inputs: &[(ChainCamera, UncertainPose)],
+    seed: u64,
+    steps: &Steps<'_>,
+) -> Result<Vec<ChainPose>, Error> {
     let mc_err = |e: crashrig_mc::Error| study.step_error("outward", 0, e);
-    let (chain_mc, _) = build_chain(&inputs, &Scales::unit(0)).map_err(mc_err)?;
-    let sub = within("propagation chunks".into());
-    let mc = chain_mc.monte_carlo_with_progress(study.chain_samples, seed, hook(on, &sub));
+    let (chain_mc, _) = build_chain(inputs, &Scales::unit(0)).map_err(mc_err)?;
+    let sub = steps.within("propagation chunks".into());
+    let mc = chain_mc.monte_carlo_with_progress(study.chain_samples, seed, hook(steps.on(), &sub));
     let linear = chain_mc.linear();
-    let chain: Vec<ChainPose> = inputs
+    let chain = inputs
         .iter()
         .zip(mc.into_iter().zip(linear))
         .map(|((c, _), (mc, linear))| ChainPose {
@@ -441,12 +500,84 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
             linear,
         })
         .collect();
-    tick("propagation");
+    steps.tick("propagation");
+    Ok(chain)
+}
 
-    let run_layout = |layout: &Layout,
-                      s: &Scales,
-                      stage: String|
-     -> Result<(crashrig_mc::Grid, GridResult), Error> {
+/// The one-at-a-time sensitivity runs of a layout: each chain input it depends on, then each
+/// observer with a given σ, with that input's covariance divided by 4 (σ halved).
+fn sensitivity_variants(layout: &Layout, unit: &Scales) -> Vec<(String, Scales)> {
+    let used = chain_inputs_used(layout);
+    let mut variants: Vec<(String, Scales)> = Vec::new();
+    for (k, name) in ["outward", "link", "tie"].iter().enumerate() {
+        if used[k] {
+            let mut s = unit.clone();
+            match k {
+                0 => s.outward = 0.25,
+                1 => s.link = 0.25,
+                _ => s.tie = 0.25,
+            }
+            variants.push((name.to_string(), s));
+        }
+    }
+    for (i, o) in layout.observers.iter().enumerate() {
+        if matches!(o.noise, ObserverNoise::Given(_)) {
+            let mut s = unit.clone();
+            s.observers[i] = 0.25;
+            variants.push((format!("observer {}", o.name), s));
+        }
+    }
+    variants
+}
+
+/// What every layout's grid runs share: the chain's inputs, draws, seed and progress.
+struct LayoutRun<'r> {
+    study: &'r Study,
+    inputs: &'r [(ChainCamera, UncertainPose)],
+    samples: usize,
+    seed: u64,
+    steps: &'r Steps<'r>,
+}
+
+impl LayoutRun<'_> {
+    /// One layout: its grid with the inputs as given, then (unless `no_sensitivity`) its
+    /// one-at-a-time sensitivity.
+    fn layout_result(&self, layout: &Layout, no_sensitivity: bool) -> Result<LayoutResult, Error> {
+        let unit = Scales::unit(layout.observers.len());
+        let (grid, result) = self.grid(layout, &unit, format!("layout {}", layout.name))?;
+        let summary = GridSummary::new(&grid, &result);
+        self.steps.tick(&format!("layout {}", layout.name));
+        let mut sensitivity = Vec::new();
+        if !no_sensitivity {
+            for (input, s) in sensitivity_variants(layout, &unit) {
+                let (g, r) = self.grid(layout, &s, format!("sensitivity {}", layout.name))?;
+                let sm = GridSummary::new(&g, &r);
+                sensitivity.push(Sensitivity {
+                    input,
+                    median_sigma_max_mm: sm.median_sigma_max_mm,
+                    fraction_below_threshold: sm.fraction_below_threshold,
+                });
+                self.steps.tick(&format!("sensitivity {}", layout.name));
+            }
+        }
+        Ok(LayoutResult {
+            layout: layout.clone(),
+            grid,
+            result,
+            summary,
+            sensitivity,
+        })
+    }
+
+    /// The grid of a layout with the inputs' covariances scaled by `s`: degenerate points
+    /// blanked, the observers' σ resolved.
+    fn grid(
+        &self,
+        layout: &Layout,
+        s: &Scales,
+        stage: String,
+    ) -> Result<(crashrig_mc::Grid, GridResult), Error> {
+        let study = self.study;
         // Errors about a layout name its `[[layout]]` line.
         let at_layout = |e: crashrig_mc::Error| {
             let i = study
@@ -456,11 +587,11 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
                 .unwrap_or(0);
             study.step_error("layout", i, e)
         };
-        let g = layout_study(&inputs, layout, s, samples, seed).map_err(at_layout)?;
+        let g = layout_study(self.inputs, layout, s, self.samples, self.seed).map_err(at_layout)?;
         crashrig_mc::degenerate::check_layout(g.grid()).map_err(at_layout)?;
-        let sub = within(format!("{stage}: points"));
+        let sub = self.steps.within(format!("{stage}: points"));
         let mut r = g
-            .evaluate_with_progress(hook(on, &sub))
+            .evaluate_with_progress(hook(self.steps.on(), &sub))
             .map_err(at_layout)?;
         let mut grid = g.grid().clone();
         // Degenerate points (rays nearly parallel) are blanked (NaN): kept out of colour
@@ -470,69 +601,7 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
             o.sigma = crashrig_mc::ObserverSigma::Covariance(*c);
         }
         Ok((grid, r))
-    };
-    let mut layouts = Vec::new();
-    for layout in &study.layouts {
-        let unit = Scales::unit(layout.observers.len());
-        let (grid, result) = run_layout(layout, &unit, format!("layout {}", layout.name))?;
-        let summary = GridSummary::new(&grid, &result);
-        tick(&format!("layout {}", layout.name));
-        let mut sensitivity = Vec::new();
-        if !options.no_sensitivity {
-            let used = chain_inputs_used(layout);
-            let mut variants: Vec<(String, Scales)> = Vec::new();
-            for (k, name) in ["outward", "link", "tie"].iter().enumerate() {
-                if used[k] {
-                    let mut s = unit.clone();
-                    match k {
-                        0 => s.outward = 0.25,
-                        1 => s.link = 0.25,
-                        _ => s.tie = 0.25,
-                    }
-                    variants.push((name.to_string(), s));
-                }
-            }
-            for (i, o) in layout.observers.iter().enumerate() {
-                if matches!(o.noise, ObserverNoise::Given(_)) {
-                    let mut s = unit.clone();
-                    s.observers[i] = 0.25;
-                    variants.push((format!("observer {}", o.name), s));
-                }
-            }
-            for (input, s) in variants {
-                let (g, r) = run_layout(layout, &s, format!("sensitivity {}", layout.name))?;
-                let sm = GridSummary::new(&g, &r);
-                sensitivity.push(Sensitivity {
-                    input,
-                    median_sigma_max_mm: sm.median_sigma_max_mm,
-                    fraction_below_threshold: sm.fraction_below_threshold,
-                });
-                tick(&format!("sensitivity {}", layout.name));
-            }
-        }
-        layouts.push(LayoutResult {
-            layout: layout.clone(),
-            grid,
-            result,
-            summary,
-            sensitivity,
-        });
     }
-    let measure = measure_sequence(study, &calibration, tie.as_ref(), samples, seed)?;
-    if measure.is_some() {
-        tick("measure");
-    }
-    Ok(StudyResult {
-        seed,
-        samples,
-        chain_samples: study.chain_samples,
-        calibration,
-        tie,
-        inputs,
-        chain,
-        layouts,
-        measure,
-    })
 }
 
 /// `[measure]`: the test sequence measured with the calibration's typed link (mean with its
@@ -579,78 +648,109 @@ impl StudyResult {
     /// `results.json`: `calibration` and `tie` exactly as `calibrate --json` and
     /// `bootstrap --json` print them, then the propagation and each layout's summary. No
     /// timing, so the same study and seed give the same bytes.
-    pub fn to_json(&self) -> Value {
-        let cameras: Vec<Value> = self
-            .chain
-            .iter()
-            .map(|c| {
-                let m = &c.mc;
-                json!({
-                    "name": c.camera.name(),
-                    "position_mm": <[f64; 3]>::from(m.nominal.position_mm),
-                    "angles_deg": deg3(m.nominal.angles_rad()),
-                    "position_sigma_mm": <[f64; 3]>::from(m.position_sigma_mm),
-                    "angles_sigma_deg": deg3(m.angles_sigma_rad),
-                    "tangent_sigma_deg": deg3(m.tangent_sigma_rad),
-                    "covariance_tangent": covariance_deg_rows(&m.covariance_tangent),
-                    "angles_singular": m.angles_singular,
-                    "linear": {
-                        "position_sigma_mm": <[f64; 3]>::from(c.linear.position_sigma_mm),
-                        "angles_sigma_deg": c.linear.angles_sigma_rad.map(deg3),
-                        "tangent_sigma_deg": deg3(c.linear.tangent_sigma_rad),
-                        "covariance_tangent": covariance_deg_rows(&c.linear.covariance_tangent),
-                    },
-                })
-            })
-            .collect();
-        let layouts: Vec<Value> = self
-            .layouts
-            .iter()
-            .map(|l| {
-                json!({
-                    "name": l.layout.name,
-                    "dir": format!("grid/{}", l.layout.slug()),
-                    "description": l.layout.description,
-                    "correlated": l.result.correlated,
-                    "observers": l.grid.observers.iter().zip(&l.layout.observers).zip(&l.result.observer_covariance).map(|((o, lo), c)| {
-                        let s = sigmas(c);
-                        json!({
-                            "name": o.name,
-                            "position_mm": <[f64; 3]>::from(o.position_mm),
-                            "from": match lo.noise { ObserverNoise::From(c) => Some(c.name()), ObserverNoise::Given(_) => None },
-                            "sigma_position_mm": <[f64; 3]>::from(s.position_mm),
-                            "sigma_angles_deg": deg3(s.angles_rad),
-                            "covariance_tangent": covariance_deg_rows(c),
-                        })
-                    }).collect::<Vec<_>>(),
-                    "summary": l.summary,
-                    "sensitivity": l.sensitivity,
-                })
-            })
-            .collect();
-        let mut v = json!({
-            "seed": self.seed,
-            "samples": self.samples,
-            "calibration": self.calibration.to_json(),
-            "tie": self.tie.as_ref().map(TieResult::to_json),
-            "propagation": {"samples": self.chain_samples, "seed": self.seed, "rotation_noise": "tangent", "cameras": cameras},
-            "layouts": layouts,
-        });
-        if let Some(m) = &self.measure {
-            v["measure"] = json!({"dir": "measure", "summary": m.summary});
-            if let Some(a) = &m.a_covariance {
-                // The per-epoch and joint matrices are in measure/a_covariance.json (what
-                // `crashrig covariance --out` writes); here its numbers and σ per epoch.
-                let mut j = a.to_json();
-                if let Some(o) = j.as_object_mut() {
-                    o.remove("epochs");
-                    o.remove("joint");
-                }
-                j["file"] = json!("measure/a_covariance.json");
-                v["measure"]["a_covariance"] = j;
-            }
+    pub fn document(&self) -> StudyDocument {
+        StudyDocument {
+            calibration: self.calibration.document(),
+            layouts: self.layouts.iter().map(layout_document).collect(),
+            measure: self.measure.as_ref().map(measure_document),
+            propagation: PropagationDocument {
+                cameras: self.chain.iter().map(chain_camera_document).collect(),
+                rotation_noise: "tangent",
+                samples: self.chain_samples,
+                seed: self.seed,
+            },
+            samples: self.samples,
+            seed: self.seed,
+            tie: self.tie.as_ref().map(TieResult::to_json),
         }
-        v
+    }
+
+    /// [`Self::document`] as a JSON value (object keys sorted): `results.json`.
+    pub fn to_json(&self) -> Value {
+        // Serialising plain numbers, strings and arrays cannot fail; non-finite numbers
+        // become null.
+        serde_json::to_value(self.document()).unwrap_or(Value::Null)
+    }
+}
+
+fn chain_camera_document(c: &ChainPose) -> ChainCameraDocument {
+    let m = &c.mc;
+    ChainCameraDocument {
+        angles_deg: deg3(m.nominal.angles_rad()),
+        angles_sigma_deg: deg3(m.angles_sigma_rad),
+        angles_singular: m.angles_singular,
+        covariance_tangent: covariance_deg_rows(&m.covariance_tangent),
+        linear: LinearDocument {
+            angles_sigma_deg: c.linear.angles_sigma_rad.map(deg3),
+            covariance_tangent: covariance_deg_rows(&c.linear.covariance_tangent),
+            position_sigma_mm: c.linear.position_sigma_mm.into(),
+            tangent_sigma_deg: deg3(c.linear.tangent_sigma_rad),
+        },
+        name: c.camera.name(),
+        position_mm: m.nominal.position_mm.into(),
+        position_sigma_mm: m.position_sigma_mm.into(),
+        tangent_sigma_deg: deg3(m.tangent_sigma_rad),
+    }
+}
+
+fn layout_document(l: &LayoutResult) -> LayoutDocument {
+    let observers = l
+        .grid
+        .observers
+        .iter()
+        .zip(&l.layout.observers)
+        .zip(&l.result.observer_covariance)
+        .map(|((o, lo), c)| {
+            let s = sigmas(c);
+            ObserverDocument {
+                covariance_tangent: covariance_deg_rows(c),
+                from: match lo.noise {
+                    ObserverNoise::From(c) => Some(c.name()),
+                    ObserverNoise::Given(_) => None,
+                },
+                name: o.name.clone(),
+                position_mm: o.position_mm.into(),
+                sigma_angles_deg: deg3(s.angles_rad),
+                sigma_position_mm: s.position_mm.into(),
+            }
+        })
+        .collect();
+    LayoutDocument {
+        correlated: l.result.correlated,
+        description: l.layout.description.clone(),
+        dir: format!("grid/{}", l.layout.slug()),
+        name: l.layout.name.clone(),
+        observers,
+        sensitivity: l.sensitivity.clone(),
+        summary: l.summary.clone(),
+    }
+}
+
+/// `measure` of `results.json`: the per-epoch and joint matrices of A's bundle covariance are in
+/// `measure/a_covariance.json` (what `crashrig covariance --out` writes); here its numbers and σ
+/// per epoch.
+fn measure_document(m: &crate::measure_step::MeasureResult) -> MeasureDocument {
+    let a_covariance = m.a_covariance.as_ref().map(|a| {
+        let d = a.document();
+        ACovarianceSummary {
+            control_points: d.control_points,
+            epoch_sigmas: d.epoch_sigmas,
+            file: "measure/a_covariance.json",
+            frames: d.frames,
+            intrinsics: d.intrinsics,
+            mm_per_unit: d.mm_per_unit,
+            observations: d.observations,
+            parameters: d.parameters,
+            pixel_sigma_px: d.pixel_sigma_px,
+            points_left_out: d.points_left_out,
+            redundancy: d.redundancy,
+            sigma0_px: d.sigma0_px,
+        }
+    });
+    MeasureDocument {
+        a_covariance,
+        dir: "measure",
+        summary: m.summary.clone(),
     }
 }
 

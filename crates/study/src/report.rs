@@ -132,8 +132,8 @@ fn write_measure(d: &Path, m: &MeasureResult) -> Result<Vec<MarkerPlot>, Error> 
         "displacements.csv",
         measure_output::displacements_csv(ms).as_bytes(),
     )?;
-    let plots =
-        measure_output::marker_plots(ms).map_err(|e| measure_plot_error(e, "trajectory"))?;
+    let plots = measure_output::marker_plots(ms)
+        .map_err(|e| crate::error::measure_plot_error(e, "trajectory"))?;
     for p in &plots {
         grids::write(&d.join("plots"), &format!("{}.png", p.stem), &p.png)?;
         grids::write(&d.join("plots"), &format!("{}.svg", p.stem), &p.svg)?;
@@ -156,25 +156,6 @@ fn write_measure(d: &Path, m: &MeasureResult) -> Result<Vec<MarkerPlot>, Error> 
     let summary = serde_json::to_value(&m.summary).unwrap_or_default();
     grids::write(d, "summary.json", &json_pretty(&summary))?;
     Ok(plots)
-}
-
-/// A plot error of the measure crate's writers as the study's [`Error::Plot`]; `figure` names
-/// the kind of plot (`trajectory`, `kinematics`).
-pub(crate) fn measure_plot_error(e: crashrig_measure::Error, figure: &'static str) -> Error {
-    match e {
-        crashrig_measure::Error::Plot { marker, source } => Error::Plot {
-            what: format!("{figure} of marker {marker}"),
-            source,
-        },
-        // The plot writers fail only with `Plot`; anything else keeps its message.
-        other => Error::Plot {
-            what: format!("{figure} plots"),
-            source: crashrig_plot::Error::Draw {
-                figure,
-                message: other.to_string(),
-            },
-        },
-    }
 }
 
 /// The report section of the measured sequence: summary, displacement σ vs position σ per
@@ -724,7 +705,7 @@ pub fn report_html(
         rep.push(Block::Paragraph(note));
     }
     calibration_section(&mut rep, study, r, paper);
-    crate::quality::report_section(&mut rep, study, &r.calibration);
+    crate::quality_report::report_section(&mut rep, study, &r.calibration);
     tie_section(&mut rep, study, r);
     chain_section(&mut rep, r, paper);
     layouts_section(&mut rep, r, maps);
@@ -798,7 +779,9 @@ fn verdicts(rep: &mut Report, r: &StudyResult) {
     rep.push(Block::Verdict(reached_verdict(r)));
     rep.push(Block::Verdict(where_verdict(r)));
     rep.push(Block::Verdict(dominant_verdict(r)));
-    rep.push(Block::Verdict(crate::quality::verdict(&r.calibration)));
+    rep.push(Block::Verdict(crate::quality_report::verdict(
+        &r.calibration,
+    )));
     rep.push(Block::Raw("</div>".into()));
 }
 

@@ -995,111 +995,118 @@ fn kinematics_keys(
     Ok((cfc, sync))
 }
 
-impl Study {
-    /// Reads and validates a study file: every path it names must exist.
-    ///
-    /// # Errors
-    /// [`Error::Read`], [`Error::Toml`] or [`Error::Key`] naming the file, key and line.
-    pub fn from_path(path: &Path) -> Result<Study, Error> {
-        let text = crashrig_colmap::input_file::read_text_limited(
-            path,
-            crashrig_colmap::input_file::MAX_TOML_BYTES,
-        )
-        .map_err(|source| Error::Read {
+/// The study text as the raw TOML document: a syntax or type error names its line, column and
+/// (for a value) its key; a vector of the wrong length names its key.
+fn parse_raw(text: &str, path: &Path) -> Result<Raw, Error> {
+    let raw: Raw = toml::from_str(text).map_err(|e| {
+        let offset = e.span().map_or(0, |s| s.start);
+        let line = line_of(text, offset);
+        let col = text[..offset.min(text.len())]
+            .rfind('\n')
+            .map_or(offset, |p| offset - p - 1)
+            + 1;
+        // A type error is located at the value: name its key as every other error does.
+        let message = e.message().trim();
+        let message = match crashrig_mc::limits::toml_value_key(text, offset) {
+            Some(key) => format!("`{key}`: {message}"),
+            None => message.to_string(),
+        };
+        Error::Toml {
             path: path.to_path_buf(),
-            source,
-        })?;
-        Study::from_toml_str(&text, path)
+            line,
+            column: col,
+            message,
+        }
+    })?;
+    if let Some((key, line, n)) = wrong_length_vector(text) {
+        return Err(Error::Key {
+            path: path.to_path_buf(),
+            line: Some(line),
+            key,
+            message: format!("must have exactly 3 values, found {n}"),
+        });
     }
+    Ok(raw)
+}
 
-    /// Parses and validates study text; relative paths are resolved against `path`'s folder.
-    ///
-    /// # Errors
-    /// As [`Study::from_path`].
-    pub fn from_toml_str(text: &str, path: &Path) -> Result<Study, Error> {
-        let raw: Raw = toml::from_str(text).map_err(|e| {
-            let offset = e.span().map_or(0, |s| s.start);
-            let line = line_of(text, offset);
-            let col = text[..offset.min(text.len())]
-                .rfind('\n')
-                .map_or(offset, |p| offset - p - 1)
-                + 1;
-            // A type error is located at the value: name its key as every other error does.
-            let message = e.message().trim();
-            let message = match crashrig_mc::limits::toml_value_key(text, offset) {
-                Some(key) => format!("`{key}`: {message}"),
-                None => message.to_string(),
-            };
-            Error::Toml {
-                path: path.to_path_buf(),
-                line,
-                column: col,
-                message,
-            }
-        })?;
-        if let Some((key, line, n)) = wrong_length_vector(text) {
-            return Err(Error::Key {
-                path: path.to_path_buf(),
-                line: Some(line),
-                key,
-                message: format!("must have exactly 3 values, found {n}"),
-            });
+/// A missing section has no line of its own: the file's first line.
+fn missing_section(cx: &Ctx<'_>, name: &str) -> Error {
+    Error::Key {
+        path: cx.path.to_path_buf(),
+        line: Some(1),
+        key: name.to_string(),
+        message: "missing section (required)".into(),
+    }
+}
+
+/// The top-level keys `samples`, `chain_samples` (with their defaults) and `reference`.
+fn top_level_keys(cx: &Ctx<'_>, raw: &Raw) -> Result<(usize, usize), Error> {
+    let samples = raw.samples.as_ref().map_or(Ok(2000), |v| {
+        cx.count(v, "samples", 2, crashrig_mc::limits::MAX_SAMPLES)
+    })?;
+    let chain_samples = raw.chain_samples.as_ref().map_or(Ok(200_000), |v| {
+        cx.count(v, "chain_samples", 2, crashrig_mc::limits::MAX_SAMPLES)
+    })?;
+    if let Some(r) = &raw.reference
+        && r.get_ref() != "kaminski2023"
+    {
+        return cx.err(
+            Some(r.span()),
+            "reference",
+            format!(
+                "unknown reference {:?} (known: \"kaminski2023\")",
+                r.get_ref()
+            ),
+        );
+    }
+    Ok((samples, chain_samples))
+}
+
+/// `[calibration]`.
+fn calibration_section(
+    cx: &Ctx<'_>,
+    c: Option<&Spanned<RawCalibration>>,
+) -> Result<CalibrationSection, Error> {
+    let c = c.ok_or_else(|| missing_section(cx, "[calibration]"))?;
+    let cs = c.span();
+    let c = c.get_ref();
+    let model = cx.existing_path(
+        cx.required(&c.model, cs.clone(), "calibration.model")?,
+        "calibration.model",
+        true,
+    )?;
+    let name = |v: &Option<Spanned<String>>, key: &str| -> Result<String, Error> {
+        let v = cx.required(v, cs.clone(), key)?;
+        if v.get_ref().trim().is_empty() {
+            return cx.err(Some(v.span()), key, "must not be empty");
         }
-        let dir = path
-            .parent()
-            .filter(|p| !p.as_os_str().is_empty())
-            .map_or_else(|| PathBuf::from("."), Path::to_path_buf);
-        let cx = Ctx { path, text, dir };
-        let whole = 0..0;
-        // A missing section has no line of its own: the file's first line.
-        let missing_section = |name: &str| Error::Key {
-            path: path.to_path_buf(),
-            line: Some(1),
-            key: name.to_string(),
-            message: "missing section (required)".into(),
-        };
+        Ok(v.get_ref().clone())
+    };
+    let camera_a = name(&c.camera_a, "calibration.camera_a")?;
+    let camera_b = name(&c.camera_b, "calibration.camera_b")?;
+    let scale = calibration_scale(cx, c, cs)?;
+    Ok(CalibrationSection {
+        model,
+        camera_a,
+        camera_b,
+        scale,
+        max_lag: c.max_lag.as_ref().map_or(Ok(10), |v| {
+            cx.count(v, "calibration.max_lag", 1, usize::MAX)
+        })?,
+        refine: c.refine.unwrap_or(true),
+        accept_rig_constrained: c.accept_rig_constrained.unwrap_or(false),
+    })
+}
 
-        let samples = raw.samples.as_ref().map_or(Ok(2000), |v| {
-            cx.count(v, "samples", 2, crashrig_mc::limits::MAX_SAMPLES)
-        })?;
-        let chain_samples = raw.chain_samples.as_ref().map_or(Ok(200_000), |v| {
-            cx.count(v, "chain_samples", 2, crashrig_mc::limits::MAX_SAMPLES)
-        })?;
-        if let Some(r) = &raw.reference
-            && r.get_ref() != "kaminski2023"
-        {
-            return cx.err(
-                Some(r.span()),
-                "reference",
-                format!(
-                    "unknown reference {:?} (known: \"kaminski2023\")",
-                    r.get_ref()
-                ),
-            );
-        }
-
-        // [calibration]
-        let c = raw
-            .calibration
-            .as_ref()
-            .ok_or_else(|| missing_section("[calibration]"))?;
-        let cs = c.span();
-        let c = c.get_ref();
-        let model = cx.existing_path(
-            cx.required(&c.model, cs.clone(), "calibration.model")?,
-            "calibration.model",
-            true,
-        )?;
-        let name = |v: &Option<Spanned<String>>, key: &str| -> Result<String, Error> {
-            let v = cx.required(v, cs.clone(), key)?;
-            if v.get_ref().trim().is_empty() {
-                return cx.err(Some(v.span()), key, "must not be empty");
-            }
-            Ok(v.get_ref().clone())
-        };
-        let camera_a = name(&c.camera_a, "calibration.camera_a")?;
-        let camera_b = name(&c.camera_b, "calibration.camera_b")?;
-        let scale = match (&c.scale_points, &c.scale_length_mm, &c.mm_per_unit) {
+/// The scale of `[calibration]`: a scale bar (`scale_points` + `scale_length_mm`) or
+/// `mm_per_unit`, exactly one of them.
+fn calibration_scale(
+    cx: &Ctx<'_>,
+    c: &RawCalibration,
+    cs: std::ops::Range<usize>,
+) -> Result<StudyScale, Error> {
+    Ok(
+        match (&c.scale_points, &c.scale_length_mm, &c.mm_per_unit) {
             (Some(p), Some(l), None) => {
                 if p.get_ref().len() != 2 || p.get_ref()[0] == p.get_ref()[1] {
                     return cx.err(
@@ -1142,300 +1149,362 @@ impl Study {
                     "missing: give scale_points + scale_length_mm or mm_per_unit",
                 );
             }
-        };
-        let calibration = CalibrationSection {
-            model,
-            camera_a,
-            camera_b,
-            scale,
-            max_lag: c.max_lag.as_ref().map_or(Ok(10), |v| {
-                cx.count(v, "calibration.max_lag", 1, usize::MAX)
-            })?,
-            refine: c.refine.unwrap_or(true),
-            accept_rig_constrained: c.accept_rig_constrained.unwrap_or(false),
-        };
+        },
+    )
+}
 
-        // [tie]
-        let tie = match &raw.tie {
-            None => None,
-            Some(t) => {
-                let ts = t.span();
-                let t = t.get_ref();
-                let req =
-                    |v: &Option<Spanned<String>>, key: &str| -> Result<Spanned<String>, Error> {
-                        cx.required(v, ts.clone(), key).cloned()
-                    };
-                let database =
-                    cx.existing_path(&req(&t.database, "tie.database")?, "tie.database", false)?;
-                let model = cx.existing_path(&req(&t.model, "tie.model")?, "tie.model", true)?;
-                let method = match t.method.as_ref().map(|m| (m.get_ref().as_str(), m.span())) {
-                    None | Some(("absolute", _)) => TieMethod::Absolute,
-                    Some(("relative", _)) => TieMethod::Relative,
-                    Some((other, span)) => {
-                        return cx.err(
-                            Some(span),
-                            "tie.method",
-                            format!("must be \"absolute\" or \"relative\", got {other:?}"),
-                        );
-                    }
-                };
-                let resample = match t
-                    .resample
-                    .as_ref()
-                    .map(|m| (m.get_ref().as_str(), m.span()))
-                {
-                    None | Some(("inliers", _)) => TieResample::Inliers,
-                    Some(("matches", _)) => TieResample::AllMatches,
-                    Some((other, span)) => {
-                        return cx.err(
-                            Some(span),
-                            "tie.resample",
-                            format!("must be \"inliers\" or \"matches\", got {other:?}"),
-                        );
-                    }
-                };
-                Some(TieSection {
-                    database,
-                    model,
-                    image_a: req(&t.image_a, "tie.image_a")?.into_inner(),
-                    image_b: req(&t.image_b, "tie.image_b")?.into_inner(),
-                    method,
-                    iterations: t.iterations.as_ref().map_or(Ok(500), |v| {
-                        cx.count(v, "tie.iterations", 2, crashrig_bootstrap::MAX_ITERATIONS)
-                    })?,
-                    mm_per_unit: t
-                        .mm_per_unit
-                        .as_ref()
-                        .map_or(Ok(1.0), |v| cx.scale(v, "tie.mm_per_unit"))?,
-                    max_error_px: t
-                        .max_error_px
-                        .as_ref()
-                        .map_or(Ok(4.0), |v| cx.positive(v, "tie.max_error_px"))?,
-                    base_mm: t
-                        .base_mm
-                        .as_ref()
-                        .map(|v| cx.positive(v, "tie.base_mm"))
-                        .transpose()?,
-                    resample,
-                })
-            }
-        };
-
-        // [outward]
-        let o = raw
-            .outward
+/// `[tie]`.
+fn tie_section(cx: &Ctx<'_>, t: &Spanned<RawTie>) -> Result<TieSection, Error> {
+    let ts = t.span();
+    let t = t.get_ref();
+    let req = |v: &Option<Spanned<String>>, key: &str| -> Result<Spanned<String>, Error> {
+        cx.required(v, ts.clone(), key).cloned()
+    };
+    let database = cx.existing_path(&req(&t.database, "tie.database")?, "tie.database", false)?;
+    let model = cx.existing_path(&req(&t.model, "tie.model")?, "tie.model", true)?;
+    let method = match t.method.as_ref().map(|m| (m.get_ref().as_str(), m.span())) {
+        None | Some(("absolute", _)) => TieMethod::Absolute,
+        Some(("relative", _)) => TieMethod::Relative,
+        Some((other, span)) => {
+            return cx.err(
+                Some(span),
+                "tie.method",
+                format!("must be \"absolute\" or \"relative\", got {other:?}"),
+            );
+        }
+    };
+    let resample = match t
+        .resample
+        .as_ref()
+        .map(|m| (m.get_ref().as_str(), m.span()))
+    {
+        None | Some(("inliers", _)) => TieResample::Inliers,
+        Some(("matches", _)) => TieResample::AllMatches,
+        Some((other, span)) => {
+            return cx.err(
+                Some(span),
+                "tie.resample",
+                format!("must be \"inliers\" or \"matches\", got {other:?}"),
+            );
+        }
+    };
+    Ok(TieSection {
+        database,
+        model,
+        image_a: req(&t.image_a, "tie.image_a")?.into_inner(),
+        image_b: req(&t.image_b, "tie.image_b")?.into_inner(),
+        method,
+        iterations: t.iterations.as_ref().map_or(Ok(500), |v| {
+            cx.count(v, "tie.iterations", 2, crashrig_bootstrap::MAX_ITERATIONS)
+        })?,
+        mm_per_unit: t
+            .mm_per_unit
             .as_ref()
-            .ok_or_else(|| missing_section("[outward]"))?;
-        let os = o.span();
-        let o = o.get_ref();
-        let position = cx.finite3(
-            cx.required(&o.position_mm, os.clone(), "outward.position_mm")?,
-            "outward.position_mm",
-        )?;
-        let angles = cx
-            .finite3(
-                cx.required(&o.angles_deg, os.clone(), "outward.angles_deg")?,
-                "outward.angles_deg",
-            )?
-            .map(f64::to_radians);
-        let covariance = cx.noise(
-            os,
-            "outward",
-            &o.sigma_position_mm,
-            &o.sigma_angles_deg,
-            &o.covariance_tangent,
-        )?;
-        let world_from_a = Rigid3::from_parts(
-            position.into(),
-            crashrig_geometry::opk::rotation_from_opk(angles.x, angles.y, angles.z).into(),
-        );
-        let outward = UncertainPose {
-            b_from_a: world_from_a,
-            covariance,
-        };
+            .map_or(Ok(1.0), |v| cx.scale(v, "tie.mm_per_unit"))?,
+        max_error_px: t
+            .max_error_px
+            .as_ref()
+            .map_or(Ok(4.0), |v| cx.positive(v, "tie.max_error_px"))?,
+        base_mm: t
+            .base_mm
+            .as_ref()
+            .map(|v| cx.positive(v, "tie.base_mm"))
+            .transpose()?,
+        resample,
+    })
+}
 
-        // [[layout]]
-        if raw.layout.is_empty() {
-            return Err(missing_section("[[layout]]"));
+/// `[outward]`: camera A's world pose with its covariance.
+fn outward_section(cx: &Ctx<'_>, o: Option<&Spanned<RawPose>>) -> Result<UncertainPose, Error> {
+    let o = o.ok_or_else(|| missing_section(cx, "[outward]"))?;
+    let os = o.span();
+    let o = o.get_ref();
+    let position = cx.finite3(
+        cx.required(&o.position_mm, os.clone(), "outward.position_mm")?,
+        "outward.position_mm",
+    )?;
+    let angles = cx
+        .finite3(
+            cx.required(&o.angles_deg, os.clone(), "outward.angles_deg")?,
+            "outward.angles_deg",
+        )?
+        .map(f64::to_radians);
+    let covariance = cx.noise(
+        os,
+        "outward",
+        &o.sigma_position_mm,
+        &o.sigma_angles_deg,
+        &o.covariance_tangent,
+    )?;
+    let world_from_a = Rigid3::from_parts(
+        position.into(),
+        crashrig_geometry::opk::rotation_from_opk(angles.x, angles.y, angles.z).into(),
+    );
+    Ok(UncertainPose {
+        b_from_a: world_from_a,
+        covariance,
+    })
+}
+
+/// The `[[layout]]` sections (at least one; names unique once made file-name safe).
+fn layout_sections(
+    cx: &Ctx<'_>,
+    raw: &[Spanned<RawLayout>],
+    has_tie: bool,
+    samples: usize,
+) -> Result<Vec<Layout>, Error> {
+    if raw.is_empty() {
+        return Err(missing_section(cx, "[[layout]]"));
+    }
+    let mut layouts: Vec<Layout> = Vec::new();
+    for (li, l) in raw.iter().enumerate() {
+        let ls = l.span();
+        let k = |f: &str| format!("layout[{li}].{f}");
+        let layout_name_span = l
+            .get_ref()
+            .name
+            .as_ref()
+            .map(|n| n.span())
+            .unwrap_or(ls.clone());
+        let layout = layout_section(cx, li, l, has_tie)?;
+        check_layout_size(&layout, samples).map_err(|message| Error::Key {
+            path: cx.path.to_path_buf(),
+            line: Some(line_of(cx.text, ls.start)),
+            key: format!("layout[{li}]"),
+            message,
+        })?;
+        if layout.slug().is_empty() || layouts.iter().any(|o| o.slug() == layout.slug()) {
+            return cx.err(
+                Some(layout_name_span),
+                &k("name"),
+                format!(
+                    "{:?} is empty or not unique once made file-name safe",
+                    layout.name
+                ),
+            );
         }
-        let mut layouts: Vec<Layout> = Vec::new();
-        for (li, l) in raw.layout.iter().enumerate() {
-            let ls = l.span();
-            let l = l.get_ref();
-            let k = |f: &str| format!("layout[{li}].{f}");
-            let name = match &l.name {
-                Some(n) if !n.get_ref().trim().is_empty() => n.get_ref().clone(),
-                Some(n) => return cx.err(Some(n.span()), &k("name"), "must not be empty"),
-                None => format!("layout{}", li + 1),
-            };
-            let layout_name_span = l.name.as_ref().map(|n| n.span()).unwrap_or(ls.clone());
-            let pixel = match (&l.pixel_sigma_px, &l.focal_px) {
-                (None, None) => None,
-                (Some(s), Some(f)) => {
-                    let sv = *s.get_ref();
-                    if !(sv.is_finite() && sv >= 0.0) {
-                        return cx.err(
-                            Some(s.span()),
-                            &k("pixel_sigma_px"),
-                            "must be finite and not negative",
-                        );
-                    }
-                    Some((sv, cx.positive(f, &k("focal_px"))?))
-                }
-                (Some(_), None) => {
-                    return cx.err(Some(ls), &k("focal_px"), "required with pixel_sigma_px");
-                }
-                (None, Some(_)) => {
-                    return cx.err(Some(ls), &k("pixel_sigma_px"), "required with focal_px");
-                }
-            };
-            if l.observer.len() < 2 {
+        layouts.push(layout);
+    }
+    Ok(layouts)
+}
+
+/// One `[[layout]]` (the `li`-th): name, pixel noise, observers, grid, threshold.
+fn layout_section(
+    cx: &Ctx<'_>,
+    li: usize,
+    l: &Spanned<RawLayout>,
+    has_tie: bool,
+) -> Result<Layout, Error> {
+    let ls = l.span();
+    let l = l.get_ref();
+    let k = |f: &str| format!("layout[{li}].{f}");
+    let name = match &l.name {
+        Some(n) if !n.get_ref().trim().is_empty() => n.get_ref().clone(),
+        Some(n) => return cx.err(Some(n.span()), &k("name"), "must not be empty"),
+        None => format!("layout{}", li + 1),
+    };
+    let pixel = match (&l.pixel_sigma_px, &l.focal_px) {
+        (None, None) => None,
+        (Some(s), Some(f)) => {
+            let sv = *s.get_ref();
+            if !(sv.is_finite() && sv >= 0.0) {
                 return cx.err(
-                    Some(ls),
-                    &k("observer"),
-                    format!(
-                        "needs at least two [[layout.observer]], found {}",
-                        l.observer.len()
-                    ),
+                    Some(s.span()),
+                    &k("pixel_sigma_px"),
+                    "must be finite and not negative",
                 );
             }
-            let mut observers: Vec<Observer> = Vec::new();
-            for (oi, ob) in l.observer.iter().enumerate() {
-                let obs = ob.span();
-                let ob = ob.get_ref();
-                let ko = |f: &str| format!("layout[{li}].observer[{oi}].{f}");
-                let position = cx.required(&ob.position_mm, obs.clone(), &ko("position_mm"))?;
-                let position_mm = cx.finite3(position, &ko("position_mm"))?;
-                if let Some((oj, other)) = observers
-                    .iter()
-                    .enumerate()
-                    .find(|(_, o)| (o.position_mm - position_mm).norm() < MIN_OBSERVER_DISTANCE_MM)
-                {
-                    return cx.err(
-                        Some(position.span()),
-                        &ko("position_mm"),
-                        format!(
-                            "observer {:?} is {:.3} mm from observer[{oj}] {:?} (less than {MIN_OBSERVER_DISTANCE_MM} mm): coincident cameras see a point along the same ray and cannot intersect it (σ would be empty)",
-                            ob.name.clone().unwrap_or_else(|| format!("obs{}", oi + 1)),
-                            (other.position_mm - position_mm).norm(),
-                            other.name
-                        ),
-                    );
-                }
-                let noise = match &ob.from {
-                    Some(f) => {
-                        if ob.sigma_position_mm.is_some()
-                            || ob.sigma_angles_deg.is_some()
-                            || ob.covariance_tangent.is_some()
-                        {
-                            return cx.err(
-                                Some(f.span()),
-                                &ko("from"),
-                                "give either from or the σ / covariance_tangent keys, not both",
-                            );
-                        }
-                        match f.get_ref().as_str() {
-                            "outward" => ObserverNoise::From(ChainCamera::Outward),
-                            "inward" => ObserverNoise::From(ChainCamera::Inward),
-                            "tie" if tie.is_some() => ObserverNoise::From(ChainCamera::Tie),
-                            "tie" => {
-                                return cx.err(
-                                    Some(f.span()),
-                                    &ko("from"),
-                                    "\"tie\" needs a [tie] section",
-                                );
-                            }
-                            other => {
-                                return cx.err(
-                                    Some(f.span()),
-                                    &ko("from"),
-                                    format!(
-                                        "must be \"outward\", \"inward\" or \"tie\", got {other:?}"
-                                    ),
-                                );
-                            }
-                        }
-                    }
-                    None => ObserverNoise::Given(cx.noise(
-                        obs.clone(),
-                        &format!("layout[{li}].observer[{oi}]"),
-                        &ob.sigma_position_mm,
-                        &ob.sigma_angles_deg,
-                        &ob.covariance_tangent,
-                    )?),
-                };
-                let fixed = crate::fixed_observer::fixed_from_raw(
-                    &crate::fixed_observer::Site {
-                        path,
-                        text,
-                        dir: &cx.dir,
-                        prefix: format!("layout[{li}].observer[{oi}]"),
-                        span: obs.clone(),
-                    },
-                    &crate::fixed_observer::RawFixed {
-                        aim: &ob.aim,
-                        angles_deg: &ob.angles_deg,
-                        look_at_mm: &ob.look_at_mm,
-                        camera: &ob.camera,
-                        camera_from: &ob.camera_from,
-                        pixel_sigma_px: &ob.pixel_sigma_px,
-                    },
-                    &position_mm,
-                )?;
-                if fixed.is_some()
-                    && l.correlated == Some(true)
-                    && let (ObserverNoise::From(_), Some(f)) = (&noise, &ob.from)
-                {
-                    return cx.err(
-                        Some(f.span()),
-                        &ko("from"),
-                        "a fixed observer takes the chain camera's propagated covariance, drawn independently; it cannot be drawn jointly (correlated = true)",
-                    );
-                }
-                observers.push(Observer {
-                    name: ob.name.clone().unwrap_or_else(|| format!("obs{}", oi + 1)),
-                    position_mm,
-                    noise,
-                    fixed: fixed.map(Box::new),
-                });
-            }
-            let layout = Layout {
-                name,
-                description: l.description.clone().unwrap_or_default(),
-                x_mm: cx.axis(&l.x_mm, ls.clone(), &k("x_mm"))?,
-                y_mm: cx.axis(&l.y_mm, ls.clone(), &k("y_mm"))?,
-                z_mm: cx.axis(&l.z_mm, ls.clone(), &k("z_mm"))?,
-                threshold_mm: l
-                    .threshold_mm
-                    .as_ref()
-                    .map_or(Ok(5.0), |v| cx.positive(v, &k("threshold_mm")))?,
-                pixel,
-                correlated: l.correlated,
-                observers,
-            };
-            check_layout_size(&layout, samples).map_err(|message| Error::Key {
-                path: path.to_path_buf(),
-                line: Some(line_of(text, ls.start)),
-                key: format!("layout[{li}]"),
-                message,
-            })?;
-            if layout.slug().is_empty() || layouts.iter().any(|o| o.slug() == layout.slug()) {
-                return cx.err(
-                    Some(layout_name_span),
-                    &k("name"),
-                    format!(
-                        "{:?} is empty or not unique once made file-name safe",
-                        layout.name
-                    ),
-                );
-            }
-            layouts.push(layout);
+            Some((sv, cx.positive(f, &k("focal_px"))?))
         }
+        (Some(_), None) => {
+            return cx.err(Some(ls), &k("focal_px"), "required with pixel_sigma_px");
+        }
+        (None, Some(_)) => {
+            return cx.err(Some(ls), &k("pixel_sigma_px"), "required with focal_px");
+        }
+    };
+    if l.observer.len() < 2 {
+        return cx.err(
+            Some(ls),
+            &k("observer"),
+            format!(
+                "needs at least two [[layout.observer]], found {}",
+                l.observer.len()
+            ),
+        );
+    }
+    let mut observers: Vec<Observer> = Vec::new();
+    for (oi, ob) in l.observer.iter().enumerate() {
+        let o = observer_section(cx, (li, oi), ob, &observers, l.correlated, has_tie)?;
+        observers.push(o);
+    }
+    Ok(Layout {
+        name,
+        description: l.description.clone().unwrap_or_default(),
+        x_mm: cx.axis(&l.x_mm, ls.clone(), &k("x_mm"))?,
+        y_mm: cx.axis(&l.y_mm, ls.clone(), &k("y_mm"))?,
+        z_mm: cx.axis(&l.z_mm, ls.clone(), &k("z_mm"))?,
+        threshold_mm: l
+            .threshold_mm
+            .as_ref()
+            .map_or(Ok(5.0), |v| cx.positive(v, &k("threshold_mm")))?,
+        pixel,
+        correlated: l.correlated,
+        observers,
+    })
+}
+
+/// One `[[layout.observer]]` (observer `oi` of layout `li`), checked against the layout's
+/// observers before it (`earlier`): position, noise (`from` a chain camera or given σ) and,
+/// with `aim = "fixed"`, its fixed camera.
+fn observer_section(
+    cx: &Ctx<'_>,
+    (li, oi): (usize, usize),
+    ob: &Spanned<RawObserver>,
+    earlier: &[Observer],
+    correlated: Option<bool>,
+    has_tie: bool,
+) -> Result<Observer, Error> {
+    let obs = ob.span();
+    let ob = ob.get_ref();
+    let ko = |f: &str| format!("layout[{li}].observer[{oi}].{f}");
+    let position = cx.required(&ob.position_mm, obs.clone(), &ko("position_mm"))?;
+    let position_mm = cx.finite3(position, &ko("position_mm"))?;
+    if let Some((oj, other)) = earlier
+        .iter()
+        .enumerate()
+        .find(|(_, o)| (o.position_mm - position_mm).norm() < MIN_OBSERVER_DISTANCE_MM)
+    {
+        return cx.err(
+            Some(position.span()),
+            &ko("position_mm"),
+            format!(
+                "observer {:?} is {:.3} mm from observer[{oj}] {:?} (less than {MIN_OBSERVER_DISTANCE_MM} mm): coincident cameras see a point along the same ray and cannot intersect it (σ would be empty)",
+                ob.name.clone().unwrap_or_else(|| format!("obs{}", oi + 1)),
+                (other.position_mm - position_mm).norm(),
+                other.name
+            ),
+        );
+    }
+    let noise = match &ob.from {
+        Some(f) => observer_from(cx, &ko("from"), ob, f, has_tie)?,
+        None => ObserverNoise::Given(cx.noise(
+            obs.clone(),
+            &format!("layout[{li}].observer[{oi}]"),
+            &ob.sigma_position_mm,
+            &ob.sigma_angles_deg,
+            &ob.covariance_tangent,
+        )?),
+    };
+    let fixed = crate::fixed_observer::fixed_from_raw(
+        &crate::fixed_observer::Site {
+            path: cx.path,
+            text: cx.text,
+            dir: &cx.dir,
+            prefix: format!("layout[{li}].observer[{oi}]"),
+            span: obs.clone(),
+        },
+        &crate::fixed_observer::RawFixed {
+            aim: &ob.aim,
+            angles_deg: &ob.angles_deg,
+            look_at_mm: &ob.look_at_mm,
+            camera: &ob.camera,
+            camera_from: &ob.camera_from,
+            pixel_sigma_px: &ob.pixel_sigma_px,
+        },
+        &position_mm,
+    )?;
+    if fixed.is_some()
+        && correlated == Some(true)
+        && let (ObserverNoise::From(_), Some(f)) = (&noise, &ob.from)
+    {
+        return cx.err(
+            Some(f.span()),
+            &ko("from"),
+            "a fixed observer takes the chain camera's propagated covariance, drawn independently; it cannot be drawn jointly (correlated = true)",
+        );
+    }
+    Ok(Observer {
+        name: ob.name.clone().unwrap_or_else(|| format!("obs{}", oi + 1)),
+        position_mm,
+        noise,
+        fixed: fixed.map(Box::new),
+    })
+}
+
+/// An observer's `from` (key `key`): the chain camera whose propagated covariance it takes
+/// (not together with its own σ keys; `tie` only with a `[tie]`).
+fn observer_from(
+    cx: &Ctx<'_>,
+    key: &str,
+    ob: &RawObserver,
+    f: &Spanned<String>,
+    has_tie: bool,
+) -> Result<ObserverNoise, Error> {
+    if ob.sigma_position_mm.is_some()
+        || ob.sigma_angles_deg.is_some()
+        || ob.covariance_tangent.is_some()
+    {
+        return cx.err(
+            Some(f.span()),
+            key,
+            "give either from or the σ / covariance_tangent keys, not both",
+        );
+    }
+    Ok(match f.get_ref().as_str() {
+        "outward" => ObserverNoise::From(ChainCamera::Outward),
+        "inward" => ObserverNoise::From(ChainCamera::Inward),
+        "tie" if has_tie => ObserverNoise::From(ChainCamera::Tie),
+        "tie" => {
+            return cx.err(Some(f.span()), key, "\"tie\" needs a [tie] section");
+        }
+        other => {
+            return cx.err(
+                Some(f.span()),
+                key,
+                format!("must be \"outward\", \"inward\" or \"tie\", got {other:?}"),
+            );
+        }
+    })
+}
+
+impl Study {
+    /// Reads and validates a study file: every path it names must exist.
+    ///
+    /// # Errors
+    /// [`Error::Read`], [`Error::Toml`] or [`Error::Key`] naming the file, key and line.
+    pub fn from_path(path: &Path) -> Result<Study, Error> {
+        let text = crashrig_colmap::input_file::read_text_limited(
+            path,
+            crashrig_colmap::input_file::MAX_TOML_BYTES,
+        )
+        .map_err(|source| Error::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Study::from_toml_str(&text, path)
+    }
+
+    /// Parses and validates study text; relative paths are resolved against `path`'s folder.
+    ///
+    /// # Errors
+    /// As [`Study::from_path`].
+    pub fn from_toml_str(text: &str, path: &Path) -> Result<Study, Error> {
+        let raw = parse_raw(text, path)?;
+        let dir = path
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .map_or_else(|| PathBuf::from("."), Path::to_path_buf);
+        let cx = Ctx { path, text, dir };
+        let (samples, chain_samples) = top_level_keys(&cx, &raw)?;
+        let calibration = calibration_section(&cx, raw.calibration.as_ref())?;
+        let tie = raw.tie.as_ref().map(|t| tie_section(&cx, t)).transpose()?;
+        let outward = outward_section(&cx, raw.outward.as_ref())?;
+        let layouts = layout_sections(&cx, &raw.layout, tie.is_some(), samples)?;
         let measure = match &raw.measure {
             None => None,
             Some(m) => Some(measure_section(&cx, m, tie.is_some())?),
         };
-        let _ = whole;
         Ok(Study {
             path: path.to_path_buf(),
             text: text.to_string(),

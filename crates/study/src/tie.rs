@@ -48,6 +48,7 @@
 //! ```
 
 use crate::correspondences::{MatchSet, ModelImage, TieSource};
+pub use crate::error::TieError;
 use crashrig_bootstrap as boot;
 use crashrig_geometry::angles::{unwrap_about, wrapped_stats};
 use crashrig_geometry::{Mat6, Rigid3, UncertainPose, Vec3};
@@ -77,52 +78,6 @@ const LABELS: [&str; 6] = [
 /// Header of [`TieResult::replicates_csv`].
 pub const REPLICATES_CSV_HEADER: &str =
     "replicate,x_mm,y_mm,z_mm,omega_deg,phi_deg,kappa_deg,tx_deg,ty_deg,tz_deg";
-
-/// Why a tie bootstrap failed. Every message names the file or option at fault.
-#[derive(Debug, thiserror::Error)]
-pub enum TieError {
-    /// A configuration value is out of range.
-    #[error("{message}")]
-    Option {
-        /// The option (CLI spelling, e.g. `--mm-per-unit`).
-        option: &'static str,
-        /// What is wrong.
-        message: String,
-    },
-    /// The COLMAP model cannot be read or lacks what the tie needs.
-    #[error("{}: {message}", path.display())]
-    Model {
-        /// The model directory.
-        path: PathBuf,
-        /// What is wrong.
-        message: String,
-    },
-    /// The COLMAP database cannot be read or lacks what the tie needs.
-    #[error("{}: {message}", path.display())]
-    Database {
-        /// The database file.
-        path: PathBuf,
-        /// What is wrong.
-        message: String,
-    },
-    /// The pose estimation on the full sample failed (the file holding the correspondences).
-    #[error("{}: {message}", path.display())]
-    Estimation {
-        /// The model (absolute) or database (relative) the correspondences came from.
-        path: PathBuf,
-        /// What failed.
-        message: String,
-    },
-    /// Too few replicates succeeded, or the replicate summary is undefined.
-    #[error("{message}")]
-    Replicates {
-        /// What is wrong.
-        message: String,
-    },
-    /// The caller's monitor cancelled the run.
-    #[error(transparent)]
-    Cancelled(#[from] Cancelled),
-}
 
 impl TieError {
     /// The error of a failed [`bootstrap_link`] on the correspondences of `path`, described by
