@@ -1066,22 +1066,13 @@ fn measure_once(
             )
         }
     };
-    let mut part = Accs::default();
-    if let Draws::Shard(shard) = draws {
-        let mine = shard.range(groups.markers.len());
-        for (e, p) in preps.iter().enumerate() {
-            for (s, slot) in p.slots.iter().enumerate() {
-                if mine.contains(&slot.marker) {
-                    part.rows.insert((e, slot.marker), accs[e][s]);
-                }
-            }
+    let part = match draws {
+        Draws::Shard(shard) => {
+            let mine = shard.range(groups.markers.len());
+            shard_part(&preps, kin_runs.as_deref(), &accs, &kin_accs, &mine)
         }
-        for (runs, racc) in kin_runs.iter().flatten().zip(&kin_accs) {
-            for (run, acc) in runs.iter().zip(racc) {
-                part.runs.insert((run.marker, run.start), acc.clone());
-            }
-        }
-    }
+        Draws::Given(_) => Accs::default(),
+    };
     let rows = assemble(
         &preps,
         &accs,
@@ -1111,6 +1102,30 @@ fn measure_once(
         sync_share: None,
     };
     Ok((m, part))
+}
+
+/// The accumulators of the rows and kinematic runs of the markers `mine` (a shard's).
+fn shard_part(
+    preps: &[EpochPrep],
+    kin_runs: Option<&[Vec<Run>]>,
+    accs: &[Vec<Acc>],
+    kin_accs: &[Vec<RunAcc>],
+    mine: &std::ops::Range<usize>,
+) -> Accs {
+    let mut part = Accs::default();
+    for (e, p) in preps.iter().enumerate() {
+        for (s, slot) in p.slots.iter().enumerate() {
+            if mine.contains(&slot.marker) {
+                part.rows.insert((e, slot.marker), accs[e][s]);
+            }
+        }
+    }
+    for (runs, racc) in kin_runs.into_iter().flatten().zip(kin_accs) {
+        for (run, acc) in runs.iter().zip(racc) {
+            part.runs.insert((run.marker, run.start), acc.clone());
+        }
+    }
+    part
 }
 
 /// The accumulators of every row and run, from the union of a shard set's ([`Draws::Given`]).

@@ -640,8 +640,8 @@ pub(crate) fn check_out_dir(dir: &Path) -> Result<(), Error> {
     if entries.next().is_none() {
         return Ok(());
     }
-    let previous_shard = dir.join(crate::shard::MOMENTS).is_file()
-        && dir.join(crashrig_outdir::shard::MANIFEST).is_file();
+    let previous_shard =
+        dir.join(SHARD_MOMENTS).is_file() && dir.join(crashrig_outdir::shard::MANIFEST).is_file();
     let previous = dir.join("trajectories.csv").is_file() && dir.join("summary.json").is_file();
     if !(previous || previous_shard) {
         return Err(bad(
@@ -651,6 +651,11 @@ pub(crate) fn check_out_dir(dir: &Path) -> Result<(), Error> {
     }
     Ok(())
 }
+
+/// The options file of a `measure --shard` directory (`crate::shard::OPTIONS`).
+pub(crate) const SHARD_OPTIONS: &str = "measure_shard.json";
+/// The moments file of a `measure --shard` directory (`crate::shard::MOMENTS`).
+pub(crate) const SHARD_MOMENTS: &str = "moments.csv";
 
 /// Top-level entries of an existing output directory that `measure` writes (directories end
 /// with `/`).
@@ -663,8 +668,8 @@ fn replaceable(name: &str) -> bool {
             | "summary.json"
             | "plots/"
             | crashrig_outdir::shard::MANIFEST
-            | crate::shard::OPTIONS
-            | crate::shard::MOMENTS
+            | SHARD_OPTIONS
+            | SHARD_MOMENTS
     )
 }
 

@@ -63,9 +63,9 @@ use std::path::{Path, PathBuf};
 /// `shard.json`'s `command` of a measure shard.
 pub const COMMAND: &str = "measure";
 /// The options of the run (JSON, absolute paths).
-pub const OPTIONS: &str = "measure_shard.json";
+pub const OPTIONS: &str = crate::output::SHARD_OPTIONS;
 /// The Monte Carlo moments of the shard's rows and runs.
-pub const MOMENTS: &str = "moments.csv";
+pub const MOMENTS: &str = crate::output::SHARD_MOMENTS;
 /// The header of [`MOMENTS`].
 const HEADER: &str = "pass,kind,epoch,marker,moments";
 /// Largest [`MOMENTS`] file read (bytes): about 1 kB per row, so a million rows.
