@@ -2,6 +2,8 @@
 # Submits the N shards of a grid as a Slurm job array and the merge as a job that starts when
 # every shard succeeded (docs/SCALE.md):
 #   examples/scale/slurm-submit.sh 8 layout.toml grid_out [grid options…]
+# measure and place shards: COMMAND=measure (or place) in the environment, e.g.
+#   COMMAND=measure examples/scale/slurm-submit.sh 8 seq/model m_out --camera-a cam_out/ …
 set -euo pipefail
 if [ $# -lt 3 ]; then
     echo "usage: $0 N SCENARIO.toml OUT [grid options…]" >&2

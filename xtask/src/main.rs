@@ -24,8 +24,8 @@ verbs:
   test-python        build the Python wheel (crates/python, maturin) into a venv under target/ and
                      run its pytest suite against the CLI (PYTHON=... picks the interpreter)
   fixtures           regenerate the Python-generated fixtures (needs pycolmap + opencv; PYTHON=...)
-  shards N [-P JOBS] [--bin PATH] --out DIR -- SCENARIO.toml [grid options]
-                     the N shards of `crashrig grid` as local processes (xargs -P JOBS, default N)
+  shards N [-P JOBS] [--bin PATH] --out DIR -- [grid|measure|place] INPUT [options]
+                     the N shards of `crashrig grid` (default), `measure` or `place` as local processes (xargs -P JOBS, default N)
                      into DIR.shards/1..N, then `crashrig merge` into DIR (docs/SCALE.md);
                      builds the release binary unless --bin is given
   report-check [DIR] [--docs]

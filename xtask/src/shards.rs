@@ -1,5 +1,5 @@
-//! `cargo xtask shards N [-P JOBS] [--bin PATH] --out DIR -- <grid arguments>`: runs the N
-//! shards of a `crashrig grid` locally as plain processes with `xargs -P` (the same shard
+//! `cargo xtask shards N [-P JOBS] [--bin PATH] --out DIR -- [grid|measure|place] <arguments>`:
+//! runs the N shards of a `crashrig grid` (the default), `measure` or `place` locally as plain processes with `xargs -P` (the same shard
 //! commands a Slurm job array or a Kubernetes Indexed Job runs, `examples/scale/`) into
 //! `DIR.shards/1 … N`, then `crashrig merge` into `DIR`. docs/SCALE.md.
 //!
@@ -20,13 +20,18 @@ pub struct Plan {
     pub parallel: usize,
     /// The merged output directory; the shards go to `<out>.shards/<i>`.
     pub out: PathBuf,
-    /// `crashrig grid` arguments without `--out` and `--shard` (scenario first).
+    /// The command that shards: `grid`, `measure` or `place`.
+    pub command: String,
+    /// The command's arguments without `--out` and `--shard` (its input first).
     pub grid_args: Vec<String>,
 }
 
+/// The commands that shard (the first argument after `--` names one; default `grid`).
+pub const COMMANDS: [&str; 3] = ["grid", "measure", "place"];
+
 /// The usage line.
 pub const USAGE: &str =
-    "cargo xtask shards N [-P JOBS] [--bin PATH] --out DIR -- SCENARIO.toml [grid options]";
+    "cargo xtask shards N [-P JOBS] [--bin PATH] --out DIR -- [grid|measure|place] INPUT [options]";
 
 /// Parses `N [-P JOBS] [--bin PATH] --out DIR -- <grid args>`; returns the plan and `--bin`.
 pub fn parse(args: &[String]) -> Result<(Plan, Option<PathBuf>)> {
@@ -35,6 +40,10 @@ pub fn parse(args: &[String]) -> Result<(Plan, Option<PathBuf>)> {
         .position(|a| a == "--")
         .with_context(|| format!("missing `--` before the grid arguments; usage: {USAGE}"))?;
     let (own, grid_args) = (&args[..split], &args[split + 1..]);
+    let (command, grid_args) = match grid_args.first() {
+        Some(c) if COMMANDS.contains(&c.as_str()) => (c.clone(), &grid_args[1..]),
+        _ => ("grid".to_string(), grid_args),
+    };
     let mut count = None;
     let mut parallel = None;
     let mut out = None;
@@ -70,7 +79,7 @@ pub fn parse(args: &[String]) -> Result<(Plan, Option<PathBuf>)> {
     };
     let out = out.with_context(|| format!("missing --out DIR; usage: {USAGE}"))?;
     if grid_args.is_empty() {
-        bail!("no grid arguments after `--`; usage: {USAGE}");
+        bail!("no {command} arguments after `--`; usage: {USAGE}");
     }
     if let Some(bad) = grid_args.iter().find(|a| {
         *a == "--out" || *a == "--shard" || a.starts_with("--out=") || a.starts_with("--shard=")
@@ -82,6 +91,7 @@ pub fn parse(args: &[String]) -> Result<(Plan, Option<PathBuf>)> {
             count,
             parallel,
             out,
+            command,
             grid_args: grid_args.to_vec(),
         },
         bin,
@@ -95,7 +105,7 @@ pub fn shard_dir(plan: &Plan, i: usize) -> PathBuf {
     PathBuf::from(root).join(i.to_string())
 }
 
-/// Runs the N shards with `xargs -P` (one `crashrig grid … --shard i/N` process per shard),
+/// Runs the N shards with `xargs -P` (one `crashrig <command> … --shard i/N` process per shard),
 /// then `crashrig merge`. Returns the shard directories.
 pub fn run(plan: &Plan, bin: &Path) -> Result<Vec<PathBuf>> {
     let n = plan.count;
@@ -105,7 +115,7 @@ pub fn run(plan: &Plan, bin: &Path) -> Result<Vec<PathBuf>> {
     xargs
         .args(["-P", &plan.parallel.to_string(), "-I", "{}"])
         .arg(bin)
-        .arg("grid")
+        .arg(&plan.command)
         .args(&plan.grid_args)
         .arg("--out")
         .arg(&template)
@@ -152,6 +162,14 @@ mod tests {
         assert_eq!(p.parallel, 2);
         assert_eq!(p.out, PathBuf::from("o"));
         assert_eq!(p.grid_args, ["s.toml", "--samples", "10"]);
+        assert_eq!(p.command, "grid");
+        let (p, _) = parse(&args("2 --out o -- measure seq/model --camera-a a/")).unwrap();
+        assert_eq!(
+            (p.command.as_str(), &p.grid_args[..]),
+            ("measure", &args("seq/model --camera-a a/")[..])
+        );
+        let (p, _) = parse(&args("2 --out o -- place s.toml --choose 2")).unwrap();
+        assert_eq!(p.command, "place");
         assert_eq!(bin, None);
         assert_eq!(shard_dir(&p, 2), PathBuf::from("o.shards/2"));
         let (p, bin) = parse(&args("2 --bin b --out o -- s.toml")).unwrap();
@@ -199,6 +217,8 @@ mod tests {
             "3 --out o --",
             "3 --out o -- s.toml --shard 1/2",
             "3 --out o -- s.toml --out x",
+            "3 --out o -- measure",
+            "3 --out o -- place s.toml --shard 1/3",
             "x --out o -- s.toml",
         ] {
             assert!(parse(&args(bad)).is_err(), "{bad}");

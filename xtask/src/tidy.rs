@@ -74,6 +74,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-stats",
             "crashrig-study",
             "crashrig-outdir",
+            "crashrig-measure",
         ],
     ),
     (

@@ -351,6 +351,9 @@ struct Slot {
     nominal: Option<Vec3>,
     reprojection_px: Option<f64>,
     degenerate: bool,
+    /// Intersected in the draws (false: a marker of another shard, whose pixel noise is drawn
+    /// and dropped so that the epoch's stream stays aligned).
+    drawn: bool,
 }
 
 impl Slot {
@@ -449,11 +452,30 @@ struct LinkPrep {
     c: Option<(Mat3, Vec3, Mat6)>,
 }
 
-#[derive(Debug, Clone, Copy, Default)]
-struct Acc {
-    pos: Moments<3>,
-    disp: Moments<3>,
-    vel: Moments<3>,
+/// A row's streaming moments of position, displacement and velocity.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct Acc {
+    pub pos: Moments<3>,
+    pub disp: Moments<3>,
+    pub vel: Moments<3>,
+}
+
+/// The Monte Carlo's accumulators of some markers ([`crate::shard`]): the rows' moments by
+/// (measured epoch, marker) and the kinematic runs' moments by (marker, first epoch).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Accs {
+    pub rows: BTreeMap<(usize, usize), Acc>,
+    pub runs: BTreeMap<(usize, usize), RunAcc>,
+}
+
+/// Where the Monte Carlo's moments come from.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Draws<'a> {
+    /// Drawn here, for the markers of this shard (`Shard::whole()`: every marker).
+    Shard(crashrig_outdir::shard::Shard),
+    /// Given, per pass (the measurement, then the one without the trigger offset): the union
+    /// of a shard set's accumulators.
+    Given(&'a [Accs]),
 }
 
 fn normals6(rng: &mut StreamRng) -> Vec6 {
@@ -693,6 +715,9 @@ fn epoch_positions(
                 let eps = Vector2::new(rng.sample(StandardNormal), rng.sample(StandardNormal));
                 noisy[k] = v.n0 + v.m * eps;
             }
+            if !slot.drawn {
+                continue;
+            }
             let x = intersect(
                 slot.views
                     .iter()
@@ -877,16 +902,34 @@ pub fn measure_with_joint(
     observations: &[Observation],
     settings: &Settings,
 ) -> Result<Measurement, Error> {
-    let mut m = measure_once(epochs, joint, rig, observations, settings)?;
+    let whole = Draws::Shard(crashrig_outdir::shard::Shard::whole());
+    measure_parts(epochs, joint, rig, observations, settings, whole).map(|(m, _)| m)
+}
+
+/// [`measure_with_joint`] with the moments drawn for one shard's markers or given
+/// ([`Draws`]), and the accumulators per pass (the measurement, then — with a trigger offset
+/// — the one without it; a shard's hold only its markers, and its measurement's other rows
+/// are empty).
+pub(crate) fn measure_parts(
+    epochs: &[Epoch],
+    joint: Option<&JointA>,
+    rig: &Rig,
+    observations: &[Observation],
+    settings: &Settings,
+    draws: Draws<'_>,
+) -> Result<(Measurement, Vec<Accs>), Error> {
+    let (mut m, accs) = measure_once(epochs, joint, rig, observations, settings, draws, 0)?;
+    let mut all = vec![accs];
     if settings.sync_sigma_ms > 0.0 {
         let without = Settings {
             sync_sigma_ms: 0.0,
             ..settings.clone()
         };
-        let m0 = measure_once(epochs, joint, rig, observations, &without)?;
+        let (m0, accs0) = measure_once(epochs, joint, rig, observations, &without, draws, 1)?;
         m.sync_share = Some(sync_share(&m, &m0, settings.sync_sigma_ms));
+        all.push(accs0);
     }
-    Ok(m)
+    Ok((m, all))
 }
 
 fn sync_share(m: &Measurement, m0: &Measurement, sigma_ms: f64) -> SyncShare {
@@ -918,7 +961,9 @@ fn measure_once(
     rig: &Rig,
     observations: &[Observation],
     settings: &Settings,
-) -> Result<Measurement, Error> {
+    draws: Draws<'_>,
+    pass: usize,
+) -> Result<(Measurement, Accs), Error> {
     check_settings(settings)?;
     check_draws(observations.len(), settings.samples)?;
     crate::input::check_in_image(observations, &rig.camera_b, rig.c.as_ref().map(|(_, c)| c))?;
@@ -977,21 +1022,57 @@ fn measure_once(
         .as_ref()
         .zip(kin_runs.as_deref())
         .map(|(filter, runs)| KinWork { filter, runs });
-    let a_factor = joint
-        .map(|j| {
-            let measured: Vec<usize> = groups.by_epoch.keys().copied().collect();
-            joint_factor(j, epochs, &measured)
-        })
-        .transpose()?;
-    let (accs, kin_accs) = run_monte_carlo(
-        &preps,
-        &link,
-        a_factor.as_ref(),
-        settings,
-        reference_epoch,
-        track.as_ref(),
-        kin_work.as_ref(),
-    );
+    let (accs, kin_accs) = match draws {
+        Draws::Given(given) => {
+            let given = given.get(pass).ok_or_else(|| {
+                Error::Input("the shards hold no moments of the run without the offset".into())
+            })?;
+            given_moments(&preps, kin_work.as_ref(), given)?
+        }
+        Draws::Shard(shard) => {
+            let mine = shard.range(groups.markers.len());
+            for slot in preps.iter_mut().flat_map(|p| p.slots.iter_mut()) {
+                slot.drawn = mine.contains(&slot.marker);
+            }
+            // Only this shard's markers' runs are filtered.
+            let my_runs: Option<Vec<Vec<Run>>> = kin_runs.as_ref().map(|runs| {
+                let keep = |(m, r): (usize, &Vec<Run>)| {
+                    if mine.contains(&m) {
+                        r.clone()
+                    } else {
+                        Vec::new()
+                    }
+                };
+                runs.iter().enumerate().map(keep).collect()
+            });
+            let my_work = filter
+                .as_ref()
+                .zip(my_runs.as_deref())
+                .map(|(filter, runs)| KinWork { filter, runs });
+            let a_factor = joint
+                .map(|j| {
+                    let measured: Vec<usize> = groups.by_epoch.keys().copied().collect();
+                    joint_factor(j, epochs, &measured)
+                })
+                .transpose()?;
+            run_monte_carlo(
+                &preps,
+                &link,
+                a_factor.as_ref(),
+                settings,
+                reference_epoch,
+                track.as_ref(),
+                my_work.as_ref(),
+            )
+        }
+    };
+    let part = match draws {
+        Draws::Shard(shard) => {
+            let mine = shard.range(groups.markers.len());
+            shard_part(&preps, kin_runs.as_deref(), &accs, &kin_accs, &mine)
+        }
+        Draws::Given(_) => Accs::default(),
+    };
     let rows = assemble(
         &preps,
         &accs,
@@ -1020,7 +1101,85 @@ fn measure_once(
         kinematics,
         sync_share: None,
     };
-    Ok(m)
+    Ok((m, part))
+}
+
+/// The accumulators of the rows and kinematic runs of the markers `mine` (a shard's).
+fn shard_part(
+    preps: &[EpochPrep],
+    kin_runs: Option<&[Vec<Run>]>,
+    accs: &[Vec<Acc>],
+    kin_accs: &[Vec<RunAcc>],
+    mine: &std::ops::Range<usize>,
+) -> Accs {
+    let mut part = Accs::default();
+    for (e, p) in preps.iter().enumerate() {
+        for (s, slot) in p.slots.iter().enumerate() {
+            if mine.contains(&slot.marker) {
+                part.rows.insert((e, slot.marker), accs[e][s]);
+            }
+        }
+    }
+    for (runs, racc) in kin_runs.into_iter().flatten().zip(kin_accs) {
+        for (run, acc) in runs.iter().zip(racc) {
+            part.runs.insert((run.marker, run.start), acc.clone());
+        }
+    }
+    part
+}
+
+/// The accumulators of every row and run, from the union of a shard set's ([`Draws::Given`]).
+///
+/// # Errors
+/// [`Error::Input`] naming the first row or run that no shard holds, or a run whose length
+/// differs (the shards come from other inputs).
+#[allow(clippy::type_complexity)]
+fn given_moments(
+    preps: &[EpochPrep],
+    kin: Option<&KinWork<'_>>,
+    given: &Accs,
+) -> Result<(Vec<Vec<Acc>>, Vec<Vec<RunAcc>>), Error> {
+    let mut accs = Vec::with_capacity(preps.len());
+    for (e, p) in preps.iter().enumerate() {
+        let row = |slot: &Slot| {
+            given.rows.get(&(e, slot.marker)).copied().ok_or_else(|| {
+                Error::Input(format!(
+                    "no shard holds the moments of measured epoch {e}, marker {}",
+                    slot.marker
+                ))
+            })
+        };
+        accs.push(p.slots.iter().map(row).collect::<Result<Vec<_>, _>>()?);
+    }
+    let runs = kin.map_or(&[][..], |k| k.runs);
+    let (n_rows, n_runs) = (
+        accs.iter().map(Vec::len).sum(),
+        runs.iter().map(Vec::len).sum(),
+    );
+    if (given.rows.len(), given.runs.len()) != (n_rows, n_runs) {
+        return Err(Error::Input(format!(
+            "the shards hold the moments of {} rows and {} kinematic runs, the run has {n_rows} and {n_runs}",
+            given.rows.len(),
+            given.runs.len()
+        )));
+    }
+    let mut kin_accs = Vec::new();
+    for runs in runs {
+        let mut racc = Vec::with_capacity(runs.len());
+        for run in runs {
+            match given.runs.get(&(run.marker, run.start)) {
+                Some(acc) if acc.m.len() == run.len => racc.push(acc.clone()),
+                _ => {
+                    return Err(Error::Input(format!(
+                        "no shard holds the moments of marker {}'s kinematic run of {} epochs from measured epoch {}",
+                        run.marker, run.len, run.start
+                    )));
+                }
+            }
+        }
+        kin_accs.push(racc);
+    }
+    Ok((accs, kin_accs))
 }
 
 /// One epoch's observations: marker → camera → observation.
@@ -1197,6 +1356,7 @@ fn prep_epoch(
             nominal,
             reprojection_px,
             degenerate,
+            drawn: true,
         });
     }
     Ok(EpochPrep {

@@ -236,8 +236,8 @@ pub(crate) fn runs(
 /// [`RunAcc`]: every epoch of a run takes the same replicates.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct AxisMoments {
-    mean: Vec3,
-    m2: Vec3,
+    pub mean: Vec3,
+    pub m2: Vec3,
 }
 
 impl AxisMoments {

@@ -111,6 +111,7 @@ pub mod output;
 pub mod plausible;
 mod run;
 pub mod sequence;
+pub mod shard;
 mod simd;
 
 pub use engine::{Epoch, Measurement, Rig, Row, Settings, measure, measure_with_joint};

@@ -28,7 +28,7 @@ use std::path::PathBuf;
 pub const DEFAULT_SEED: u64 = 1;
 
 /// The options of `crashrig measure` (`crashrig.measure` in Python), unchecked.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct MeasureOptions {
     /// COLMAP model of the sequence.
     pub model: PathBuf,

@@ -640,7 +640,10 @@ pub(crate) fn check_out_dir(dir: &Path) -> Result<(), Error> {
     if entries.next().is_none() {
         return Ok(());
     }
-    if !(dir.join("trajectories.csv").is_file() && dir.join("summary.json").is_file()) {
+    let previous_shard =
+        dir.join(SHARD_MOMENTS).is_file() && dir.join(crashrig_outdir::shard::MANIFEST).is_file();
+    let previous = dir.join("trajectories.csv").is_file() && dir.join("summary.json").is_file();
+    if !(previous || previous_shard) {
         return Err(bad(
             "exists and is not empty and not a previous `measure` output; choose another --out"
                 .into(),
@@ -649,12 +652,24 @@ pub(crate) fn check_out_dir(dir: &Path) -> Result<(), Error> {
     Ok(())
 }
 
+/// The options file of a `measure --shard` directory (`crate::shard::OPTIONS`).
+pub(crate) const SHARD_OPTIONS: &str = "measure_shard.json";
+/// The moments file of a `measure --shard` directory (`crate::shard::MOMENTS`).
+pub(crate) const SHARD_MOMENTS: &str = "moments.csv";
+
 /// Top-level entries of an existing output directory that `measure` writes (directories end
 /// with `/`).
 fn replaceable(name: &str) -> bool {
     matches!(
         name,
-        "trajectories.csv" | "displacements.csv" | "kinematics.csv" | "summary.json" | "plots/"
+        "trajectories.csv"
+            | "displacements.csv"
+            | "kinematics.csv"
+            | "summary.json"
+            | "plots/"
+            | crashrig_outdir::shard::MANIFEST
+            | SHARD_OPTIONS
+            | SHARD_MOMENTS
     )
 }
 

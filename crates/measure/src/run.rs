@@ -42,7 +42,7 @@
 //! ```
 
 use crate::Error;
-use crate::engine::{Epoch, Measurement, Rig, Settings};
+use crate::engine::{Accs, Draws, Epoch, Measurement, Rig, Settings};
 use crate::input::{self, CameraNames, JointA};
 use crate::output::{self, Skipped, SummaryDocument};
 use crate::sequence::{self, APose, CameraSelector};
@@ -70,7 +70,7 @@ pub enum ANoise {
 }
 
 /// Where and how [`run`] writes the output directory.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct OutputDir {
     /// The directory (absent, empty, or a previous `measure` output; replaced whole).
     pub dir: PathBuf,
@@ -127,6 +127,16 @@ pub struct MeasureRun {
 /// (placed in its file by [`Error::in_files`]), and of the output directory
 /// ([`Error::OutDir`], checked before any work).
 pub fn run(config: &MeasureConfig) -> Result<MeasureRun, Error> {
+    let whole = Draws::Shard(crashrig_outdir::shard::Shard::whole());
+    run_parts(config, whole).map(|(r, _)| r)
+}
+
+/// [`run`] with the Monte Carlo's moments drawn for one shard's markers or given by a shard
+/// set ([`Draws`]), and the accumulators per pass ([`crate::engine::measure_parts`]).
+pub(crate) fn run_parts(
+    config: &MeasureConfig,
+    draws: Draws<'_>,
+) -> Result<(MeasureRun, Vec<Accs>), Error> {
     let started = std::time::Instant::now();
     if let Some(out) = &config.out {
         output::check_out_dir(&out.dir)?;
@@ -163,17 +173,18 @@ pub fn run(config: &MeasureConfig) -> Result<MeasureRun, Error> {
         camera_b,
         c: c.map(|(_, tie, cam)| (tie, cam)),
     };
-    let measurement = crate::engine::measure_with_joint(
+    let (measurement, accs) = crate::engine::measure_parts(
         &epochs,
         joint.as_ref(),
         &rig,
         &observations,
         &config.settings,
+        draws,
     )
-    .and_then(|m| {
+    .and_then(|(m, accs)| {
         crate::plausible::check_measurable(&m)?;
         crate::plausible::check_finite(&m)?;
-        Ok(m)
+        Ok((m, accs))
     })
     .map_err(|e| e.in_files(&config.observations, &config.model))?;
     let warnings = measurement
@@ -198,11 +209,12 @@ pub fn run(config: &MeasureConfig) -> Result<MeasureRun, Error> {
         files.push(("summary.json".into(), output::json_pretty(&summary)?));
         output::write_dir(&out.dir, &files)?;
     }
-    Ok(MeasureRun {
+    let r = MeasureRun {
         measurement,
         summary,
         warnings,
-    })
+    };
+    Ok((r, accs))
 }
 
 /// The epochs of A's sequence with their uncertain poses, and the file's joint covariance of

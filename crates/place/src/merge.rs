@@ -1,7 +1,8 @@
 //! [`merge_shards`], the library entry of `crashrig merge`: the shard directories of a
 //! `--shard i/N` run → exactly what the unsharded run writes, by the command that wrote them
-//! (`place` shards here, the others by [`crashrig_study::merge::merge_shards`]; this crate
-//! sits above `crashrig-study` in the DAG, so the whole dispatch lives here).
+//! (`place` shards here, `measure` shards by [`crashrig_measure::shard::merge`], the others by
+//! [`crashrig_study::merge::merge_shards`]; this crate sits above `crashrig-study` and
+//! `crashrig-measure` in the DAG, so the whole dispatch lives here).
 //!
 //! ```no_run
 //! use crashrig_place::merge::{Merged, merge_shards};
@@ -9,6 +10,7 @@
 //! let dirs: Vec<std::path::PathBuf> = (1..=4).map(|i| format!("out.shards/{i}").into()).collect();
 //! match merge_shards(&dirs, std::path::Path::new("out"), true)? {
 //!     Merged::Place(r) => println!("chose {:?}", r.placement.chosen),
+//!     Merged::Measure(r) => println!("{} rows", r.measurement.rows.len()),
 //!     Merged::Study(MergeRun::Grid(r)) => println!("{} points", r.summary.points),
 //!     Merged::Study(_) => {}
 //! }
@@ -24,6 +26,8 @@ use std::path::{Path, PathBuf};
 pub enum Merged {
     /// `place` shards: the placement, as [`crate::run`] returns it.
     Place(PlaceRun),
+    /// `measure` shards: the measurement, as [`crashrig_measure::run`] returns it.
+    Measure(Box<crashrig_measure::MeasureRun>),
     /// The shards of a command merged by `crashrig-study` (`grid`).
     Study(MergeRun),
 }
@@ -32,7 +36,8 @@ pub enum Merged {
 /// `out` (`plots`: as the unsharded run without `--no-plots`).
 ///
 /// # Errors
-/// [`Error::OutDir`] for the shard set; [`shard::merge`]'s and
+/// [`Error::OutDir`] for the shard set; [`shard::merge`]'s,
+/// [`crashrig_measure::shard::merge`]'s ([`Error::Measure`]) and
 /// [`crashrig_study::merge::merge_shards`]'s errors.
 pub fn merge_shards(dirs: &[PathBuf], out: &Path, plots: bool) -> Result<Merged, Error> {
     let shards = crashrig_outdir::shard::read_set(dirs)?;
@@ -40,6 +45,9 @@ pub fn merge_shards(dirs: &[PathBuf], out: &Path, plots: bool) -> Result<Merged,
         Some((_, m)) if m.command == shard::COMMAND => {
             Ok(Merged::Place(shard::merge(&shards, out, plots)?))
         }
+        Some((_, m)) if m.command == crashrig_measure::shard::COMMAND => Ok(Merged::Measure(
+            Box::new(crashrig_measure::shard::merge(&shards, out, plots)?),
+        )),
         _ => Ok(Merged::Study(crashrig_study::merge::merge_shards(
             dirs, out, plots,
         )?)),

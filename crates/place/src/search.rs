@@ -94,16 +94,10 @@ pub fn binomial(n: usize, k: usize) -> u128 {
 }
 
 /// Searches the K-layouts of `table`'s candidates; `keep` layouts are kept on the board.
+/// The whole search is the share of every item ([`search_share`]): one enumerator of the
+/// subsets serves both.
 pub fn search(table: &Table, k: usize, keep: usize) -> Found {
-    let n = table.candidates();
-    let before = table.scored();
-    let mut found = if binomial(n, k) <= crate::EXHAUSTIVE_MAX_LAYOUTS as u128 {
-        exhaustive(table, k, keep)
-    } else {
-        greedy_swap(table, k, keep)
-    };
-    found.evaluated = table.scored() - before;
-    found
+    search_share(table, k, keep, 0..items(table.candidates(), k))
 }
 
 /// The work items of a sharded search: the C(n, K) subsets in lexicographic order when the
@@ -197,46 +191,6 @@ fn exhaustive_ranks(table: &Table, k: usize, keep: usize, ranks: Range<usize>) -
             board
         })
         .collect::<Vec<_>>()
-        .into_iter()
-        .fold(Board::new(keep), |acc, b| acc.merge(b));
-    Found {
-        method: EXHAUSTIVE,
-        evaluated: 0,
-        board,
-    }
-}
-
-/// Every K-subset, split by its first index across threads (each enumerates its subsets in
-/// lexicographic order with its own board; the boards merge in index order).
-fn exhaustive(table: &Table, k: usize, keep: usize) -> Found {
-    let n = table.candidates();
-    let parts: Vec<Board> = (0..=n - k)
-        .into_par_iter()
-        .map(|first| {
-            let mut board = Board::new(keep);
-            let mut dirs = Vec::new();
-            let mut layout: Vec<usize> = (first..first + k).collect();
-            loop {
-                board.offer(table.score(&layout, &mut dirs), &layout);
-                // Next subset with the same first index (lexicographic).
-                let mut i = k;
-                loop {
-                    if i <= 1 {
-                        return board;
-                    }
-                    i -= 1;
-                    if layout[i] < n - k + i {
-                        layout[i] += 1;
-                        for j in i + 1..k {
-                            layout[j] = layout[j - 1] + 1;
-                        }
-                        break;
-                    }
-                }
-            }
-        })
-        .collect();
-    let board = parts
         .into_iter()
         .fold(Board::new(keep), |acc, b| acc.merge(b));
     Found {

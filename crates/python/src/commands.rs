@@ -609,6 +609,10 @@ fn merge<'py>(
             warn_all(py, &r.grid.warnings)?;
             document(py, &r.placement)
         }
+        Merged::Measure(r) => {
+            warn_all(py, &r.warnings)?;
+            document(py, &r.summary)
+        }
         Merged::Study(MergeRun::Grid(r)) => {
             warn_all(py, &r.warnings)?;
             document(py, &r.summary)

@@ -80,6 +80,18 @@ impl<const N: usize> Moments<N> {
         self.mean
     }
 
+    /// The accumulator's state: count, mean and the sum of outer products of deviations
+    /// (what [`Moments::from_parts`] takes back, bit for bit; e.g. to store an unfinished
+    /// accumulator and continue or finish it elsewhere).
+    pub fn parts(&self) -> (u64, SVector<f64, N>, SMatrix<f64, N, N>) {
+        (self.n, self.mean, self.m2)
+    }
+
+    /// The accumulator whose state is `(n, mean, m2)` ([`Moments::parts`]).
+    pub fn from_parts(n: u64, mean: SVector<f64, N>, m2: SMatrix<f64, N, N>) -> Self {
+        Self { n, mean, m2 }
+    }
+
     /// Sample covariance with divisor n − 1 (NaN when n < 2).
     pub fn covariance(&self) -> SMatrix<f64, N, N> {
         if self.n < 2 {
@@ -98,6 +110,20 @@ impl<const N: usize> Moments<N> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn parts_round_trip_and_continue() {
+        let mut a = Moments::<2>::new();
+        for x in [[1.0, 2.0], [0.5, -3.0], [7.25, 0.125]] {
+            a.push(&x);
+        }
+        let (n, mean, m2) = a.parts();
+        let mut b = Moments::from_parts(n, mean, m2);
+        assert_eq!(a, b);
+        a.push(&[2.0, 2.0]);
+        b.push(&[2.0, 2.0]);
+        assert_eq!(a, b);
+    }
     use approx::assert_relative_eq;
 
     #[test]

@@ -62,14 +62,33 @@ pub struct MeasureArgs {
     /// Filtered kinematics and A's trigger offset.
     #[command(flatten)]
     pub kinematics: super::measure_options::KinematicsArgs,
+    /// Run only shard i of N (its share of the markers) and write a shard directory to --out;
+    /// `crashrig merge` turns the N shard directories into the unsharded output (docs/SCALE.md).
+    #[arg(long, value_name = "I/N", value_parser = crate::limits::parse_shard)]
+    pub shard: Option<crashrig_outdir::shard::Shard>,
 }
 
 /// Runs the command: arguments → [`MeasureOptions`] → [`crashrig_measure::run`] → print.
 pub fn run(a: MeasureArgs, g: &Global) -> anyhow::Result<()> {
     let options = options(&a, g.seed);
+    if let Some(shard) = a.shard {
+        let r = crashrig_measure::shard::run(&options, shard, &a.out)?;
+        crate::output::warn_all(&options.warnings(&r.run, Spelling::Flag));
+        return super::merge::print_shard(&r.manifest, r.files, &a.out, g);
+    }
     let r = crashrig_measure::run(&options.config(Spelling::Flag)?)?;
     // Warnings after a successful run: a failed run prints its one `error:` line only.
-    crate::output::warn_all(&options.warnings(&r, Spelling::Flag));
+    print(&r, &options.warnings(&r, Spelling::Flag), &a.out, g)
+}
+
+/// Prints a measure run (`crashrig measure`, and `crashrig merge` of measure shards).
+pub fn print(
+    r: &crashrig_measure::MeasureRun,
+    warnings: &[String],
+    out: &std::path::Path,
+    g: &Global,
+) -> anyhow::Result<()> {
+    crate::output::warn_all(warnings);
     let s = &r.summary;
     if g.json {
         return crate::output::print_json(s);
@@ -83,7 +102,7 @@ pub fn run(a: MeasureArgs, g: &Global) -> anyhow::Result<()> {
         100.0 * s.numbers.fraction_below_threshold,
         s.numbers.threshold_mm,
         s.numbers.rows_flagged,
-        a.out.display()
+        out.display()
     );
     if let Some(sync) = &s.numbers.sync_offset {
         println!("{}", sync.line());

@@ -26,6 +26,7 @@ pub fn run(a: MergeArgs, g: &Global) -> anyhow::Result<()> {
     use crashrig_study::merge::MergeRun;
     match merge_shards(&a.shards, &a.out, !a.no_plots)? {
         Merged::Place(r) => super::place::print(&r, &a.out, g),
+        Merged::Measure(r) => super::measure::print(&r, &r.warnings, &a.out, g),
         Merged::Study(MergeRun::Grid(r)) => super::grid::print(&r, &a.out, g),
         Merged::Study(_) => anyhow::bail!("this crashrig cannot print what it merged"),
     }

@@ -332,3 +332,136 @@ fn place_shards_merge_to_the_unsharded_placement() {
         without_timing(read_json(&merged.join("grid/summary.json")))
     );
 }
+
+/// `crashrig measure` of the bundled sequence with `extra` arguments.
+fn measure_args<'a>(out: &'a str, extra: &[&'a str]) -> Vec<String> {
+    let f = |p: &str| crate::common::fixture(&format!("measure/sequence/{p}"));
+    let mut a: Vec<String> = [
+        "measure".to_string(),
+        f("model").display().to_string(),
+        "--camera-a".into(),
+        "cam_out/".into(),
+        "--camera-b".into(),
+        "2".into(),
+        "--camera-c".into(),
+        "3".into(),
+        "--link".into(),
+        f("link.json").display().to_string(),
+        "--tie".into(),
+        f("tie.json").display().to_string(),
+        "--observations".into(),
+        f("observations.csv").display().to_string(),
+        "--mm-per-unit".into(),
+        "1000".into(),
+        "--sigma-a-position-mm".into(),
+        "0.5".into(),
+        "0.5".into(),
+        "0.5".into(),
+        "--samples".into(),
+        "100".into(),
+        "--frame-rate-hz".into(),
+        "1000".into(),
+        "--cfc".into(),
+        "180".into(),
+        "--out".into(),
+        out.into(),
+    ]
+    .into();
+    a.extend(extra.iter().map(|s| s.to_string()));
+    a
+}
+
+#[test]
+fn measure_shards_merge_to_the_unsharded_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let whole = tmp.path().join("whole");
+    let r = run(measure_args(s(&whole), &[]));
+    assert!(r.success, "{}", r.stderr);
+    let dirs: Vec<PathBuf> = (1..=3).map(|i| tmp.path().join(format!("m{i}"))).collect();
+    for (k, d) in dirs.iter().enumerate() {
+        let spec = format!("{}/3", k + 1);
+        let r = run(measure_args(s(d), &["--shard", &spec]));
+        assert!(r.success, "{}", r.stderr);
+        assert!(r.stdout.contains(&format!("shard {spec}")), "{}", r.stdout);
+    }
+    let merged = tmp.path().join("merged");
+    let r = run([
+        "merge",
+        s(&dirs[1]),
+        s(&dirs[2]),
+        s(&dirs[0]),
+        "--out",
+        s(&merged),
+    ]);
+    assert!(r.success, "{}", r.stderr);
+    assert!(r.stdout.starts_with("measured "), "{}", r.stdout);
+    for f in [
+        "trajectories.csv",
+        "displacements.csv",
+        "kinematics.csv",
+        "plots/head_l.png",
+        "plots/head_l.svg",
+    ] {
+        assert!(
+            std::fs::read(whole.join(f)).unwrap() == std::fs::read(merged.join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    let summary = |d: &Path| {
+        let mut v = read_json(&d.join("summary.json"));
+        v.as_object_mut().unwrap().remove("elapsed_s");
+        v
+    };
+    assert_eq!(summary(&whole), summary(&merged));
+    // Bad --shard values: one error line naming the flag, nothing written.
+    let out = tmp.path().join("bad");
+    for bad in ["0/3", "4/3", "a/b"] {
+        let r = run(measure_args(s(&out), &["--shard", bad]));
+        assert_clean_error(&r, &["--shard", bad]);
+        assert!(!out.exists(), "--shard {bad}: something was written");
+    }
+    // A shard of another seed, and a missing one: refused by name, nothing written.
+    let other = tmp.path().join("other");
+    let r = run(measure_args(s(&other), &["--shard", "2/3", "--seed", "5"]));
+    assert!(r.success, "{}", r.stderr);
+    let r = run([
+        "merge",
+        s(&dirs[0]),
+        s(&other),
+        s(&dirs[2]),
+        "--out",
+        s(&out),
+    ]);
+    assert_clean_error(&r, &[s(&other), "another run", "seed"]);
+    let r = run(["merge", s(&dirs[0]), s(&dirs[2]), "--out", s(&out)]);
+    assert_clean_error(&r, &["missing", "2/3"]);
+    assert!(!out.exists(), "a refused merge wrote its output");
+}
+
+/// `cargo xtask shards` runs `measure` shards too (the command named after `--`).
+#[test]
+fn xtask_shards_runs_measure_shards_and_merges() {
+    let tmp = tempfile::tempdir().unwrap();
+    let whole = tmp.path().join("whole");
+    let r = run(measure_args(s(&whole), &["--no-plots"]));
+    assert!(r.success, "{}", r.stderr);
+    let out = tmp.path().join("merged");
+    let mut args: Vec<String> = ["2", "-P", "2", "--out", s(&out), "--"]
+        .iter()
+        .map(|a| a.to_string())
+        .collect();
+    // measure_args without its `--out DIR` (the last two), with --no-plots.
+    let m = measure_args("x", &["--no-plots"]);
+    args.extend(m[..m.len() - 3].iter().cloned());
+    args.push("--no-plots".into());
+    let (plan, _) = crate::xtask_shards::parse(&args).unwrap();
+    assert_eq!(plan.command, "measure");
+    let dirs = crate::xtask_shards::run(&plan, Path::new(env!("CARGO_BIN_EXE_crashrig"))).unwrap();
+    assert_eq!(dirs.len(), 2);
+    for f in ["trajectories.csv", "displacements.csv", "kinematics.csv"] {
+        assert!(
+            std::fs::read(whole.join(f)).unwrap() == std::fs::read(out.join(f)).unwrap(),
+            "{f}"
+        );
+    }
+}
