@@ -46,6 +46,7 @@ use crate::sequence::frame_number;
 use crashrig_camera::Camera;
 use crashrig_geometry::triangulate::{self, View};
 use crashrig_geometry::{Mat3, Mat6, UncertainPose, Vec3, Vec6, so3};
+use crashrig_stats::progress::{Cancelled, Counter, Monitor, Part};
 use crashrig_stats::{Moments, StreamRng, stream};
 use nalgebra::{DMatrix, Matrix2, Vector2, Vector3};
 use rand::RngExt;
@@ -876,13 +877,33 @@ pub fn measure_with_joint(
     observations: &[Observation],
     settings: &Settings,
 ) -> Result<Measurement, Error> {
-    let mut m = measure_once(epochs, joint, rig, observations, settings)?;
+    measure_monitored(epochs, joint, rig, observations, settings, None)
+}
+
+/// [`measure_with_joint`] reporting the replicates drawn, chunk by chunk, to `monitor` (two
+/// equal parts with a sync σ: the run with and the run without it) and stopping between
+/// chunks with [`Error::Cancelled`] when it asks to; the result does not depend on it.
+pub(crate) fn measure_monitored(
+    epochs: &[Epoch],
+    joint: Option<&JointA>,
+    rig: &Rig,
+    observations: &[Observation],
+    settings: &Settings,
+    monitor: Option<&dyn Monitor>,
+) -> Result<Measurement, Error> {
+    let parts = if settings.sync_sigma_ms > 0.0 { 2 } else { 1 };
+    let part = |i| monitor.map(|m| Part::new(m, i, parts));
+    let first = part(0);
+    let ticks = Counter::monitored(first.as_ref().map(|p| p as _), settings.samples);
+    let mut m = measure_once(epochs, joint, rig, observations, settings, &ticks)?;
     if settings.sync_sigma_ms > 0.0 {
         let without = Settings {
             sync_sigma_ms: 0.0,
             ..settings.clone()
         };
-        let m0 = measure_once(epochs, joint, rig, observations, &without)?;
+        let second = part(1);
+        let ticks = Counter::monitored(second.as_ref().map(|p| p as _), settings.samples);
+        let m0 = measure_once(epochs, joint, rig, observations, &without, &ticks)?;
         m.sync_share = Some(sync_share(&m, &m0, settings.sync_sigma_ms));
     }
     Ok(m)
@@ -917,6 +938,7 @@ fn measure_once(
     rig: &Rig,
     observations: &[Observation],
     settings: &Settings,
+    ticks: &Counter<'_>,
 ) -> Result<Measurement, Error> {
     check_settings(settings)?;
     check_draws(observations.len(), settings.samples)?;
@@ -990,7 +1012,8 @@ fn measure_once(
         reference_epoch,
         track.as_ref(),
         kin_work.as_ref(),
-    );
+        ticks,
+    )?;
     let rows = assemble(
         &preps,
         &accs,
@@ -1291,7 +1314,8 @@ fn run_monte_carlo(
     reference: usize,
     track: Option<&ATrack>,
     kin: Option<&KinWork<'_>>,
-) -> (Vec<Vec<Acc>>, Vec<Vec<RunAcc>>) {
+    ticks: &Counter<'_>,
+) -> Result<(Vec<Vec<Acc>>, Vec<Vec<RunAcc>>), Cancelled> {
     let n_epochs = preps.len();
     let with_velocity = settings.frame_rate_hz.is_some();
     let mut accs: Vec<Vec<Acc>> = preps
@@ -1316,6 +1340,7 @@ fn run_monte_carlo(
             .map(|e| stream(seed, epoch_stream(e, b)))
             .collect();
         for c0 in (0..len).step_by(CHUNK) {
+            ticks.check()?;
             let chunk = &links[c0..(c0 + CHUNK).min(len)];
             let m = chunk.len();
             bufs.par_iter_mut()
@@ -1349,9 +1374,10 @@ fn run_monte_carlo(
                         }
                     });
             }
+            ticks.add(m);
         }
     }
-    (accs, kin_accs)
+    Ok((accs, kin_accs))
 }
 
 /// Feeds the position, displacement and velocity moments of epoch `e`'s rows with the `m`

@@ -168,7 +168,7 @@ pub fn run_measure(
         },
         out: None,
     };
-    let r = crashrig_measure::run(&config).map_err(|e| step(e.into()))?;
+    let r = crashrig_measure::run(&config, None).map_err(|e| step(e.into()))?;
     warnings.extend(r.warnings);
     warnings.extend(crashrig_measure::plausible::warnings(
         &r.measurement,

@@ -67,7 +67,10 @@ pub struct MeasureArgs {
 /// Runs the command: arguments → [`MeasureOptions`] → [`crashrig_measure::run`] → print.
 pub fn run(a: MeasureArgs, g: &Global) -> anyhow::Result<()> {
     let options = options(&a, g.seed);
-    let r = crashrig_measure::run(&options.config(Spelling::Flag)?)?;
+    let bar = crate::progress::Bar::new("crashrig measure");
+    let replicates = bar.stage("replicates");
+    let r = crashrig_measure::run(&options.config(Spelling::Flag)?, bar.monitor(&replicates))?;
+    bar.finish();
     // Warnings after a successful run: a failed run prints its one `error:` line only.
     crate::output::warn_all(&options.warnings(&r, Spelling::Flag));
     let s = &r.summary;
