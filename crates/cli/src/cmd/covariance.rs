@@ -74,7 +74,10 @@ impl CovarianceArgs {
 
 /// Runs `crashrig covariance`.
 pub fn run(a: CovarianceArgs, g: &Global) -> anyhow::Result<()> {
-    let r = crashrig_covariance::run(&a.config()?)?;
+    let bar = crate::progress::Bar::new("crashrig covariance");
+    let phases = bar.stage("phases");
+    let r = crashrig_covariance::run(&a.config()?, bar.monitor(&phases))?;
+    bar.finish();
     for w in &r.warnings {
         eprintln!("warning: {w}");
     }
