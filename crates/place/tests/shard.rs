@@ -83,7 +83,7 @@ fn assert_merge_is_whole(scenario: &Path, candidates: &Path, k: usize, plots: bo
             dirs.push(dir);
         }
         let merged = tmp.path().join(format!("merged{n}"));
-        let m = merge(&read_set(&dirs).unwrap(), &merged, plots).unwrap();
+        let m = merge(&read_set(&dirs).unwrap(), &merged, plots, None).unwrap();
         assert_eq!(m.placement, run.placement, "N = {n}");
         assert_eq!(files(&merged), names, "N = {n}: not the same files");
         for name in &names {
@@ -180,7 +180,7 @@ fn place_merge_refuses_missing_repeated_foreign_and_changed_and_writes_nothing()
     let refused = |dirs: &[PathBuf]| -> String {
         let e = match read_set(dirs) {
             Err(e) => e.to_string(),
-            Ok(set) => merge(&set, &out, false).unwrap_err().to_string(),
+            Ok(set) => merge(&set, &out, false, None).unwrap_err().to_string(),
         };
         assert!(!out.exists(), "{e}");
         e
@@ -249,7 +249,7 @@ fn place_merge_refuses_missing_repeated_foreign_and_changed_and_writes_nothing()
         std::fs::write(p, body).unwrap();
     }
     // Intact again: merges.
-    merge(&read_set(&dirs).unwrap(), &out, false).unwrap();
+    merge(&read_set(&dirs).unwrap(), &out, false, None).unwrap();
     assert!(out.join("placement.json").is_file());
 }
 

@@ -148,6 +148,10 @@ pub enum Error {
     /// end spells them ([`crashrig_geometry::options::Spelling`]).
     #[error("{0}")]
     Usage(String),
+    /// The caller's [`crashrig_stats::progress::Monitor`] cancelled the call: nothing was
+    /// written.
+    #[error(transparent)]
+    Cancelled(#[from] crashrig_stats::progress::Cancelled),
 }
 
 /// Why a step of a study failed: the typed error of the library that ran it (the source of

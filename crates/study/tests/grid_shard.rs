@@ -101,7 +101,7 @@ fn assert_merge_is_whole(scenario: &Path, samples: Option<usize>, plots: bool) {
             dirs.push(dir);
         }
         let merged = tmp.path().join(format!("merged{n}"));
-        merge_grid(&read_set(&dirs).unwrap(), &merged, plots).unwrap();
+        merge_grid(&read_set(&dirs).unwrap(), &merged, plots, None).unwrap();
         let mut got: Vec<String> = std::fs::read_dir(&merged)
             .unwrap()
             .map(|e| e.unwrap().file_name().into_string().unwrap())
@@ -176,7 +176,7 @@ fn grid_merge_refuses_a_changed_scenario_and_writes_nothing() {
     }
     std::fs::write(&scen, AIMED.replace("seed = 5", "seed = 6")).unwrap();
     let out = tmp.path().join("merged");
-    let e = merge_grid(&read_set(&dirs).unwrap(), &out, false)
+    let e = merge_grid(&read_set(&dirs).unwrap(), &out, false, None)
         .unwrap_err()
         .to_string();
     assert!(e.contains("changed since the shards ran"), "{e}");
@@ -187,7 +187,7 @@ fn grid_merge_refuses_a_changed_scenario_and_writes_nothing() {
     let text = std::fs::read_to_string(&rows).unwrap();
     let cut: Vec<&str> = text.lines().collect();
     std::fs::write(&rows, cut[..cut.len() - 1].join("\n")).unwrap();
-    let e = merge_grid(&read_set(&dirs).unwrap(), &out, false)
+    let e = merge_grid(&read_set(&dirs).unwrap(), &out, false, None)
         .unwrap_err()
         .to_string();
     assert!(e.contains("points.csv") && e.contains("incomplete"), "{e}");
