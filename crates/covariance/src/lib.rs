@@ -530,4 +530,13 @@ impl CovarianceResult {
         // Infallible: every map key is a string.
         serde_json::to_value(self.document()).unwrap_or(serde_json::Value::Null)
     }
+
+    /// The file `--out` holds (what `measure --a-covariance` reads): [`Self::to_json`] pretty
+    /// printed, with a final newline.
+    pub fn json_text(&self) -> String {
+        // Infallible: a JSON value always prints.
+        let mut text = serde_json::to_string_pretty(&self.to_json()).unwrap_or_default();
+        text.push('\n');
+        text
+    }
 }

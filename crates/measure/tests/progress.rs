@@ -4,9 +4,8 @@
 
 use crashrig_geometry::Vec3;
 use crashrig_measure::{ANoise, Error, MeasureConfig, OutputDir, Settings, input, output, run};
-use crashrig_stats::progress::Monitor;
+use crashrig_stats::progress::Recorder;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 
 fn fixture() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/measure/sequence")
@@ -43,30 +42,6 @@ fn config(samples: usize, sync_sigma_ms: f64, out: Option<PathBuf>) -> MeasureCo
     }
 }
 
-/// Records every report; cancels once it has seen `after` of them (never with `usize::MAX`).
-struct Recorder {
-    after: usize,
-    seen: Mutex<Vec<(usize, usize)>>,
-}
-
-impl Recorder {
-    fn new(after: usize) -> Self {
-        Self {
-            after,
-            seen: Mutex::new(Vec::new()),
-        }
-    }
-}
-
-impl Monitor for Recorder {
-    fn report(&self, done: usize, total: usize) {
-        self.seen.lock().unwrap().push((done, total));
-    }
-    fn cancelled(&self) -> bool {
-        self.seen.lock().unwrap().len() >= self.after
-    }
-}
-
 /// The bits of every row's σ (position, displacement, velocity) and nominal position.
 fn bits(r: &crashrig_measure::MeasureRun) -> Vec<u64> {
     let v = |x: Option<Vec3>| x.map_or([0; 3], |x| x.map(f64::to_bits).into());
@@ -96,7 +71,7 @@ fn reports_are_monotone_end_at_the_total_and_change_nothing() {
     // 100 replicates: chunks of 32 → reports 32, 64, 96, 100. With a sync σ the run is made
     // twice (with and without it): 200 units, the second run's reports following the first's.
     for (sync, total, reports) in [(0.0, 100, 4), (0.5, 200, 8)] {
-        let recorder = Recorder::new(usize::MAX);
+        let recorder = Recorder::new();
         let with = run(&config(100, sync, None), Some(&recorder)).unwrap();
         let without = run(&config(100, sync, None), None).unwrap();
         assert_eq!(bits(&with), bits(&without), "sync {sync}");
@@ -109,7 +84,7 @@ fn reports_are_monotone_end_at_the_total_and_change_nothing() {
             sync > 0.0,
             "sync {sync}"
         );
-        let seen = recorder.seen.into_inner().unwrap();
+        let seen = recorder.seen();
         assert_eq!(seen.len(), reports, "sync {sync}: {seen:?}");
         assert!(seen.iter().all(|&(_, t)| t == total), "{seen:?}");
         assert!(seen.windows(2).all(|w| w[0].0 < w[1].0), "{seen:?}");
@@ -123,20 +98,20 @@ fn a_cancelled_run_returns_cancelled_and_writes_nothing() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("out");
     // Cancelled after the second chunk: the third never starts.
-    let recorder = Recorder::new(2);
+    let recorder = Recorder::cancelling_after(2);
     let e = run(&config(100, 0.0, Some(out.clone())), Some(&recorder)).unwrap_err();
     assert!(matches!(e, Error::Cancelled(_)), "{e}");
     assert_eq!(e.to_string(), "cancelled");
-    assert_eq!(*recorder.seen.lock().unwrap(), vec![(32, 100), (64, 100)]);
+    assert_eq!(recorder.seen(), vec![(32, 100), (64, 100)]);
     assert!(!out.exists());
     // Cancelled after the last chunk: everything is computed, nothing written.
-    let recorder = Recorder::new(4);
+    let recorder = Recorder::cancelling_after(4);
     let e = run(&config(100, 0.0, Some(out.clone())), Some(&recorder)).unwrap_err();
     assert!(matches!(e, Error::Cancelled(_)), "{e}");
     assert!(!out.exists());
     assert_eq!(std::fs::read_dir(tmp.path()).unwrap().count(), 0);
     // Not cancelled: written.
-    let recorder = Recorder::new(usize::MAX);
+    let recorder = Recorder::new();
     run(&config(100, 0.0, Some(out.clone())), Some(&recorder)).unwrap();
     assert!(out.join("summary.json").is_file());
 }
