@@ -81,12 +81,10 @@ pub fn run(a: CovarianceArgs, g: &Global) -> anyhow::Result<()> {
     for w in &r.warnings {
         eprintln!("warning: {w}");
     }
-    let doc = r.to_json();
     if let Some(out) = &a.out {
-        let mut text = serde_json::to_string_pretty(&doc)?;
-        text.push('\n');
-        crate::output::write_atomic(out, text.as_bytes())?;
+        crate::output::write_atomic(out, r.json_text().as_bytes())?;
     }
+    let doc = r.to_json();
     if g.json {
         return crate::output::print_json(&doc);
     }
