@@ -1292,6 +1292,9 @@ fn assemble_kinematics(
 /// continuing where the previous chunk stopped, so the scratch is O(epochs · slots · CHUNK).
 const CHUNK: usize = 32;
 
+/// The Monte Carlo's per-(epoch, slot) and per-(marker, run) accumulators.
+type Accumulators = (Vec<Vec<Acc>>, Vec<Vec<RunAcc>>);
+
 /// The kinematics work of the Monte Carlo: the filter and every marker's runs.
 struct KinWork<'a> {
     filter: &'a Cfc,
@@ -1306,6 +1309,7 @@ struct KinWork<'a> {
 /// [`RUN`] epochs) and every marker's runs filtered and differentiated replicate by replicate
 /// (in parallel over markers). Each accumulator is fed by one task in replicate order, so the
 /// result does not depend on the thread count.
+#[allow(clippy::too_many_arguments)]
 fn run_monte_carlo(
     preps: &[EpochPrep],
     link: &LinkPrep,
@@ -1315,7 +1319,7 @@ fn run_monte_carlo(
     track: Option<&ATrack>,
     kin: Option<&KinWork<'_>>,
     ticks: &Counter<'_>,
-) -> Result<(Vec<Vec<Acc>>, Vec<Vec<RunAcc>>), Cancelled> {
+) -> Result<Accumulators, Cancelled> {
     let n_epochs = preps.len();
     let with_velocity = settings.frame_rate_hz.is_some();
     let mut accs: Vec<Vec<Acc>> = preps

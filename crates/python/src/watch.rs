@@ -6,8 +6,8 @@
 //! [`Monitor`] ([`Watch::monitor`]: calibrate, bootstrap, measure, covariance, merge) sees it
 //! through [`Monitor::cancelled`] between units of work and returns its typed `Cancelled`
 //! error, writing nothing; [`run`] then raises the Python exception. Libraries that only
-//! report (the Monte Carlo behind grid, propagate, place and study: [`Watch::stage`], the
-//! [`Reporter`]) are stopped at their next report by unwinding the worker
+//! report (the Monte Carlo behind grid, propagate, place and study: the [`Reporter`] and
+//! [`Watch::note_u64`]) are stopped at their next report by unwinding the worker
 //! ([`std::panic::resume_unwind`], which prints nothing); their output directories are staged,
 //! so an interrupted call leaves the previous output.
 
@@ -61,11 +61,6 @@ impl Watch {
     /// with the cancel flag (the library stops itself; nothing unwinds).
     pub fn monitor<'a>(&'a self, stage: &'a str) -> StageMonitor<'a> {
         StageMonitor { watch: self, stage }
-    }
-
-    /// A `(done, total)` callback of one stage (for libraries that take a plain callback).
-    pub fn stage<'a>(&'a self, stage: &'a str) -> impl Fn(usize, usize) + Sync + 'a {
-        move |done, total| self.note(stage, done, total)
     }
 
     /// A `(stage, done, total)` callback with `u64` counts (the study pipeline's).
