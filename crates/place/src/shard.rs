@@ -42,7 +42,7 @@
 //!     run_shard(&config, Shard::new(i, 2)?, None)?;
 //!     dirs.push(config.out);
 //! }
-//! let r = merge(&read_set(&dirs)?, "place_out".as_ref(), true)?;
+//! let r = merge(&read_set(&dirs)?, "place_out".as_ref(), true, None)?;
 //! println!("mount {:?}", r.placement.chosen);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```

@@ -29,7 +29,7 @@
 //!     run_grid_shard(&config, Shard::new(i, 2)?, None)?;
 //!     dirs.push(config.out);
 //! }
-//! let merged = merge_grid(&read_set(&dirs)?, "merged".as_ref(), true)?;
+//! let merged = merge_grid(&read_set(&dirs)?, "merged".as_ref(), true, None)?;
 //! println!("{} points", merged.summary.points);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
