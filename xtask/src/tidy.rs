@@ -37,7 +37,12 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
     ("crashrig-testkit", &["crashrig-geometry"]),
     (
         "crashrig-covariance",
-        &["crashrig-geometry", "crashrig-camera", "crashrig-colmap"],
+        &[
+            "crashrig-geometry",
+            "crashrig-camera",
+            "crashrig-colmap",
+            "crashrig-stats",
+        ],
     ),
     (
         "crashrig-measure",

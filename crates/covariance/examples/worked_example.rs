@@ -10,14 +10,17 @@ use std::path::PathBuf;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let f = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/covariance/mc");
-    let r = run(&CovarianceConfig {
-        model: f.join("model"),
-        camera_a: "cam_out/".into(),
-        control_points: f.join("control_points.csv"),
-        scale: Scale::MmPerUnit(1000.0),
-        pixel_sigma_px: None,
-        intrinsics: Intrinsics::All,
-    })?;
+    let r = run(
+        &CovarianceConfig {
+            model: f.join("model"),
+            camera_a: "cam_out/".into(),
+            control_points: f.join("control_points.csv"),
+            scale: Scale::MmPerUnit(1000.0),
+            pixel_sigma_px: None,
+            intrinsics: Intrinsics::All,
+        },
+        None,
+    )?;
     println!(
         "{} epochs of A, σ̂₀ = {:.3} px (used {:.3} px), {} observations",
         r.epochs.len(),

@@ -69,4 +69,7 @@ pub enum Error {
     /// end spells them ([`crashrig_geometry::options::Spelling`]).
     #[error("{0}")]
     Usage(String),
+    /// The caller's [`crate::Monitor`] cancelled the call: nothing was returned.
+    #[error(transparent)]
+    Cancelled(#[from] crashrig_stats::progress::Cancelled),
 }

@@ -59,6 +59,8 @@ pub use error::Error;
 
 use crashrig_colmap::{CameraSelector, Reconstruction};
 use crashrig_geometry::{Mat3, Mat6, Rigid3, UncertainPose, so3};
+use crashrig_stats::progress::Counter;
+pub use crashrig_stats::progress::{Cancelled, Monitor};
 use nalgebra::DMatrix;
 use std::path::PathBuf;
 
@@ -208,10 +210,18 @@ pub struct CovarianceResult {
 
 /// Reads the model and the control points of `config` and computes the covariance.
 ///
+/// `monitor` (optional) gets `(done, `[`PHASES`]`)` as each phase ends (inputs read, system
+/// built, points eliminated, inverted) and is asked between phases whether to stop. The
+/// result does not depend on it; nothing is written here (front ends write the document).
+///
 /// # Errors
 /// Any [`Error`]: unreadable files, bad control points, a datum that leaves a gauge freedom,
-/// a singular system.
-pub fn run(config: &CovarianceConfig) -> Result<CovarianceResult, Error> {
+/// a singular system; [`Error::Cancelled`] when `monitor` asked to stop.
+pub fn run(
+    config: &CovarianceConfig,
+    monitor: Option<&dyn Monitor>,
+) -> Result<CovarianceResult, Error> {
+    let phases = Counter::monitored(monitor, PHASES);
     let model = Reconstruction::read(&config.model)?;
     let control = read_control_points(&config.control_points)?;
     let mm_per_unit = mm_per_unit(&model, &config.scale)?;
@@ -221,8 +231,14 @@ pub fn run(config: &CovarianceConfig) -> Result<CovarianceResult, Error> {
         pixel_sigma_px: config.pixel_sigma_px,
         intrinsics: config.intrinsics,
     };
-    covariance(&model, &control, &options)
+    phases.add(1);
+    phases.check()?;
+    covariance_in_phases(&model, &control, &options, &phases)
 }
+
+/// The phases [`run`] reports: inputs read, system built, points eliminated (the Schur
+/// complement), inverted (A's covariance assembled).
+pub const PHASES: usize = 4;
 
 /// Model units → mm from a [`Scale`].
 ///
@@ -277,20 +293,18 @@ pub fn covariance(
     control: &ControlPoints,
     options: &Options,
 ) -> Result<CovarianceResult, Error> {
-    if !(options.mm_per_unit.is_finite() && options.mm_per_unit > 0.0) {
-        return Err(Error::Setting {
-            name: "--mm-per-unit",
-            problem: format!("{} is not a positive number", options.mm_per_unit),
-        });
-    }
-    if let Some(s) = options.pixel_sigma_px
-        && !(s.is_finite() && s > 0.0)
-    {
-        return Err(Error::Setting {
-            name: "--pixel-sigma-px",
-            problem: format!("{s} is not a positive number (px)"),
-        });
-    }
+    covariance_in_phases(model, control, options, &Counter::silent())
+}
+
+/// [`covariance`] counting its last three [`PHASES`] on `phases` and stopping between them
+/// when its monitor asks to.
+fn covariance_in_phases(
+    model: &Reconstruction,
+    control: &ControlPoints,
+    options: &Options,
+    phases: &Counter<'_>,
+) -> Result<CovarianceResult, Error> {
+    check_options(options)?;
     let p = problem::build(
         model,
         &options.camera_a,
@@ -339,7 +353,11 @@ pub fn covariance(
         }
         None => sigma0_px,
     };
+    phases.add(1);
+    phases.check()?;
     let s = solve::reduced_information(&p, pixel_sigma_px);
+    phases.add(1);
+    phases.check()?;
     let cols: Vec<usize> = p
         .a_epochs
         .iter()
@@ -349,6 +367,7 @@ pub fn covariance(
         })
         .collect();
     let x = solve::inverse_columns(&p, &s, &cols, model.dir())?;
+    phases.add(1);
     let n = p.a_epochs.len();
     // Frame tangent → A's tangent (mm, rad) per epoch.
     let maps: Vec<Mat6> = p
@@ -417,6 +436,25 @@ pub fn covariance(
         points_left_out: p.points_left_out,
         warnings,
     })
+}
+
+/// The unit and range checks of `options` (each error names its flag).
+fn check_options(options: &Options) -> Result<(), Error> {
+    if !(options.mm_per_unit.is_finite() && options.mm_per_unit > 0.0) {
+        return Err(Error::Setting {
+            name: "--mm-per-unit",
+            problem: format!("{} is not a positive number", options.mm_per_unit),
+        });
+    }
+    if let Some(s) = options.pixel_sigma_px
+        && !(s.is_finite() && s > 0.0)
+    {
+        return Err(Error::Setting {
+            name: "--pixel-sigma-px",
+            problem: format!("{s} is not a positive number (px)"),
+        });
+    }
+    Ok(())
 }
 
 /// The 6×6 map from the frame's tangent (model units, rad) to `world_from_A`'s tangent (mm,
@@ -497,5 +535,14 @@ impl CovarianceResult {
     pub fn to_json(&self) -> serde_json::Value {
         // Infallible: every map key is a string.
         serde_json::to_value(self.document()).unwrap_or(serde_json::Value::Null)
+    }
+
+    /// The file `--out` holds (what `measure --a-covariance` reads): [`Self::to_json`] pretty
+    /// printed, with a final newline.
+    pub fn json_text(&self) -> String {
+        // Infallible: a JSON value always prints.
+        let mut text = serde_json::to_string_pretty(&self.to_json()).unwrap_or_default();
+        text.push('\n');
+        text
     }
 }

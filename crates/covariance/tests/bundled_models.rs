@@ -215,7 +215,7 @@ fn covariance_runs_on_every_bundled_model_with_enough_points() {
         let (mode, r) = [Intrinsics::All, Intrinsics::Colmap, Intrinsics::Fixed]
             .into_iter()
             .find_map(
-                |mode| match run(&config(&dir, cam, &csv, Some(1.0), mode)) {
+                |mode| match run(&config(&dir, cam, &csv, Some(1.0), mode), None) {
                     Ok(r) => Some((mode, r)),
                     Err(e) => {
                         tried.push(e.to_string());
@@ -237,7 +237,7 @@ fn covariance_runs_on_every_bundled_model_with_enough_points() {
         moved(&model, &t)
             .write(&moved_dir, crashrig_colmap::ModelFormat::Binary)
             .unwrap();
-        let b = run(&config(&moved_dir, cam, &csv, Some(1.0), mode)).unwrap();
+        let b = run(&config(&moved_dir, cam, &csv, Some(1.0), mode), None).unwrap();
         let mut rot = Mat6::identity();
         let qm: Mat3 = q.into_inner();
         rot.fixed_view_mut::<3, 3>(0, 0).copy_from(&qm);
@@ -255,7 +255,7 @@ fn covariance_runs_on_every_bundled_model_with_enough_points() {
         match golden["models"].get(&name) {
             None => eprintln!("{name}: σ̂₀ not compared (noise-free: no pycolmap residual)"),
             Some(g) => {
-                let d = run(&config(&dir, cam, &csv, None, mode)).unwrap();
+                let d = run(&config(&dir, cam, &csv, None, mode), None).unwrap();
                 let n = g["observations"].as_u64().unwrap() as usize;
                 let (rms_py, mean_py) = (
                     g["rms_px"].as_f64().unwrap(),

@@ -19,14 +19,17 @@ fn matches_the_re_solving_monte_carlo() {
     let mat = |key: &str| -> Vec<Vec<f64>> { serde_json::from_value(golden[key].clone()).unwrap() };
     let mc = mat("covariance_tangent");
     let se = mat("standard_error");
-    let r = run(&CovarianceConfig {
-        model: dir().join("model"),
-        camera_a: "cam_out/".into(),
-        control_points: dir().join("control_points.csv"),
-        scale: Scale::MmPerUnit(golden["mm_per_unit"].as_f64().unwrap()),
-        pixel_sigma_px: Some(golden["pixel_sigma_px"].as_f64().unwrap()),
-        intrinsics: Intrinsics::All,
-    })
+    let r = run(
+        &CovarianceConfig {
+            model: dir().join("model"),
+            camera_a: "cam_out/".into(),
+            control_points: dir().join("control_points.csv"),
+            scale: Scale::MmPerUnit(golden["mm_per_unit"].as_f64().unwrap()),
+            pixel_sigma_px: Some(golden["pixel_sigma_px"].as_f64().unwrap()),
+            intrinsics: Intrinsics::All,
+        },
+        None,
+    )
     .unwrap();
     let names: Vec<String> = serde_json::from_value(golden["epochs"].clone()).unwrap();
     let got_names: Vec<&str> = r.epochs.iter().map(|e| e.name.as_str()).collect();
@@ -69,14 +72,17 @@ fn matches_the_re_solving_monte_carlo() {
 /// `measure --a-covariance` reads the document: every epoch's 6×6 (contract units) as written.
 #[test]
 fn measure_reads_the_document() {
-    let r = run(&CovarianceConfig {
-        model: dir().join("model"),
-        camera_a: "cam_out/".into(),
-        control_points: dir().join("control_points.csv"),
-        scale: Scale::MmPerUnit(1000.0),
-        pixel_sigma_px: None,
-        intrinsics: Intrinsics::Colmap,
-    })
+    let r = run(
+        &CovarianceConfig {
+            model: dir().join("model"),
+            camera_a: "cam_out/".into(),
+            control_points: dir().join("control_points.csv"),
+            scale: Scale::MmPerUnit(1000.0),
+            pixel_sigma_px: None,
+            intrinsics: Intrinsics::Colmap,
+        },
+        None,
+    )
     .unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let path = tmp.path().join("a_cov.json");
@@ -149,14 +155,17 @@ fn json_literal_document(r: &crashrig_covariance::CovarianceResult) -> serde_jso
 /// directly or through `to_json`, also with σ̂₀ undefined (`null`).
 #[test]
 fn document_is_byte_identical_to_the_json_literal() {
-    let mut r = run(&CovarianceConfig {
-        model: dir().join("model"),
-        camera_a: "cam_out/".into(),
-        control_points: dir().join("control_points.csv"),
-        scale: Scale::MmPerUnit(1000.0),
-        pixel_sigma_px: None,
-        intrinsics: Intrinsics::Colmap,
-    })
+    let mut r = run(
+        &CovarianceConfig {
+            model: dir().join("model"),
+            camera_a: "cam_out/".into(),
+            control_points: dir().join("control_points.csv"),
+            scale: Scale::MmPerUnit(1000.0),
+            pixel_sigma_px: None,
+            intrinsics: Intrinsics::Colmap,
+        },
+        None,
+    )
     .unwrap();
     for _ in 0..2 {
         let want = serde_json::to_string_pretty(&json_literal_document(&r)).unwrap();

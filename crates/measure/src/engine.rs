@@ -46,6 +46,7 @@ use crate::sequence::frame_number;
 use crashrig_camera::Camera;
 use crashrig_geometry::triangulate::{self, View};
 use crashrig_geometry::{Mat3, Mat6, UncertainPose, Vec3, Vec6, so3};
+use crashrig_stats::progress::{Cancelled, Counter, Monitor, Part};
 use crashrig_stats::{Moments, StreamRng, stream};
 use nalgebra::{DMatrix, Matrix2, Vector2, Vector3};
 use rand::RngExt;
@@ -903,13 +904,15 @@ pub fn measure_with_joint(
     settings: &Settings,
 ) -> Result<Measurement, Error> {
     let whole = Draws::Shard(crashrig_outdir::shard::Shard::whole());
-    measure_parts(epochs, joint, rig, observations, settings, whole).map(|(m, _)| m)
+    measure_parts(epochs, joint, rig, observations, settings, whole, None).map(|(m, _)| m)
 }
 
 /// [`measure_with_joint`] with the moments drawn for one shard's markers or given
 /// ([`Draws`]), and the accumulators per pass (the measurement, then — with a trigger offset
 /// — the one without it; a shard's hold only its markers, and its measurement's other rows
-/// are empty).
+/// are empty). The replicates drawn are reported, chunk by chunk, to `monitor` (two equal
+/// parts with a sync σ: the run with and the run without it), which may stop the run between
+/// chunks with [`Error::Cancelled`]; the result does not depend on it.
 pub(crate) fn measure_parts(
     epochs: &[Epoch],
     joint: Option<&JointA>,
@@ -917,15 +920,23 @@ pub(crate) fn measure_parts(
     observations: &[Observation],
     settings: &Settings,
     draws: Draws<'_>,
+    monitor: Option<&dyn Monitor>,
 ) -> Result<(Measurement, Vec<Accs>), Error> {
-    let (mut m, accs) = measure_once(epochs, joint, rig, observations, settings, draws, 0)?;
+    let parts = if settings.sync_sigma_ms > 0.0 { 2 } else { 1 };
+    let part = |i| monitor.map(|m| Part::new(m, i, parts));
+    let first = part(0);
+    let ticks = Counter::monitored(first.as_ref().map(|p| p as _), settings.samples);
+    let (mut m, accs) = measure_once(epochs, joint, rig, observations, settings, draws, 0, &ticks)?;
     let mut all = vec![accs];
     if settings.sync_sigma_ms > 0.0 {
         let without = Settings {
             sync_sigma_ms: 0.0,
             ..settings.clone()
         };
-        let (m0, accs0) = measure_once(epochs, joint, rig, observations, &without, draws, 1)?;
+        let second = part(1);
+        let ticks = Counter::monitored(second.as_ref().map(|p| p as _), settings.samples);
+        let (m0, accs0) =
+            measure_once(epochs, joint, rig, observations, &without, draws, 1, &ticks)?;
         m.sync_share = Some(sync_share(&m, &m0, settings.sync_sigma_ms));
         all.push(accs0);
     }
@@ -955,6 +966,7 @@ fn sync_share(m: &Measurement, m0: &Measurement, sigma_ms: f64) -> SyncShare {
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 fn measure_once(
     epochs: &[Epoch],
     joint: Option<&JointA>,
@@ -963,6 +975,7 @@ fn measure_once(
     settings: &Settings,
     draws: Draws<'_>,
     pass: usize,
+    ticks: &Counter<'_>,
 ) -> Result<(Measurement, Accs), Error> {
     check_settings(settings)?;
     check_draws(observations.len(), settings.samples)?;
@@ -1063,7 +1076,8 @@ fn measure_once(
                 reference_epoch,
                 track.as_ref(),
                 my_work.as_ref(),
-            )
+                ticks,
+            )?
         }
     };
     let part = match draws {
@@ -1430,6 +1444,9 @@ fn assemble_kinematics(
 /// continuing where the previous chunk stopped, so the scratch is O(epochs · slots · CHUNK).
 const CHUNK: usize = 32;
 
+/// The Monte Carlo's per-(epoch, slot) and per-(marker, run) accumulators.
+type Accumulators = (Vec<Vec<Acc>>, Vec<Vec<RunAcc>>);
+
 /// The kinematics work of the Monte Carlo: the filter and every marker's runs.
 struct KinWork<'a> {
     filter: &'a Cfc,
@@ -1444,6 +1461,7 @@ struct KinWork<'a> {
 /// [`RUN`] epochs) and every marker's runs filtered and differentiated replicate by replicate
 /// (in parallel over markers). Each accumulator is fed by one task in replicate order, so the
 /// result does not depend on the thread count.
+#[allow(clippy::too_many_arguments)]
 fn run_monte_carlo(
     preps: &[EpochPrep],
     link: &LinkPrep,
@@ -1452,7 +1470,8 @@ fn run_monte_carlo(
     reference: usize,
     track: Option<&ATrack>,
     kin: Option<&KinWork<'_>>,
-) -> (Vec<Vec<Acc>>, Vec<Vec<RunAcc>>) {
+    ticks: &Counter<'_>,
+) -> Result<Accumulators, Cancelled> {
     let n_epochs = preps.len();
     let with_velocity = settings.frame_rate_hz.is_some();
     let mut accs: Vec<Vec<Acc>> = preps
@@ -1477,6 +1496,7 @@ fn run_monte_carlo(
             .map(|e| stream(seed, epoch_stream(e, b)))
             .collect();
         for c0 in (0..len).step_by(CHUNK) {
+            ticks.check()?;
             let chunk = &links[c0..(c0 + CHUNK).min(len)];
             let m = chunk.len();
             bufs.par_iter_mut()
@@ -1510,9 +1530,10 @@ fn run_monte_carlo(
                         }
                     });
             }
+            ticks.add(m);
         }
     }
-    (accs, kin_accs)
+    Ok((accs, kin_accs))
 }
 
 /// Feeds the position, displacement and velocity moments of epoch `e`'s rows with the `m`

@@ -100,6 +100,10 @@ pub enum Error {
     /// end spells them ([`crashrig_geometry::options::Spelling`]).
     #[error("{0}")]
     Usage(String),
+    /// The caller's [`crashrig_stats::progress::Monitor`] cancelled the call: nothing was
+    /// returned and nothing written.
+    #[error(transparent)]
+    Cancelled(#[from] crashrig_stats::progress::Cancelled),
 }
 
 impl Error {

@@ -11,7 +11,7 @@
 //!     ..MeasureOptions::new("seq/model", "cam_out/", "cam_in/", "link.json", "markers.csv")
 //! };
 //! let config = options.config(Spelling::Flag)?;
-//! let run = crashrig_measure::run(&config)?;
+//! let run = crashrig_measure::run(&config, None)?;
 //! for w in options.warnings(&run, Spelling::Flag) {
 //!     eprintln!("warning: {w}");
 //! }

@@ -33,7 +33,7 @@
 //!     },
 //!     out: None,
 //! };
-//! let r = run(&config)?;
+//! let r = run(&config, None)?;
 //! assert_eq!(r.summary.numbers.rows, r.measurement.rows.len());
 //! assert_eq!(r.summary.numbers.cameras, ["B", "C"]);
 //! // Nothing written: no files listed.
@@ -47,6 +47,7 @@ use crate::input::{self, CameraNames, JointA};
 use crate::output::{self, Skipped, SummaryDocument};
 use crate::sequence::{self, APose, CameraSelector};
 use crashrig_geometry::{UncertainPose, Vec3};
+use crashrig_stats::progress::Monitor;
 use std::path::{Path, PathBuf};
 
 /// Camera A's per-epoch pose uncertainty.
@@ -122,13 +123,19 @@ pub struct MeasureRun {
 /// `displacements.csv`, the plots and `summary.json` as one unit through `crashrig-outdir`
 /// (a previous output is replaced, never mixed).
 ///
+/// `monitor` (optional) gets `(done, total)` replicates drawn, a chunk of replicates at a time
+/// (with a sync σ the run is made twice, with and without it: `total` is twice the
+/// replicates), and is asked between chunks and before writing whether to stop. The result
+/// does not depend on it.
+///
 /// # Errors
 /// Every [`Error`] of the inputs (each names its file), of the settings, of the engine
 /// (placed in its file by [`Error::in_files`]), and of the output directory
-/// ([`Error::OutDir`], checked before any work).
-pub fn run(config: &MeasureConfig) -> Result<MeasureRun, Error> {
+/// ([`Error::OutDir`], checked before any work); [`Error::Cancelled`] when `monitor` asked to
+/// stop (nothing is written then).
+pub fn run(config: &MeasureConfig, monitor: Option<&dyn Monitor>) -> Result<MeasureRun, Error> {
     let whole = Draws::Shard(crashrig_outdir::shard::Shard::whole());
-    run_parts(config, whole).map(|(r, _)| r)
+    run_parts(config, whole, monitor).map(|(r, _)| r)
 }
 
 /// [`run`] with the Monte Carlo's moments drawn for one shard's markers or given by a shard
@@ -136,6 +143,7 @@ pub fn run(config: &MeasureConfig) -> Result<MeasureRun, Error> {
 pub(crate) fn run_parts(
     config: &MeasureConfig,
     draws: Draws<'_>,
+    monitor: Option<&dyn Monitor>,
 ) -> Result<(MeasureRun, Vec<Accs>), Error> {
     let started = std::time::Instant::now();
     if let Some(out) = &config.out {
@@ -180,6 +188,7 @@ pub(crate) fn run_parts(
         &observations,
         &config.settings,
         draws,
+        monitor,
     )
     .and_then(|(m, accs)| {
         crate::plausible::check_measurable(&m)?;
@@ -207,6 +216,7 @@ pub(crate) fn run_parts(
         summary.files.push("summary.json".into());
         summary.elapsed_s = started.elapsed().as_secs_f64();
         files.push(("summary.json".into(), output::json_pretty(&summary)?));
+        crashrig_stats::progress::check(monitor)?;
         output::write_dir(&out.dir, &files)?;
     }
     let r = MeasureRun {

@@ -56,6 +56,7 @@ use crashrig_geometry::options::Spelling;
 use crashrig_geometry::{Mat3, Vec3};
 use crashrig_outdir::shard::{Manifest, Shard, check_set, fingerprint};
 use crashrig_stats::Moments;
+use crashrig_stats::progress::Monitor;
 use std::fmt::Write as _;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -89,13 +90,18 @@ pub struct ShardRun {
 /// Every error of [`crate::run`] (the inputs, the settings, the engine), and
 /// [`Error::OutDir`] when `out` is neither absent, empty nor a previous measure output or
 /// shard.
-pub fn run(options: &MeasureOptions, shard: Shard, out: &Path) -> Result<ShardRun, Error> {
+pub fn run(
+    options: &MeasureOptions,
+    shard: Shard,
+    out: &Path,
+    monitor: Option<&dyn Monitor>,
+) -> Result<ShardRun, Error> {
     let started = std::time::Instant::now();
     crate::output::check_out_dir(out)?;
     let options = absolute(options)?;
     let config = options.config(Spelling::Flag)?;
     let fp = inputs_fingerprint(&options)?;
-    let (r, accs) = crate::run::run_parts(&config, Draws::Shard(shard))?;
+    let (r, accs) = crate::run::run_parts(&config, Draws::Shard(shard), monitor)?;
     let markers = r.measurement.markers.len();
     let mine = shard.range(markers);
     let mut manifest = Manifest::new(
@@ -137,7 +143,12 @@ pub fn run(options: &MeasureOptions, shard: Shard, out: &Path) -> Result<ShardRu
 /// [`Error::Json`] / [`Error::Csv`] for a shard's files (file and line); [`Error::Input`] when
 /// the inputs changed since the shards ran (naming the shard's [`OPTIONS`]); every error of
 /// [`crate::run`]. Nothing is written on error.
-pub fn merge(shards: &[(PathBuf, Manifest)], out: &Path, plots: bool) -> Result<MeasureRun, Error> {
+pub fn merge(
+    shards: &[(PathBuf, Manifest)],
+    out: &Path,
+    plots: bool,
+    monitor: Option<&dyn Monitor>,
+) -> Result<MeasureRun, Error> {
     let order = check_set(shards)?;
     crate::output::check_out_dir(out)?;
     let (dir0, m0) = &shards[order[0]];
@@ -150,16 +161,20 @@ pub fn merge(shards: &[(PathBuf, Manifest)], out: &Path, plots: bool) -> Result<
         )));
     }
     let mut accs: Vec<Accs> = Vec::new();
-    for &k in &order {
+    for (done, &k) in order.iter().enumerate() {
+        crashrig_stats::progress::check(monitor)?;
         let (dir, m) = &shards[k];
         read_moments(&dir.join(MOMENTS), m.range(), &mut accs)?;
+        if let Some(p) = monitor {
+            p.report(done + 1, order.len());
+        }
     }
     options.out = Some(OutputDir {
         dir: out.to_path_buf(),
         plots,
     });
     let config = options.config(Spelling::Flag)?;
-    crate::run::run_parts(&config, Draws::Given(&accs)).map(|(r, _)| r)
+    crate::run::run_parts(&config, Draws::Given(&accs), monitor).map(|(r, _)| r)
 }
 
 /// The options with every input path absolute (the merge may run elsewhere) and no output.

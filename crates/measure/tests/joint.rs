@@ -235,11 +235,14 @@ fn a_fully_correlated_file_cancels_in_the_displacements() {
         settings: settings(2_000),
         out: None,
     };
-    let joint = crashrig_measure::run(&config(ANoise::File(path))).unwrap();
-    let indep = crashrig_measure::run(&config(ANoise::Sigmas {
-        position_mm: Vec3::from(sigma),
-        angles_deg: Vec3::zeros(),
-    }))
+    let joint = crashrig_measure::run(&config(ANoise::File(path)), None).unwrap();
+    let indep = crashrig_measure::run(
+        &config(ANoise::Sigmas {
+            position_mm: Vec3::from(sigma),
+            angles_deg: Vec3::zeros(),
+        }),
+        None,
+    )
     .unwrap();
     let n = 2_000;
     let mut checked = 0;

@@ -76,7 +76,7 @@ fn assert_merge_is_whole(o: &MeasureOptions, ns: &[usize], plots: bool, expect: 
         }),
         ..o.clone()
     };
-    crashrig_measure::run(&whole.config(Spelling::Flag).unwrap()).unwrap();
+    crashrig_measure::run(&whole.config(Spelling::Flag).unwrap(), None).unwrap();
     let want = files(&whole_dir);
     for f in ["displacements.csv", "trajectories.csv"]
         .iter()
@@ -96,13 +96,13 @@ fn assert_merge_is_whole(o: &MeasureOptions, ns: &[usize], plots: bool, expect: 
             .collect();
         // Shards in reverse order: the order of the runs does not matter.
         for (i, dir) in dirs.iter().enumerate().rev() {
-            let r = shard::run(o, Shard::new(i + 1, n).unwrap(), dir).unwrap();
+            let r = shard::run(o, Shard::new(i + 1, n).unwrap(), dir, None).unwrap();
             assert_eq!(r.manifest.items.total, 8);
         }
         let merged_dir = tmp.path().join(format!("merged{n}"));
         let mut given = dirs.clone();
         given.rotate_left(n / 2);
-        shard::merge(&read_set(&given).unwrap(), &merged_dir, plots).unwrap();
+        shard::merge(&read_set(&given).unwrap(), &merged_dir, plots, None).unwrap();
         let got = files(&merged_dir);
         assert_eq!(
             got.keys().collect::<Vec<_>>(),
@@ -184,7 +184,7 @@ fn three_shards(o: &MeasureOptions, tmp: &Path) -> Vec<PathBuf> {
     (1..=3)
         .map(|i| {
             let dir = tmp.join(format!("s{i}"));
-            shard::run(o, Shard::new(i, 3).unwrap(), &dir).unwrap();
+            shard::run(o, Shard::new(i, 3).unwrap(), &dir, None).unwrap();
             dir
         })
         .collect()
@@ -193,7 +193,7 @@ fn three_shards(o: &MeasureOptions, tmp: &Path) -> Vec<PathBuf> {
 fn refusal(dirs: &[PathBuf], out: &Path) -> String {
     let e = match read_set(dirs) {
         Err(e) => e.to_string(),
-        Ok(set) => shard::merge(&set, out, false).unwrap_err().to_string(),
+        Ok(set) => shard::merge(&set, out, false, None).unwrap_err().to_string(),
     };
     assert!(!out.exists(), "{e}: wrote {}", out.display());
     e
@@ -217,7 +217,7 @@ fn merge_refuses_missing_repeated_and_foreign_shards_naming_them() {
     // Foreign: another seed, another sample count, another N, another option.
     let foreign = |o: MeasureOptions, shard: Shard, what: &str| {
         let dir = tmp.path().join(format!("foreign{}", what.len()));
-        shard::run(&o, shard, &dir).unwrap();
+        shard::run(&o, shard, &dir, None).unwrap();
         let mut set = dirs.clone();
         set[shard.index() - 1] = dir.clone();
         if shard.count() != 3 {
@@ -261,7 +261,7 @@ fn merge_refuses_missing_repeated_and_foreign_shards_naming_them() {
     let dirs2: Vec<PathBuf> = (1..=2)
         .map(|i| {
             let dir = tmp.path().join(format!("t{i}"));
-            shard::run(&o2, Shard::new(i, 2).unwrap(), &dir).unwrap();
+            shard::run(&o2, Shard::new(i, 2).unwrap(), &dir, None).unwrap();
             dir
         })
         .collect();
@@ -313,12 +313,12 @@ fn a_shard_replaces_its_previous_directory_but_no_other() {
     };
     let dir = tmp.path().join("s");
     let s = Shard::new(1, 2).unwrap();
-    shard::run(&o, s, &dir).unwrap();
-    shard::run(&o, s, &dir).unwrap();
+    shard::run(&o, s, &dir, None).unwrap();
+    shard::run(&o, s, &dir, None).unwrap();
     let other = tmp.path().join("other");
     std::fs::create_dir(&other).unwrap();
     std::fs::write(other.join("notes.txt"), b"mine").unwrap();
-    let e = shard::run(&o, s, &other).unwrap_err().to_string();
+    let e = shard::run(&o, s, &other, None).unwrap_err().to_string();
     assert!(e.contains("not a previous `measure` output"), "{e}");
     assert_eq!(std::fs::read(other.join("notes.txt")).unwrap(), b"mine");
 }

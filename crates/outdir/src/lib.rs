@@ -234,6 +234,33 @@ pub fn leave_signals_to_host() {
     HANDLER.call_once(|| {});
 }
 
+/// Writes one file atomically: a temporary file in the same directory, then a rename over
+/// `path`, so a reader never sees a half-written file and a failure leaves the previous file
+/// (for single files a front end writes, such as `--replicates` or `covariance --out`; a set
+/// of files is a [`Staged`] directory). The file gets mode 0644, as `File::create` makes it.
+///
+/// # Errors
+/// [`Error::Io`] naming `path` (or its directory) and the step that failed.
+pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let mut tmp =
+        tempfile::NamedTempFile::new_in(dir).map_err(io(dir, "cannot create a temporary file"))?;
+    tmp.write_all(bytes).map_err(io(path, "write failed"))?;
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        tmp.as_file()
+            .set_permissions(std::fs::Permissions::from_mode(0o644))
+            .map_err(io(path, "cannot set permissions"))?;
+    }
+    tmp.persist(path)
+        .map_err(|e| io(path, "cannot rename into place")(e.error))?;
+    Ok(())
+}
+
 fn register(p: &Path) {
     pending().push(p.to_path_buf());
 }

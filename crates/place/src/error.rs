@@ -50,6 +50,10 @@ pub enum Error {
         /// What went wrong.
         problem: String,
     },
+    /// The caller's [`crashrig_stats::progress::Monitor`] cancelled the call: nothing was
+    /// written.
+    #[error(transparent)]
+    Cancelled(#[from] crashrig_stats::progress::Cancelled),
 }
 
 fn located(path: &Option<PathBuf>, source: &crashrig_mc::Error) -> String {

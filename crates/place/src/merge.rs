@@ -8,7 +8,7 @@
 //! use crashrig_place::merge::{Merged, merge_shards};
 //! use crashrig_study::merge::MergeRun;
 //! let dirs: Vec<std::path::PathBuf> = (1..=4).map(|i| format!("out.shards/{i}").into()).collect();
-//! match merge_shards(&dirs, std::path::Path::new("out"), true)? {
+//! match merge_shards(&dirs, std::path::Path::new("out"), true, None)? {
 //!     Merged::Place(r) => println!("chose {:?}", r.placement.chosen),
 //!     Merged::Measure(r) => println!("{} rows", r.measurement.rows.len()),
 //!     Merged::Study(MergeRun::Grid(r)) => println!("{} points", r.summary.points),
@@ -18,6 +18,7 @@
 //! ```
 
 use crate::{Error, PlaceRun, shard};
+use crashrig_stats::progress::Monitor;
 use crashrig_study::merge::MergeRun;
 use std::path::{Path, PathBuf};
 
@@ -35,21 +36,32 @@ pub enum Merged {
 /// Reads the shard set (refusing missing, repeated and foreign shards) and merges it into
 /// `out` (`plots`: as the unsharded run without `--no-plots`).
 ///
+/// `monitor` (optional) gets `(done, total)` shards read (a `place` merge counts one more unit
+/// for the chosen layouts' rows) and is asked between them and before writing whether to stop:
+/// then [`Error::Cancelled`] and nothing is written. The output does not depend on it.
+///
 /// # Errors
 /// [`Error::OutDir`] for the shard set; [`shard::merge`]'s,
 /// [`crashrig_measure::shard::merge`]'s ([`Error::Measure`]) and
-/// [`crashrig_study::merge::merge_shards`]'s errors.
-pub fn merge_shards(dirs: &[PathBuf], out: &Path, plots: bool) -> Result<Merged, Error> {
+/// [`crashrig_study::merge::merge_shards`]'s errors; [`Error::Cancelled`].
+pub fn merge_shards(
+    dirs: &[PathBuf],
+    out: &Path,
+    plots: bool,
+    monitor: Option<&dyn Monitor>,
+) -> Result<Merged, Error> {
     let shards = crashrig_outdir::shard::read_set(dirs)?;
     match shards.first() {
         Some((_, m)) if m.command == shard::COMMAND => {
-            Ok(Merged::Place(shard::merge(&shards, out, plots)?))
+            Ok(Merged::Place(shard::merge(&shards, out, plots, monitor)?))
         }
-        Some((_, m)) if m.command == crashrig_measure::shard::COMMAND => Ok(Merged::Measure(
-            Box::new(crashrig_measure::shard::merge(&shards, out, plots)?),
-        )),
+        Some((_, m)) if m.command == crashrig_measure::shard::COMMAND => {
+            Ok(Merged::Measure(Box::new(crashrig_measure::shard::merge(
+                &shards, out, plots, monitor,
+            )?)))
+        }
         _ => Ok(Merged::Study(crashrig_study::merge::merge_shards(
-            dirs, out, plots,
+            dirs, out, plots, monitor,
         )?)),
     }
 }

@@ -42,7 +42,7 @@
 //!     run_shard(&config, Shard::new(i, 2)?, None)?;
 //!     dirs.push(config.out);
 //! }
-//! let r = merge(&read_set(&dirs)?, "place_out".as_ref(), true)?;
+//! let r = merge(&read_set(&dirs)?, "place_out".as_ref(), true, None)?;
 //! println!("mount {:?}", r.placement.chosen);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
@@ -52,7 +52,7 @@ use crate::{
     Error, Inputs, PlaceConfig, PlaceRun, Shortlist, commit, replaceable, score_of, search,
 };
 use crashrig_outdir::shard::{MANIFEST, Manifest, Shard};
-use crashrig_stats::progress::Reporter;
+use crashrig_stats::progress::{Counter, Monitor, Reporter};
 use crashrig_study::grid_shard::{fingerprint_inputs, read_scenario_rows, write_scenario_rows};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -301,11 +301,20 @@ impl SearchFile {
 /// except its timings). The scenario and the candidates are read again from the paths the
 /// shards recorded and must have the fingerprint they recorded. Nothing is written on an error.
 ///
+/// `monitor` (optional) gets `(done, shards + 1)`: one unit per shard's board read, one for
+/// the chosen layouts' rows; it may cancel between them and before writing
+/// ([`Error::Cancelled`], nothing written).
+///
 /// # Errors
 /// [`Error::Shard`] for a shard that is not a place shard, a board that names other
 /// candidates, K or method than the first shard's, or inputs that changed; the errors of [`crate::run`] and of
 /// [`crashrig_study::grid_shard::read_scenario_rows`] (a shard's rows, with file and line).
-pub fn merge(shards: &[(PathBuf, Manifest)], out: &Path, plots: bool) -> Result<PlaceRun, Error> {
+pub fn merge(
+    shards: &[(PathBuf, Manifest)],
+    out: &Path,
+    plots: bool,
+    monitor: Option<&dyn Monitor>,
+) -> Result<PlaceRun, Error> {
     let Some((dir0, m0)) = shards.first() else {
         return Err(Error::Shard {
             path: PathBuf::from("merge"),
@@ -318,9 +327,15 @@ pub fn merge(shards: &[(PathBuf, Manifest)], out: &Path, plots: bool) -> Result<
             problem: format!("a `{}` shard, not a place shard", m0.command),
         });
     }
+    let read = Counter::monitored(monitor, shards.len() + 1);
     let searches = shards
         .iter()
-        .map(|(dir, _)| read_search(dir))
+        .map(|(dir, _)| {
+            read.check()?;
+            let s = read_search(dir);
+            read.add(1);
+            s
+        })
         .collect::<Result<Vec<_>, Error>>()?;
     let search = &searches[0];
     for ((dir, _), other) in shards.iter().zip(&searches).skip(1) {
@@ -430,6 +445,8 @@ pub fn merge(shards: &[(PathBuf, Manifest)], out: &Path, plots: bool) -> Result<
         scores.push(score_of(r.result().clone(), r.grid()));
         rows.push(r);
     }
+    read.add(1);
+    read.check()?;
     let (winner, placement) = shortlist.decide(&inputs, &scores);
     let staged = crashrig_outdir::Staged::new(out, replaceable)?;
     let grid = rows

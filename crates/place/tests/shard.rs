@@ -83,7 +83,7 @@ fn assert_merge_is_whole(scenario: &Path, candidates: &Path, k: usize, plots: bo
             dirs.push(dir);
         }
         let merged = tmp.path().join(format!("merged{n}"));
-        let m = merge(&read_set(&dirs).unwrap(), &merged, plots).unwrap();
+        let m = merge(&read_set(&dirs).unwrap(), &merged, plots, None).unwrap();
         assert_eq!(m.placement, run.placement, "N = {n}");
         assert_eq!(files(&merged), names, "N = {n}: not the same files");
         for name in &names {
@@ -180,7 +180,7 @@ fn place_merge_refuses_missing_repeated_foreign_and_changed_and_writes_nothing()
     let refused = |dirs: &[PathBuf]| -> String {
         let e = match read_set(dirs) {
             Err(e) => e.to_string(),
-            Ok(set) => merge(&set, &out, false).unwrap_err().to_string(),
+            Ok(set) => merge(&set, &out, false, None).unwrap_err().to_string(),
         };
         assert!(!out.exists(), "{e}");
         e
@@ -249,7 +249,7 @@ fn place_merge_refuses_missing_repeated_foreign_and_changed_and_writes_nothing()
         std::fs::write(p, body).unwrap();
     }
     // Intact again: merges.
-    merge(&read_set(&dirs).unwrap(), &out, false).unwrap();
+    merge(&read_set(&dirs).unwrap(), &out, false, None).unwrap();
     assert!(out.join("placement.json").is_file());
 }
 
@@ -387,4 +387,34 @@ fn place_shard_merge_equals_whole_with_greedy_search() {
         5,
         false,
     );
+}
+
+/// A place merge with a monitor: one report per shard's board and one for the chosen layouts'
+/// rows (monotone, ending at N + 1), the same placement as without; a monitor that cancels
+/// stops it with `Error::Cancelled` and nothing written.
+#[test]
+fn place_merge_reports_and_cancels_without_writing() {
+    use crashrig_stats::progress::Recorder;
+    let tmp = tempfile::tempdir().unwrap();
+    let (scenario, candidates) = (
+        repo("examples/place/scenario.toml"),
+        repo("examples/place/candidates.toml"),
+    );
+    let set = read_set(&two_shards(tmp.path(), &scenario, &candidates, 2)).unwrap();
+    let plain = merge(&set, &tmp.path().join("plain"), false, None).unwrap();
+    let m = Recorder::new();
+    let watched = merge(&set, &tmp.path().join("watched"), false, Some(&m)).unwrap();
+    assert_eq!(watched.placement, plain.placement);
+    assert_eq!(m.seen(), vec![(1, 3), (2, 3), (3, 3)]);
+    for after in [1, 3] {
+        let out = tmp.path().join(format!("cancelled{after}"));
+        let m = Recorder::cancelling_after(after);
+        let e = merge(&set, &out, false, Some(&m)).unwrap_err();
+        assert!(
+            matches!(e, crashrig_place::Error::Cancelled(_)),
+            "{after}: {e}"
+        );
+        assert_eq!(m.seen().len(), after);
+        assert!(!out.exists(), "{after}");
+    }
 }

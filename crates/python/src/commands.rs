@@ -86,8 +86,7 @@ fn calibrate<'py>(
     };
     let plots = args::opt_path(plots, "plots")?;
     let r = watch::run(py, progress, |w: &Watch| {
-        let rounds = w.stage("refinement: weighting rounds");
-        calibrate(&config, Some(&rounds))
+        calibrate(&config, Some(&w.monitor("refinement: weighting rounds")))
     })?
     .map_err(to_py_err)?;
     warn_all(py, &r.warnings)?;
@@ -167,25 +166,12 @@ fn bootstrap<'py>(
         resample,
     };
     let r = watch::run(py, progress, |w: &Watch| {
-        let replicates = w.stage("replicates + jackknife");
-        tie::bootstrap(&config, Some(&replicates))
+        tie::bootstrap(&config, Some(&w.monitor("replicates + jackknife")))
     })?
     .map_err(to_py_err)?;
     warn_all(py, &r.warnings())?;
-    if let Some(dir) = &plots {
-        std::fs::create_dir_all(dir).map_err(|e| {
-            py_error(format!(
-                "{}: cannot create the plot directory: {e}",
-                dir.display()
-            ))
-        })?;
-        for (name, bytes) in r.plots().map_err(to_py_err)? {
-            write_atomic(&dir.join(name), &bytes)?;
-        }
-    }
-    if let Some(path) = &replicates_csv {
-        write_atomic(path, r.replicates_csv().as_bytes())?;
-    }
+    r.write_files(plots.as_deref(), replicates_csv.as_deref())
+        .map_err(to_py_err)?;
     to_python(py, &r.to_json())
 }
 
@@ -296,7 +282,9 @@ fn grid<'py>(
 }
 
 /// Marker trajectories with σ from a crash-test sequence (`crashrig measure --json`): the
-/// summary document. `out` (optional here) receives the command's files.
+/// summary document. `out` (optional here) receives the command's files. `progress(stage,
+/// done, total)` sees the replicates drawn; Ctrl-C or an exception it raises stops the call
+/// between chunks of replicates, with nothing written.
 ///
 /// Example:
 ///
@@ -374,14 +362,18 @@ fn measure<'py>(
         )
     };
     let config = options.config(Spelling::Keyword).map_err(to_py_err)?;
-    let r =
-        watch::run(py, progress, |_: &Watch| crashrig_measure::run(&config))?.map_err(to_py_err)?;
+    let r = watch::run(py, progress, |w: &Watch| {
+        crashrig_measure::run(&config, Some(&w.monitor("replicates")))
+    })?
+    .map_err(to_py_err)?;
     warn_all(py, &options.warnings(&r, Spelling::Keyword))?;
     document(py, &r.summary)
 }
 
 /// Camera A's per-epoch pose covariance from the bundle (`crashrig covariance --json`);
 /// with `out` the document is also written there (what `measure(a_covariance=)` reads).
+/// `progress(stage, done, total)` sees its 4 phases; Ctrl-C or an exception it raises stops
+/// the call between phases, with nothing written.
 ///
 /// Example:
 ///
@@ -429,31 +421,16 @@ fn covariance<'py>(
         intrinsics,
     };
     let out = args::opt_path(out, "out")?;
-    let r = watch::run(py, progress, |_: &Watch| crashrig_covariance::run(&config))?
-        .map_err(to_py_err)?;
+    let r = watch::run(py, progress, |w: &Watch| {
+        crashrig_covariance::run(&config, Some(&w.monitor("phases")))
+    })?
+    .map_err(to_py_err)?;
     warn_all(py, &r.warnings)?;
-    let doc = r.to_json();
     if let Some(out) = &out {
-        let mut text = serde_json::to_string_pretty(&doc).map_err(to_py_err)?;
-        text.push('\n');
-        write_atomic(out, text.as_bytes())?;
+        crashrig_outdir::write_file(out, r.json_text().as_bytes()).map_err(to_py_err)?;
     }
+    let doc = r.to_json();
     to_python(py, &doc)
-}
-
-/// Writes `bytes` to `path` through a temporary file in the same folder and a rename.
-fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> PyResult<()> {
-    use std::io::Write;
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(std::path::Path::new("."));
-    let fail =
-        |e: &dyn std::fmt::Display| py_error(format!("{}: cannot write: {e}", path.display()));
-    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(|e| fail(&e))?;
-    tmp.write_all(bytes).map_err(|e| fail(&e))?;
-    tmp.persist(path).map_err(|e| fail(&e.error))?;
-    Ok(())
 }
 
 /// The whole study on a COLMAP project (`crashrig study --json`): runs every step, writes
@@ -570,7 +547,9 @@ fn place<'py>(
 
 /// Merges the shard directories of a `--shard i/N` run into `out` (`crashrig merge --json`):
 /// exactly what the unsharded run writes; returns its `--json` document (`grid` shards:
-/// `summary.json`; `place` shards: `placement.json`).
+/// `summary.json`; `place` shards: `placement.json`). `progress(stage, done, total)` sees the
+/// shards read; Ctrl-C or an exception it raises stops the call before the next shard or
+/// before writing, with nothing written.
 ///
 /// Example:
 ///
@@ -583,12 +562,13 @@ fn place<'py>(
 /// print(s["points"], s["median_sigma_max_mm"])
 /// ```
 #[pyfunction]
-#[pyo3(signature = (shards, out, *, plots=true))]
+#[pyo3(signature = (shards, out, *, plots=true, progress=None))]
 fn merge<'py>(
     py: Python<'py>,
     shards: &Bound<'py, PyAny>,
     out: &Bound<'py, PyAny>,
     plots: bool,
+    progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     use crashrig_place::merge::{Merged, merge_shards};
     use crashrig_study::merge::MergeRun;
@@ -602,8 +582,10 @@ fn merge<'py>(
         .map(|d| args::path(&d?, "shards"))
         .collect::<PyResult<Vec<_>>>()?;
     let out = args::path(out, "out")?;
-    let r =
-        watch::run(py, None, |_: &Watch| merge_shards(&dirs, &out, plots))?.map_err(to_py_err)?;
+    let r = watch::run(py, progress, |w: &Watch| {
+        merge_shards(&dirs, &out, plots, Some(&w.monitor("shards read")))
+    })?
+    .map_err(to_py_err)?;
     match r {
         Merged::Place(r) => {
             warn_all(py, &r.grid.warnings)?;

@@ -2,13 +2,16 @@
 //! released, waits for it; every [`TICK`] it takes the GIL to check for Ctrl-C and to hand
 //! the latest progress to the user's `progress(stage, done, total)` callable.
 //!
-//! Ctrl-C (or an exception raised by the callable) sets a cancel flag; the library's next
-//! progress report then unwinds the worker ([`std::panic::resume_unwind`], which prints
-//! nothing) back to [`run`], which raises the Python exception. Output directories are
-//! staged by the libraries, so an interrupted call leaves the previous output. A library
-//! call without progress reports (measure, covariance) runs to its end first.
+//! Ctrl-C (or an exception raised by the callable) sets a cancel flag. A library that takes a
+//! [`Monitor`] ([`Watch::monitor`]: calibrate, bootstrap, measure, covariance, merge) sees it
+//! through [`Monitor::cancelled`] between units of work and returns its typed `Cancelled`
+//! error, writing nothing; [`run`] then raises the Python exception. Libraries that only
+//! report (the Monte Carlo behind grid, propagate, place and study: the [`Reporter`] and
+//! [`Watch::note_u64`]) are stopped at their next report by unwinding the worker
+//! ([`std::panic::resume_unwind`], which prints nothing); their output directories are staged,
+//! so an interrupted call leaves the previous output.
 
-use crashrig_stats::progress::Reporter;
+use crashrig_stats::progress::{Monitor, Reporter};
 use pyo3::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Condvar, Mutex};
@@ -28,11 +31,22 @@ pub struct Watch {
 }
 
 impl Watch {
-    /// Records a report, or unwinds the worker when the call was cancelled.
+    /// Whether Ctrl-C or the callable asked the call to stop.
+    fn cancelled(&self) -> bool {
+        self.cancel.load(Ordering::Relaxed)
+    }
+
+    /// Records a report, or unwinds the worker when the call was cancelled (for libraries
+    /// that do not ask [`Monitor::cancelled`]).
     fn note(&self, stage: &str, done: usize, total: usize) {
-        if self.cancel.load(Ordering::Relaxed) {
+        if self.cancelled() {
             std::panic::resume_unwind(Box::new(Cancelled));
         }
+        self.record(stage, done, total);
+    }
+
+    /// Records a report for the waiting thread (the largest `done` of a stage wins).
+    fn record(&self, stage: &str, done: usize, total: usize) {
         if let Ok(mut l) = self.latest.lock() {
             let keep = l
                 .as_ref()
@@ -43,9 +57,10 @@ impl Watch {
         }
     }
 
-    /// A `(done, total)` callback of one stage (for libraries that take a plain callback).
-    pub fn stage<'a>(&'a self, stage: &'a str) -> impl Fn(usize, usize) + Sync + 'a {
-        move |done, total| self.note(stage, done, total)
+    /// The [`Monitor`] of one stage: records its reports and answers [`Monitor::cancelled`]
+    /// with the cancel flag (the library stops itself; nothing unwinds).
+    pub fn monitor<'a>(&'a self, stage: &'a str) -> StageMonitor<'a> {
+        StageMonitor { watch: self, stage }
     }
 
     /// A `(stage, done, total)` callback with `u64` counts (the study pipeline's).
@@ -57,6 +72,26 @@ impl Watch {
 impl Reporter for Watch {
     fn report(&self, stage: &str, done: usize, total: usize) {
         self.note(stage, done, total);
+    }
+
+    fn cancelled(&self) -> bool {
+        Watch::cancelled(self)
+    }
+}
+
+/// One stage of a [`Watch`] as a [`Monitor`] ([`Watch::monitor`]).
+pub struct StageMonitor<'a> {
+    watch: &'a Watch,
+    stage: &'a str,
+}
+
+impl Monitor for StageMonitor<'_> {
+    fn report(&self, done: usize, total: usize) {
+        self.watch.record(self.stage, done, total);
+    }
+
+    fn cancelled(&self) -> bool {
+        self.watch.cancelled()
     }
 }
 

@@ -169,6 +169,60 @@ impl Monitor for Stage<'_> {
     }
 }
 
+/// A [`Monitor`] for tests of monitored calls: records every report and cancels once it has
+/// seen `after` of them (`usize::MAX`: never).
+///
+/// ```
+/// use crashrig_stats::progress::{Counter, Recorder};
+/// let m = Recorder::cancelling_after(1);
+/// let c = Counter::monitored(Some(&m), 2);
+/// c.add(1);
+/// assert!(c.check().is_err());
+/// assert_eq!(m.seen(), vec![(1, 2)]);
+/// ```
+pub struct Recorder {
+    after: usize,
+    seen: std::sync::Mutex<Vec<(usize, usize)>>,
+}
+
+impl Recorder {
+    /// A recorder that cancels after `after` reports.
+    pub fn cancelling_after(after: usize) -> Self {
+        Self {
+            after,
+            seen: std::sync::Mutex::new(Vec::new()),
+        }
+    }
+
+    /// A recorder that never cancels.
+    pub fn new() -> Self {
+        Self::cancelling_after(usize::MAX)
+    }
+
+    /// The reports so far, in the order they arrived.
+    pub fn seen(&self) -> Vec<(usize, usize)> {
+        self.seen.lock().map(|s| s.clone()).unwrap_or_default()
+    }
+}
+
+impl Default for Recorder {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Monitor for Recorder {
+    fn report(&self, done: usize, total: usize) {
+        if let Ok(mut s) = self.seen.lock() {
+            s.push((done, total));
+        }
+    }
+
+    fn cancelled(&self) -> bool {
+        self.seen.lock().map_or(true, |s| s.len() >= self.after)
+    }
+}
+
 /// Where a [`Counter`] reports.
 #[derive(Clone, Copy)]
 enum Sink<'a> {
@@ -279,27 +333,9 @@ mod tests {
         assert_eq!(s.check(), Ok(()));
     }
 
-    /// A monitor that cancels after `after` reports.
-    struct StopAfter {
-        after: usize,
-        seen: Mutex<Vec<(usize, usize)>>,
-    }
-
-    impl Monitor for StopAfter {
-        fn report(&self, done: usize, total: usize) {
-            self.seen.lock().unwrap().push((done, total));
-        }
-        fn cancelled(&self) -> bool {
-            self.seen.lock().unwrap().len() >= self.after
-        }
-    }
-
     #[test]
     fn counter_monitored_reports_and_checks_cancellation() {
-        let m = StopAfter {
-            after: 2,
-            seen: Mutex::new(Vec::new()),
-        };
+        let m = Recorder::cancelling_after(2);
         let c = Counter::monitored(Some(&m), 3);
         c.add(1);
         assert_eq!(c.check(), Ok(()));
@@ -307,7 +343,7 @@ mod tests {
         assert_eq!(c.check(), Err(Cancelled));
         assert_eq!(check(Some(&m)), Err(Cancelled));
         assert_eq!(check(None), Ok(()));
-        assert_eq!(*m.seen.lock().unwrap(), vec![(1, 3), (2, 3)]);
+        assert_eq!(m.seen(), vec![(1, 3), (2, 3)]);
         // A closure is a monitor that never cancels.
         let quiet = |_: usize, _: usize| {};
         assert_eq!(Counter::monitored(Some(&quiet), 1).check(), Ok(()));
@@ -315,10 +351,7 @@ mod tests {
 
     #[test]
     fn part_and_offset_map_onto_the_parent_and_forward_cancellation() {
-        let m = StopAfter {
-            after: 3,
-            seen: Mutex::new(Vec::new()),
-        };
+        let m = Recorder::cancelling_after(3);
         Part::new(&m, 1, 2).report(4, 10);
         Offset::new(&m, 7, 12).report(2, 5);
         assert!(!Part::new(&m, 0, 2).cancelled());
@@ -326,7 +359,7 @@ mod tests {
         assert!(Stage::new(&Stopped(true), "x").cancelled());
         m.report(0, 0);
         assert!(Part::new(&m, 0, 2).cancelled() && Offset::new(&m, 0, 1).cancelled());
-        assert_eq!(*m.seen.lock().unwrap(), vec![(14, 20), (9, 12), (0, 0)]);
+        assert_eq!(m.seen(), vec![(14, 20), (9, 12), (0, 0)]);
     }
 
     /// A reporter that is (or is not) cancelled.

@@ -153,6 +153,10 @@ pub enum Error {
     /// end spells them ([`crashrig_geometry::options::Spelling`]).
     #[error("{0}")]
     Usage(String),
+    /// The caller's [`crashrig_stats::progress::Monitor`] cancelled the call: nothing was
+    /// written.
+    #[error(transparent)]
+    Cancelled(#[from] crashrig_stats::progress::Cancelled),
 }
 
 /// Why a step of a study failed: the typed error of the library that ran it (the source of
@@ -379,6 +383,9 @@ pub enum TieError {
     /// The caller's monitor cancelled the run.
     #[error(transparent)]
     Cancelled(#[from] Cancelled),
+    /// A plot or the replicates file could not be written ([`crate::tie::TieResult::write_files`]).
+    #[error(transparent)]
+    Write(#[from] crashrig_outdir::Error),
 }
 
 /// A plot error of the measure crate's writers as the study's [`Error::Plot`]; `figure` names

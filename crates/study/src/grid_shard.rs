@@ -29,7 +29,7 @@
 //!     run_grid_shard(&config, Shard::new(i, 2)?, None)?;
 //!     dirs.push(config.out);
 //! }
-//! let merged = merge_grid(&read_set(&dirs)?, "merged".as_ref(), true)?;
+//! let merged = merge_grid(&read_set(&dirs)?, "merged".as_ref(), true, None)?;
 //! println!("{} points", merged.summary.points);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
@@ -40,7 +40,7 @@ use crate::grid_run::{
 };
 use crashrig_mc::{GridResult, PointStats, Scenario};
 use crashrig_outdir::shard::{MANIFEST, Manifest, Shard, fingerprint};
-use crashrig_stats::progress::Reporter;
+use crashrig_stats::progress::{Counter, Monitor, Reporter};
 use nalgebra::{Matrix3, Vector3};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -253,7 +253,7 @@ pub fn read_scenario_rows(
     prefix: &str,
 ) -> Result<MergedRows, Error> {
     let p = prepare_scenario(scenario, path, Some(samples), Some(seed))?;
-    read_prepared_rows(p, path, shards, prefix)
+    read_prepared_rows(p, path, shards, prefix, &Counter::silent())
 }
 
 fn read_prepared_rows(
@@ -261,6 +261,7 @@ fn read_prepared_rows(
     path: &Path,
     shards: &[(PathBuf, Manifest)],
     prefix: &str,
+    read: &Counter<'_>,
 ) -> Result<MergedRows, Error> {
     let Some((dir0, m0)) = shards.first() else {
         return Err(Error::Shard {
@@ -299,6 +300,7 @@ fn read_prepared_rows(
     let points_file = format!("{prefix}{POINTS_FILE}");
     let independent_file = format!("{prefix}{INDEPENDENT_FILE}");
     for (dir, m) in shards {
+        read.check()?;
         let range = m.range();
         result
             .points
@@ -309,6 +311,7 @@ fn read_prepared_rows(
         }
         elapsed_s += m.elapsed_s;
         threads = threads.max(m.threads);
+        read.add(1);
     }
     let computed = Computed {
         result,
@@ -328,6 +331,10 @@ fn read_prepared_rows(
 /// The scenario is read again from the manifests' `input` and must have the fingerprint the
 /// shards recorded. Nothing is written unless every shard is read.
 ///
+/// `monitor` (optional) gets `(shards read, shards)` and is asked before each shard and before
+/// writing whether to stop ([`Error::Cancelled`], nothing written); the output does not depend
+/// on it.
+///
 /// # Errors
 /// [`Error::Grid`] when the shards are not grid shards or the scenario changed,
 /// [`Error::Shard`] for a shard file that cannot be read (file and line), and the errors of
@@ -336,6 +343,7 @@ pub fn merge_grid(
     shards: &[(PathBuf, Manifest)],
     out: &Path,
     plots: bool,
+    monitor: Option<&dyn Monitor>,
 ) -> Result<GridRun, Error> {
     let Some((dir0, m0)) = shards.first() else {
         return Err(Error::Shard {
@@ -363,7 +371,9 @@ pub fn merge_grid(
         });
     }
     // Checked before the output directory is touched.
-    let rows = read_prepared_rows(p, path, shards, "")?;
+    let read = Counter::monitored(monitor, shards.len());
+    let rows = read_prepared_rows(p, path, shards, "", &read)?;
+    read.check()?;
     rows.write(out, plots)
 }
 

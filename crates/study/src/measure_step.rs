@@ -76,14 +76,17 @@ fn bundle_covariance(
     camera_a: &str,
     mm_per_unit: f64,
 ) -> Result<CovarianceResult, crashrig_covariance::Error> {
-    crashrig_covariance::run(&CovarianceConfig {
-        model: b.model.clone(),
-        camera_a: camera_a.to_string(),
-        control_points: b.control_points.clone(),
-        scale: Scale::MmPerUnit(mm_per_unit),
-        pixel_sigma_px: b.pixel_sigma_px,
-        intrinsics: b.intrinsics,
-    })
+    crashrig_covariance::run(
+        &CovarianceConfig {
+            model: b.model.clone(),
+            camera_a: camera_a.to_string(),
+            control_points: b.control_points.clone(),
+            scale: Scale::MmPerUnit(mm_per_unit),
+            pixel_sigma_px: b.pixel_sigma_px,
+            intrinsics: b.intrinsics,
+        },
+        None,
+    )
 }
 
 /// The summary of the study's measured sequence: the fields of `crashrig measure`'s
@@ -168,7 +171,7 @@ pub fn run_measure(
         },
         out: None,
     };
-    let r = crashrig_measure::run(&config).map_err(|e| step(e.into()))?;
+    let r = crashrig_measure::run(&config, None).map_err(|e| step(e.into()))?;
     warnings.extend(r.warnings);
     warnings.extend(crashrig_measure::plausible::warnings(
         &r.measurement,

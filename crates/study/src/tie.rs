@@ -881,6 +881,34 @@ impl TieResult {
         t
     }
 
+    /// Writes what `crashrig bootstrap --plots DIR --replicates FILE` writes (each optional):
+    /// the histograms ([`TieResult::plots`]) into `plots` (created if missing) and the
+    /// replicates ([`TieResult::replicates_csv`]) to `replicates`, every file atomically
+    /// ([`crashrig_outdir::write_file`]). The command and the Python module both call it.
+    ///
+    /// # Errors
+    /// [`TieError::Write`] naming the file or folder, and [`TieResult::plots`]'s errors.
+    pub fn write_files(
+        &self,
+        plots: Option<&std::path::Path>,
+        replicates: Option<&std::path::Path>,
+    ) -> Result<(), TieError> {
+        if let Some(dir) = plots {
+            std::fs::create_dir_all(dir).map_err(|source| crashrig_outdir::Error::Io {
+                path: dir.to_path_buf(),
+                what: "cannot create the plot directory",
+                source,
+            })?;
+            for (name, bytes) in self.plots()? {
+                crashrig_outdir::write_file(&dir.join(name), &bytes)?;
+            }
+        }
+        if let Some(path) = replicates {
+            crashrig_outdir::write_file(path, self.replicates_csv().as_bytes())?;
+        }
+        Ok(())
+    }
+
     /// The histograms of the six parameters (Figures 8–9): `(file name, bytes)` for
     /// `bootstrap_{x,y,z,omega,phi,kappa}.{png,svg}`.
     pub fn plots(&self) -> Result<Vec<(String, Vec<u8>)>, TieError> {

@@ -147,7 +147,7 @@ fn the_study_computes_a_from_the_bundle_and_measures_with_it() {
         },
         out: None,
     };
-    let cmd = crashrig_measure::run(&config).unwrap();
+    let cmd = crashrig_measure::run(&config, None).unwrap();
     assert_eq!(cmd.measurement.rows.len(), m.measurement.rows.len());
     // serde_json's default float parser is within 1 ulp of the written shortest form, so the
     // file's matrices may differ from the typed ones in the last bit: the σ agree to 1e-12

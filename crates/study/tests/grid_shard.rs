@@ -101,7 +101,7 @@ fn assert_merge_is_whole(scenario: &Path, samples: Option<usize>, plots: bool) {
             dirs.push(dir);
         }
         let merged = tmp.path().join(format!("merged{n}"));
-        merge_grid(&read_set(&dirs).unwrap(), &merged, plots).unwrap();
+        merge_grid(&read_set(&dirs).unwrap(), &merged, plots, None).unwrap();
         let mut got: Vec<String> = std::fs::read_dir(&merged)
             .unwrap()
             .map(|e| e.unwrap().file_name().into_string().unwrap())
@@ -176,7 +176,7 @@ fn grid_merge_refuses_a_changed_scenario_and_writes_nothing() {
     }
     std::fs::write(&scen, AIMED.replace("seed = 5", "seed = 6")).unwrap();
     let out = tmp.path().join("merged");
-    let e = merge_grid(&read_set(&dirs).unwrap(), &out, false)
+    let e = merge_grid(&read_set(&dirs).unwrap(), &out, false, None)
         .unwrap_err()
         .to_string();
     assert!(e.contains("changed since the shards ran"), "{e}");
@@ -187,9 +187,54 @@ fn grid_merge_refuses_a_changed_scenario_and_writes_nothing() {
     let text = std::fs::read_to_string(&rows).unwrap();
     let cut: Vec<&str> = text.lines().collect();
     std::fs::write(&rows, cut[..cut.len() - 1].join("\n")).unwrap();
-    let e = merge_grid(&read_set(&dirs).unwrap(), &out, false)
+    let e = merge_grid(&read_set(&dirs).unwrap(), &out, false, None)
         .unwrap_err()
         .to_string();
     assert!(e.contains("points.csv") && e.contains("incomplete"), "{e}");
     assert!(!out.exists());
+}
+
+/// A merge with a monitor: one report per shard read (monotone, ending at the shard count),
+/// the same files as without; a monitor that cancels stops it with nothing written.
+#[test]
+fn merge_reports_shards_read_and_cancels_without_writing() {
+    use crashrig_stats::progress::Recorder;
+    let tmp = tempfile::tempdir().unwrap();
+    let scenario = tmp.path().join("aimed.toml");
+    std::fs::write(&scenario, AIMED).unwrap();
+    let dirs: Vec<PathBuf> = (1..=3)
+        .map(|i| {
+            let dir = tmp.path().join(format!("s{i}"));
+            let c = config(&scenario, dir.clone(), Some(50), false);
+            run_grid_shard(&c, Shard::new(i, 3).unwrap(), None).unwrap();
+            dir
+        })
+        .collect();
+    let set = read_set(&dirs).unwrap();
+    let plain = tmp.path().join("plain");
+    merge_grid(&set, &plain, false, None).unwrap();
+    let watched = tmp.path().join("watched");
+    let m = Recorder::new();
+    merge_grid(&set, &watched, false, Some(&m)).unwrap();
+    assert_eq!(m.seen(), vec![(1, 3), (2, 3), (3, 3)]);
+    for f in ["grid.csv", "grid_detail.csv"] {
+        assert_eq!(
+            std::fs::read(plain.join(f)).unwrap(),
+            std::fs::read(watched.join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    assert_eq!(summary(&plain), summary(&watched));
+    // Cancelled after 1 shard, or after all 3 (before writing): nothing written.
+    for after in [1, 3] {
+        let out = tmp.path().join(format!("cancelled{after}"));
+        let m = Recorder::cancelling_after(after);
+        let e = merge_grid(&set, &out, false, Some(&m)).unwrap_err();
+        assert!(
+            matches!(e, crashrig_study::Error::Cancelled(_)),
+            "{after}: {e}"
+        );
+        assert_eq!(m.seen().len(), after);
+        assert!(!out.exists(), "{after}");
+    }
 }

@@ -6,7 +6,6 @@
 //! (`--replicates FILE.csv`).
 
 use crate::Global;
-use anyhow::Context;
 use crashrig_study::tie::{self, Method, Resample, TieConfig};
 use std::path::PathBuf;
 
@@ -104,16 +103,7 @@ pub fn compute(a: &BootstrapArgs, seed: u64) -> anyhow::Result<BootstrapRun> {
     for w in r.warnings() {
         eprintln!("warning: {w}");
     }
-    if let Some(dir) = &a.plots {
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("{}: cannot create the plot directory", dir.display()))?;
-        for (name, bytes) in r.plots()? {
-            crate::output::write_atomic(&dir.join(name), &bytes)?;
-        }
-    }
-    if let Some(path) = &a.replicates {
-        crate::output::write_atomic(path, r.replicates_csv().as_bytes())?;
-    }
+    r.write_files(a.plots.as_deref(), a.replicates.as_deref())?;
     Ok(BootstrapRun {
         json: r.to_json(),
         text: r.text_report(),

@@ -74,16 +74,17 @@ impl CovarianceArgs {
 
 /// Runs `crashrig covariance`.
 pub fn run(a: CovarianceArgs, g: &Global) -> anyhow::Result<()> {
-    let r = crashrig_covariance::run(&a.config()?)?;
+    let bar = crate::progress::Bar::new("crashrig covariance");
+    let phases = bar.stage("phases");
+    let r = crashrig_covariance::run(&a.config()?, bar.monitor(&phases))?;
+    bar.finish();
     for w in &r.warnings {
         eprintln!("warning: {w}");
     }
-    let doc = r.to_json();
     if let Some(out) = &a.out {
-        let mut text = serde_json::to_string_pretty(&doc)?;
-        text.push('\n');
-        crate::output::write_atomic(out, text.as_bytes())?;
+        crate::output::write_atomic(out, r.json_text().as_bytes())?;
     }
+    let doc = r.to_json();
     if g.json {
         return crate::output::print_json(&doc);
     }

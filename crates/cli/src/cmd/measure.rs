@@ -71,12 +71,16 @@ pub struct MeasureArgs {
 /// Runs the command: arguments → [`MeasureOptions`] → [`crashrig_measure::run`] → print.
 pub fn run(a: MeasureArgs, g: &Global) -> anyhow::Result<()> {
     let options = options(&a, g.seed);
+    let bar = crate::progress::Bar::new("crashrig measure");
+    let replicates = bar.stage("replicates");
     if let Some(shard) = a.shard {
-        let r = crashrig_measure::shard::run(&options, shard, &a.out)?;
+        let r = crashrig_measure::shard::run(&options, shard, &a.out, bar.monitor(&replicates))?;
+        bar.finish();
         crate::output::warn_all(&options.warnings(&r.run, Spelling::Flag));
         return super::merge::print_shard(&r.manifest, r.files, &a.out, g);
     }
-    let r = crashrig_measure::run(&options.config(Spelling::Flag)?)?;
+    let r = crashrig_measure::run(&options.config(Spelling::Flag)?, bar.monitor(&replicates))?;
+    bar.finish();
     // Warnings after a successful run: a failed run prints its one `error:` line only.
     print(&r, &options.warnings(&r, Spelling::Flag), &a.out, g)
 }

@@ -24,7 +24,11 @@ pub struct MergeArgs {
 pub fn run(a: MergeArgs, g: &Global) -> anyhow::Result<()> {
     use crashrig_place::merge::{Merged, merge_shards};
     use crashrig_study::merge::MergeRun;
-    match merge_shards(&a.shards, &a.out, !a.no_plots)? {
+    let bar = crate::progress::Bar::new("crashrig merge");
+    let read = bar.stage("shards read");
+    let merged = merge_shards(&a.shards, &a.out, !a.no_plots, bar.monitor(&read))?;
+    bar.finish();
+    match merged {
         Merged::Place(r) => super::place::print(&r, &a.out, g),
         Merged::Measure(r) => super::measure::print(&r, &r.warnings, &a.out, g),
         Merged::Study(MergeRun::Grid(r)) => super::grid::print(&r, &a.out, g),

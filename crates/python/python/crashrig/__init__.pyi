@@ -239,6 +239,7 @@ def merge(
     out: PathLike,
     *,
     plots: bool = True,
+    progress: Optional[Progress] = None,
 ) -> Dict[str, Any]:
     """``crashrig merge --json``: the shard directories of a ``--shard i/N`` run merged into
     ``out``; returns the merged run's summary (grid shards: summary.json).
