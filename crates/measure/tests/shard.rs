@@ -193,7 +193,9 @@ fn three_shards(o: &MeasureOptions, tmp: &Path) -> Vec<PathBuf> {
 fn refusal(dirs: &[PathBuf], out: &Path) -> String {
     let e = match read_set(dirs) {
         Err(e) => e.to_string(),
-        Ok(set) => shard::merge(&set, out, false, None).unwrap_err().to_string(),
+        Ok(set) => shard::merge(&set, out, false, None)
+            .unwrap_err()
+            .to_string(),
     };
     assert!(!out.exists(), "{e}: wrote {}", out.display());
     e
