@@ -5,7 +5,7 @@
 //! - the link `A_from_B` and the tie `B_from_C` are drawn **once per replicate** (they are
 //!   fixed, systematic errors during a test): `δ_link ~ N(0, Σ_link)`, `δ_tie ~ N(0, Σ_tie)`;
 //! - camera A's world pose is drawn **per epoch**: `δ_A(e) ~ N(0, Σ_A(e))`, independently
-//!   between epochs; or, with a joint covariance ([`measure_with_joint`], a `crashrig
+//!   between epochs; or, with a joint covariance ([`measure`], a `crashrig
 //!   covariance` result's `"joint"`), all measured epochs of a replicate together,
 //!   `(δ_A(e₁), …, δ_A(eₘ)) = L·ε` with `L·Lᵀ` the joint covariance of the measured epochs
 //!   (shared control points and intrinsics correlate them; displacements depend on it);
@@ -872,31 +872,21 @@ fn prep_view(
 /// Observations whose epoch (key or name) is not in `epochs` are skipped and reported in
 /// [`Measurement::skipped`].
 ///
+/// With `joint`, camera A's poses of one replicate are drawn **jointly** from it (the
+/// epochs' joint covariance, e.g. a `crashrig covariance` result's `"joint"`): the marginal
+/// of the measured epochs is factored once, `L·Lᵀ = Σ`, and every replicate draws
+/// `(δ_A(e₁), …, δ_A(eₘ)) = L·ε`. Each epoch's own covariance (`Epoch::world_from_a`) is not
+/// used for drawing then. `None`: each epoch's own covariance, epoch by epoch.
+///
 /// # Errors
 /// [`Error::Setting`] for settings out of range or an unknown reference epoch;
 /// [`Error::Input`] when no observation has a posed epoch, an observation names camera C
 /// without a tie or a pixel cannot be undistorted; [`Error::Sequence`] when (with a frame
 /// rate) an epoch name has no frame number or frame numbers do not increase along the
 /// sequence. [`Error::in_files`] names the file each is about.
-pub fn measure(
-    epochs: &[Epoch],
-    rig: &Rig,
-    observations: &[Observation],
-    settings: &Settings,
-) -> Result<Measurement, Error> {
-    measure_with_joint(epochs, None, rig, observations, settings)
-}
-
-/// [`measure`] with camera A's poses of one replicate drawn **jointly** from `joint` (the
-/// epochs' joint covariance, e.g. a `crashrig covariance` result's `"joint"`): the marginal
-/// of the measured epochs is factored once, `L·Lᵀ = Σ`, and every replicate draws
-/// `(δ_A(e₁), …, δ_A(eₘ)) = L·ε`. Each epoch's own covariance (`Epoch::world_from_a`) is not
-/// used for drawing then. `None`: exactly [`measure`].
-///
-/// # Errors
-/// As [`measure`], and [`Error::Json`] naming the joint's file when a measured epoch is not in
+/// With `joint`: [`Error::Json`] naming the joint's file when a measured epoch is not in
 /// it or its matrix is not positive semi-definite.
-pub fn measure_with_joint(
+pub fn measure(
     epochs: &[Epoch],
     joint: Option<&JointA>,
     rig: &Rig,
@@ -907,7 +897,7 @@ pub fn measure_with_joint(
     measure_parts(epochs, joint, rig, observations, settings, whole, None).map(|(m, _)| m)
 }
 
-/// [`measure_with_joint`] with the moments drawn for one shard's markers or given
+/// [`measure`] with the moments drawn for one shard's markers or given
 /// ([`Draws`]), and the accumulators per pass (the measurement, then — with a trigger offset
 /// — the one without it; a shard's hold only its markers, and its measurement's other rows
 /// are empty). The replicates drawn are reported, chunk by chunk, to `monitor` (two equal

@@ -321,7 +321,7 @@ pub struct ACovariance {
     /// not given ([`model_scale`]).
     pub mm_per_unit: Option<f64>,
     /// `joint`: the epochs' joint covariance; when present, A's poses of one replicate are
-    /// drawn jointly from it ([`crate::engine::measure_with_joint`]).
+    /// drawn jointly from it ([`crate::engine::measure`]).
     pub joint: Option<JointA>,
 }
 
@@ -348,7 +348,7 @@ impl JointA {
     /// A joint covariance given in the contract's units (mm, deg), checked: `6·epochs` rows
     /// of `6·epochs` finite numbers, symmetric to [`COVARIANCE_RELATIVE_TOLERANCE`], distinct
     /// epoch names, at most [`MAX_JOINT_EPOCHS`]. Positive semi-definiteness is checked when
-    /// the matrix is factored ([`crate::engine::measure_with_joint`]).
+    /// the matrix is factored ([`crate::engine::measure`]).
     ///
     /// # Errors
     /// [`Error::Json`] naming `joint.epochs` or `joint.covariance_tangent`.

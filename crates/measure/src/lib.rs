@@ -86,7 +86,7 @@
 //!     cfc: None,
 //!     sync_sigma_ms: 0.0,
 //! };
-//! let m = measure(&epochs, &rig, &obs, &settings)?;
+//! let m = measure(&epochs, None, &rig, &obs, &settings)?;
 //! assert_eq!(m.rows.len(), 3);
 //! let row = &m.rows[1];
 //! assert!((row.position_mm.unwrap() - Vec3::new(250.0, 0.0, 2000.0)).norm() < 1e-9);
@@ -114,7 +114,7 @@ pub mod sequence;
 pub mod shard;
 mod simd;
 
-pub use engine::{Epoch, Measurement, Rig, Row, Settings, measure, measure_with_joint};
+pub use engine::{Epoch, Measurement, Rig, Row, Settings, measure};
 pub use error::Error;
 pub use options::{DEFAULT_SEED, MeasureOptions};
 pub use run::{ANoise, MeasureConfig, MeasureRun, OutputDir, check_out, run};

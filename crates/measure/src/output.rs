@@ -47,7 +47,7 @@
 //!     cfc: None,
 //!     sync_sigma_ms: 0.0,
 //! };
-//! let m = measure(&epochs, &rig, &obs, &settings)?;
+//! let m = measure(&epochs, None, &rig, &obs, &settings)?;
 //! let csv = output::trajectories_csv(&m);
 //! let mut lines = csv.lines();
 //! assert_eq!(lines.next(), Some(output::TRAJECTORIES_HEADER));

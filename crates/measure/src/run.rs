@@ -63,7 +63,7 @@ pub enum ANoise {
     },
     /// A JSON file with `covariance_tangent`, `epochs` and/or `joint`
     /// ([`input::read_a_covariance`]); with `joint`, A's poses of one replicate are drawn
-    /// jointly ([`crate::engine::measure_with_joint`]).
+    /// jointly ([`crate::engine::measure`]).
     File(PathBuf),
     /// A covariance already read or computed (typed, no file round trip: e.g. a study's
     /// `crashrig_covariance` result), with the meaning of [`ANoise::File`]'s contents.

@@ -41,10 +41,10 @@
 //! let tmp = tempfile::tempdir()?;
 //! let dirs: Vec<_> = (1..=2).map(|i| tmp.path().join(format!("s{i}"))).collect();
 //! for (i, dir) in dirs.iter().enumerate() {
-//!     shard::run(&options, Shard::new(i + 1, 2)?, dir)?;
+//!     shard::run(&options, Shard::new(i + 1, 2)?, dir, None)?;
 //! }
-//! let merged = shard::merge(&read_set(&dirs)?, &tmp.path().join("merged"), false)?;
-//! let whole = crashrig_measure::run(&options.config(crashrig_geometry::options::Spelling::Flag)?)?;
+//! let merged = shard::merge(&read_set(&dirs)?, &tmp.path().join("merged"), false, None)?;
+//! let whole = crashrig_measure::run(&options.config(crashrig_geometry::options::Spelling::Flag)?, None)?;
 //! assert_eq!(merged.measurement, whole.measurement);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```

@@ -4,7 +4,7 @@
 
 use crashrig_camera::{Camera, ModelId};
 use crashrig_geometry::{Mat3, Mat6, Rigid3, UncertainPose, Vec3, so3};
-use crashrig_measure::engine::{Epoch, Measurement, Rig, Settings, measure, measure_with_joint};
+use crashrig_measure::engine::{Epoch, Measurement, Rig, Settings, measure};
 use crashrig_measure::input::{self, Inward, JointA, Observation};
 use crashrig_measure::{ANoise, MeasureConfig};
 use nalgebra::{DMatrix, Vector2};
@@ -136,8 +136,8 @@ fn joint_draws_give_the_marginals_and_the_correlated_displacement() {
         joint_covariance_deg(),
     )
     .unwrap();
-    let with = measure_with_joint(&epochs, Some(&joint), &rig, &obs, &settings(n)).unwrap();
-    let without = measure(&epochs, &rig, &obs, &settings(n)).unwrap();
+    let with = measure(&epochs, Some(&joint), &rig, &obs, &settings(n)).unwrap();
+    let without = measure(&epochs, None, &rig, &obs, &settings(n)).unwrap();
     let j = jacobian();
     let marginal = j * sigma_epoch() * j.transpose();
     let sd = |m: nalgebra::Matrix3<f64>| m.diagonal().map(f64::sqrt);
@@ -171,7 +171,7 @@ fn a_measured_epoch_missing_from_the_joint_is_an_error() {
         two,
     )
     .unwrap();
-    let e = measure_with_joint(&epochs, Some(&joint), &rig, &obs, &settings(10))
+    let e = measure(&epochs, Some(&joint), &rig, &obs, &settings(10))
         .unwrap_err()
         .to_string();
     assert!(
@@ -333,7 +333,7 @@ fn bad_joint_matrices_name_the_key() {
     let (mut epochs, rig, obs) = scene();
     epochs.truncate(2);
     let obs: Vec<Observation> = obs.into_iter().filter(|o| o.epoch != "0002").collect();
-    let e = measure_with_joint(&epochs, Some(&joint), &rig, &obs, &settings(10))
+    let e = measure(&epochs, Some(&joint), &rig, &obs, &settings(10))
         .unwrap_err()
         .to_string();
     assert!(

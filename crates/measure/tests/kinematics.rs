@@ -123,6 +123,7 @@ fn filtered_sigma_matches_the_numpy_monte_carlo() {
         let standard = Standard::parse(case["standard"].as_str().unwrap()).unwrap();
         let m = measure(
             &epochs,
+            None,
             &rig(),
             &obs,
             &settings(samples, 26, class, standard, 0.0, 0.0),
@@ -239,6 +240,7 @@ fn coverage(trials: u64, sync_ms: f64, standard: Standard) -> [(f64, f64); 3] {
         }
         let m = measure(
             &epochs,
+            None,
             &rig(),
             &obs,
             &settings(400, trial, 180, standard, sigma_px, sync_ms),
