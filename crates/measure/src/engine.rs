@@ -1516,7 +1516,16 @@ fn run_monte_carlo(
                     .zip(kin.runs.par_iter())
                     .for_each_init(Scratch::default, |scratch, (racc, runs)| {
                         for (run, acc) in runs.iter().zip(racc) {
-                            feed_run(kin.filter, run, acc, preps, bufs, reference, m, scratch);
+                            crate::simd::vectorized(FeedRun {
+                                filter: kin.filter,
+                                run,
+                                acc,
+                                preps,
+                                bufs,
+                                reference,
+                                m,
+                                scratch,
+                            });
                         }
                     });
             }
@@ -1572,31 +1581,8 @@ fn feed_rows(
 /// velocity and acceleration taken at each epoch as the moments are fed. Every accumulator
 /// still takes the replicates in replicate order, so the moments have the bits of a
 /// replicate-by-replicate loop.
-#[allow(clippy::too_many_arguments)]
-fn feed_run(
-    filter: &Cfc,
-    run: &Run,
-    acc: &mut RunAcc,
-    preps: &[EpochPrep],
-    bufs: &[Vec<Vec3>],
-    reference: usize,
-    m: usize,
-    scratch: &mut Scratch<Lanes>,
-) {
-    crate::simd::vectorized(FeedRun {
-        filter,
-        run,
-        acc,
-        preps,
-        bufs,
-        reference,
-        m,
-        scratch,
-    });
-}
-
-/// [`feed_run`]'s arguments, as the job the vector level runs (a struct rather than a closure:
-/// its `with_simd` is `#[inline(always)]`, so the whole body is compiled for the level).
+/// The job the vector level runs (`crate::simd`; a struct rather than a closure: its
+/// `with_simd` is `#[inline(always)]`, so the whole body is compiled for the level).
 struct FeedRun<'a> {
     filter: &'a Cfc,
     run: &'a Run,
@@ -1622,74 +1608,58 @@ impl pulp::WithSimd for FeedRun<'_> {
             m,
             scratch,
         } = self;
-        feed_run_body(filter, run, acc, preps, bufs, reference, m, scratch);
-    }
-}
-
-/// [`feed_run`]'s loops, compiled inside the vector level's function (`crate::simd`).
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn feed_run_body(
-    filter: &Cfc,
-    run: &Run,
-    acc: &mut RunAcc,
-    preps: &[EpochPrep],
-    bufs: &[Vec<Vec3>],
-    reference: usize,
-    m: usize,
-    scratch: &mut Scratch<Lanes>,
-) {
-    let slot = |e: usize| preps[e].slot_of[run.marker].expect("a run's epochs see its marker");
-    let rs = slot(reference);
-    let diff = Differences::new(1.0 / filter.frame_rate_hz());
-    let (len, groups) = (run.len, m.div_ceil(LANES));
-    let xr = &bufs[reference][rs * m..rs * m + m];
-    // One pass over the chunk's positions (each epoch's replicates are contiguous): group `g`
-    // of replicates `g·LANES…` at run epoch `i` goes to `d[g·len + i]`.
-    // Every taken lane of `d` is overwritten below; a lane past `m` in the last group keeps
-    // whatever it held (it is filtered alongside but never fed), so `d` is only resized.
-    let mut d = std::mem::take(&mut scratch.d);
-    d.resize(groups * len, Lanes([0.0; 3 * LANES]));
-    // The epochs' slots first, in a loop of independent lookups (the CPU overlaps their cache
-    // misses), then the gather reads each epoch's replicates at a known address.
-    let mut slots = std::mem::take(&mut scratch.slots);
-    slots.clear();
-    slots.extend((run.start..run.start + len).map(slot));
-    let mut taken = std::mem::take(&mut scratch.taken);
-    taken.clear();
-    taken.resize(m, true);
-    for (i, &s) in slots.iter().enumerate() {
-        let e = run.start + i;
-        for (r, (x, xr)) in bufs[e][s * m..s * m + m].iter().zip(xr).enumerate() {
-            let dx = x - xr;
-            taken[r] &= finite(&dx);
-            d[(r / LANES) * len + i].set_lane(r % LANES, &dx);
-        }
-    }
-    for g in 0..groups {
-        let (r0, lanes) = (g * LANES, LANES.min(m - g * LANES));
-        let taken = &taken[r0..r0 + lanes];
-        scratch.filter(filter, &d[g * len..(g + 1) * len]);
-        let mut inv_n = [0.0; LANES];
-        for l in 0..lanes {
-            if taken[l] {
-                acc.n += 1;
-                inv_n[l] = 1.0 / acc.n as f64;
+        let slot = |e: usize| preps[e].slot_of[run.marker].expect("a run's epochs see its marker");
+        let rs = slot(reference);
+        let diff = Differences::new(1.0 / filter.frame_rate_hz());
+        let (len, groups) = (run.len, m.div_ceil(LANES));
+        let xr = &bufs[reference][rs * m..rs * m + m];
+        // One pass over the chunk's positions (each epoch's replicates are contiguous): group `g`
+        // of replicates `g·LANES…` at run epoch `i` goes to `d[g·len + i]`.
+        // Every taken lane of `d` is overwritten below; a lane past `m` in the last group keeps
+        // whatever it held (it is filtered alongside but never fed), so `d` is only resized.
+        let mut d = std::mem::take(&mut scratch.d);
+        d.resize(groups * len, Lanes([0.0; 3 * LANES]));
+        // The epochs' slots first, in a loop of independent lookups (the CPU overlaps their cache
+        // misses), then the gather reads each epoch's replicates at a known address.
+        let mut slots = std::mem::take(&mut scratch.slots);
+        slots.clear();
+        slots.extend((run.start..run.start + len).map(slot));
+        let mut taken = std::mem::take(&mut scratch.taken);
+        taken.clear();
+        taken.resize(m, true);
+        for (i, &s) in slots.iter().enumerate() {
+            let e = run.start + i;
+            for (r, (x, xr)) in bufs[e][s * m..s * m + m].iter().zip(xr).enumerate() {
+                let dx = x - xr;
+                taken[r] &= finite(&dx);
+                d[(r / LANES) * len + i].set_lane(r % LANES, &dx);
             }
         }
-        let f = &scratch.f;
-        for (i, q) in acc.m.iter_mut().enumerate() {
-            let (v, a) = (diff.velocity(f, i), diff.acceleration(f, i));
-            for l in (0..lanes).filter(|&l| taken[l]) {
-                q[0].push(&f[i].lane(l), inv_n[l]);
-                q[1].push(&v.lane(l), inv_n[l]);
-                q[2].push(&a.lane(l), inv_n[l]);
+        for g in 0..groups {
+            let (r0, lanes) = (g * LANES, LANES.min(m - g * LANES));
+            let taken = &taken[r0..r0 + lanes];
+            scratch.filter(filter, &d[g * len..(g + 1) * len]);
+            let mut inv_n = [0.0; LANES];
+            for l in 0..lanes {
+                if taken[l] {
+                    acc.n += 1;
+                    inv_n[l] = 1.0 / acc.n as f64;
+                }
+            }
+            let f = &scratch.f;
+            for (i, q) in acc.m.iter_mut().enumerate() {
+                let (v, a) = (diff.velocity(f, i), diff.acceleration(f, i));
+                for l in (0..lanes).filter(|&l| taken[l]) {
+                    q[0].push(&f[i].lane(l), inv_n[l]);
+                    q[1].push(&v.lane(l), inv_n[l]);
+                    q[2].push(&a.lane(l), inv_n[l]);
+                }
             }
         }
+        scratch.d = d;
+        scratch.slots = slots;
+        scratch.taken = taken;
     }
-    scratch.d = d;
-    scratch.slots = slots;
-    scratch.taken = taken;
 }
 
 fn sigma_of(m: &Moments<3>) -> Option<Vec3> {
