@@ -276,16 +276,16 @@ impl Reconstruction {
         })
     }
 
-    /// Writes all five files in COLMAP ≥ 3.12 layout and `format` into `dir` (created if
-    /// missing). Each file goes to a temporary file in `dir` first; the renames happen only
-    /// after all five were written. Stored values are written unchanged, so a read followed by
-    /// a write reproduces binary input byte for byte, and text written from binary reads back
-    /// bit-exactly (`%.17g`).
+    /// The five files of the model in COLMAP ≥ 3.12 layout and `format`: `(file name, bytes)`
+    /// for rigs, cameras, frames, images and points3D. Stored values are written unchanged, so
+    /// a read followed by a write reproduces binary input byte for byte, and text written from
+    /// binary reads back bit-exactly (`%.17g`). `colmap convert` writes them into its staged
+    /// output directory; [`Reconstruction::write`] into a directory.
     ///
     /// # Errors
-    /// [`Error::Io`] naming the directory or file; [`Error::Unwritable`] for an image name
-    /// that text cannot hold (checked before anything is written).
-    pub fn write(&self, dir: &Path, format: ModelFormat) -> Result<()> {
+    /// [`Error::Unwritable`] (naming the file by its name) for an image name that the format
+    /// cannot hold.
+    pub fn encode(&self, format: ModelFormat) -> Result<Vec<(String, Vec<u8>)>> {
         // Binary names end at a NUL byte. Text pairs lines and trims them: a name must be one
         // non-empty line without leading or trailing whitespace to read back unchanged (inner
         // spaces are fine for our reader; COLMAP's keeps only the first word).
@@ -294,17 +294,13 @@ impl Reconstruction {
             let text_ok = !n.is_empty() && !n.contains(['\n', '\r']) && n.trim() == n;
             if n.contains('\0') || (format == ModelFormat::Text && !text_ok) {
                 return Err(Error::Unwritable {
-                    path: dir.join(format!("images.{}", format.extension())),
+                    path: PathBuf::from(format!("images.{}", format.extension())),
                     record: i,
                     what: "image name has a NUL byte, or (text) is empty, has a line break or \
                            leading/trailing whitespace",
                 });
             }
         }
-        std::fs::create_dir_all(dir).map_err(|source| Error::Io {
-            path: dir.to_path_buf(),
-            source,
-        })?;
         let mean_obs = if self.images.is_empty() {
             0.0
         } else {
@@ -332,9 +328,36 @@ impl Reconstruction {
                 text::write_points3d(&self.points, mean_track).into_bytes(),
             ],
         };
+        Ok(STEMS
+            .iter()
+            .zip(contents)
+            .map(|(stem, bytes)| (format!("{stem}.{}", format.extension()), bytes))
+            .collect())
+    }
+
+    /// Writes all five files of [`Reconstruction::encode`] into `dir` (created if missing).
+    /// Each file goes to a temporary file in `dir` first; the renames happen only after all
+    /// five were written.
+    ///
+    /// # Errors
+    /// [`Error::Io`] naming the directory or file; [`Error::Unwritable`] for an image name
+    /// that text cannot hold (checked before anything is written).
+    pub fn write(&self, dir: &Path, format: ModelFormat) -> Result<()> {
+        let contents = self.encode(format).map_err(|e| match e {
+            Error::Unwritable { path, record, what } => Error::Unwritable {
+                path: dir.join(path),
+                record,
+                what,
+            },
+            other => other,
+        })?;
+        std::fs::create_dir_all(dir).map_err(|source| Error::Io {
+            path: dir.to_path_buf(),
+            source,
+        })?;
         let mut temps = Vec::with_capacity(5);
-        for (stem, bytes) in STEMS.iter().zip(&contents) {
-            let target = dir.join(format!("{stem}.{}", format.extension()));
+        for (name, bytes) in &contents {
+            let target = dir.join(name);
             let io = |source| Error::Io {
                 path: target.clone(),
                 source,

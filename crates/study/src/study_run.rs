@@ -87,14 +87,15 @@ fn copy_tree(from: &Path, to: &Path) -> Result<(), Error> {
         let path = path.to_path_buf();
         move |source| Error::Write { path, source }
     };
-    std::fs::create_dir_all(to).map_err(write(to))?;
+    // Into the staging directory: each step inside the gate (see `crashrig_outdir::gated`).
+    crashrig_outdir::gated(|| std::fs::create_dir_all(to)).map_err(write(to))?;
     for entry in std::fs::read_dir(from).map_err(write(to))? {
         let entry = entry.map_err(write(to))?;
         let (src, dst) = (entry.path(), to.join(entry.file_name()));
         if entry.file_type().map_err(write(&dst))?.is_dir() {
             copy_tree(&src, &dst)?;
         } else {
-            std::fs::copy(&src, &dst).map_err(write(&dst))?;
+            crashrig_outdir::gated(|| std::fs::copy(&src, &dst)).map_err(write(&dst))?;
         }
     }
     Ok(())

@@ -27,7 +27,8 @@ pub enum ColmapCommand {
     ///
     /// Accepts 3.x three-file and >=3.12 five-file models, binary or text (binary wins when
     /// both exist). Doubles survive bin->txt->bin bit-exactly (text uses %.17g, like COLMAP).
-    /// The five files are written to temporary files first and renamed at the end.
+    /// The five files are written into a hidden staging directory beside OUTPUT and swapped in
+    /// as a whole: a reader of OUTPUT sees the old model or the complete new one.
     Convert {
         /// Input model directory.
         input: PathBuf,
