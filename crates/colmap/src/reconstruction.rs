@@ -122,9 +122,15 @@ impl Reconstruction {
     /// Then checks the cross-file invariants (see the crate docs).
     ///
     /// # Errors
-    /// [`Error::NotAModel`], [`Error::RigsWithoutFrames`], any parse error of a file, or
+    /// [`Error::Missing`], [`Error::NotAModel`], [`Error::RigsWithoutFrames`], any parse error of a file, or
     /// [`Error::Invariant`] naming the file and record that breaks a rule.
     pub fn read(dir: &Path) -> Result<Reconstruction> {
+        // A path that is not there: said so (the CLI and the Python module say the same).
+        if std::fs::symlink_metadata(dir).is_err() {
+            return Err(Error::Missing {
+                path: dir.to_path_buf(),
+            });
+        }
         let complete =
             |f: &Files| f.cameras.is_file() && f.images.is_file() && f.points3d.is_file();
         let format = if complete(&Files::new(dir, ModelFormat::Binary)) {
@@ -228,6 +234,13 @@ impl Reconstruction {
         points: Vec<Point3D>,
     ) -> Result<Reconstruction> {
         let files = Files::new(dir, format);
+        crate::bounds::check(
+            (&cameras, &files.cameras),
+            (&rigs, &files.rigs),
+            (!legacy).then_some((frames.as_slice(), files.frames.as_path())),
+            (&images, &files.images),
+            (&points, &files.points3d),
+        )?;
         if legacy {
             (rigs, frames) = trivial_rigs_and_frames(&cameras, &images);
         }
@@ -477,6 +490,29 @@ impl Reconstruction {
         let i = *self.image_idx.get(&image_id)?;
         self.cam_from_world.get(i).copied().flatten()
     }
+    /// The 3×4 matrix `[R | t]` of an image's `cam_from_world` exactly as COLMAP and pycolmap
+    /// give it (`Image::CamFromWorld().ToMatrix()`): `sensor_from_rig ∘ rig_from_world` of its
+    /// frame composed with COLMAP's formulas from the quaternions as stored, which COLMAP does
+    /// not normalise on reading ([`crate::RawPose::colmap_matrix`]); the rotation of
+    /// [`Reconstruction::image_cam_from_world`] is the normalised one the commands use. For a
+    /// model written with unit quaternions both agree to rounding. `None` as for
+    /// [`Reconstruction::image_cam_from_world`].
+    pub fn image_cam_from_world_colmap(&self, image_id: u32) -> Option<[[f64; 4]; 3]> {
+        let i = *self.image_idx.get(&image_id)?;
+        self.cam_from_world.get(i).copied().flatten()?;
+        let im = &self.images[i];
+        let frame = self.frames.get(*self.image_frame.get(i)?)?;
+        let rig = self.rig(frame.rig_id)?;
+        let sensor = SensorId::camera(im.camera_id);
+        let pose = if rig.ref_sensor == Some(sensor) {
+            frame.rig_from_world
+        } else {
+            rig.sensor_from_rig(sensor)??
+                .colmap_compose(&frame.rig_from_world)
+        };
+        Some(pose.colmap_matrix())
+    }
+
     /// How far the pose stored in `images.*` is from the pose COLMAP uses (composed from the
     /// frame and rig): `(rotation angle in rad, translation difference in model units)`. COLMAP
     /// ignores the stored pose when rigs and frames exist, and some tools have written

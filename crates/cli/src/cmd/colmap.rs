@@ -61,7 +61,9 @@ pub enum ColmapCommand {
 /// Runs a COLMAP subcommand.
 pub fn run(cmd: ColmapCommand, g: &Global) -> anyhow::Result<()> {
     match cmd {
-        ColmapCommand::Info { path } if path.is_dir() => {
+        // A directory, or a path that is not there (the model reader says so, as
+        // `crashrig.read_model` does); a file is a database.
+        ColmapCommand::Info { path } if !path.is_file() => {
             let r = info::model_info(&path)?;
             print(g, &r, &r.warnings, &r.text_report())
         }

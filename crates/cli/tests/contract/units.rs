@@ -624,3 +624,42 @@ fn units_study_scale_bar_in_metres_warns_at_its_line() {
     );
     assert!(html.contains(&want), "the verdict does not repeat it");
 }
+
+/// `calibrate` on a model with a pose translation of 1e308 printed `null` / NaN with exit 0
+/// (issue 36 §4): every number of a model is bounded on reading (±1e12, docs/LIMITS.md) and
+/// the error names the file and the record.
+#[test]
+fn units_calibrate_model_value_beyond_the_bound_is_an_error() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let model = tmp.path().join("model");
+    crate::common::copy_dir(&fixture("rig/paper"), &model);
+    let frames = model.join("frames.bin");
+    let mut b = std::fs::read(&frames).expect("frames.bin");
+    // The first frame's TY: count (8), frame and rig id (8), then QW QX QY QZ TX.
+    b[56..64].copy_from_slice(&1e308f64.to_le_bytes());
+    std::fs::write(&frames, b).expect("write");
+    let m = model.display().to_string();
+    for json in [false, true] {
+        let mut args = strings(&[
+            "calibrate",
+            &m,
+            "--camera-a",
+            "cam_out/",
+            "--camera-b",
+            "cam_in/",
+            "--mm-per-unit",
+            "1",
+        ]);
+        if json {
+            args.push("--json".into());
+        }
+        let r = capped(&args);
+        assert_clean_error(
+            &r,
+            &[
+                "frames.bin: record 0: a rig_from_world number is not finite or beyond ±1e12 model units",
+                "(id 1)",
+            ],
+        );
+    }
+}
