@@ -22,6 +22,7 @@ use crate::Error;
 use crate::grids::{MapSpec, MapStyle};
 use crashrig_mc::{Grid, GridResult, GridStudy, PointStats, RunOptions, Scenario};
 use crashrig_stats::progress::{self, Reporter};
+use crashrig_stats::summary::median;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -541,7 +542,7 @@ fn correlation_summary(
     let ism: Vec<f64> = ind.points.iter().map(|p| p.sigma_max_mm).collect();
     CorrelationSummary {
         independent_fraction_below_threshold: ind.fraction_below(threshold_mm),
-        independent_median_sigma_max_mm: median(&ism),
+        independent_median_sigma_max_mm: median(&ism).unwrap_or(f64::NAN),
         change_sigma_max_mm: spread(&change),
         ratio_correlated_over_independent: spread(&ratio),
     }
@@ -583,7 +584,7 @@ fn document(
         threshold_mm: grid.threshold_mm,
         fraction_below_threshold: result.fraction_below(grid.threshold_mm),
         max_sigma_mm: sm.iter().copied().fold(f64::NAN, f64::max),
-        median_sigma_max_mm: median(&sm),
+        median_sigma_max_mm: median(&sm).unwrap_or(f64::NAN),
         fraction_worst_below_threshold: worst.fraction_below_threshold,
         median_sigma_worst_mm: worst.median_mm,
         max_sigma_worst_mm: worst.max_mm,
@@ -606,7 +607,7 @@ fn document(
             fraction_below_threshold: lsm.iter().filter(|s| **s < grid.threshold_mm).count() as f64
                 / lsm.len().max(1) as f64,
             max_sigma_mm: lsm.iter().copied().fold(f64::NAN, f64::max),
-            median_sigma_max_mm: median(&lsm),
+            median_sigma_max_mm: median(&lsm).unwrap_or(f64::NAN),
             ratio_mc_over_linear_sigma_max: spread(&ratio),
         },
         adaptive: grid.adaptive.map(|ad| AdaptiveSummary {
@@ -637,17 +638,11 @@ fn document(
     }
 }
 
-/// Median of the finite values (degenerate and not-measurable points are NaN and left out).
-fn median(v: &[f64]) -> f64 {
-    let finite: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-    crashrig_stats::summary::quantile(&finite, 0.5).unwrap_or(f64::NAN)
-}
-
 fn spread(v: &[f64]) -> Spread {
     let finite: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
     Spread {
         min: finite.iter().copied().fold(f64::INFINITY, f64::min),
-        median: median(&finite),
+        median: median(&finite).unwrap_or(f64::NAN),
         max: finite.iter().copied().fold(f64::NEG_INFINITY, f64::max),
     }
 }

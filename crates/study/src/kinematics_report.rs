@@ -26,6 +26,7 @@ use crashrig_geometry::Vec3;
 use crashrig_measure::Measurement;
 use crashrig_measure::kinematics::KinRow;
 use crashrig_measure::output::{self as measure_output, MarkerPlot};
+use crashrig_stats::summary::median;
 use std::path::Path;
 
 /// Median and largest of a set of values.
@@ -43,7 +44,7 @@ impl Spread {
         let v: Vec<f64> = v.into_iter().filter(|x| x.is_finite()).collect();
         let max = v.iter().copied().reduce(f64::max)?;
         Some(Spread {
-            median: crate::grids::median(&v),
+            median: median(&v).unwrap_or(f64::NAN),
             max,
         })
     }

@@ -23,6 +23,7 @@
 
 use crashrig_colmap::{CameraSelector, Reconstruction};
 use crashrig_rig::{CalibrateOptions, Epoch};
+use crashrig_stats::summary::median;
 use nalgebra::{Point3, Vector3};
 
 /// Agreement bound of [`SplitHalf`]: |difference| ≤ `SPLIT_HALF_Z` × its σ on every axis.
@@ -84,7 +85,7 @@ pub fn reprojection(model: &Reconstruction, selector: &str, role: char) -> Repro
         } else {
             f64::NAN
         },
-        median_px: crate::grids::median(&residuals),
+        median_px: median(&residuals).unwrap_or(f64::NAN),
         max_px: residuals.iter().copied().fold(f64::NAN, f64::max),
         residuals_px: residuals,
     }

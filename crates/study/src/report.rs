@@ -9,6 +9,7 @@ use crate::measure_step::MeasureResult;
 use crate::pipeline::{LayoutResult, StudyResult, phi_deg};
 use crate::study_file::{ChainCamera, ObserverNoise, Study, StudyScale, TieMethod, TieResample};
 use crashrig_measure::output::{self as measure_output, MarkerPlot};
+use crashrig_stats::summary::median;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -224,7 +225,10 @@ fn measure_report(rep: &mut Report, study: &Study, m: &MeasureResult, plots: &[M
                 .filter(|r| r.epoch != ms.reference_epoch)
                 .filter_map(|r| r.displacement_sigma_mm.map(|v| v.max()))
                 .collect();
-            let (mp, md) = (grids::median(&pos), grids::median(&disp));
+            let (mp, md) = (
+                median(&pos).unwrap_or(f64::NAN),
+                median(&disp).unwrap_or(f64::NAN),
+            );
             // A marker measured in no epoch has no median: "—", never NaN.
             let cell = |v: f64| {
                 if v.is_finite() {
@@ -350,7 +354,7 @@ fn a_covariance_report(
             vec![
                 names[k].to_string(),
                 format!("{min:.d$}"),
-                format!("{:.d$}", grids::median(&v)),
+                format!("{:.d$}", median(&v).unwrap_or(f64::NAN)),
                 format!("{max:.d$}"),
             ]
         })
@@ -1280,7 +1284,7 @@ fn paper_differences(rep: &mut Report, study: &Study, r: &StudyResult) {
                 .filter(|p| p.point.x <= 800.0)
                 .map(|p| p.sigma_max_mm)
                 .collect();
-            grids::median(&rb)
+            median(&rb).unwrap_or(f64::NAN)
         })
     };
     let fig13 = match (rear("three_cameras_z0_paper"), rear("three_cameras_z300_paper")) {
