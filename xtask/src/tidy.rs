@@ -15,9 +15,15 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
     ("crashrig-plot", &[]),
     ("crashrig-camera", &[]),
     ("crashrig-outdir", &[]),
+    ("crashrig-input", &["crashrig-geometry"]),
     (
         "crashrig-colmap",
-        &["crashrig-geometry", "crashrig-camera", "crashrig-outdir"],
+        &[
+            "crashrig-geometry",
+            "crashrig-camera",
+            "crashrig-input",
+            "crashrig-outdir",
+        ],
     ),
     ("crashrig-rig", &["crashrig-geometry", "crashrig-stats"]),
     (
@@ -31,6 +37,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-geometry",
             "crashrig-camera",
             "crashrig-colmap",
+            "crashrig-input",
             "crashrig-stats",
         ],
     ),
@@ -41,6 +48,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-geometry",
             "crashrig-camera",
             "crashrig-colmap",
+            "crashrig-input",
             "crashrig-stats",
         ],
     ),
@@ -50,6 +58,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-geometry",
             "crashrig-camera",
             "crashrig-colmap",
+            "crashrig-input",
             "crashrig-stats",
             "crashrig-plot",
             "crashrig-outdir",
@@ -59,6 +68,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
         "crashrig-study",
         &[
             "crashrig-geometry",
+            "crashrig-input",
             "crashrig-camera",
             "crashrig-colmap",
             "crashrig-rig",
@@ -87,6 +97,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
         &[
             "crashrig-place",
             "crashrig-geometry",
+            "crashrig-input",
             "crashrig-stats",
             "crashrig-camera",
             "crashrig-colmap",
@@ -105,6 +116,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
         "crashrig-python",
         &[
             "crashrig-geometry",
+            "crashrig-input",
             "crashrig-stats",
             "crashrig-camera",
             "crashrig-colmap",

@@ -5,7 +5,7 @@ use crate::args::{self, Source, TextFile};
 use crate::convert::{document, to_python};
 use crate::watch::{self, Watch};
 use crate::{py_error, to_py_err};
-use crashrig_geometry::options::{ScaleOptions, Spelling, check_mm_per_unit};
+use crashrig_input::options::{ScaleOptions, Spelling, check_mm_per_unit};
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};

@@ -84,10 +84,10 @@ impl Scale {
     /// [`crate::Error::Usage`] (names in `spelling`): both given, a bar without its length or
     /// points, a factor out of range.
     pub fn from_options(
-        options: &crashrig_geometry::options::ScaleOptions,
-        spelling: crashrig_geometry::options::Spelling,
+        options: &crashrig_input::options::ScaleOptions,
+        spelling: crashrig_input::options::Spelling,
     ) -> Result<Scale, crate::Error> {
-        use crashrig_geometry::options::GivenScale;
+        use crashrig_input::options::GivenScale;
         match options.given(spelling) {
             Ok(Some(GivenScale::MmPerUnit(f))) => Ok(Scale::MmPerUnit(f)),
             Ok(Some(GivenScale::ScaleBar { points, length_mm })) => {

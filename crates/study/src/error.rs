@@ -150,7 +150,7 @@ pub enum Error {
         path: PathBuf,
     },
     /// Options of a command that do not fit together or are out of range, named as the front
-    /// end spells them ([`crashrig_geometry::options::Spelling`]).
+    /// end spells them ([`crashrig_input::options::Spelling`]).
     #[error("{0}")]
     Usage(String),
     /// The caller's [`crashrig_stats::progress::Monitor`] cancelled the call: nothing was

@@ -87,12 +87,11 @@ pub fn fingerprint_inputs(
 ) -> Result<String, Error> {
     let mut parts = vec![command.as_bytes().to_vec()];
     for path in files {
-        let bytes =
-            crashrig_colmap::input_file::read_limited(path, crashrig_mc::limits::MAX_FILE_BYTES)
-                .map_err(|source| Error::Read {
-                    path: path.to_path_buf(),
-                    source,
-                })?;
+        let bytes = crashrig_input::file::read_limited(path, crashrig_input::file::MAX_TOML_BYTES)
+            .map_err(|source| Error::Read {
+                path: path.to_path_buf(),
+                source,
+            })?;
         parts.push(bytes);
     }
     parts.extend(resolved.iter().map(|r| r.as_bytes().to_vec()));
@@ -458,11 +457,10 @@ fn read_rows(
         problem,
     };
     let limit = (range.len() as u64 + 1) * MAX_ROW_BYTES;
-    let bytes =
-        crashrig_colmap::input_file::read_limited(path, limit).map_err(|source| Error::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
+    let bytes = crashrig_input::file::read_limited(path, limit).map_err(|source| Error::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
     let mut r = csv::ReaderBuilder::new()
         .has_headers(true)
         .from_reader(bytes.as_slice());

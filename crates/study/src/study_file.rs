@@ -396,7 +396,7 @@ struct RawObserver {
     pixel_sigma_px: Option<Spanned<f64>>,
 }
 
-pub(crate) use crashrig_mc::limits::line_of;
+pub(crate) use crashrig_input::location::line_of;
 
 /// The line of `[name]` / `[[name]]` (the `n`-th occurrence), for errors about a section.
 pub(crate) fn section_line(text: &str, name: &str, n: usize) -> Option<usize> {
@@ -1007,7 +1007,7 @@ fn parse_raw(text: &str, path: &Path) -> Result<Raw, Error> {
             + 1;
         // A type error is located at the value: name its key as every other error does.
         let message = e.message().trim();
-        let message = match crashrig_mc::limits::toml_value_key(text, offset) {
+        let message = match crashrig_input::location::toml_value_key(text, offset) {
             Some(key) => format!("`{key}`: {message}"),
             None => message.to_string(),
         };
@@ -1474,14 +1474,12 @@ impl Study {
     /// # Errors
     /// [`Error::Read`], [`Error::Toml`] or [`Error::Key`] naming the file, key and line.
     pub fn from_path(path: &Path) -> Result<Study, Error> {
-        let text = crashrig_colmap::input_file::read_text_limited(
-            path,
-            crashrig_colmap::input_file::MAX_TOML_BYTES,
-        )
-        .map_err(|source| Error::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text =
+            crashrig_input::file::read_text_limited(path, crashrig_input::file::MAX_TOML_BYTES)
+                .map_err(|source| Error::Read {
+                    path: path.to_path_buf(),
+                    source,
+                })?;
         Study::from_toml_str(&text, path)
     }
 

@@ -1,7 +1,7 @@
 //! `crashrig measure`: marker trajectories with their uncertainty from a crash-test sequence.
 
 use crate::Global;
-use crashrig_geometry::options::Spelling;
+use crashrig_input::options::Spelling;
 use crashrig_measure::{MeasureOptions, OutputDir};
 use std::path::PathBuf;
 
