@@ -65,9 +65,21 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
         ],
     ),
     (
+        "crashrig-grid",
+        &[
+            "crashrig-geometry",
+            "crashrig-input",
+            "crashrig-mc",
+            "crashrig-stats",
+            "crashrig-plot",
+            "crashrig-outdir",
+        ],
+    ),
+    (
         "crashrig-study",
         &[
             "crashrig-geometry",
+            "crashrig-grid",
             "crashrig-input",
             "crashrig-camera",
             "crashrig-colmap",
@@ -87,7 +99,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
         &[
             "crashrig-mc",
             "crashrig-stats",
-            "crashrig-study",
+            "crashrig-grid",
             "crashrig-outdir",
             "crashrig-measure",
         ],
@@ -97,6 +109,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
         &[
             "crashrig-place",
             "crashrig-geometry",
+            "crashrig-grid",
             "crashrig-input",
             "crashrig-stats",
             "crashrig-camera",
@@ -116,6 +129,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
         "crashrig-python",
         &[
             "crashrig-geometry",
+            "crashrig-grid",
             "crashrig-input",
             "crashrig-stats",
             "crashrig-camera",

@@ -27,7 +27,7 @@ pub enum Error {
     },
     /// A step of `crashrig grid` (the confirmation and the chosen layout's output) failed.
     #[error(transparent)]
-    Grid(#[from] crashrig_study::Error),
+    Grid(#[from] crashrig_grid::Error),
     /// The output directory.
     #[error(transparent)]
     OutDir(#[from] crashrig_outdir::Error),

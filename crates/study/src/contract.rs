@@ -17,7 +17,7 @@
 //! assert_eq!(serde_json::to_string(&s).unwrap(), r#"{"source":"mm_per_unit"}"#);
 //! ```
 
-use crate::grids::GridSummary;
+use crashrig_grid::summary::GridSummary;
 use crashrig_measure::output::Summary as MeasureSummary;
 use serde::Serialize;
 

@@ -121,12 +121,12 @@ pub fn write(d: &Path, m: &MeasureResult) -> Result<Vec<MarkerPlot>, Error> {
     let Some(csv) = measure_output::kinematics_csv(ms) else {
         return Ok(Vec::new());
     };
-    crate::grids::write(d, "kinematics.csv", csv.as_bytes())?;
+    crate::files::write(d, "kinematics.csv", csv.as_bytes())?;
     let plots = measure_output::kinematics_plots(ms)
         .map_err(|e| crate::error::measure_plot_error(e, "kinematics"))?;
     for p in &plots {
-        crate::grids::write(&d.join("plots"), &format!("{}.png", p.stem), &p.png)?;
-        crate::grids::write(&d.join("plots"), &format!("{}.svg", p.stem), &p.svg)?;
+        crate::files::write(&d.join("plots"), &format!("{}.png", p.stem), &p.png)?;
+        crate::files::write(&d.join("plots"), &format!("{}.svg", p.stem), &p.svg)?;
     }
     Ok(plots)
 }

@@ -8,14 +8,8 @@
 //! - [`tie`]: database + model → correspondences → bootstrap → the tie link with its covariance;
 //! - [`pipeline`]: [`run_study`] — calibration, tie, the chain outward → inward → tie, and one
 //!   grid study per layout, with a one-at-a-time sensitivity;
-//! - [`grid_run`]: [`run_grid`], the library entry of `crashrig grid`;
-//! - [`propagate_run`]: [`run_propagate`], the library entry of `crashrig propagate`;
-//! - [`merge`]: [`merge::merge_shards`], the library entry of `crashrig merge`;
 //! - [`study_run`]: [`study_run::run_to_dir`], the library entry of `crashrig study` (run +
 //!   every output file);
-//! - [`grids`]: grid summaries, `grid.csv` and heat maps;
-//! - [`fixed_maps`]: layouts with fixed observers (`aim = "fixed"`): coverage and
-//!   field-of-view footprints;
 //! - [`measure_step`]: `[measure]` — a test sequence measured with the study's own link;
 //! - [`quality`]: calibration quality — reprojection residuals per camera and the split-half
 //!   check of the link;
@@ -41,18 +35,13 @@ pub mod contract;
 pub mod correspondences;
 pub mod epochs;
 mod error;
-pub mod fixed_maps;
+mod files;
 mod fixed_observer;
-pub mod grid_run;
-pub mod grid_shard;
-pub mod grids;
 pub mod html;
 pub mod kinematics_report;
 pub mod measure_step;
-pub mod merge;
 pub mod paper_study;
 pub mod pipeline;
-pub mod propagate_run;
 pub mod quality;
 pub mod quality_report;
 pub mod report;
@@ -61,7 +50,5 @@ pub mod study_run;
 pub mod tie;
 
 pub use error::{BundledError, Error, StepError};
-pub use grid_run::{GridConfig, GridRun, run_grid, run_grid_scenario};
 pub use pipeline::{Options, StudyResult, run_study};
-pub use propagate_run::{PropagateConfig, PropagateRun, run_propagate};
 pub use study_file::Study;

@@ -14,12 +14,12 @@ use crate::contract::{
     ACovarianceSummary, ChainCameraDocument, LayoutDocument, LinearDocument, MeasureDocument,
     ObserverDocument, PropagationDocument, StudyDocument,
 };
-use crate::grids::GridSummary;
 use crate::study_file::{
     ChainCamera, Layout, ObserverNoise, Study, StudyScale, TieMethod, TieResample,
 };
 use crate::tie::{self, TieConfig, TieResult};
 use crashrig_geometry::{Mat6, UncertainPose};
+use crashrig_grid::summary::GridSummary;
 use crashrig_mc::{
     CameraId, Chain, ChainBuilder, GridBuilder, GridResult, GridStudy, PoseLinear, PoseMc,
 };
@@ -837,7 +837,7 @@ sigma_angles_deg = [0.01, 0.01, 0.01]
             .filter(|s| **s < l.summary.threshold_mm)
             .count();
         assert_eq!(l.summary.fraction_below_threshold, below as f64 / 24.0);
-        assert!(crate::grids::grid_csv(&l.result).contains("\n400,0,0,,,,\n"));
+        assert!(crashrig_grid::summary::grid_csv(&l.result).contains("\n400,0,0,,,,\n"));
     }
 
     fn observer(noise: ObserverNoise, position_mm: [f64; 3]) -> crate::study_file::Observer {

@@ -23,7 +23,6 @@ pub struct MergeArgs {
 /// Runs `crashrig merge`.
 pub fn run(a: MergeArgs, g: &Global) -> anyhow::Result<()> {
     use crashrig_place::merge::{Merged, merge_shards};
-    use crashrig_study::merge::MergeRun;
     let bar = crate::progress::Bar::new("crashrig merge");
     let read = bar.stage("shards read");
     let merged = merge_shards(&a.shards, &a.out, !a.no_plots, bar.monitor(&read))?;
@@ -31,8 +30,7 @@ pub fn run(a: MergeArgs, g: &Global) -> anyhow::Result<()> {
     match merged {
         Merged::Place(r) => super::place::print(&r, &a.out, g),
         Merged::Measure(r) => super::measure::print(&r, &r.warnings, &a.out, g),
-        Merged::Study(MergeRun::Grid(r)) => super::grid::print(&r, &a.out, g),
-        Merged::Study(_) => anyhow::bail!("this crashrig cannot print what it merged"),
+        Merged::Grid(r) => super::grid::print(&r, &a.out, g),
     }
 }
 

@@ -1,10 +1,10 @@
 //! `crashrig propagate`: Monte Carlo and linear propagation through a camera chain.
-//! Arguments → [`PropagateConfig`] → [`crashrig_study::run_propagate`] → print.
+//! Arguments → [`PropagateConfig`] → [`crashrig_grid::run_propagate`] → print.
 
 use crate::Global;
 use anyhow::Context;
-use crashrig_study::PropagateConfig;
-use crashrig_study::propagate_run::PropagateJson;
+use crashrig_grid::PropagateConfig;
+use crashrig_grid::PropagateJson;
 use std::path::PathBuf;
 
 /// Arguments of `crashrig propagate`.
@@ -25,7 +25,7 @@ pub fn run(a: PropagateArgs, g: &Global) -> anyhow::Result<()> {
         seed: g.seed,
     };
     let bar = crate::progress::Bar::new("crashrig propagate");
-    let r = crashrig_study::run_propagate(&config, bar.reporter())?;
+    let r = crashrig_grid::run_propagate(&config, bar.reporter())?;
     bar.finish();
     crate::output::warn_all(&r.warnings);
     let out = r.document;

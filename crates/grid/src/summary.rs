@@ -5,7 +5,6 @@ use crate::Error;
 use crashrig_mc::{Grid, GridResult};
 use crashrig_stats::summary::median;
 use serde::Serialize;
-use std::path::Path;
 
 /// Whether σ_max is at or above the threshold (a NaN σ counts as not below).
 pub fn not_below(sigma_mm: f64, threshold_mm: f64) -> bool {
@@ -555,16 +554,6 @@ pub fn level_maps(
         }
     }
     Ok(out)
-}
-
-/// Writes `bytes` to `dir/name` (creating `dir`).
-pub(crate) fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<(), Error> {
-    std::fs::create_dir_all(dir).map_err(|source| Error::Write {
-        path: dir.to_path_buf(),
-        source,
-    })?;
-    let path = dir.join(name);
-    std::fs::write(&path, bytes).map_err(|source| Error::Write { path, source })
 }
 
 #[cfg(test)]
