@@ -101,12 +101,22 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-stats",
             "crashrig-grid",
             "crashrig-outdir",
+        ],
+    ),
+    (
+        "crashrig-merge",
+        &[
+            "crashrig-grid",
             "crashrig-measure",
+            "crashrig-place",
+            "crashrig-outdir",
+            "crashrig-stats",
         ],
     ),
     (
         "crashrig-cli",
         &[
+            "crashrig-merge",
             "crashrig-place",
             "crashrig-geometry",
             "crashrig-grid",
@@ -141,6 +151,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-covariance",
             "crashrig-outdir",
             "crashrig-place",
+            "crashrig-merge",
         ],
     ),
     (

@@ -31,9 +31,6 @@ pub enum Error {
     /// The output directory.
     #[error(transparent)]
     OutDir(#[from] crashrig_outdir::Error),
-    /// The merge of `measure` shards (`crashrig merge`).
-    #[error(transparent)]
-    Measure(#[from] crashrig_measure::Error),
     /// A shard directory given to `merge` (or its inputs) does not fit the run.
     #[error("{}: {problem}", path.display())]
     Shard {

@@ -35,7 +35,6 @@
 
 pub mod approx;
 mod error;
-pub mod merge;
 pub mod search;
 pub mod shard;
 

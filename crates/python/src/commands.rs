@@ -570,7 +570,7 @@ fn merge<'py>(
     plots: bool,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    use crashrig_place::merge::{Merged, merge_shards};
+    use crashrig_merge::{Merged, merge_shards};
     if shards.is_instance_of::<pyo3::types::PyString>() {
         return Err(pyo3::exceptions::PyTypeError::new_err(
             "shards: expected a list of shard directories, got one str",

@@ -38,7 +38,7 @@ pub fn run(a: GridArgs, g: &Global) -> anyhow::Result<()> {
     if let Some(shard) = a.shard {
         let r = crashrig_grid::shard::run_grid_shard(&config, shard, bar.reporter())?;
         bar.finish();
-        return super::merge::print_shard(&r.manifest, r.files, &config.out, g);
+        return crate::output::print_shard(&r.manifest, r.files, &config.out, g.json);
     }
     let r = crashrig_grid::run_grid(&config, bar.reporter())?;
     bar.finish();
@@ -76,5 +76,5 @@ pub fn print(r: &crashrig_grid::GridRun, out: &std::path::Path, g: &Global) -> a
         }
         writeln!(w, "wrote {} files to {}", r.files, out.display())
     };
-    super::propagate::quiet_pipe(print())
+    crate::output::quiet_pipe(print())
 }
