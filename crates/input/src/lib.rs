@@ -7,7 +7,7 @@
 //! scenarios, studies, measure's inputs) and the front ends (CLI, Python) do.
 //!
 //! # Modules
-//! - [`file`]: [`file::read_limited`] / [`file::read_text_limited`], a regular file within a
+//! - [`mod@file`]: [`file::read_limited`] / [`file::read_text_limited`], a regular file within a
 //!   size limit (`/dev/zero`, FIFOs and directories are refused before they are opened), and
 //!   the limits of each kind of file (`docs/LIMITS.md`).
 //! - [`options`]: [`options::Spelling`] (`--mm-per-unit` for the CLI, `mm_per_unit` for

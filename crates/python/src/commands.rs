@@ -456,7 +456,7 @@ fn study<'py>(
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     use crashrig_study::Study;
-    use crashrig_study::study_run::{StudyRunConfig, run_to_dir};
+    use crashrig_study::{StudyRunConfig, run_to_dir};
     let out = args::path(out, "out")?;
     if let Some(n) = samples
         && n < 2

@@ -8,16 +8,6 @@
 //! Every number is read from the typed [`crashrig_measure::Measurement`] and
 //! [`crashrig_measure::output::Summary`] that the study's `[measure]` step returned (no file or
 //! JSON in between).
-//!
-//! # Example
-//! ```
-//! use crashrig_study::kinematics_report::{Spread, sigma_share};
-//! // A quarter of the variance from the offset: without it σ would be √(1 − 0.25) ≈ 0.866 of
-//! // itself, so the offset accounts for 13.4 % of σ.
-//! assert!((sigma_share(0.25) - (1.0 - 0.75f64.sqrt())).abs() < 1e-15);
-//! let s = Spread::of(vec![3.0, 1.0, 2.0]).unwrap();
-//! assert_eq!((s.median, s.max), (2.0, 3.0));
-//! ```
 
 use crate::Error;
 use crate::html::{Block, Report, Table};
@@ -267,5 +257,10 @@ mod tests {
         assert_eq!(sigma_share(1.0), 1.0);
         // 75 % of the variance: σ halves without the source.
         assert!((sigma_share(0.75) - 0.5).abs() < 1e-15);
+        // A quarter of the variance from the offset: without it σ would be √(1 − 0.25) ≈ 0.866
+        // of itself, so the offset accounts for 13.4 % of σ.
+        assert!((sigma_share(0.25) - (1.0 - 0.75f64.sqrt())).abs() < 1e-15);
+        let s = Spread::of(vec![3.0, 1.0, 2.0]).unwrap();
+        assert_eq!((s.median, s.max), (2.0, 3.0));
     }
 }

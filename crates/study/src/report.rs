@@ -32,14 +32,10 @@ pub struct Provenance {
 pub mod published {
     /// Table 1: base (mm).
     pub const BASE_MM: [f64; 3] = [61.98, -1.71, 179.76];
-    /// Table 1: σ (mm).
-    pub const BASE_SIGMA_MM: [f64; 3] = [2.25, 3.08, 1.53];
     /// Table 1: σ/√n (mm).
     pub const BASE_SEM_MM: [f64; 3] = [0.19, 0.26, 0.13];
     /// Table 2: ω φ κ (deg).
     pub const ANGLES_DEG: [f64; 3] = [179.92, -0.09, 179.76];
-    /// Table 2: σ (deg).
-    pub const ANGLES_SIGMA_DEG: [f64; 3] = [0.047, 0.059, 0.094];
     /// Table 2: σ/√n (deg).
     pub const ANGLES_SEM_DEG: [f64; 3] = [0.004, 0.005, 0.008];
     /// Table 3: σ of the translation in the world (mm), cam1..cam3.
@@ -1563,3 +1559,7 @@ fn ellipse_figures(rep: &mut Report, l: &LayoutResult) {
         }
     }
 }
+
+/// A study with a CFC filter: its kinematics files and report subsection.
+#[cfg(test)]
+mod kinematics_tests;

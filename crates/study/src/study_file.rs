@@ -162,9 +162,9 @@ pub struct Layout {
     pub pixel: Option<(f64, f64)>,
     /// `correlated` as written: `Some(true)` draws the `from` observers jointly from one chain
     /// draw (the physical, rigid-body model), `Some(false)` independently; `None` (key absent)
-    /// is the default the pipeline resolves against the chain's nominal poses
-    /// ([`crate::pipeline::resolve_correlated`]): jointly when at least two aimed `from`
-    /// observers stand at their chain cameras, else independently.
+    /// is the default [`crate::run_study`] resolves against the chain's nominal poses: jointly
+    /// when at least two aimed `from` observers stand at their chain cameras, else
+    /// independently.
     pub correlated: Option<bool>,
     /// At least two observers.
     pub observers: Vec<Observer>,

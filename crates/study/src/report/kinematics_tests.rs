@@ -3,10 +3,10 @@
 //! `kinematics.csv` and the kinematics plots, and the report its kinematics subsection with
 //! numbers that are those of the written `kinematics.csv`.
 
-use crashrig_study::kinematics_report::{MarkerKinematics, Spread, per_marker, section};
-use crashrig_study::pipeline::{Options, run_study};
-use crashrig_study::report::{Provenance, write_outputs};
-use crashrig_study::{Study, html::Report};
+use super::{Provenance, write_outputs};
+use crate::html::Report;
+use crate::kinematics_report::{MarkerKinematics, Spread, per_marker, section};
+use crate::{Options, Study, run_study};
 use std::collections::BTreeMap;
 use std::path::Path;
 
