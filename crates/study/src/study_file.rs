@@ -690,7 +690,6 @@ impl Ctx<'_> {
     }
 }
 
-/// `[measure]` → [`MeasureSection`].
 /// Two observers of a layout closer than this (mm) are coincident: an error naming both.
 pub const MIN_OBSERVER_DISTANCE_MM: f64 = 1.0;
 
@@ -700,7 +699,7 @@ pub const MIN_OBSERVER_DISTANCE_MM: f64 = 1.0;
 ///
 /// # Errors
 /// The message (the caller names the file, line and key).
-pub fn check_layout_size(layout: &Layout, samples: usize) -> Result<(), String> {
+pub(crate) fn check_layout_size(layout: &Layout, samples: usize) -> Result<(), String> {
     use crashrig_mc::limits::{MAX_GRID_DRAWS, MAX_GRID_POINTS};
     let (nx, ny, nz) = (layout.x_mm.2, layout.y_mm.2, layout.z_mm.2);
     let points = nx as u128 * ny as u128 * nz as u128;
@@ -1519,13 +1518,13 @@ impl Study {
     }
 
     /// 1-based line of `[name]` (the `n`-th `[[name]]`) in the study file.
-    pub fn section_line(&self, name: &str, n: usize) -> Option<usize> {
+    pub(crate) fn section_line(&self, name: &str, n: usize) -> Option<usize> {
         section_line(&self.text, name, n)
     }
 
     /// An error about `key` of the first `[section]`, located at the key's line (else the
     /// section's).
-    pub fn key_error(&self, section: &str, key: &str, message: impl Into<String>) -> Error {
+    pub(crate) fn key_error(&self, section: &str, key: &str, message: impl Into<String>) -> Error {
         Error::Key {
             path: self.path.clone(),
             line: key_line(&self.text, section, 0, key),
@@ -1535,7 +1534,7 @@ impl Study {
     }
 
     /// An [`Error::Step`] for a failure of the step configured by section `key`.
-    pub fn step_error(&self, key: &str, n: usize, source: impl Into<StepError>) -> Error {
+    pub(crate) fn step_error(&self, key: &str, n: usize, source: impl Into<StepError>) -> Error {
         let section = key.split('[').next().unwrap_or(key);
         Error::Step {
             path: self.path.clone(),
