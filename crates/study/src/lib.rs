@@ -17,6 +17,8 @@
 //! - [`fixed_maps`]: layouts with fixed observers (`aim = "fixed"`): coverage and
 //!   field-of-view footprints;
 //! - [`measure_step`]: `[measure]` — a test sequence measured with the study's own link;
+//! - [`length_report`]: `[measure] scale_bars` — the length check's files, verdict box and
+//!   report subsection;
 //! - [`quality`]: calibration quality — reprojection residuals per camera and the split-half
 //!   check of the link;
 //! - [`quality_report`]: the calibration's verdict box and the report section "Calibration
@@ -48,6 +50,7 @@ pub mod grid_shard;
 pub mod grids;
 pub mod html;
 pub mod kinematics_report;
+pub mod length_report;
 pub mod measure_step;
 pub mod merge;
 pub mod paper_study;

@@ -251,6 +251,10 @@ pub struct MeasureSection {
     /// `sync_sigma_ms`: σ of camera A's trigger offset against the inward cameras (ms, default
     /// 0; > 0 needs `frame_rate_hz`).
     pub sync_sigma_ms: f64,
+    /// `scale_bars`: the scale-bar CSV of the length check (as `measure --scale-bars`), if any.
+    pub scale_bars: Option<PathBuf>,
+    /// `mpe_mm`: the maximum permissible error of a bar's length (mm; needs `scale_bars`).
+    pub mpe_mm: Option<f64>,
 }
 
 /// A validated study.
@@ -322,6 +326,8 @@ struct RawMeasure {
     cfc: Option<Spanned<i64>>,
     cfc_standard: Option<Spanned<String>>,
     sync_sigma_ms: Option<Spanned<f64>>,
+    scale_bars: Option<Spanned<String>>,
+    mpe_mm: Option<Spanned<f64>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -880,6 +886,7 @@ fn measure_section(
         .map(|v| cx.positive(v, "measure.frame_rate_hz"))
         .transpose()?;
     let (cfc, sync_sigma_ms) = kinematics_keys(cx, m, frame_rate_hz)?;
+    let (scale_bars, mpe_mm) = length_check_keys(cx, m)?;
     Ok(MeasureSection {
         model,
         camera_a: req(&m.camera_a, "measure.camera_a")?.into_inner(),
@@ -914,7 +921,34 @@ fn measure_section(
             .transpose()?,
         cfc,
         sync_sigma_ms,
+        scale_bars,
+        mpe_mm,
     })
+}
+
+/// `[measure]`'s length-check keys: `scale_bars` (an existing file, relative to the study
+/// file) and `mpe_mm` (> 0 mm, only with `scale_bars`); each error names the key and its line.
+fn length_check_keys(
+    cx: &Ctx<'_>,
+    m: &RawMeasure,
+) -> Result<(Option<PathBuf>, Option<f64>), Error> {
+    let scale_bars = m
+        .scale_bars
+        .as_ref()
+        .map(|v| cx.existing_path(v, "measure.scale_bars", false))
+        .transpose()?;
+    let mpe_mm = match (&m.mpe_mm, &scale_bars) {
+        (Some(v), None) => {
+            return cx.err(
+                Some(v.span()),
+                "measure.mpe_mm",
+                "needs measure.scale_bars (the maximum permissible error of the bars' lengths)",
+            );
+        }
+        (Some(v), Some(_)) => Some(cx.positive(v, "measure.mpe_mm")?),
+        (None, _) => None,
+    };
+    Ok((scale_bars, mpe_mm))
 }
 
 /// `[measure]`'s kinematics keys: `cfc` (a class of [`crashrig_measure::filter::CLASSES`] whose

@@ -59,6 +59,19 @@ pub struct MeasureArgs {
     /// Skip the trajectory plots.
     #[arg(long)]
     pub no_plots: bool,
+    /// Length check: scale bars fixed to the car body, CSV
+    /// `name,marker_1,marker_2,length_mm,sigma_mm` (length_check.csv, summary's length_check).
+    #[arg(long, value_name = "CSV")]
+    pub scale_bars: Option<PathBuf>,
+    /// The lab's maximum permissible error of a length (mm): each bar gets within_mpe (needs
+    /// --scale-bars).
+    #[arg(
+        long,
+        value_name = "MM",
+        requires = "scale_bars",
+        allow_negative_numbers = true
+    )]
+    pub mpe_mm: Option<f64>,
     /// Filtered kinematics and A's trigger offset.
     #[command(flatten)]
     pub kinematics: super::measure_options::KinematicsArgs,
@@ -111,7 +124,34 @@ pub fn print(
     if let Some(sync) = &s.numbers.sync_offset {
         println!("{}", sync.line());
     }
+    for bar in s.numbers.length_check.iter().flatten() {
+        println!("{}", length_line(bar));
+    }
     Ok(())
+}
+
+/// One scale bar's line: its error, bias and scatter against their limits, and the verdict.
+fn length_line(b: &crashrig_measure::output::BarSummary) -> String {
+    let f = |v: Option<f64>, d: usize| v.map_or("—".to_string(), |v| format!("{v:.d$}"));
+    let band = b
+        .scatter_band_99
+        .map_or("—".to_string(), |[lo, hi]| format!("{lo:.2} … {hi:.2}"));
+    let mpe = match b.within_mpe {
+        Some(Some(true)) => ", within the MPE",
+        Some(Some(false)) => ", ABOVE the MPE",
+        _ => "",
+    };
+    format!(
+        "length check {} ({} mm, {} epochs): E = {} mm, mean error {} mm, bias_z {} (|z| ≤ 3), scatter ratio {} (99 % band {band}){mpe}: {}",
+        b.name,
+        b.length_mm,
+        b.epochs,
+        f(b.max_abs_error_mm, 3),
+        f(b.mean_error_mm, 3),
+        f(b.bias_z, 2),
+        f(b.scatter_ratio, 2),
+        b.verdict.unwrap_or("no verdict")
+    )
 }
 
 /// The library's options these arguments stand for.
@@ -138,6 +178,8 @@ fn options(a: &MeasureArgs, seed: Option<u64>) -> MeasureOptions {
         cfc: a.kinematics.cfc,
         cfc_standard: a.kinematics.cfc_standard.clone(),
         sync_sigma_ms: a.kinematics.sync_sigma_ms,
+        scale_bars: a.scale_bars.clone(),
+        mpe_mm: a.mpe_mm,
         ..MeasureOptions::new(
             a.model.clone(),
             a.camera_a.clone(),
