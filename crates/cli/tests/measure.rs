@@ -577,7 +577,9 @@ fn an_inconsistent_scale_bar_is_a_warning() {
     let k = args.iter().position(|a| a == "--tie").unwrap();
     args[k + 1] = tie_path.display().to_string();
     let bars = f.join("scale_bars.csv").display().to_string();
-    let o = run(&args, &["--scale-bars", &bars, "--samples", "1000"]);
+    let k = args.iter().position(|a| a == "--samples").unwrap();
+    args[k + 1] = "1000".into();
+    let o = run(&args, &["--scale-bars", &bars]);
     assert!(o.status.success(), "{}", stderr(&o));
     let err = stderr(&o);
     let roof: Vec<&str> = err

@@ -639,6 +639,31 @@ pub struct BarSummary {
 }
 
 impl BarSummary {
+    /// The bar in one line (what `crashrig measure` prints): its error, bias and scatter with
+    /// their limits, the maximum permissible error and the verdict.
+    pub fn line(&self) -> String {
+        let f = |v: Option<f64>, d: usize| v.map_or("—".to_string(), |v| format!("{v:.d$}"));
+        let band = self
+            .scatter_band_99
+            .map_or("—".to_string(), |[lo, hi]| format!("{lo:.2} … {hi:.2}"));
+        let mpe = match self.within_mpe {
+            Some(Some(true)) => ", within the MPE",
+            Some(Some(false)) => ", ABOVE the MPE",
+            _ => "",
+        };
+        format!(
+            "length check {} ({} mm, {} epochs): E = {} mm, mean error {} mm, bias_z {} (|z| ≤ 3), scatter ratio {} (99 % band {band}){mpe}: {}",
+            self.name,
+            self.length_mm,
+            self.epochs,
+            f(self.max_abs_error_mm, 3),
+            f(self.mean_error_mm, 3),
+            f(self.bias_z, 2),
+            f(self.scatter_ratio, 2),
+            self.verdict.unwrap_or("no verdict")
+        )
+    }
+
     fn new(b: &crate::length::BarCheck, mpe_given: bool) -> BarSummary {
         let s = &b.stats;
         BarSummary {

@@ -805,26 +805,7 @@ fn measure_section(
             "needs a [tie] section (the tie link B_from_C carries camera C)",
         );
     }
-    if m.a_control_points.is_none() {
-        let companions = [
-            (m.a_model.as_ref().map(|v| v.span()), "measure.a_model"),
-            (
-                m.a_pixel_sigma_px.as_ref().map(|v| v.span()),
-                "measure.a_pixel_sigma_px",
-            ),
-            (
-                m.a_intrinsics.as_ref().map(|v| v.span()),
-                "measure.a_intrinsics",
-            ),
-        ];
-        if let Some((span, key)) = companions.into_iter().find(|(s, _)| s.is_some()) {
-            return cx.err(
-                span,
-                key,
-                "needs measure.a_control_points (A's covariance from the bundle)",
-            );
-        }
-    }
+    bundle_companions(cx, m)?;
     let a_noise = match (
         &m.a_covariance,
         &m.sigma_a_position_mm,
@@ -924,6 +905,33 @@ fn measure_section(
         scale_bars,
         mpe_mm,
     })
+}
+
+/// `a_model`, `a_pixel_sigma_px` and `a_intrinsics` need `a_control_points`: an error naming the
+/// first one given without it.
+fn bundle_companions(cx: &Ctx<'_>, m: &RawMeasure) -> Result<(), Error> {
+    if m.a_control_points.is_some() {
+        return Ok(());
+    }
+    let companions = [
+        (m.a_model.as_ref().map(|v| v.span()), "measure.a_model"),
+        (
+            m.a_pixel_sigma_px.as_ref().map(|v| v.span()),
+            "measure.a_pixel_sigma_px",
+        ),
+        (
+            m.a_intrinsics.as_ref().map(|v| v.span()),
+            "measure.a_intrinsics",
+        ),
+    ];
+    match companions.into_iter().find(|(s, _)| s.is_some()) {
+        Some((span, key)) => cx.err(
+            span,
+            key,
+            "needs measure.a_control_points (A's covariance from the bundle)",
+        ),
+        None => Ok(()),
+    }
 }
 
 /// `[measure]`'s length-check keys: `scale_bars` (an existing file, relative to the study

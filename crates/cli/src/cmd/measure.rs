@@ -2,7 +2,6 @@
 
 use crate::Global;
 use crashrig_geometry::options::Spelling;
-use crashrig_measure::{MeasureOptions, OutputDir};
 use std::path::PathBuf;
 
 /// Arguments of `crashrig measure`.
@@ -59,19 +58,9 @@ pub struct MeasureArgs {
     /// Skip the trajectory plots.
     #[arg(long)]
     pub no_plots: bool,
-    /// Length check: scale bars fixed to the car body, CSV
-    /// `name,marker_1,marker_2,length_mm,sigma_mm` (length_check.csv, summary's length_check).
-    #[arg(long, value_name = "CSV")]
-    pub scale_bars: Option<PathBuf>,
-    /// The lab's maximum permissible error of a length (mm): each bar gets within_mpe (needs
-    /// --scale-bars).
-    #[arg(
-        long,
-        value_name = "MM",
-        requires = "scale_bars",
-        allow_negative_numbers = true
-    )]
-    pub mpe_mm: Option<f64>,
+    /// The length check of scale bars.
+    #[command(flatten)]
+    pub length: super::measure_options::LengthCheckArgs,
     /// Filtered kinematics and A's trigger offset.
     #[command(flatten)]
     pub kinematics: super::measure_options::KinematicsArgs,
@@ -81,9 +70,9 @@ pub struct MeasureArgs {
     pub shard: Option<crashrig_outdir::shard::Shard>,
 }
 
-/// Runs the command: arguments → [`MeasureOptions`] → [`crashrig_measure::run`] → print.
+/// Runs the command: arguments → [`crashrig_measure::MeasureOptions`] → [`crashrig_measure::run`] → print.
 pub fn run(a: MeasureArgs, g: &Global) -> anyhow::Result<()> {
-    let options = options(&a, g.seed);
+    let options = super::measure_options::options(&a, g.seed);
     let bar = crate::progress::Bar::new("crashrig measure");
     let replicates = bar.stage("replicates");
     if let Some(shard) = a.shard {
@@ -125,67 +114,7 @@ pub fn print(
         println!("{}", sync.line());
     }
     for bar in s.numbers.length_check.iter().flatten() {
-        println!("{}", length_line(bar));
+        println!("{}", bar.line());
     }
     Ok(())
-}
-
-/// One scale bar's line: its error, bias and scatter against their limits, and the verdict.
-fn length_line(b: &crashrig_measure::output::BarSummary) -> String {
-    let f = |v: Option<f64>, d: usize| v.map_or("—".to_string(), |v| format!("{v:.d$}"));
-    let band = b
-        .scatter_band_99
-        .map_or("—".to_string(), |[lo, hi]| format!("{lo:.2} … {hi:.2}"));
-    let mpe = match b.within_mpe {
-        Some(Some(true)) => ", within the MPE",
-        Some(Some(false)) => ", ABOVE the MPE",
-        _ => "",
-    };
-    format!(
-        "length check {} ({} mm, {} epochs): E = {} mm, mean error {} mm, bias_z {} (|z| ≤ 3), scatter ratio {} (99 % band {band}){mpe}: {}",
-        b.name,
-        b.length_mm,
-        b.epochs,
-        f(b.max_abs_error_mm, 3),
-        f(b.mean_error_mm, 3),
-        f(b.bias_z, 2),
-        f(b.scatter_ratio, 2),
-        b.verdict.unwrap_or("no verdict")
-    )
-}
-
-/// The library's options these arguments stand for.
-fn options(a: &MeasureArgs, seed: Option<u64>) -> MeasureOptions {
-    use super::measure_options::three;
-    MeasureOptions {
-        camera_c: a.camera_c.clone(),
-        tie: a.tie.clone(),
-        out: Some(OutputDir {
-            dir: a.out.clone(),
-            plots: !a.no_plots,
-        }),
-        mm_per_unit: a.mm_per_unit,
-        sigma_a_position_mm: three(&a.a_noise.sigma_a_position_mm),
-        sigma_a_angles_deg: three(&a.a_noise.sigma_a_angles_deg),
-        a_covariance: a.a_noise.a_covariance.clone(),
-        pixel_sigma_px: a.pixel_sigma_px,
-        samples: a.samples,
-        seed,
-        reference_epoch: a.reference_epoch.clone(),
-        frame_rate_hz: a.frame_rate_hz,
-        threshold_mm: a.threshold_mm,
-        max_reprojection_px: a.max_reprojection_px,
-        cfc: a.kinematics.cfc,
-        cfc_standard: a.kinematics.cfc_standard.clone(),
-        sync_sigma_ms: a.kinematics.sync_sigma_ms,
-        scale_bars: a.scale_bars.clone(),
-        mpe_mm: a.mpe_mm,
-        ..MeasureOptions::new(
-            a.model.clone(),
-            a.camera_a.clone(),
-            a.camera_b.clone(),
-            a.link.clone(),
-            a.observations.clone(),
-        )
-    }
 }
