@@ -34,7 +34,8 @@
 //! are split into runs of [`RUN`] epochs processed in parallel; each run owns its rows'
 //! streaming accumulators and feeds them in replicate order, so the result is bit-identical
 //! for any thread count. Memory is O(rows + threads·RUN·markers·BLOCK), independent of the
-//! number of draws.
+//! number of draws. With scale bars ([`crate::length`]), each chunk's positions also feed
+//! every bar's distance moments, one task per bar in replicate order (memory O(bars·epochs)).
 
 use crate::Error;
 use crate::filter::{Cfc, CfcSpec};
