@@ -251,6 +251,10 @@ pub struct MeasureSection {
     /// `sync_sigma_ms`: σ of camera A's trigger offset against the inward cameras (ms, default
     /// 0; > 0 needs `frame_rate_hz`).
     pub sync_sigma_ms: f64,
+    /// `scale_bars`: the scale-bar CSV of the length check (as `measure --scale-bars`), if any.
+    pub scale_bars: Option<PathBuf>,
+    /// `mpe_mm`: the maximum permissible error of a bar's length (mm; needs `scale_bars`).
+    pub mpe_mm: Option<f64>,
 }
 
 /// A validated study.
@@ -322,6 +326,8 @@ struct RawMeasure {
     cfc: Option<Spanned<i64>>,
     cfc_standard: Option<Spanned<String>>,
     sync_sigma_ms: Option<Spanned<f64>>,
+    scale_bars: Option<Spanned<String>>,
+    mpe_mm: Option<Spanned<f64>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -798,26 +804,7 @@ fn measure_section(
             "needs a [tie] section (the tie link B_from_C carries camera C)",
         );
     }
-    if m.a_control_points.is_none() {
-        let companions = [
-            (m.a_model.as_ref().map(|v| v.span()), "measure.a_model"),
-            (
-                m.a_pixel_sigma_px.as_ref().map(|v| v.span()),
-                "measure.a_pixel_sigma_px",
-            ),
-            (
-                m.a_intrinsics.as_ref().map(|v| v.span()),
-                "measure.a_intrinsics",
-            ),
-        ];
-        if let Some((span, key)) = companions.into_iter().find(|(s, _)| s.is_some()) {
-            return cx.err(
-                span,
-                key,
-                "needs measure.a_control_points (A's covariance from the bundle)",
-            );
-        }
-    }
+    bundle_companions(cx, m)?;
     let a_noise = match (
         &m.a_covariance,
         &m.sigma_a_position_mm,
@@ -879,6 +866,7 @@ fn measure_section(
         .map(|v| cx.positive(v, "measure.frame_rate_hz"))
         .transpose()?;
     let (cfc, sync_sigma_ms) = kinematics_keys(cx, m, frame_rate_hz)?;
+    let (scale_bars, mpe_mm) = length_check_keys(cx, m)?;
     Ok(MeasureSection {
         model,
         camera_a: req(&m.camera_a, "measure.camera_a")?.into_inner(),
@@ -913,7 +901,61 @@ fn measure_section(
             .transpose()?,
         cfc,
         sync_sigma_ms,
+        scale_bars,
+        mpe_mm,
     })
+}
+
+/// `a_model`, `a_pixel_sigma_px` and `a_intrinsics` need `a_control_points`: an error naming the
+/// first one given without it.
+fn bundle_companions(cx: &Ctx<'_>, m: &RawMeasure) -> Result<(), Error> {
+    if m.a_control_points.is_some() {
+        return Ok(());
+    }
+    let companions = [
+        (m.a_model.as_ref().map(|v| v.span()), "measure.a_model"),
+        (
+            m.a_pixel_sigma_px.as_ref().map(|v| v.span()),
+            "measure.a_pixel_sigma_px",
+        ),
+        (
+            m.a_intrinsics.as_ref().map(|v| v.span()),
+            "measure.a_intrinsics",
+        ),
+    ];
+    match companions.into_iter().find(|(s, _)| s.is_some()) {
+        Some((span, key)) => cx.err(
+            span,
+            key,
+            "needs measure.a_control_points (A's covariance from the bundle)",
+        ),
+        None => Ok(()),
+    }
+}
+
+/// `[measure]`'s length-check keys: `scale_bars` (an existing file, relative to the study
+/// file) and `mpe_mm` (> 0 mm, only with `scale_bars`); each error names the key and its line.
+fn length_check_keys(
+    cx: &Ctx<'_>,
+    m: &RawMeasure,
+) -> Result<(Option<PathBuf>, Option<f64>), Error> {
+    let scale_bars = m
+        .scale_bars
+        .as_ref()
+        .map(|v| cx.existing_path(v, "measure.scale_bars", false))
+        .transpose()?;
+    let mpe_mm = match (&m.mpe_mm, &scale_bars) {
+        (Some(v), None) => {
+            return cx.err(
+                Some(v.span()),
+                "measure.mpe_mm",
+                "needs measure.scale_bars (the maximum permissible error of the bars' lengths)",
+            );
+        }
+        (Some(v), Some(_)) => Some(cx.positive(v, "measure.mpe_mm")?),
+        (None, _) => None,
+    };
+    Ok((scale_bars, mpe_mm))
 }
 
 /// `[measure]`'s kinematics keys: `cfc` (a class of [`crashrig_measure::filter::CLASSES`] whose
