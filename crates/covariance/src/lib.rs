@@ -7,14 +7,19 @@
 //!    Jacobians ([`jacobian`]). Unknowns: one pose per frame (images of a COLMAP ≥ 3.12 frame
 //!    share their rig's pose; each image's `sensor_from_rig` is held at its model value; a
 //!    legacy model has one frame per image), the free intrinsics of each camera
-//!    ([`Intrinsics`]), and every 3-D point seen by at least two registered images.
+//!    ([`Intrinsics`]), and every 3-D point seen by at least two registered images. A point
+//!    on the projection centre of an image observing it (closer than
+//!    [`CAMERA_CENTRE_FRACTION`] of the median viewing distance: its ray is undefined) is left
+//!    out with one warning ([`CovarianceResult::points_at_camera_centre`]).
 //! 2. The points are eliminated by the Schur complement one 3×3 block at a time (never a dense
 //!    point block): `S = U − Σⱼ Wⱼ Vⱼ⁻¹ Wⱼᵀ` over poses and intrinsics, dense (faer), memory
 //!    linear in the observations plus `S` itself.
 //! 3. The datum is the lab's control points: held fixed (`sigma_mm` 0) or with a prior
 //!    `N(model position, σ²)` per axis. Fewer than three non-collinear control points in any
-//!    connected part of the model, or any parameter left undetermined (a Jacobi-scaled Cholesky
-//!    pivot below 1e-11), is an [`Error`], never an infinite covariance.
+//!    connected part of the model, or any direction left undetermined (the Jacobi-scaled `S`'s
+//!    smallest eigenvalue below [`RANK_TOLERANCE`] (or `n·ε`) times its largest, the error
+//!    naming the unknowns it moves), is an [`Error`], never an infinite or arbitrary
+//!    covariance.
 //! 4. Intrinsics are marginalised: A's pose covariance is the pose block of `S⁻¹`.
 //! 5. The pixel σ is given, or the a-posteriori `σ̂₀ = sqrt(Σ r² / (2·n_obs − n_params))`.
 //!
@@ -57,6 +62,7 @@ pub mod synthetic;
 pub use control::{ControlPoint, ControlPoints, MAX_CONTROL_POINTS, read_control_points};
 pub use error::Error;
 pub use problem::{CAMERA_CENTRE_FRACTION, PointAtCameraCentre};
+pub use solve::RANK_TOLERANCE;
 
 use crashrig_colmap::{CameraSelector, Reconstruction};
 use crashrig_geometry::{Mat3, Mat6, Rigid3, UncertainPose, so3};
