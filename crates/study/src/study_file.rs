@@ -792,22 +792,21 @@ fn measure_section(
         false,
     )?;
     // A marker needs two views: camera B alone measures nothing.
-    if m.camera_c.is_none() {
+    let Some(c) = &m.camera_c else {
         return cx.err(
             Some(ms),
             "measure.camera_c",
             "missing: a marker needs two views, and camera B alone gives one; name the tied camera C (camera_c, with a [tie] section)",
         );
-    }
-    if let Some(c) = &m.camera_c
-        && !has_tie
-    {
+    };
+    if !has_tie {
         return cx.err(
             Some(c.span()),
             "measure.camera_c",
             "needs a [tie] section (the tie link B_from_C carries camera C)",
         );
     }
+    let camera_c = cx.non_empty(c, "measure.camera_c")?;
     if m.a_control_points.is_none() {
         let companions = [
             (m.a_model.as_ref().map(|v| v.span()), "measure.a_model"),
@@ -893,11 +892,7 @@ fn measure_section(
         model,
         camera_a: cx.non_empty(&req(&m.camera_a, "measure.camera_a")?, "measure.camera_a")?,
         camera_b: cx.non_empty(&req(&m.camera_b, "measure.camera_b")?, "measure.camera_b")?,
-        camera_c: m
-            .camera_c
-            .as_ref()
-            .map(|c| cx.non_empty(c, "measure.camera_c"))
-            .transpose()?,
+        camera_c: Some(camera_c),
         observations,
         mm_per_unit,
         a_noise,
