@@ -95,8 +95,8 @@ pub struct Reconstruction {
 }
 
 fn read_file(path: &Path) -> Result<Vec<u8>> {
-    use crate::input_file;
-    input_file::read_limited(path, input_file::MAX_MODEL_FILE_BYTES).map_err(|source| Error::Io {
+    use crashrig_input::file;
+    file::read_limited(path, file::MAX_MODEL_FILE_BYTES).map_err(|source| Error::Io {
         path: path.to_path_buf(),
         source,
     })

@@ -125,10 +125,10 @@ impl Scale {
     /// [`Error::Usage`] (names in `spelling`): neither or both given, a bar without its
     /// length or points, a factor out of range.
     pub fn from_options(
-        options: &crashrig_geometry::options::ScaleOptions,
-        spelling: crashrig_geometry::options::Spelling,
+        options: &crashrig_input::options::ScaleOptions,
+        spelling: crashrig_input::options::Spelling,
     ) -> Result<Scale, Error> {
-        use crashrig_geometry::options::GivenScale;
+        use crashrig_input::options::GivenScale;
         match options.required(spelling) {
             Ok(GivenScale::MmPerUnit(f)) => Ok(Scale::MmPerUnit(f)),
             Ok(GivenScale::ScaleBar { points, length_mm }) => {

@@ -47,6 +47,7 @@ use crashrig_camera::Camera;
 use crashrig_geometry::triangulate::{self, View};
 use crashrig_geometry::{Mat3, Mat6, UncertainPose, Vec3, Vec6, so3};
 use crashrig_stats::progress::{Cancelled, Counter, Monitor, Part};
+use crashrig_stats::summary::median;
 use crashrig_stats::{Moments, StreamRng, stream};
 use nalgebra::{DMatrix, Matrix2, Vector2, Vector3};
 use rand::RngExt;
@@ -122,7 +123,7 @@ pub const REPROJECTION_OUTLIER_ROBUST_SIGMAS: f64 = 5.0;
 /// good rows; the robust limit flags rows that disagree with the rest of the sequence (a
 /// mislabelled or mis-detected marker). `None` for fewer than 3 residuals.
 pub fn robust_reprojection_limit(residuals: &[f64]) -> Option<f64> {
-    let mut v: Vec<f64> = residuals
+    let v: Vec<f64> = residuals
         .iter()
         .copied()
         .filter(|r| r.is_finite())
@@ -130,20 +131,10 @@ pub fn robust_reprojection_limit(residuals: &[f64]) -> Option<f64> {
     if v.len() < 3 {
         return None;
     }
-    let med = median_sorted(&mut v);
-    let mut dev: Vec<f64> = v.iter().map(|r| (r - med).abs()).collect();
-    let mad = median_sorted(&mut dev);
+    let med = median(&v)?;
+    let dev: Vec<f64> = v.iter().map(|r| (r - med).abs()).collect();
+    let mad = median(&dev)?;
     Some(med + REPROJECTION_OUTLIER_ROBUST_SIGMAS * 1.4826 * mad)
-}
-
-fn median_sorted(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
 }
 
 /// Why a row is flagged.
@@ -305,18 +296,16 @@ pub struct ShareStats {
 impl ShareStats {
     /// The statistics of the per-row shares of `pairs` (σ with, σ without the offset).
     fn of(pairs: impl Iterator<Item = (Option<Vec3>, Option<Vec3>)>) -> Option<ShareStats> {
-        let mut v: Vec<f64> = pairs
+        let v: Vec<f64> = pairs
             .filter_map(|(with, without)| {
                 let (w, o) = (with?.norm_squared(), without?.norm_squared());
                 (w > 0.0).then(|| (1.0 - o / w).max(0.0))
             })
             .collect();
-        if v.is_empty() {
-            return None;
-        }
         let max = v.iter().copied().fold(0.0, f64::max);
         Some(ShareStats {
-            median: median_sorted(&mut v),
+            // The shares are finite (≥ 0 and ≤ 1), so `None` only for no share at all.
+            median: median(&v)?,
             max,
             rows: v.len(),
         })

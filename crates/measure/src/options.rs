@@ -3,7 +3,7 @@
 //! the σ of camera A, the model's units, the link and the tie read, the filter.
 //!
 //! ```no_run
-//! use crashrig_geometry::options::Spelling;
+//! use crashrig_input::options::Spelling;
 //! use crashrig_measure::MeasureOptions;
 //! let options = MeasureOptions {
 //!     mm_per_unit: Some(1000.0),
@@ -21,7 +21,7 @@
 use crate::filter::{CfcSpec, Standard};
 use crate::{ANoise, Error, MeasureConfig, MeasureRun, OutputDir, Settings, input};
 use crashrig_geometry::Vec3;
-use crashrig_geometry::options::{Spelling, check_mm_per_unit};
+use crashrig_input::options::{Spelling, check_mm_per_unit};
 use std::path::PathBuf;
 
 /// The seed of `measure` when none is given.

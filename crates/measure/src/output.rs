@@ -68,6 +68,7 @@ use crate::Error;
 use crate::engine::{Measurement, Row, Settings};
 use crashrig_geometry::Vec3;
 use crashrig_plot::{BandPanel, Format};
+use crashrig_stats::summary::median;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -477,19 +478,6 @@ fn kinematics_summary(m: &Measurement) -> Option<KinematicsSummary> {
     })
 }
 
-fn median(mut v: Vec<f64>) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    })
-}
-
 /// The numbers of `summary.json` that depend only on the measurement and its settings (no
 /// timing, no file names): `crashrig measure` adds those, the study writes these alone.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -578,9 +566,9 @@ impl Summary {
             rows_reprojection_outlier: count(&|r| r.flags.reprojection_outlier),
             rows_flagged: count(&|r| r.flags.any()),
             max_sigma_mm: smax.iter().copied().reduce(f64::max),
-            median_sigma_max_mm: median(smax),
+            median_sigma_max_mm: median(&smax),
             max_displacement_sigma_mm: dmax.iter().copied().reduce(f64::max),
-            median_displacement_sigma_max_mm: median(dmax),
+            median_displacement_sigma_max_mm: median(&dmax),
             kinematics: kinematics_summary(m),
             sync_offset: m.sync_share.as_ref().map(SyncSummary::new),
         }
@@ -702,12 +690,5 @@ mod tests {
         assert_eq!(csv_field("head"), "head");
         assert_eq!(csv_field("a,b"), "\"a,b\"");
         assert_eq!(csv_field("say \"hi\""), "\"say \"\"hi\"\"\"");
-    }
-
-    #[test]
-    fn median_of_odd_even_and_empty() {
-        assert_eq!(median(vec![3.0, 1.0, 2.0]), Some(2.0));
-        assert_eq!(median(vec![4.0, 1.0, 3.0, 2.0]), Some(2.5));
-        assert_eq!(median(Vec::new()), None);
     }
 }

@@ -44,7 +44,7 @@
 //!     shard::run(&options, Shard::new(i + 1, 2)?, dir, None)?;
 //! }
 //! let merged = shard::merge(&read_set(&dirs)?, &tmp.path().join("merged"), false, None)?;
-//! let whole = crashrig_measure::run(&options.config(crashrig_geometry::options::Spelling::Flag)?, None)?;
+//! let whole = crashrig_measure::run(&options.config(crashrig_input::options::Spelling::Flag)?, None)?;
 //! assert_eq!(merged.measurement, whole.measurement);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
@@ -52,8 +52,8 @@
 use crate::engine::{Acc, Accs, Draws};
 use crate::kinematics::{AxisMoments, RunAcc};
 use crate::{Error, MeasureOptions, MeasureRun, OutputDir};
-use crashrig_geometry::options::Spelling;
 use crashrig_geometry::{Mat3, Vec3};
+use crashrig_input::options::Spelling;
 use crashrig_outdir::shard::{Manifest, Shard, check_set, fingerprint};
 use crashrig_stats::Moments;
 use crashrig_stats::progress::Monitor;

@@ -4,7 +4,7 @@
 //! poses drawn jointly; and the merge refuses missing, repeated and foreign shards, naming
 //! them, without writing anything.
 
-use crashrig_geometry::options::Spelling;
+use crashrig_input::options::Spelling;
 use crashrig_measure::{MeasureOptions, OutputDir, shard};
 use crashrig_outdir::shard::{Shard, read_set};
 use std::collections::BTreeMap;

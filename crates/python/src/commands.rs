@@ -5,7 +5,7 @@ use crate::args::{self, Source, TextFile};
 use crate::convert::{document, to_python};
 use crate::watch::{self, Watch};
 use crate::{py_error, to_py_err};
-use crashrig_geometry::options::{ScaleOptions, Spelling, check_mm_per_unit};
+use crashrig_input::options::{ScaleOptions, Spelling, check_mm_per_unit};
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
@@ -198,13 +198,13 @@ fn propagate<'py>(
         Source::extract(scenario, "scenario")?,
         crashrig_mc::Scenario::from_toml_str,
     )?;
-    let config = crashrig_study::PropagateConfig {
+    let config = crashrig_grid::PropagateConfig {
         scenario: path,
         samples,
         seed,
     };
     let r = watch::run(py, progress, |w: &Watch| {
-        crashrig_study::run_propagate(&config, Some(w))
+        crashrig_grid::run_propagate(&config, Some(w))
     })?
     .map_err(to_py_err)?;
     warn_all(py, &r.warnings)?;
@@ -232,7 +232,7 @@ fn grid<'py>(
     out: Option<&Bound<'py, PyAny>>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    use crashrig_study::grid_run::ColumnValues;
+    use crashrig_grid::ColumnValues;
     let (path, _text) = scenario_file(
         Source::extract(scenario, "scenario")?,
         crashrig_mc::Scenario::from_toml_str,
@@ -246,7 +246,7 @@ fn grid<'py>(
                 .map_err(|e| py_error(format!("cannot create a temporary folder: {e}")))?,
         ),
     };
-    let config = crashrig_study::GridConfig {
+    let config = crashrig_grid::GridConfig {
         scenario: path,
         out: out
             .clone()
@@ -257,7 +257,7 @@ fn grid<'py>(
         plots: out.is_some(),
     };
     let r = watch::run(py, progress, |w: &Watch| {
-        crashrig_study::run_grid(&config, Some(w))
+        crashrig_grid::run_grid(&config, Some(w))
     })?
     .map_err(to_py_err)?;
     warn_all(py, &r.warnings)?;
@@ -456,7 +456,7 @@ fn study<'py>(
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     use crashrig_study::Study;
-    use crashrig_study::study_run::{StudyRunConfig, run_to_dir};
+    use crashrig_study::{StudyRunConfig, run_to_dir};
     let out = args::path(out, "out")?;
     if let Some(n) = samples
         && n < 2
@@ -570,8 +570,7 @@ fn merge<'py>(
     plots: bool,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    use crashrig_place::merge::{Merged, merge_shards};
-    use crashrig_study::merge::MergeRun;
+    use crashrig_merge::{Merged, merge_shards};
     if shards.is_instance_of::<pyo3::types::PyString>() {
         return Err(pyo3::exceptions::PyTypeError::new_err(
             "shards: expected a list of shard directories, got one str",
@@ -595,11 +594,10 @@ fn merge<'py>(
             warn_all(py, &r.warnings)?;
             document(py, &r.summary)
         }
-        Merged::Study(MergeRun::Grid(r)) => {
+        Merged::Grid(r) => {
             warn_all(py, &r.warnings)?;
             document(py, &r.summary)
         }
-        Merged::Study(_) => Err(py_error("this crashrig cannot return what it merged")),
     }
 }
 

@@ -194,16 +194,6 @@ impl TieSource {
         })
     }
 
-    /// The model directory.
-    pub fn model_dir(&self) -> &Path {
-        &self.model_dir
-    }
-
-    /// The database file.
-    pub fn database_path(&self) -> &Path {
-        &self.database_path
-    }
-
     /// B's observations of the model's 3-D points (mm), with A's pose.
     pub fn absolute(&self, mm_per_unit: f64) -> Result<AbsoluteCorrespondences, TieError> {
         let image_b = self.model.image(self.ids.1).ok_or_else(|| {

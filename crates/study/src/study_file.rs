@@ -162,9 +162,9 @@ pub struct Layout {
     pub pixel: Option<(f64, f64)>,
     /// `correlated` as written: `Some(true)` draws the `from` observers jointly from one chain
     /// draw (the physical, rigid-body model), `Some(false)` independently; `None` (key absent)
-    /// is the default the pipeline resolves against the chain's nominal poses
-    /// ([`crate::pipeline::resolve_correlated`]): jointly when at least two aimed `from`
-    /// observers stand at their chain cameras, else independently.
+    /// is the default [`crate::run_study`] resolves against the chain's nominal poses: jointly
+    /// when at least two aimed `from` observers stand at their chain cameras, else
+    /// independently.
     pub correlated: Option<bool>,
     /// At least two observers.
     pub observers: Vec<Observer>,
@@ -396,7 +396,7 @@ struct RawObserver {
     pixel_sigma_px: Option<Spanned<f64>>,
 }
 
-pub(crate) use crashrig_mc::limits::line_of;
+pub(crate) use crashrig_input::location::line_of;
 
 /// The line of `[name]` / `[[name]]` (the `n`-th occurrence), for errors about a section.
 pub(crate) fn section_line(text: &str, name: &str, n: usize) -> Option<usize> {
@@ -699,7 +699,6 @@ impl Ctx<'_> {
     }
 }
 
-/// `[measure]` → [`MeasureSection`].
 /// Two observers of a layout closer than this (mm) are coincident: an error naming both.
 pub const MIN_OBSERVER_DISTANCE_MM: f64 = 1.0;
 
@@ -709,7 +708,7 @@ pub const MIN_OBSERVER_DISTANCE_MM: f64 = 1.0;
 ///
 /// # Errors
 /// The message (the caller names the file, line and key).
-pub fn check_layout_size(layout: &Layout, samples: usize) -> Result<(), String> {
+pub(crate) fn check_layout_size(layout: &Layout, samples: usize) -> Result<(), String> {
     use crashrig_mc::limits::{MAX_GRID_DRAWS, MAX_GRID_POINTS};
     let (nx, ny, nz) = (layout.x_mm.2, layout.y_mm.2, layout.z_mm.2);
     let points = nx as u128 * ny as u128 * nz as u128;
@@ -1015,7 +1014,7 @@ fn parse_raw(text: &str, path: &Path) -> Result<Raw, Error> {
             + 1;
         // A type error is located at the value: name its key as every other error does.
         let message = e.message().trim();
-        let message = match crashrig_mc::limits::toml_value_key(text, offset) {
+        let message = match crashrig_input::location::toml_value_key(text, offset) {
             Some(key) => format!("`{key}`: {message}"),
             None => message.to_string(),
         };
@@ -1478,14 +1477,12 @@ impl Study {
     /// # Errors
     /// [`Error::Read`], [`Error::Toml`] or [`Error::Key`] naming the file, key and line.
     pub fn from_path(path: &Path) -> Result<Study, Error> {
-        let text = crashrig_colmap::input_file::read_text_limited(
-            path,
-            crashrig_colmap::input_file::MAX_TOML_BYTES,
-        )
-        .map_err(|source| Error::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text =
+            crashrig_input::file::read_text_limited(path, crashrig_input::file::MAX_TOML_BYTES)
+                .map_err(|source| Error::Read {
+                    path: path.to_path_buf(),
+                    source,
+                })?;
         Study::from_toml_str(&text, path)
     }
 
@@ -1525,13 +1522,13 @@ impl Study {
     }
 
     /// 1-based line of `[name]` (the `n`-th `[[name]]`) in the study file.
-    pub fn section_line(&self, name: &str, n: usize) -> Option<usize> {
+    pub(crate) fn section_line(&self, name: &str, n: usize) -> Option<usize> {
         section_line(&self.text, name, n)
     }
 
     /// An error about `key` of the first `[section]`, located at the key's line (else the
     /// section's).
-    pub fn key_error(&self, section: &str, key: &str, message: impl Into<String>) -> Error {
+    pub(crate) fn key_error(&self, section: &str, key: &str, message: impl Into<String>) -> Error {
         Error::Key {
             path: self.path.clone(),
             line: key_line(&self.text, section, 0, key),
@@ -1541,7 +1538,7 @@ impl Study {
     }
 
     /// An [`Error::Step`] for a failure of the step configured by section `key`.
-    pub fn step_error(&self, key: &str, n: usize, source: impl Into<StepError>) -> Error {
+    pub(crate) fn step_error(&self, key: &str, n: usize, source: impl Into<StepError>) -> Error {
         let section = key.split('[').next().unwrap_or(key);
         Error::Step {
             path: self.path.clone(),

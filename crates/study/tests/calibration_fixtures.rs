@@ -1,4 +1,4 @@
-//! Integration tests of the calibration (`crashrig_study::epochs` + `crashrig-rig`) on the
+//! Integration tests of the calibration (`crashrig_study::calibration::epochs_from_model` + `crashrig-rig`) on the
 //! pycolmap-written fixtures in `fixtures/rig/`.
 //!
 //! Each fixture directory holds a COLMAP model and `expected.json`, the injected per-epoch links
@@ -9,7 +9,7 @@ use crashrig_colmap::Reconstruction;
 use crashrig_geometry::angles::wrap_pi;
 use crashrig_rig::{CalibrateOptions, Calibration, calibrate};
 use crashrig_study::calibration::CalibrationError as Error;
-use crashrig_study::epochs::{CameraSelector, epochs_from_model, scale_from_points};
+use crashrig_study::calibration::{CameraSelector, epochs_from_model, scale_from_points};
 use serde_json::Value;
 use std::path::PathBuf;
 

@@ -5,7 +5,7 @@
 //! retry policy, JSON, report, plots) lives in `crashrig_study::calibration`.
 
 use crate::Global;
-use crashrig_geometry::options::{ScaleOptions, Spelling};
+use crashrig_input::options::{ScaleOptions, Spelling};
 use crashrig_study::calibration::{CalibrationConfig, Scale, calibrate};
 use std::path::PathBuf;
 

@@ -6,7 +6,7 @@
 
 use crate::Global;
 use crashrig_covariance::{CovarianceConfig, Intrinsics, Scale};
-use crashrig_geometry::options::{ScaleOptions, Spelling};
+use crashrig_input::options::{ScaleOptions, Spelling};
 use std::path::PathBuf;
 
 /// Arguments of `crashrig covariance`.

@@ -1,7 +1,7 @@
 //! `crashrig measure`: marker trajectories with their uncertainty from a crash-test sequence.
 
 use crate::Global;
-use crashrig_geometry::options::Spelling;
+use crashrig_input::options::Spelling;
 use crashrig_measure::{MeasureOptions, OutputDir};
 use std::path::PathBuf;
 
@@ -77,7 +77,7 @@ pub fn run(a: MeasureArgs, g: &Global) -> anyhow::Result<()> {
         let r = crashrig_measure::shard::run(&options, shard, &a.out, bar.monitor(&replicates))?;
         bar.finish();
         crate::output::warn_all(&options.warnings(&r.run, Spelling::Flag));
-        return super::merge::print_shard(&r.manifest, r.files, &a.out, g);
+        return crate::output::print_shard(&r.manifest, r.files, &a.out, g.json);
     }
     let r = crashrig_measure::run(&options.config(Spelling::Flag)?, bar.monitor(&replicates))?;
     bar.finish();

@@ -3,13 +3,13 @@
 //! `covariance` (a factor or a scale bar).
 //!
 //! ```
-//! use crashrig_geometry::options::{GivenScale, ScaleOptions, Spelling};
+//! use crashrig_input::options::{GivenScale, ScaleOptions, Spelling};
 //! let o = ScaleOptions { mm_per_unit: Some(1000.0), ..ScaleOptions::default() };
 //! assert_eq!(o.given(Spelling::Flag)?, Some(GivenScale::MmPerUnit(1000.0)));
 //! let both = ScaleOptions { scale_points: Some(vec![1, 2]), ..o };
 //! let e = both.given(Spelling::Keyword).unwrap_err().to_string();
 //! assert!(e.starts_with("scale_points and scale_length_mm go together"), "{e}");
-//! # Ok::<(), crashrig_geometry::Error>(())
+//! # Ok::<(), crashrig_input::Error>(())
 //! ```
 
 use crate::Error;
