@@ -154,8 +154,8 @@ fn bootstrap<'py>(
     let config = TieConfig {
         database: args::path(database, "database")?,
         model: args::path(model, "model")?,
-        image_a,
-        image_b,
+        image_a: args::image_name(image_a, "image_a")?,
+        image_b: args::image_name(image_b, "image_b")?,
         method,
         iterations,
         // The command's default seed.

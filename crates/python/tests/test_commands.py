@@ -206,6 +206,17 @@ def test_bad_camera_name(cli):
                                     "cam_in/")
 
 
+def test_empty_selectors_name_their_keyword():
+    """Issue 36: an empty selector would select every image; it is refused by its keyword."""
+    paper = FIXTURES / "rig" / "paper"
+    with pytest.raises(crashrig.Error, match="^camera_b: must name a camera"):
+        crashrig.calibrate(paper, camera_a="cam_out/", camera_b="")
+    with pytest.raises(crashrig.Error, match="^camera: must name a camera"):
+        crashrig.covariance(paper, camera=" ", control_points=paper / "x.csv", mm_per_unit=1.0)
+    with pytest.raises(crashrig.Error, match="^image_a: must name an image"):
+        crashrig.bootstrap(TWOVIEW / "database.db", TWOVIEW / "model", "", "b")
+
+
 def test_malformed_toml(cli, tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text("samples = [\n")

@@ -530,6 +530,15 @@ impl Ctx<'_> {
         }
     }
 
+    /// A name (a camera selector, an image name) that must not be empty or blank: an empty
+    /// camera prefix would select every image.
+    fn non_empty(&self, v: &Spanned<String>, key: &str) -> Result<String, Error> {
+        if v.get_ref().trim().is_empty() {
+            return self.err(Some(v.span()), key, "must not be empty");
+        }
+        Ok(v.get_ref().clone())
+    }
+
     /// A path relative to the study file that must exist.
     fn existing_path(
         &self,
@@ -788,22 +797,21 @@ fn measure_section(
         false,
     )?;
     // A marker needs two views: camera B alone measures nothing.
-    if m.camera_c.is_none() {
+    let Some(c) = &m.camera_c else {
         return cx.err(
             Some(ms),
             "measure.camera_c",
             "missing: a marker needs two views, and camera B alone gives one; name the tied camera C (camera_c, with a [tie] section)",
         );
-    }
-    if let Some(c) = &m.camera_c
-        && !has_tie
-    {
+    };
+    if !has_tie {
         return cx.err(
             Some(c.span()),
             "measure.camera_c",
             "needs a [tie] section (the tie link B_from_C carries camera C)",
         );
     }
+    let camera_c = cx.non_empty(c, "measure.camera_c")?;
     bundle_companions(cx, m)?;
     let a_noise = match (
         &m.a_covariance,
@@ -869,9 +877,9 @@ fn measure_section(
     let (scale_bars, mpe_mm) = length_check_keys(cx, m)?;
     Ok(MeasureSection {
         model,
-        camera_a: req(&m.camera_a, "measure.camera_a")?.into_inner(),
-        camera_b: req(&m.camera_b, "measure.camera_b")?.into_inner(),
-        camera_c: m.camera_c.as_ref().map(|c| c.get_ref().clone()),
+        camera_a: cx.non_empty(&req(&m.camera_a, "measure.camera_a")?, "measure.camera_a")?,
+        camera_b: cx.non_empty(&req(&m.camera_b, "measure.camera_b")?, "measure.camera_b")?,
+        camera_c: Some(camera_c),
         observations,
         mm_per_unit,
         a_noise,
@@ -1117,11 +1125,7 @@ fn calibration_section(
         true,
     )?;
     let name = |v: &Option<Spanned<String>>, key: &str| -> Result<String, Error> {
-        let v = cx.required(v, cs.clone(), key)?;
-        if v.get_ref().trim().is_empty() {
-            return cx.err(Some(v.span()), key, "must not be empty");
-        }
-        Ok(v.get_ref().clone())
+        cx.non_empty(cx.required(v, cs.clone(), key)?, key)
     };
     let camera_a = name(&c.camera_a, "calibration.camera_a")?;
     let camera_b = name(&c.camera_b, "calibration.camera_b")?;
@@ -1232,8 +1236,8 @@ fn tie_section(cx: &Ctx<'_>, t: &Spanned<RawTie>) -> Result<TieSection, Error> {
     Ok(TieSection {
         database,
         model,
-        image_a: req(&t.image_a, "tie.image_a")?.into_inner(),
-        image_b: req(&t.image_b, "tie.image_b")?.into_inner(),
+        image_a: cx.non_empty(&req(&t.image_a, "tie.image_a")?, "tie.image_a")?,
+        image_b: cx.non_empty(&req(&t.image_b, "tie.image_b")?, "tie.image_b")?,
         method,
         iterations: t.iterations.as_ref().map_or(Ok(500), |v| {
             cx.count(v, "tie.iterations", 2, crashrig_bootstrap::MAX_ITERATIONS)
@@ -1670,6 +1674,50 @@ mod tests {
         let m = message(&t);
         assert!(
             m.contains("study.toml") && m.contains("[outward]") && m.contains("missing section"),
+            "{m}"
+        );
+    }
+
+    /// Issue 36: an empty selector would make every image camera A (or B, C); an empty image
+    /// name finds nothing. Each is refused naming its key and line.
+    #[test]
+    fn empty_selectors_name_their_key_and_line() {
+        let t = text();
+        let lines: Vec<&str> = t.lines().collect();
+        for (from, key) in [
+            ("camera_a = \"cam_out/\"", "calibration.camera_a"),
+            ("camera_b = \"cam_in/\"", "calibration.camera_b"),
+            ("image_a = \"in/0001.png\"", "tie.image_a"),
+            ("image_b = \"side/0001.png\"", "tie.image_b"),
+            ("camera_b = \"2\"", "measure.camera_b"),
+            ("camera_c = \"3\"", "measure.camera_c"),
+        ] {
+            let at = lines.iter().position(|l| *l == from).expect(from);
+            let mut edited = lines.clone();
+            let blank = format!("{} = \" \"", from.split(' ').next().unwrap());
+            edited[at] = &blank;
+            let m = message(&edited.join("\n"));
+            assert!(
+                m.contains(&format!(
+                    "study.toml:{}: `{key}`: must not be empty",
+                    at + 1
+                )),
+                "{m}"
+            );
+        }
+        // [measure] camera_a is the second `camera_a = "cam_out/"`.
+        let at = lines
+            .iter()
+            .rposition(|l| *l == "camera_a = \"cam_out/\"")
+            .unwrap();
+        let mut edited = lines.clone();
+        edited[at] = "camera_a = \"\"";
+        let m = message(&edited.join("\n"));
+        assert!(
+            m.contains(&format!(
+                "study.toml:{}: `measure.camera_a`: must not be empty",
+                at + 1
+            )),
             "{m}"
         );
     }
