@@ -31,6 +31,8 @@ const NAMES: &[(&str, &str)] = &[
     ("cfc_standard", "--cfc-standard"),
     ("frame_rate_hz", "--frame-rate-hz"),
     ("mm_per_unit", "--mm-per-unit"),
+    ("mpe_mm", "--mpe-mm"),
+    ("scale_bars", "--scale-bars"),
     ("scale_length_mm", "--scale-length-mm"),
     ("scale_points", "--scale-points"),
     ("sigma_a_angles_deg", "--sigma-a-angles-deg"),

@@ -154,8 +154,8 @@ fn bootstrap<'py>(
     let config = TieConfig {
         database: args::path(database, "database")?,
         model: args::path(model, "model")?,
-        image_a,
-        image_b,
+        image_a: args::image_name(image_a, "image_a")?,
+        image_b: args::image_name(image_b, "image_b")?,
         method,
         iterations,
         // The command's default seed.
@@ -282,9 +282,11 @@ fn grid<'py>(
 }
 
 /// Marker trajectories with σ from a crash-test sequence (`crashrig measure --json`): the
-/// summary document. `out` (optional here) receives the command's files. `progress(stage,
-/// done, total)` sees the replicates drawn; Ctrl-C or an exception it raises stops the call
-/// between chunks of replicates, with nothing written.
+/// summary document. `out` (optional here) receives the command's files. `scale_bars` (a
+/// scale-bar CSV) adds the length check (`"length_check"`, and `length_check.csv` in `out`),
+/// `mpe_mm` each bar's `"within_mpe"`. `progress(stage, done, total)` sees the replicates
+/// drawn; Ctrl-C or an exception it raises stops the call between chunks of replicates, with
+/// nothing written.
 ///
 /// Example:
 ///
@@ -300,7 +302,7 @@ fn grid<'py>(
     tie=None, mm_per_unit=None, sigma_a_position_mm=None, sigma_a_angles_deg=None,
     a_covariance=None, pixel_sigma_px=0.5, samples=2000, seed=None, reference_epoch=None,
     frame_rate_hz=None, threshold_mm=5.0, max_reprojection_px=None, plots=true, cfc=None,
-    cfc_standard=None, sync_sigma_ms=0.0, progress=None))]
+    cfc_standard=None, sync_sigma_ms=0.0, scale_bars=None, mpe_mm=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn measure<'py>(
     py: Python<'py>,
@@ -327,6 +329,8 @@ fn measure<'py>(
     cfc: Option<u32>,
     cfc_standard: Option<String>,
     sync_sigma_ms: f64,
+    scale_bars: Option<&Bound<'py, PyAny>>,
+    mpe_mm: Option<f64>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     use crashrig_measure::{MeasureOptions, OutputDir};
@@ -353,6 +357,8 @@ fn measure<'py>(
         cfc,
         cfc_standard,
         sync_sigma_ms,
+        scale_bars: args::opt_path(scale_bars, "scale_bars")?,
+        mpe_mm,
         ..MeasureOptions::new(
             args::path(model, "model")?,
             args::camera(camera_a, "camera_a")?,

@@ -198,8 +198,9 @@ pub enum CalibrationError {
     /// A camera selector (prefix or camera id) that matches no image of the model.
     #[error(
         "{}: camera {role} `{selector}` matches no image (a name prefix such as `cam_out/`, \
-         or a camera id; the model has {n_images} images)",
-        model.display()
+         or a camera id; the model has {n_images} images{}{suggestions})",
+        model.display(),
+        if suggestions.is_empty() { "" } else { "; " }
     )]
     NoImagesForCamera {
         /// The model directory.
@@ -210,6 +211,19 @@ pub enum CalibrationError {
         selector: String,
         /// Number of images in the model.
         n_images: usize,
+        /// What the model has nearest ([`crashrig_colmap::CameraSelector::suggestions`]).
+        suggestions: String,
+    },
+    /// An empty (or blank) camera selector: it would select every image.
+    #[error(
+        "camera {role} is empty (--camera-{} / camera_{}): an empty image-name prefix would \
+         select every image; give a prefix such as `cam_out/` or a camera id",
+        role.to_ascii_lowercase(),
+        role.to_ascii_lowercase()
+    )]
+    EmptyCamera {
+        /// `'A'` or `'B'`.
+        role: char,
     },
     /// Cameras A and B select the same images.
     #[error("{}: cameras A and B both select image `{image}`", model.display())]

@@ -49,6 +49,7 @@ mod files;
 mod fixed_observer;
 mod html;
 mod kinematics_report;
+mod length_report;
 mod measure_step;
 mod paper_study;
 mod pipeline;

@@ -104,15 +104,17 @@ pub fn write_outputs(
         }
         maps.push(m);
     }
-    let (plots, kin_plots) = match &r.measure {
+    let (plots, kin_plots, length_plot) = match &r.measure {
         Some(m) => (
             write_measure(&dir.join("measure"), m)?,
             crate::kinematics_report::write(&dir.join("measure"), m)?,
+            crate::length_report::write(&dir.join("measure"), m)?,
         ),
-        None => (Vec::new(), Vec::new()),
+        None => (Vec::new(), Vec::new(), None),
     };
     files::write(dir, "results.json", &json_pretty(&results))?;
-    let html = report_html(study, r, &maps, &[&plots, &kin_plots], prov);
+    let length_plot: Vec<MarkerPlot> = length_plot.into_iter().collect();
+    let html = report_html(study, r, &maps, &[&plots, &kin_plots, &length_plot], prov);
     files::write(dir, "report.html", html.as_bytes())
 }
 
@@ -156,9 +158,16 @@ fn write_measure(d: &Path, m: &MeasureResult) -> Result<Vec<MarkerPlot>, Error> 
     Ok(plots)
 }
 
-/// The report section of the measured sequence: summary, displacement σ vs position σ per
-/// marker, flagged rows, and one trajectory plot per marker.
-fn measure_report(rep: &mut Report, study: &Study, m: &MeasureResult, plots: &[MarkerPlot]) {
+/// The report section of the measured sequence: summary, the length check of the scale bars
+/// (with `scale_bars`: its own subsection, and the trajectories then theirs), displacement σ vs
+/// position σ per marker, flagged rows, and one trajectory plot per marker.
+fn measure_report(
+    rep: &mut Report,
+    study: &Study,
+    m: &MeasureResult,
+    plots: &[MarkerPlot],
+    length_plot: Option<&MarkerPlot>,
+) {
     let Some(sec) = &study.measure else { return };
     let ms = &m.measurement;
     let s = &m.summary;
@@ -210,6 +219,10 @@ fn measure_report(rep: &mut Report, study: &Study, m: &MeasureResult, plots: &[M
             ),
         ]],
     }));
+    if m.measurement.length_check.is_some() {
+        crate::length_report::section(rep, m, length_plot);
+        rep.push(Block::SubHeading("Trajectories".into()));
+    }
     let per_marker: Vec<Vec<String>> = ms
         .markers
         .iter()
@@ -675,12 +688,13 @@ fn fixed_vs_aimed(r: &StudyResult) -> String {
 
 /// The report page: the verdicts and the table of contents first (a few screens), then one
 /// collapsible section per step with the details. `measure_plots`: the measured sequence's
-/// trajectory plots and its kinematics plots (with `cfc`).
+/// trajectory plots, its kinematics plots (with `cfc`) and its length check's plot (with
+/// `scale_bars`; at most one).
 pub fn report_html(
     study: &Study,
     r: &StudyResult,
     maps: &[Vec<HeatMapPng>],
-    measure_plots: &[&[MarkerPlot]; 2],
+    measure_plots: &[&[MarkerPlot]; 3],
     prov: &Provenance,
 ) -> String {
     let paper = study.reference.as_deref() == Some("kaminski2023");
@@ -711,7 +725,13 @@ pub fn report_html(
     chain_section(&mut rep, r, paper);
     layouts_section(&mut rep, r, maps);
     if let Some(m) = &r.measure {
-        measure_report(&mut rep, study, m, measure_plots[0]);
+        measure_report(
+            &mut rep,
+            study,
+            m,
+            measure_plots[0],
+            measure_plots[2].first(),
+        );
         crate::kinematics_report::section(&mut rep, m, measure_plots[1]);
     }
     not_included(&mut rep, study, r);
@@ -796,6 +816,9 @@ fn verdicts(rep: &mut Report, r: &StudyResult, unit_warnings: &[String]) {
     rep.push(Block::Verdict(crate::quality_report::verdict(
         &r.calibration,
     )));
+    if let Some(v) = r.measure.as_ref().and_then(crate::length_report::verdict) {
+        rep.push(Block::Verdict(v));
+    }
     rep.push(Block::Raw("</div>".into()));
 }
 

@@ -145,6 +145,7 @@ fn the_study_computes_a_from_the_bundle_and_measures_with_it() {
             cfc: None,
             sync_sigma_ms: 0.0,
         },
+        scale_bars: None,
         out: None,
     };
     let cmd = crashrig_measure::run(&config, None).unwrap();

@@ -333,6 +333,32 @@ mod errors {
         );
     }
 
+    /// Issue 36: an empty selector would select every image: refused as such; a prefix that
+    /// matches nothing names the nearest image-name beginnings.
+    #[test]
+    fn errors_empty_selector_and_nearest_names() {
+        let model = Reconstruction::read(&fixture("paper")).unwrap();
+        for blank in ["", " "] {
+            let r = epochs_from_model(&model, &sel("cam_out/"), &sel(blank));
+            assert!(matches!(r, Err(Error::EmptyCamera { role: 'B' })), "{r:?}");
+            let msg = r.unwrap_err().to_string();
+            assert!(
+                msg.starts_with("camera B is empty (--camera-b / camera_b)"),
+                "{msg}"
+            );
+        }
+        let msg = epochs_from_model(&model, &sel("cam_inn/"), &sel("cam_out/"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.ends_with(
+                "the model has 280 images; nearest image-name beginnings: `cam_in/` (140 images), \
+                 `cam_out/` (140 images))"
+            ),
+            "{msg}"
+        );
+    }
+
     #[test]
     fn errors_one_camera_absent() {
         let model = Reconstruction::read(&fixture("one_camera")).unwrap();
