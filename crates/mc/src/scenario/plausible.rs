@@ -13,6 +13,7 @@
 //! | a pose's position σ | has a component in (0, [`MIN_POSITION_SIGMA_MM`]) | 0.8 mm is 0.0008 |
 //! | a pose's position σ over its angle σ (rad) | is below [`MIN_LEVER_ARM_MM`] | 0.8 mm / 0.008° is 5.7 m, in metres 5.7 |
 //! | a σ threshold (`threshold_mm`) | is in (0, [`MIN_THRESHOLD_MM`]) | 5 mm is 0.005 |
+//! | a length check's maximum permissible error (`mpe_mm`) | is in (0, [`MIN_MPE_MM`]) | 1 mm is 0.001 |
 //!
 //! ```
 //! use crashrig_mc::plausible::{grid_axis, position_sigma};
@@ -42,6 +43,9 @@ pub const MIN_POSITION_SIGMA_MM: f64 = 1e-3;
 pub const MIN_LEVER_ARM_MM: f64 = 10.0;
 /// A σ threshold is at least this (mm).
 pub const MIN_THRESHOLD_MM: f64 = 0.01;
+/// A length check's maximum permissible error of a bar's length is at least this (mm): a
+/// lab's photogrammetry holds lengths to tenths of a millimetre, not to micrometres.
+pub const MIN_MPE_MM: f64 = 0.01;
 
 /// The closing words of every warning: the unit.
 const UNIT: &str = "lengths are in millimetres";
@@ -99,6 +103,16 @@ pub fn threshold(t_mm: f64) -> Option<String> {
         format!(
             "{} mm is below {MIN_THRESHOLD_MM} mm — no crash-test measurement aims at a σ that small; {UNIT}",
             round(t_mm)
+        )
+    })
+}
+
+/// A length check's maximum permissible error (mm) in (0, [`MIN_MPE_MM`]).
+pub fn mpe(mpe_mm: f64) -> Option<String> {
+    (mpe_mm > 0.0 && mpe_mm < MIN_MPE_MM).then(|| {
+        format!(
+            "{} mm is below {MIN_MPE_MM} mm — no crash-test length check holds a bar's length that tightly; {UNIT} (0.5 mm, not 0.0005)",
+            round(mpe_mm)
         )
     })
 }
@@ -229,6 +243,11 @@ mod tests {
                 .unwrap()
                 .starts_with("0.005 mm is below 0.01 mm")
         );
+        assert!(mpe(0.5).is_none());
+        assert!(mpe(MIN_MPE_MM).is_none());
+        let w = mpe(0.0005).unwrap();
+        assert!(w.starts_with("0.0005 mm is below 0.01 mm"), "{w}");
+        assert!(w.contains("lengths are in millimetres"), "{w}");
         assert!(link_base(&Vector3::new(61.98, -1.71, 179.76)).is_none());
         assert!(link_base(&Vector3::zeros()).is_none());
         let w = link_base(&Vector3::new(0.06198, -0.00171, 0.17976)).unwrap();

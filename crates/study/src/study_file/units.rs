@@ -9,7 +9,7 @@
 //!   ([`chain_warnings`]);
 //! - a pose σ below a micrometre or with a lever arm below 10 mm (`[outward]`, given observer
 //!   σ, `[measure] sigma_a_position_mm`);
-//! - a σ threshold below 0.01 mm; a `[tie] base_mm` outside the 20 mm – 5 m of two cameras in
+//! - a σ threshold below 0.01 mm; a `[measure] mpe_mm` below 0.01 mm; a `[tie] base_mm` outside the 20 mm – 5 m of two cameras in
 //!   one car.
 //!
 //! The study's run repeats them as `warning:` lines and its report's verdicts, so that a
@@ -148,6 +148,9 @@ pub(super) fn read_warnings(cx: &Ctx<'_>, raw: &Raw, read: &Read<'_>) -> Vec<Str
         if let (Some(v), Some(w)) = (&rm.threshold_mm, plausible::threshold(ms.threshold_mm)) {
             out.push(located(cx, v.span().start, "measure.threshold_mm", &w));
         }
+        if let (Some(v), Some(w)) = (&rm.mpe_mm, ms.mpe_mm.and_then(plausible::mpe)) {
+            out.push(located(cx, v.span().start, "measure.mpe_mm", &w));
+        }
     }
     out
 }
@@ -277,6 +280,13 @@ mod tests {
                 "sigma_a_position_mm = [0.0003",
                 "measure.sigma_a_position_mm",
                 "σ of 0.0003 mm is below a micrometre",
+            ),
+            (
+                "frame_rate_hz = 1000.0\nthreshold_mm = 3.0",
+                "frame_rate_hz = 1000.0\nthreshold_mm = 3.0\nscale_bars = \"measure/scale_bars.csv\"\nmpe_mm = 0.0005",
+                "mpe_mm = 0.0005",
+                "measure.mpe_mm",
+                "0.0005 mm is below 0.01 mm",
             ),
             (
                 "iterations = 60",
