@@ -157,8 +157,8 @@ mod tests {
         assert_abs_diff_eq!(norm, 1.0, epsilon = 1e-15);
         // t = t_a + M(q_a)·t_b with M = 4R − 3I for the doubled quaternion.
         let m = a2.colmap_matrix();
-        for i in 0..3 {
-            let want = a.tvec[i] + (0..3).map(|j| m[i][j] * b.tvec[j]).sum::<f64>();
+        for (i, row) in m.iter().enumerate() {
+            let want = a.tvec[i] + row.iter().zip(&b.tvec).map(|(r, t)| r * t).sum::<f64>();
             assert_abs_diff_eq!(c2.tvec[i], want, epsilon = 1e-14);
         }
     }
