@@ -458,7 +458,7 @@ fn units_study_values_name_key_and_line() {
 /// `edit` of the bundled one; returns the run, the edited text and `report.html`.
 fn own_study_edited(edit: impl Fn(&str) -> String) -> (Run, String, String) {
     let tmp = tempfile::tempdir().expect("temp dir");
-    let own = crate::study::own_project(tmp.path());
+    let own = crate::contract::study::own_project(tmp.path());
     let study = own.join("study.toml");
     let text = edit(&std::fs::read_to_string(&study).expect("study"));
     std::fs::write(&study, &text).expect("write");
@@ -559,7 +559,7 @@ fn units_paper_study_has_no_unit_warning() {
 fn units_study_scale_length_beyond_the_bound_names_its_line() {
     let text = std::fs::read_to_string(fixture("study/own/study.toml")).expect("study");
     let line = study_line(&text, "scale_length_mm");
-    crate::study::study_error(
+    crate::contract::study::study_error(
         |t| t.replace("scale_length_mm = 1500.0", "scale_length_mm = 1e300"),
         &[
             &format!("study.toml:{line}: `calibration.scale_length_mm`"),
@@ -632,7 +632,7 @@ fn units_study_scale_bar_in_metres_warns_at_its_line() {
 fn units_calibrate_model_value_beyond_the_bound_is_an_error() {
     let tmp = tempfile::tempdir().expect("temp dir");
     let model = tmp.path().join("model");
-    crate::common::copy_dir(&fixture("rig/paper"), &model);
+    crate::contract::common::copy_dir(&fixture("rig/paper"), &model);
     let frames = model.join("frames.bin");
     let mut b = std::fs::read(&frames).expect("frames.bin");
     // The first frame's TY: count (8), frame and rig id (8), then QW QX QY QZ TX.
