@@ -21,7 +21,21 @@
 //! The same computation in numpy is `reml_gains` / `reml_loglik` of
 //! `fixtures/gen/sem_estimators.py`.
 
-use crate::sem::ar1_tau;
+/// Variance factor of the mean of an AR(1) series of length `n` with coefficient `rho`
+/// (finite-n integrated autocorrelation time, `1 + 2 Σ (1 − k/n) ρ^k`).
+pub fn ar1_tau(n: usize, rho: f64) -> f64 {
+    let nf = n as f64;
+    let mut sum = 0.0;
+    let mut p = 1.0;
+    for k in 1..n {
+        p *= rho;
+        if p.abs() < 1e-17 {
+            break;
+        }
+        sum += (1.0 - k as f64 / nf) * p;
+    }
+    1.0 + 2.0 * sum
+}
 
 /// Steps of the ρ grid (0, 0.01, …, 0.99).
 pub const RHO_STEPS: usize = 100;

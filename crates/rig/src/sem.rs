@@ -53,6 +53,7 @@
 //! **`covariance_over_n`** ([`RULE_IID`]).
 
 use crate::drift::autocorrelation;
+pub use crate::likelihood::ar1_tau;
 use crate::likelihood::{DriftLikelihood, LikelihoodSummary};
 use crashrig_geometry::{Mat6, Vec6};
 
@@ -225,22 +226,6 @@ impl SemModel {
         est.covariance = Mat6::from_fn(|i, j| d[i] * base[(i, j)] * d[j]);
         est
     }
-}
-
-/// Variance factor of the mean of an AR(1) series of length `n` with coefficient `rho`
-/// (finite-n integrated autocorrelation time, `1 + 2 Σ (1 − k/n) ρ^k`).
-pub fn ar1_tau(n: usize, rho: f64) -> f64 {
-    let nf = n as f64;
-    let mut sum = 0.0;
-    let mut p = 1.0;
-    for k in 1..n {
-        p *= rho;
-        if p.abs() < 1e-17 {
-            break;
-        }
-        sum += (1.0 - k as f64 / nf) * p;
-    }
-    1.0 + 2.0 * sum
 }
 
 /// The expected sample autocovariances of the drift model at one sequence length: for a unit
