@@ -230,8 +230,10 @@ mod error;
 mod fixed;
 mod grid;
 mod grid_builder;
+mod joint;
 mod kernel;
 pub mod limits;
+mod map;
 mod model;
 mod options;
 #[cfg(feature = "scenario")]
@@ -248,6 +250,7 @@ pub use error::Error;
 pub use fixed::LinearTerm;
 pub use grid::{CHAIN_SAMPLES_MIN, GridStudy, INPUTS_PER_OBSERVER};
 pub use grid_builder::GridBuilder;
+pub use joint::{DistanceStats, JOINT_POINTS_MAX, JointResult};
 pub use kernel::Isa;
 pub use model::{
     Adaptive, Aim, Axis, CORRELATED_POSITION_TOLERANCE_MM, Camera, FixedCamera, Grid, MAX_NDIG,

@@ -249,8 +249,10 @@ pub(crate) fn run_task(
 
 /// The vectorised composition of a chain over a block of joint draws, with its lane arrays
 /// (allocated once per task): per camera the centre error and ω φ κ offsets (`v`) and the
-/// body-axis error `log(R̄ᵀR)` (`th`). Used by the chain propagation ([`run_task`]) and by the
-/// grid kernel for observers drawn jointly from the chain (`block::run_prepared`).
+/// body-axis error `log(R̄ᵀR)` (`th`) for the chain propagation ([`run_task`],
+/// [`Composer::compose`]); or the centre error and the world-frame rotation error `R·R̄ᵀ`
+/// (`world`) for the grid kernel's observers drawn jointly from the chain
+/// ([`Composer::compose_world`], `block::ChainBlock`).
 pub(crate) struct Composer {
     plan: Vec<CamPlan>,
     poses: Vec<PoseLanes>,
@@ -261,6 +263,8 @@ pub(crate) struct Composer {
     pub(crate) v: Vec<[Lane; 6]>,
     /// Per camera: the body-axis error (rad).
     pub(crate) th: Vec<[Lane; 3]>,
+    /// Per camera: the world-frame rotation error `R·R̄ᵀ` (row-major; [`Self::compose_world`]).
+    pub(crate) world: Vec<[Lane; 9]>,
     delta: [Lane; 6],
     ok: [bool; LANES],
 }
@@ -283,6 +287,7 @@ impl Composer {
             },
             v: vec![[[0.0; LANES]; 6]; n],
             th: vec![[[0.0; LANES]; 3]; n],
+            world: vec![[[0.0; LANES]; 9]; n],
             delta: [[0.0; LANES]; 6],
             ok: [true; LANES],
         }
@@ -294,15 +299,62 @@ impl Composer {
     /// skipped (rows 3–5 of `v` are left as they are).
     #[inline(always)]
     pub(crate) fn compose<const ANGLES: bool>(&mut self, chain: &Chain, e: &[Lane], b: usize) {
-        let n = chain.len();
+        self.poses(chain, e);
+        let Composer {
+            plan,
+            poses,
+            v,
+            th,
+            ok,
+            ..
+        } = self;
+        for i in 0..chain.len() {
+            errors::<ANGLES>(&plan[i], &poses[i], &mut v[i], &mut th[i], ok);
+        }
+        for l in 0..b {
+            if !ok[l] {
+                exact_lane(chain, &e[..6 * chain.len()], l, v, th);
+            }
+        }
+    }
+
+    /// Composes the block whose chain normals are the rows `e[..6n]` into each camera's centre
+    /// error (`v`, rows 0–2) and world-frame rotation error `R·R̄ᵀ` (`world`): an observer
+    /// carried by the camera as a rigid body is at `C̄_obs + δC`, turned to `R·R̄ᵀ·R̄_obs`. The
+    /// first `b` lanes are valid; a lane whose link rotation leaves the series' range is
+    /// recomputed by the scalar composition.
+    #[inline(always)]
+    pub(crate) fn compose_world(&mut self, chain: &Chain, e: &[Lane], b: usize) {
+        self.poses(chain, e);
+        let Composer {
+            plan,
+            poses,
+            v,
+            world,
+            ok,
+            ..
+        } = self;
+        for i in 0..chain.len() {
+            world_errors(&plan[i], &poses[i], &mut v[i], &mut world[i]);
+        }
+        for l in 0..b {
+            if !ok[l] {
+                exact_world_lane(chain, &e[..6 * chain.len()], l, v, world);
+            }
+        }
+    }
+
+    /// Every camera's world pose per lane (`poses`), the links by their series; `ok` marks
+    /// the lanes inside the series' range.
+    #[inline(always)]
+    fn poses(&mut self, chain: &Chain, e: &[Lane]) {
         let Composer {
             plan,
             poses,
             link,
-            v,
-            th,
             delta,
             ok,
+            ..
         } = self;
         *ok = [true; LANES];
         for &i in chain.order() {
@@ -328,13 +380,52 @@ impl Composer {
                 }
             }
         }
-        for i in 0..n {
-            errors::<ANGLES>(&plan[i], &poses[i], &mut v[i], &mut th[i], ok);
+    }
+}
+
+/// Per lane: a camera's centre error and its world-frame rotation error `R·R̄ᵀ`.
+#[inline(always)]
+fn world_errors(p: &CamPlan, pose: &PoseLanes, v: &mut [Lane; 6], world: &mut [Lane; 9]) {
+    for k in 0..3 {
+        for l in 0..LANES {
+            v[k][l] = pose.c[k][l] - p.nominal_c[k];
         }
-        for l in 0..b {
-            if !ok[l] {
-                exact_lane(chain, &e[..6 * n], l, v, th);
-            }
+    }
+    let rn = &p.nominal_r;
+    for k in 0..9 {
+        let (a, b) = (k / 3, k % 3);
+        let (r0, r1, r2) = (&pose.r[3 * a], &pose.r[3 * a + 1], &pose.r[3 * a + 2]);
+        let w = &mut world[k];
+        for l in 0..LANES {
+            // (R·R̄ᵀ)_ab = Σ_m R_am R̄_bm.
+            w[l] = r0[l].mul_add(
+                rn[3 * b],
+                r1[l].mul_add(rn[3 * b + 1], r2[l] * rn[3 * b + 2]),
+            );
+        }
+    }
+}
+
+/// Lane `l` of [`Composer::compose_world`] by the scalar composition.
+#[inline(never)]
+fn exact_world_lane(
+    chain: &Chain,
+    e: &[Lane],
+    l: usize,
+    v: &mut [[Lane; 6]],
+    world: &mut [[Lane; 9]],
+) {
+    let eps: Vec<f64> = e.iter().map(|row| row[l]).collect();
+    let poses = chain.compose(&eps);
+    for (i, pose) in poses.iter().enumerate() {
+        let nom = &chain.nominal()[i];
+        let dc = pose.position_mm - nom.position_mm;
+        let w = pose.rotation * nom.rotation.transpose();
+        for k in 0..3 {
+            v[i][k][l] = dc[k];
+        }
+        for k in 0..9 {
+            world[i][k][l] = w[(k / 3, k % 3)];
         }
     }
 }
