@@ -19,9 +19,10 @@
 //! # Observation models
 //! Each observer enters a draw through its [`Observation`]: a ray through its centre
 //! ([`ray_pass`]: aimed, no pixel noise), normalized coordinates with pixel noise
-//! ([`Normals3::add_view_lane`]: aimed, `σ_px/f` per axis), or a fixed camera's lens (the true pixel
+//! (the two DLT rows, [`Normals3::add_rows_lane`]: aimed, `σ_px/f` per axis), or a fixed
+//! camera's lens (the true pixel
 //! plus pixel noise undistorted per lane by `crate::view::undistort_lanes`, then
-//! [`Normals3::add_view_lane`]). [`layout`] assigns a point's normal rows for any mix;
+//! the two DLT rows). [`layout`] assigns a point's normal rows for any mix;
 //! [`run_group`] is the one kernel of every grid path (scheduled by `crate::map`).
 //!
 //! # Frames of the perturbation
@@ -35,7 +36,7 @@ use crate::chain::Chain;
 use crate::chain::lanes::Composer;
 use crate::kernel::accumulate::{Acc3, LaneSums};
 use crate::kernel::lanes::{
-    NoiseFactor, Normals3, Trig, euler_dir, euler_rot, keep_max, tangent_dir, tangent_rot,
+    NoiseFactor, Normals3, Trig, euler_dir, euler_rot, keep_max, tangent_dir, tangent_rows,
 };
 use crate::kernel::normal::{LANES, Lane, fill_block};
 use crate::kernel::simd::Width;
@@ -112,8 +113,8 @@ fn ray_pass<const TANGENT: bool, const DIAGONAL: bool>(
 
 /// One observer with image coordinates (`x`, `y` per lane: pixel noise, or a fixed camera's
 /// undistorted observation) fused over the block: per lane its `δ` (from the normal rows `e`,
-/// or read from `delta` when drawn from the chain), the perturbed centre and rotation, and its
-/// two DLT rows added to the normal equations (the same operations as [`view_stages`]).
+/// or read from `delta` when drawn from the chain), the perturbed centre and its two DLT rows
+/// ([`view_rows`]) added to the normal equations (the same operations as [`view_stages`]).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn view_pass<const TANGENT: bool, const DIAGONAL: bool>(
@@ -128,14 +129,29 @@ fn view_pass<const TANGENT: bool, const DIAGONAL: bool>(
     for l in 0..LANES {
         let d = lane_delta::<DIAGONAL>(o, e, delta, l);
         let c = std::array::from_fn(|i| o.c[i] + d[i]);
-        let w = [d[3], d[4], d[5]];
-        let (rot, t) = if TANGENT {
-            tangent_rot(&o.r, w)
-        } else {
-            euler_rot(&o.trig, w)
-        };
+        let (a, b, t) = view_rows::<TANGENT>(o, [d[3], d[4], d[5]], x[l], y[l]);
         keep_max(&mut tmax[l], t);
-        ne.add_view_lane(l, &rot, c, x[l], y[l]);
+        ne.add_rows_lane(l, a, b, c);
+    }
+}
+
+/// The two DLT rows of observer `o` turned by `w` (tangent: `R̄·Exp(w)`, [`tangent_rows`];
+/// else ω φ κ + w) at normalized coordinates `(x, y)`, and the largest squared angle.
+#[inline(always)]
+fn view_rows<const TANGENT: bool>(
+    o: &Prepared<'_>,
+    w: [f64; 3],
+    x: f64,
+    y: f64,
+) -> ([f64; 3], [f64; 3], f64) {
+    if TANGENT {
+        tangent_rows(&o.r, w, x, y)
+    } else {
+        let (r, t) = euler_rot(&o.trig, w);
+        let row = |obs: f64, col: usize| {
+            std::array::from_fn(|i| obs.mul_add(r[3 * i + 2], -r[3 * i + col]))
+        };
+        (row(x, 0), row(y, 1), t)
     }
 }
 
@@ -155,7 +171,7 @@ fn view_stages<const TANGENT: bool>(
     if let Some(e) = e {
         o.noise.apply(e, delta);
     }
-    let StageScratch { cpos, rot, .. } = scratch;
+    let StageScratch { cpos, rows, .. } = scratch;
     for i in 0..3 {
         for l in 0..LANES {
             cpos[i][l] = o.c[i] + delta[i][l];
@@ -163,19 +179,16 @@ fn view_stages<const TANGENT: bool>(
     }
     for l in 0..LANES {
         let w = [delta[3][l], delta[4][l], delta[5][l]];
-        let (r, t) = if TANGENT {
-            tangent_rot(&o.r, w)
-        } else {
-            euler_rot(&o.trig, w)
-        };
-        for k in 0..9 {
-            rot[k][l] = r[k];
+        let (a, b, t) = view_rows::<TANGENT>(o, w, x[l], y[l]);
+        for k in 0..3 {
+            rows[k][l] = a[k];
+            rows[3 + k][l] = b[k];
         }
         keep_max(&mut tmax[l], t);
     }
     for l in 0..LANES {
-        let r = std::array::from_fn(|k| rot[k][l]);
-        ne.add_view_lane(l, &r, [cpos[0][l], cpos[1][l], cpos[2][l]], x[l], y[l]);
+        let q = |k: usize| std::array::from_fn(|i| rows[k + i][l]);
+        ne.add_rows_lane(l, q(0), q(3), [cpos[0][l], cpos[1][l], cpos[2][l]]);
     }
 }
 
@@ -183,7 +196,8 @@ fn view_stages<const TANGENT: bool>(
 struct StageScratch {
     cpos: [Lane; 3],
     dir: [Lane; 3],
-    rot: [Lane; 9],
+    /// The two DLT rows (a, then b).
+    rows: [Lane; 6],
 }
 
 /// `δ` of lane `l`: `L·ε` from the rows `e` (stored into `delta` for [`exact_lane`]), or the
@@ -418,7 +432,7 @@ impl Scratch {
             stage: StageScratch {
                 cpos: [[0.0; LANES]; 3],
                 dir: [[0.0; LANES]; 3],
-                rot: [[0.0; LANES]; 9],
+                rows: [[0.0; LANES]; 6],
             },
             ne: Normals3::new(),
             tmax: [0.0; LANES],
@@ -663,8 +677,8 @@ fn ray_chain_pass(o: &Prepared<'_>, dc: &[Lane; 6], world: &[Lane; 9], ne: &mut 
     }
 }
 
-/// [`ray_chain_pass`] for an observer with image coordinates (`x`, `y` per lane): its rotation
-/// `E·R̄` and two DLT rows.
+/// [`ray_chain_pass`] for an observer with image coordinates (`x`, `y` per lane): its two DLT
+/// rows `E·R̄·(−1, 0, x)`, `E·R̄·(0, −1, y)`.
 #[inline(always)]
 fn view_chain_pass(
     o: &Prepared<'_>,
@@ -674,10 +688,17 @@ fn view_chain_pass(
     y: &Lane,
     ne: &mut Normals3,
 ) {
+    let r = &o.r;
     for l in 0..LANES {
         let c = std::array::from_fn(|i| o.c[i] + dc[i][l]);
-        let rot = world_rotation(world, l, &o.r);
-        ne.add_view_lane(l, &rot, c, x[l], y[l]);
+        let turn = |obs: f64, col: usize| -> [f64; 3] {
+            let u: [f64; 3] = std::array::from_fn(|i| obs.mul_add(r[3 * i + 2], -r[3 * i + col]));
+            std::array::from_fn(|i| {
+                let (e0, e1, e2) = (world[3 * i][l], world[3 * i + 1][l], world[3 * i + 2][l]);
+                e0.mul_add(u[0], e1.mul_add(u[1], e2 * u[2]))
+            })
+        };
+        ne.add_rows_lane(l, turn(x[l], 0), turn(y[l], 1), c);
     }
 }
 
