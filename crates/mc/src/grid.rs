@@ -136,7 +136,11 @@ impl GridStudy {
             .any(|o| matches!(o.sigma, ObserverSigma::From(_)));
         let mc = if needs_chain {
             let options = ChainOptions::new(samples.max(CHAIN_SAMPLES_MIN), seed ^ CHAIN_SEED_SALT);
-            chain.monte_carlo(&options, None)?
+            match rotation_noise {
+                // Only the tangent covariances are used (no ω φ κ statistics to compute).
+                RotationNoise::Tangent => chain.monte_carlo_tangent(&options)?,
+                RotationNoise::Euler => chain.monte_carlo(&options, None)?,
+            }
         } else {
             Vec::new()
         };

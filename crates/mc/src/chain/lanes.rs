@@ -167,10 +167,11 @@ impl CamLanes {
         }
     }
 
-    /// Adds lanes `0..b` of `v` (6 rows) and `th` (3 rows).
+    /// Adds lanes `0..b` of `v` (6 rows; without `ANGLES` only the centre, rows 0–2, and no
+    /// products) and `th` (3 rows).
     #[inline(always)]
-    fn add(&mut self, v: &[Lane; 6], th: &[Lane; 3], b: usize) {
-        for i in 0..6 {
+    fn add<const ANGLES: bool>(&mut self, v: &[Lane; 6], th: &[Lane; 3], b: usize) {
+        for i in 0..if ANGLES { 6 } else { 3 } {
             for l in 0..b.min(LANES) {
                 self.s1[i][l] += v[i][l];
             }
@@ -178,8 +179,10 @@ impl CamLanes {
         let mut k = 0;
         for i in 0..6 {
             for j in i..6 {
-                for l in 0..b.min(LANES) {
-                    self.s2[k][l] += v[i][l] * v[j][l];
+                if ANGLES {
+                    for l in 0..b.min(LANES) {
+                        self.s2[k][l] += v[i][l] * v[j][l];
+                    }
                 }
                 k += 1;
             }
@@ -222,8 +225,12 @@ struct PoseLanes {
 
 /// `m` joint draws (task `task` of the run keyed `key`), returning per-camera sums. Must be
 /// called inside [`crate::kernel::simd::dispatch`].
+/// Without `ANGLES` the ω φ κ offsets are neither extracted nor summed (their sums stay
+/// zero): the tangent covariance alone, which is what a grid's `sigma_from` needs with
+/// tangent noise — and no lane falls back to the scalar formulas for its angles near gimbal
+/// lock.
 #[inline(always)]
-pub(crate) fn run_task(
+pub(crate) fn run_task<const ANGLES: bool>(
     chain: &Chain,
     key: [u32; 2],
     task: u64,
@@ -238,9 +245,9 @@ pub(crate) fn run_task(
     while done < m {
         let b = LANES.min(m - done);
         fill_block(key, task, done as u64, &mut e, width);
-        composer.compose::<true>(chain, &e, b);
+        composer.compose::<ANGLES>(chain, &e, b);
         for i in 0..n {
-            lanes[i].add(&composer.v[i], &composer.th[i], b);
+            lanes[i].add::<ANGLES>(&composer.v[i], &composer.th[i], b);
         }
         done += b;
     }
