@@ -51,15 +51,13 @@ use nalgebra::{DMatrix, Matrix3, Matrix6, Vector3};
 #[inline(always)]
 fn ray_stages<const TANGENT: bool>(
     o: &Prepared<'_>,
-    e: Option<&[Lane]>,
+    e: &[Lane; 6],
     delta: &mut [Lane; 6],
     scratch: &mut StageScratch,
     ne: &mut Normals3,
     tmax: &mut Lane,
 ) {
-    if let Some(e) = e {
-        o.noise.apply(e, delta);
-    }
+    o.noise.apply(e, delta);
     let StageScratch { cpos, dir, .. } = scratch;
     for i in 0..3 {
         for l in 0..LANES {
@@ -92,19 +90,21 @@ fn ray_stages<const TANGENT: bool>(
 #[inline(always)]
 fn ray_pass<const TANGENT: bool, const DIAGONAL: bool>(
     o: &Prepared<'_>,
-    e: Option<&[Lane]>,
+    e: &[Lane; 6],
     delta: &mut [Lane; 6],
     ne: &mut Normals3,
     tmax: &mut Lane,
 ) {
+    // The observer's constants as local values, loaded once.
+    let (c0, r, trig, noise) = (o.c, o.r, o.trig, o.noise);
     for l in 0..LANES {
-        let d = lane_delta::<DIAGONAL>(o, e, delta, l);
-        let c = std::array::from_fn(|i| o.c[i] + d[i]);
+        let d = lane_delta::<DIAGONAL>(&noise, e, delta, l);
+        let c = std::array::from_fn(|i| c0[i] + d[i]);
         let w = [d[3], d[4], d[5]];
         let (dir, t) = if TANGENT {
-            tangent_dir(&o.r, w)
+            tangent_dir(&r, w)
         } else {
-            euler_dir(&o.trig, w)
+            euler_dir(&trig, w)
         };
         keep_max(&mut tmax[l], t);
         ne.add_ray_lane(l, dir, c);
@@ -112,42 +112,46 @@ fn ray_pass<const TANGENT: bool, const DIAGONAL: bool>(
 }
 
 /// One observer with image coordinates (`x`, `y` per lane: pixel noise, or a fixed camera's
-/// undistorted observation) fused over the block: per lane its `δ` (from the normal rows `e`,
-/// or read from `delta` when drawn from the chain), the perturbed centre and its two DLT rows
-/// ([`view_rows`]) added to the normal equations (the same operations as [`view_stages`]).
+/// undistorted observation) fused over the block: per lane its `δ` (from the normal rows `e`),
+/// the perturbed centre and its two DLT rows ([`view_rows`]) added to the normal equations
+/// (the same operations as [`view_stages`]).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn view_pass<const TANGENT: bool, const DIAGONAL: bool>(
     o: &Prepared<'_>,
-    e: Option<&[Lane]>,
+    e: &[Lane; 6],
     delta: &mut [Lane; 6],
     x: &Lane,
     y: &Lane,
     ne: &mut Normals3,
     tmax: &mut Lane,
 ) {
+    // The observer's constants as local values, loaded once.
+    let (c0, r, trig, noise) = (o.c, o.r, o.trig, o.noise);
     for l in 0..LANES {
-        let d = lane_delta::<DIAGONAL>(o, e, delta, l);
-        let c = std::array::from_fn(|i| o.c[i] + d[i]);
-        let (a, b, t) = view_rows::<TANGENT>(o, [d[3], d[4], d[5]], x[l], y[l]);
+        let d = lane_delta::<DIAGONAL>(&noise, e, delta, l);
+        let c = std::array::from_fn(|i| c0[i] + d[i]);
+        let (a, b, t) = view_rows::<TANGENT>(&r, &trig, [d[3], d[4], d[5]], x[l], y[l]);
         keep_max(&mut tmax[l], t);
         ne.add_rows_lane(l, a, b, c);
     }
 }
 
-/// The two DLT rows of observer `o` turned by `w` (tangent: `R̄·Exp(w)`, [`tangent_rows`];
-/// else ω φ κ + w) at normalized coordinates `(x, y)`, and the largest squared angle.
+/// The two DLT rows of an observer (nominal rotation `r`, its ω φ κ `trig`) turned by `w`
+/// (tangent: `R̄·Exp(w)`, [`tangent_rows`]; else ω φ κ + w) at normalized coordinates
+/// `(x, y)`, and the largest squared angle.
 #[inline(always)]
 fn view_rows<const TANGENT: bool>(
-    o: &Prepared<'_>,
+    r: &[f64; 9],
+    trig: &Trig,
     w: [f64; 3],
     x: f64,
     y: f64,
 ) -> ([f64; 3], [f64; 3], f64) {
     if TANGENT {
-        tangent_rows(&o.r, w, x, y)
+        tangent_rows(r, w, x, y)
     } else {
-        let (r, t) = euler_rot(&o.trig, w);
+        let (r, t) = euler_rot(trig, w);
         let row = |obs: f64, col: usize| {
             std::array::from_fn(|i| obs.mul_add(r[3 * i + 2], -r[3 * i + col]))
         };
@@ -160,7 +164,7 @@ fn view_rows<const TANGENT: bool>(
 #[allow(clippy::too_many_arguments)]
 fn view_stages<const TANGENT: bool>(
     o: &Prepared<'_>,
-    e: Option<&[Lane]>,
+    e: &[Lane; 6],
     delta: &mut [Lane; 6],
     x: &Lane,
     y: &Lane,
@@ -168,9 +172,7 @@ fn view_stages<const TANGENT: bool>(
     ne: &mut Normals3,
     tmax: &mut Lane,
 ) {
-    if let Some(e) = e {
-        o.noise.apply(e, delta);
-    }
+    o.noise.apply(e, delta);
     let StageScratch { cpos, rows, .. } = scratch;
     for i in 0..3 {
         for l in 0..LANES {
@@ -179,7 +181,7 @@ fn view_stages<const TANGENT: bool>(
     }
     for l in 0..LANES {
         let w = [delta[3][l], delta[4][l], delta[5][l]];
-        let (a, b, t) = view_rows::<TANGENT>(o, w, x[l], y[l]);
+        let (a, b, t) = view_rows::<TANGENT>(&o.r, &o.trig, w, x[l], y[l]);
         for k in 0..3 {
             rows[k][l] = a[k];
             rows[3 + k][l] = b[k];
@@ -200,25 +202,19 @@ struct StageScratch {
     rows: [Lane; 6],
 }
 
-/// `δ` of lane `l`: `L·ε` from the rows `e` (stored into `delta` for [`exact_lane`]), or the
-/// chain-drawn `δ` already in `delta`.
+/// `δ = L·ε` of lane `l` from the rows `e`, stored into `delta` for [`exact_lane`].
 #[inline(always)]
 fn lane_delta<const DIAGONAL: bool>(
-    o: &Prepared<'_>,
-    e: Option<&[Lane]>,
+    noise: &NoiseFactor,
+    e: &[Lane; 6],
     delta: &mut [Lane; 6],
     l: usize,
 ) -> [f64; 6] {
-    match e {
-        Some(e) => {
-            let d = o.noise.delta_lane::<DIAGONAL>(e, l);
-            for i in 0..6 {
-                delta[i][l] = d[i];
-            }
-            d
-        }
-        None => std::array::from_fn(|i| delta[i][l]),
+    let d = noise.delta_lane::<DIAGONAL>(e, l);
+    for i in 0..6 {
+        delta[i][l] = d[i];
     }
+    d
 }
 
 /// One observer aimed at one grid point.
@@ -616,8 +612,13 @@ fn observer_pass(
         ..
     } = s;
     let delta = &mut delta[j];
-    let e = o.row.map(|r| &rows[r..r + 6]);
     let chain = o.source.zip(shared).map(|(i, c)| (&c.v[i], &c.world[i]));
+    // An observer not drawn from the chain has its six rows (a fixed-size array: no bounds
+    // check in the lane loops, which would keep them from vectorising).
+    let e: &[Lane; 6] = match (chain, o.row) {
+        (None, Some(r)) => rows[r..r + 6].try_into().expect("six rows"),
+        _ => &[[0.0; LANES]; 6],
+    };
     if let Observation::Ray = o.observation {
         if let Some((dc, world)) = chain {
             ray_chain_pass(o, dc, world, ne);
@@ -666,9 +667,9 @@ fn observer_pass(
 /// rotation error, `dc` and `world` its lanes), added to the normal equations.
 #[inline(always)]
 fn ray_chain_pass(o: &Prepared<'_>, dc: &[Lane; 6], world: &[Lane; 9], ne: &mut Normals3) {
-    let d0 = [o.r[2], o.r[5], o.r[8]];
+    let (d0, c0) = ([o.r[2], o.r[5], o.r[8]], o.c);
     for l in 0..LANES {
-        let c = std::array::from_fn(|i| o.c[i] + dc[i][l]);
+        let c = std::array::from_fn(|i| c0[i] + dc[i][l]);
         let dir = std::array::from_fn(|i| {
             let (a, b, cc) = (world[3 * i][l], world[3 * i + 1][l], world[3 * i + 2][l]);
             a.mul_add(d0[0], b.mul_add(d0[1], cc * d0[2]))
@@ -688,9 +689,9 @@ fn view_chain_pass(
     y: &Lane,
     ne: &mut Normals3,
 ) {
-    let r = &o.r;
+    let (r, c0) = (o.r, o.c);
     for l in 0..LANES {
-        let c = std::array::from_fn(|i| o.c[i] + dc[i][l]);
+        let c = std::array::from_fn(|i| c0[i] + dc[i][l]);
         let turn = |obs: f64, col: usize| -> [f64; 3] {
             let u: [f64; 3] = std::array::from_fn(|i| obs.mul_add(r[3 * i + 2], -r[3 * i + col]));
             std::array::from_fn(|i| {

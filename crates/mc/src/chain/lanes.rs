@@ -366,7 +366,8 @@ impl Composer {
         *ok = [true; LANES];
         for &i in chain.order() {
             let p = &plan[i];
-            p.noise_factor.apply(&e[6 * i..6 * i + 6], delta);
+            let rows: &[Lane; 6] = e[6 * i..6 * i + 6].try_into().expect("six rows");
+            p.noise_factor.apply(rows, delta);
             // The link's perturbed pose, with the noise kind chosen outside the lane loop (a
             // `match` inside it kept the loop from vectorising).
             match p.noise {

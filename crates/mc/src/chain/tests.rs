@@ -335,7 +335,11 @@ fn tangent_only_propagation_matches_the_full_one() {
                 assert_eq!(f.position_mean_mm, t.position_mean_mm);
             } else {
                 let d = (f.covariance_tangent - t.covariance_tangent).abs().max();
-                assert!(d <= 1e-12 * f.covariance_tangent.abs().max(), "{}: {d}", f.name);
+                assert!(
+                    d <= 1e-12 * f.covariance_tangent.abs().max(),
+                    "{}: {d}",
+                    f.name
+                );
                 assert_ne!(f.covariance_tangent, t.covariance_tangent, "fallback lanes");
             }
         }

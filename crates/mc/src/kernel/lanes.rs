@@ -64,28 +64,52 @@ impl NoiseFactor {
         self
     }
 
-    /// `δ = L·ε` of lane `d` (the same operations as [`Self::apply`], so the same bits).
+    /// `δ = L·ε` of lane `d` (the same operations as [`Self::apply`], so the same bits),
+    /// written out: a loop over the triangle (`k ≤ i`) inside the caller's lane loop kept
+    /// LLVM from vectorising the lane loop (a nested loop whose trip count varies).
     #[inline(always)]
-    pub(crate) fn delta_lane<const DIAGONAL: bool>(&self, e: &[Lane], d: usize) -> [f64; 6] {
-        std::array::from_fn(|i| {
-            let li = &self.l[i];
-            if DIAGONAL {
-                li[i] * e[i][d]
-            } else {
-                let mut s = li[0] * e[0][d];
-                for k in 1..=i {
-                    s = li[k].mul_add(e[k][d], s);
-                }
-                s
-            }
-        })
+    pub(crate) fn delta_lane<const DIAGONAL: bool>(&self, e: &[Lane; 6], d: usize) -> [f64; 6] {
+        let l = &self.l;
+        let [e0, e1, e2, e3, e4, e5] = [e[0][d], e[1][d], e[2][d], e[3][d], e[4][d], e[5][d]];
+        if DIAGONAL {
+            return [
+                l[0][0] * e0,
+                l[1][1] * e1,
+                l[2][2] * e2,
+                l[3][3] * e3,
+                l[4][4] * e4,
+                l[5][5] * e5,
+            ];
+        }
+        // Row i: ((l_i0·e0 + l_i1·e1) + …) + l_ii·e_i, each step one fused multiply-add.
+        let f = |k: f64, e: f64, s: f64| k.mul_add(e, s);
+        [
+            l[0][0] * e0,
+            f(l[1][1], e1, l[1][0] * e0),
+            f(l[2][2], e2, f(l[2][1], e1, l[2][0] * e0)),
+            f(l[3][3], e3, f(l[3][2], e2, f(l[3][1], e1, l[3][0] * e0))),
+            f(
+                l[4][4],
+                e4,
+                f(l[4][3], e3, f(l[4][2], e2, f(l[4][1], e1, l[4][0] * e0))),
+            ),
+            f(
+                l[5][5],
+                e5,
+                f(
+                    l[5][4],
+                    e4,
+                    f(l[5][3], e3, f(l[5][2], e2, f(l[5][1], e1, l[5][0] * e0))),
+                ),
+            ),
+        ]
     }
 
     /// `δ = L·ε` per lane; `e` holds the six normal rows. Row `i` is `Σ_{k ≤ i} L_ik ε_k`
     /// summed in k order by fused multiply-adds (with a diagonal factor the other terms are
     /// zeros, so both forms give the same bits for non-zero σ).
     #[inline(always)]
-    pub(crate) fn apply(&self, e: &[Lane], out: &mut [Lane; 6]) {
+    pub(crate) fn apply(&self, e: &[Lane; 6], out: &mut [Lane; 6]) {
         if self.diagonal {
             for i in 0..6 {
                 let li = self.l[i][i];
@@ -309,7 +333,9 @@ pub(crate) fn tangent_rows(r: &[f64; 9], w: [f64; 3], x: f64, y: f64) -> ([f64; 
         s.mul_add(-wx, cb.mul_add(wz, k * y)),
     ];
     let turn = |v: [f64; 3]| {
-        std::array::from_fn(|i| r[3 * i].mul_add(v[0], r[3 * i + 1].mul_add(v[1], r[3 * i + 2] * v[2])))
+        std::array::from_fn(|i| {
+            r[3 * i].mul_add(v[0], r[3 * i + 1].mul_add(v[1], r[3 * i + 2] * v[2]))
+        })
     };
     (turn(va), turn(vb), t)
 }
@@ -369,10 +395,10 @@ mod tests {
     use super::*;
 
     /// Normal rows with distinct, irregular values (no two products alike).
-    fn rows() -> Vec<Lane> {
-        (0..6)
-            .map(|i| std::array::from_fn(|d| ((i * 64 + d) as f64 * 0.618_033_988_7).sin() * 3.1))
-            .collect()
+    fn rows() -> [Lane; 6] {
+        std::array::from_fn(|i| {
+            std::array::from_fn(|d| ((i * 64 + d) as f64 * 0.618_033_988_7).sin() * 3.1)
+        })
     }
 
     #[test]
