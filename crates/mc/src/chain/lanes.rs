@@ -47,7 +47,7 @@ fn atan_over_z(t: f64) -> f64 {
     ];
     let mut p = C[0];
     for &k in &C[1..] {
-        p = p * t + k;
+        p = p.mul_add(t, k);
     }
     p
 }
@@ -168,7 +168,9 @@ impl CamLanes {
     }
 
     /// Adds lanes `0..b` of `v` (6 rows; without `ANGLES` only the centre, rows 0–2, and no
-    /// products) and `th` (3 rows).
+    /// products) and `th` (3 rows), products by fused multiply-adds. The centre–centre
+    /// products are the same in both sums: with `ANGLES` they are summed once, in `s2`
+    /// ([`Self::reduce`] copies them).
     #[inline(always)]
     fn add<const ANGLES: bool>(&mut self, v: &[Lane; 6], th: &[Lane; 3], b: usize) {
         for i in 0..if ANGLES { 6 } else { 3 } {
@@ -180,8 +182,9 @@ impl CamLanes {
         for i in 0..6 {
             for j in i..6 {
                 if ANGLES {
+                    let (vi, vj, s) = (&v[i], &v[j], &mut self.s2[k]);
                     for l in 0..b.min(LANES) {
-                        self.s2[k][l] += v[i][l] * v[j][l];
+                        s[l] = vi[l].mul_add(vj[l], s[l]);
                     }
                 }
                 k += 1;
@@ -192,26 +195,32 @@ impl CamLanes {
                 self.t1[i][l] += th[i][l];
             }
         }
-        let u = |i: usize, l: usize| if i < 3 { v[i][l] } else { th[i - 3][l] };
+        let u = |i: usize| if i < 3 { &v[i] } else { &th[i - 3] };
         let mut k = 0;
         for i in 0..6 {
             for j in i..6 {
-                for l in 0..b.min(LANES) {
-                    self.u2[k][l] += u(i, l) * u(j, l);
+                if !(ANGLES && j < 3) {
+                    let (ui, uj, s) = (u(i), u(j), &mut self.u2[k]);
+                    for l in 0..b.min(LANES) {
+                        s[l] = ui[l].mul_add(uj[l], s[l]);
+                    }
                 }
                 k += 1;
             }
         }
     }
 
-    fn reduce(&self, n: u64) -> CamSums {
+    fn reduce<const ANGLES: bool>(&self, n: u64) -> CamSums {
         let sum = |r: &Lane| r.iter().sum::<f64>();
+        let s2: [f64; 21] = std::array::from_fn(|k| sum(&self.s2[k]));
+        // The centre–centre entries (k of i ≤ j < 3: 0, 1, 2, 6, 7, 11) of `u2` are `s2`'s.
+        let shared = |k: usize| ANGLES && matches!(k, 0 | 1 | 2 | 6 | 7 | 11);
         CamSums {
             n,
             s1: std::array::from_fn(|k| sum(&self.s1[k])),
-            s2: std::array::from_fn(|k| sum(&self.s2[k])),
+            s2,
             t1: std::array::from_fn(|k| sum(&self.t1[k])),
-            u2: std::array::from_fn(|k| sum(&self.u2[k])),
+            u2: std::array::from_fn(|k| if shared(k) { s2[k] } else { sum(&self.u2[k]) }),
         }
     }
 }
@@ -251,7 +260,7 @@ pub(crate) fn run_task<const ANGLES: bool>(
         }
         done += b;
     }
-    lanes.iter().map(|c| c.reduce(m as u64)).collect()
+    lanes.iter().map(|c| c.reduce::<ANGLES>(m as u64)).collect()
 }
 
 /// The vectorised composition of a chain over a block of joint draws, with its lane arrays
@@ -476,7 +485,8 @@ fn compose_lanes(parent: &PoseLanes, link: &PoseLanes, own: &mut PoseLanes) {
         let (a0, a1, a2) = (&rp[3 * k], &rp[3 * k + 1], &rp[3 * k + 2]);
         let (pc, c) = (&parent.c[k], &mut own.c[k]);
         for l in 0..LANES {
-            c[l] = pc[l] + (a0[l] * link.c[0][l] + a1[l] * link.c[1][l] + a2[l] * link.c[2][l]);
+            c[l] = pc[l]
+                + a0[l].mul_add(link.c[0][l], a1[l].mul_add(link.c[1][l], a2[l] * link.c[2][l]));
         }
     }
     for k in 0..9 {
@@ -485,7 +495,7 @@ fn compose_lanes(parent: &PoseLanes, link: &PoseLanes, own: &mut PoseLanes) {
         let (b0, b1, b2) = (&rl[j], &rl[3 + j], &rl[6 + j]);
         let r = &mut own.r[k];
         for l in 0..LANES {
-            r[l] = a0[l] * b0[l] + a1[l] * b1[l] + a2[l] * b2[l];
+            r[l] = a0[l].mul_add(b0[l], a1[l].mul_add(b1[l], a2[l] * b2[l]));
         }
     }
 }
@@ -522,7 +532,8 @@ fn errors<const ANGLES: bool>(
         }
         // Body-axis error: M = R̄ᵀR, v = ½(M − Mᵀ)∨, θ = atan2(|v|, (tr M − 1)/2)·v/|v|.
         let mt = |i: usize, j: usize| {
-            rn[i] * r[j] + rn[3 + i] * r[3 + j] + rn[6 + i] * r[6 + j] // (R̄ᵀR)_ij
+            // (R̄ᵀR)_ij
+            rn[i].mul_add(r[j], rn[3 + i].mul_add(r[3 + j], rn[6 + i] * r[6 + j]))
         };
         let w = [
             0.5 * (mt(2, 1) - mt(1, 2)),
@@ -530,10 +541,12 @@ fn errors<const ANGLES: bool>(
             0.5 * (mt(1, 0) - mt(0, 1)),
         ];
         let cos = 0.5 * (mt(0, 0) + mt(1, 1) + mt(2, 2) - 1.0);
-        let s2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
-        let t = s2 / (cos * cos);
+        let s2 = w[0].mul_add(w[0], w[1].mul_add(w[1], w[2] * w[2]));
+        // One division: t = |v|²/cos², f = atan(√t)/√t / cos.
+        let inv = 1.0 / cos;
+        let t = s2 * (inv * inv);
         lok &= cos > 0.0 && t < ATAN_Z_MAX * ATAN_Z_MAX;
-        let f = atan_over_z(t) / cos;
+        let f = atan_over_z(t) * inv;
         for k in 0..3 {
             th[k][l] = w[k] * f;
         }
