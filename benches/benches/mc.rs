@@ -110,7 +110,8 @@ struct RealMap {
 
 impl RealMap {
     fn new(samples: usize) -> Self {
-        let sc = Scenario::from_toml_str(&real_map(), Path::new("real_map.toml")).expect("scenario");
+        let sc =
+            Scenario::from_toml_str(&real_map(), Path::new("real_map.toml")).expect("scenario");
         let study = GridStudy::new(&sc, 0, 0).expect("study");
         let independent = study.independent();
         RealMap {

@@ -377,4 +377,4 @@ impl GroupSink for JointSink {
 }
 
 #[cfg(test)]
-pub(crate) mod tests;
+mod tests;

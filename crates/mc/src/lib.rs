@@ -242,6 +242,8 @@ mod result;
 #[cfg(feature = "scenario")]
 mod scenario;
 mod schedule;
+#[cfg(test)]
+mod testdata;
 mod view;
 
 pub use chain::{CameraId, Chain, ChainBuilder, PoseLinear, PoseMc, WorldPose};

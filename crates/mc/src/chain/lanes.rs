@@ -486,7 +486,10 @@ fn compose_lanes(parent: &PoseLanes, link: &PoseLanes, own: &mut PoseLanes) {
         let (pc, c) = (&parent.c[k], &mut own.c[k]);
         for l in 0..LANES {
             c[l] = pc[l]
-                + a0[l].mul_add(link.c[0][l], a1[l].mul_add(link.c[1][l], a2[l] * link.c[2][l]));
+                + a0[l].mul_add(
+                    link.c[0][l],
+                    a1[l].mul_add(link.c[1][l], a2[l] * link.c[2][l]),
+                );
         }
     }
     for k in 0..9 {

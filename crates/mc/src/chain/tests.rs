@@ -317,7 +317,7 @@ fn chain_legacy_and_simd_agree_statistically_including_fallback_lanes() {
 #[test]
 fn tangent_only_propagation_matches_the_full_one() {
     let real = Scenario::from_toml_str(
-        &crate::joint::tests::repo_file("benches/real_map.toml"),
+        &crate::testdata::repo_file("benches/real_map.toml"),
         Path::new("real_map.toml"),
     )
     .unwrap();

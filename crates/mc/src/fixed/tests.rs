@@ -887,7 +887,7 @@ fn fixed_undistort_lanes_matches_camera_crate_with_fix_up() {
 #[test]
 fn fixed_undistort_lanes_need_no_fix_up_at_half_a_pixel() {
     // The observers' pose noise does not enter the undistortion: given σ instead of the chain.
-    let real = crate::joint::tests::repo_file("benches/real_map.toml")
+    let real = crate::testdata::repo_file("benches/real_map.toml")
         .replace(
             "sigma_from = \"cam2\"",
             "sigma_position_mm = [1.0, 1.0, 1.0]\nsigma_angles_deg = [0.01, 0.01, 0.01]",

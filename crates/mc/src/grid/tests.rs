@@ -929,11 +929,12 @@ fn cancelled_runs_return_cancelled_and_stop_working() {
 #[test]
 fn every_selection_and_thread_count_gives_the_whole_maps_bits() {
     let aimed = Scenario::from_toml_str(
-        &crate::joint::tests::repo_file("fixtures/scenarios/three_cameras_correlated.toml"),
+        &crate::testdata::repo_file("fixtures/scenarios/three_cameras_correlated.toml"),
         Path::new("c.toml"),
     )
     .unwrap();
-    let fixed = crate::joint::tests::real_map_small();
+    let fixed =
+        Scenario::from_toml_str(&crate::testdata::real_map_small(), Path::new("r.toml")).unwrap();
     let pool = |t: usize| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(t)

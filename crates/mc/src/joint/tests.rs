@@ -3,20 +3,13 @@
 
 use super::*;
 use crate::grid::{INPUTS_PER_OBSERVER, intersect_perturbed};
+use crate::testdata::{real_map_small, repo_file};
 use crate::{GridStudy, Scenario};
 use approx::assert_abs_diff_eq;
 use std::path::Path;
 
 fn scenario(text: &str) -> Scenario {
     Scenario::from_toml_str(text, Path::new("joint.toml")).unwrap()
-}
-
-/// A file of the repository (the bundled scenarios).
-pub(crate) fn repo_file(rel: &str) -> String {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .join(rel);
-    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
 /// Two observers hanging off one root that carries all the noise (1 mm of position), drawn
@@ -102,15 +95,6 @@ fn rigid_shared_shift_cancels_in_every_distance() {
     }
 }
 
-/// The real-study map's layout on a small grid: a chain with full covariances, fixed OPENCV
-/// cameras with pixel noise and aimed observers, all drawn jointly from the chain.
-pub(crate) fn real_map_small() -> Scenario {
-    let text = repo_file("benches/real_map.toml")
-        .replace("x_mm = [400.0, 2000.0, 17]", "x_mm = [800.0, 1600.0, 5]")
-        .replace("y_mm = [-600.0, 600.0, 13]", "y_mm = [-300.0, 300.0, 5]");
-    scenario(&text)
-}
-
 #[test]
 fn joint_marginals_are_the_maps_points() {
     // The joint run draws each point exactly as the map does (its own stream and the shared
@@ -121,7 +105,7 @@ fn joint_marginals_are_the_maps_points() {
         "fixtures/scenarios/three_cameras_correlated.toml",
     ));
     let n = 3 * crate::CHUNK + 17;
-    for sc in [aimed, real_map_small()] {
+    for sc in [aimed, scenario(&real_map_small())] {
         let study = GridStudy::new(&sc, 2000, 1).unwrap();
         for s in [study.clone(), study.independent()] {
             let map = s.run(&RunOptions::samples(n, 4), None).unwrap();

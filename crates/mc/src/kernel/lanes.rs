@@ -303,7 +303,10 @@ pub(crate) fn tangent_rot(r: &[f64; 9], w: [f64; 3]) -> ([f64; 9], f64) {
     ];
     let rot = std::array::from_fn(|k| {
         let (i, j) = (k / 3, k % 3);
-        r[3 * i].mul_add(e[j], r[3 * i + 1].mul_add(e[3 + j], r[3 * i + 2] * e[6 + j]))
+        r[3 * i].mul_add(
+            e[j],
+            r[3 * i + 1].mul_add(e[3 + j], r[3 * i + 2] * e[6 + j]),
+        )
     });
     (rot, t)
 }
