@@ -252,7 +252,7 @@ pub(crate) struct Ctx {
 }
 
 /// How an observer's image observation enters a draw.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub(crate) enum Observation<'a> {
     /// At the principal point, no pixel noise: the ray form ([`ray_pass`]).
     Ray,
@@ -261,7 +261,7 @@ pub(crate) enum Observation<'a> {
     Normalized(f64),
     /// Through a real lens (a fixed camera): the true pixel plus `N(0, σ_px)` per axis,
     /// undistorted per lane ([`crate::view::undistort_lanes`]), then the two DLT rows.
-    Lens(View<'a>),
+    Lens(Box<View<'a>>),
 }
 
 /// An observer ready for the block kernel.
