@@ -957,3 +957,34 @@ fn every_selection_and_thread_count_gives_the_whole_maps_bits() {
         }
     }
 }
+
+/// The adaptive rule draws the same replicates as a fixed number of draws: batch b of point p
+/// is task `p·2²⁴ + b` with replicates `b·batch ..` (the map's chain draw of each replicate in
+/// correlated mode), so with batches of one chunk, stopping at `max_samples`, it gives the
+/// fixed run's statistics bit for bit (aimed and fixed observers, correlated).
+#[test]
+fn adaptive_batches_of_a_chunk_are_the_fixed_runs_draws() {
+    let aimed = Scenario::from_toml_str(
+        &crate::testdata::repo_file("fixtures/scenarios/three_cameras_correlated.toml"),
+        Path::new("c.toml"),
+    )
+    .unwrap();
+    let fixed =
+        Scenario::from_toml_str(&crate::testdata::real_map_small(), Path::new("r.toml")).unwrap();
+    let n = ADAPTIVE_MIN_BATCHES * crate::CHUNK;
+    for sc in [aimed, fixed] {
+        let study = GridStudy::new(&sc, 2000, 1)
+            .unwrap()
+            .with_points(3..9)
+            .unwrap();
+        let fixed_run = study.run(&crate::RunOptions::samples(n, 5), None).unwrap();
+        // A tolerance no batch meets: every point stops at max_samples.
+        let ad = adaptive(crate::Tolerance::AbsoluteMm(1e-6), crate::CHUNK, n);
+        let adaptive_run = study.run(&crate::RunOptions::adaptive(ad, 5), None).unwrap();
+        assert!(adaptive_run.correlated);
+        for (a, f) in adaptive_run.points.iter().zip(&fixed_run.points) {
+            assert_eq!(a.converged, Some(false));
+            assert_eq!((a.count, a.mean_mm, a.covariance), (f.count, f.mean_mm, f.covariance));
+        }
+    }
+}
