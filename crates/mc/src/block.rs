@@ -252,7 +252,10 @@ pub(crate) struct Ctx {
 }
 
 /// How an observer's image observation enters a draw.
-#[derive(Debug, Clone)]
+// The lens by value: boxing it (clippy's advice for the variant sizes) made the aimed grid's
+// command 10 % slower (`four_cameras_z0`, 3 × alternated, user CPU 0.57 s against 0.51 s).
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, Copy)]
 pub(crate) enum Observation<'a> {
     /// At the principal point, no pixel noise: the ray form ([`ray_pass`]).
     Ray,
@@ -261,7 +264,7 @@ pub(crate) enum Observation<'a> {
     Normalized(f64),
     /// Through a real lens (a fixed camera): the true pixel plus `N(0, σ_px)` per axis,
     /// undistorted per lane ([`crate::view::undistort_lanes`]), then the two DLT rows.
-    Lens(Box<View<'a>>),
+    Lens(View<'a>),
 }
 
 /// An observer ready for the block kernel.

@@ -185,7 +185,7 @@ fn spec<'a>(v: &View<'a>, chain: Option<&Chain>, pixel: Option<f64>) -> Observer
         tangent: !v.euler,
         source,
         observation: match v.full_lens {
-            Some(_) => Observation::Lens(Box::new(*v)),
+            Some(_) => Observation::Lens(*v),
             None => pixel.map_or(Observation::Ray, Observation::Normalized),
         },
     }
