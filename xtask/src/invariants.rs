@@ -1,8 +1,9 @@
 //! The code-shape invariants of docs/ARCHITECTURE.md ("Invariants"), checked by `cargo xtask
 //! tidy` and its tests: no function over [`MAX_FN_LINES`] lines outside tests, no environment
-//! variable read in a library crate, every CLI command module under [`MAX_CMD_LINES`] lines,
-//! no `json!` literal in a library crate outside tests (a JSON document is a serde struct of
-//! the crate's `contract` module), and no import cycle between the top-level modules of a crate.
+//! variable read in a library crate, no library printing to the terminal, every CLI command
+//! module under [`MAX_CMD_LINES`] lines, no `json!` literal in a library crate outside tests (a
+//! JSON document is a serde struct of the crate's `contract` module), and no import cycle
+//! between the top-level modules of a crate.
 //!
 //! The scanner reads rustfmt-formatted source line by line: a function runs from its `fn` line
 //! to the `}` at the same indentation; a file's tests start at a top-level `#[cfg(test)]`.
@@ -27,6 +28,12 @@ pub const ENV_ALLOWED: &[(&str, &str)] = &[
     ("crates/outdir/src/lib.rs", "CRASHRIG_OUTDIR_FAULT"),
 ];
 
+/// Library files that may print to the terminal: `(file, why)`.
+pub const PRINT_ALLOWED: &[(&str, &str)] = &[
+    // The signal thread's one line when an interrupted run removed its unfinished output.
+    ("crates/outdir/src/lib.rs", "interrupted"),
+];
+
 /// CLI command modules over [`MAX_CMD_LINES`] still to be moved into their libraries.
 pub const CMD_ALLOWED: &[&str] = &[];
 
@@ -45,6 +52,7 @@ pub fn check(root: &Path) -> Result<Vec<String>> {
     let sources = crate_sources(root)?;
     let mut p = check_function_length(root, &sources);
     p.extend(check_env_reads(&sources));
+    p.extend(check_prints(&sources));
     p.extend(check_cli_commands(&sources));
     p.extend(check_json_literals(root, &sources));
     p.extend(check_module_cycles(&sources));
@@ -228,6 +236,40 @@ pub fn check_env_reads(sources: &[Source]) -> Vec<String> {
         .map(|(s, line, _)| {
             format!(
                 "{}:{line}: a library reads an environment variable (take it as an argument)",
+                s.rel
+            )
+        })
+        .collect()
+}
+
+/// No `print!` / `println!` / `eprint!` / `eprintln!` in a library crate outside tests, except
+/// [`PRINT_ALLOWED`]: libraries return typed values and the bytes of their files, and only the
+/// front ends (the CLI, Python) decide what reaches the terminal.
+pub fn check_prints(sources: &[Source]) -> Vec<String> {
+    let prints = |code: &str| {
+        ["print!(", "println!(", "eprint!(", "eprintln!("]
+            .iter()
+            .any(|m| {
+                code.match_indices(m).any(|(i, _)| {
+                    i == 0 || !code[..i].ends_with(|c: char| c.is_alphanumeric() || c == '_')
+                })
+            })
+    };
+    // A module file named `tests.rs` or `*_tests.rs` is a test module (`#[cfg(test)] mod
+    // tests;` in its parent).
+    let test_file = |s: &Source| {
+        s.in_src
+            .file_name()
+            .and_then(|n| n.to_str())
+            .is_some_and(|n| n == "tests.rs" || n.ends_with("_tests.rs"))
+    };
+    library_code(sources)
+        .filter(|(s, _, code)| {
+            prints(code) && !test_file(s) && !PRINT_ALLOWED.iter().any(|(p, _)| *p == s.rel)
+        })
+        .map(|(s, line, _)| {
+            format!(
+                "{}:{line}: a library prints (return the text or a warning to the front end)",
                 s.rel
             )
         })
@@ -476,6 +518,24 @@ mod tests {
             t.problems(),
             [
                 "crates/k/src/a.rs:3: a library reads an environment variable (take it as an argument)"
+            ]
+        );
+    }
+
+    #[test]
+    fn a_print_is_caught_in_a_library_not_in_the_cli_nor_in_tests_or_docs() {
+        let text = "//! k\n/// println!(\"doc\")\nfn f() {\n    eprintln!(\"x\");\n    my_println!(\"y\");\n}\n#[cfg(test)]\nmod tests {\n    fn t() { println!(\"t\"); }\n}\n";
+        let t = Tree::new(
+            "print",
+            &[
+                ("crates/k/src/a.rs", text),
+                ("crates/cli/src/main.rs", text),
+            ],
+        );
+        assert_eq!(
+            t.problems(),
+            [
+                "crates/k/src/a.rs:4: a library prints (return the text or a warning to the front end)"
             ]
         );
     }

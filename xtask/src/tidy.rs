@@ -1,4 +1,5 @@
-//! Checks that must always hold: the dependency DAG, module docs, the ARCHITECTURE code map.
+//! Checks that must always hold: the dependency DAG, the lean builds a dependent may choose,
+//! module docs, the ARCHITECTURE code map.
 //!
 //! Run by `cargo xtask tidy` and, through the tests at the bottom, by plain `cargo test`.
 
@@ -15,9 +16,15 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
     ("crashrig-plot", &[]),
     ("crashrig-camera", &[]),
     ("crashrig-outdir", &[]),
+    ("crashrig-input", &["crashrig-geometry"]),
     (
         "crashrig-colmap",
-        &["crashrig-geometry", "crashrig-camera", "crashrig-outdir"],
+        &[
+            "crashrig-geometry",
+            "crashrig-camera",
+            "crashrig-input",
+            "crashrig-outdir",
+        ],
     ),
     ("crashrig-rig", &["crashrig-geometry", "crashrig-stats"]),
     (
@@ -31,6 +38,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-geometry",
             "crashrig-camera",
             "crashrig-colmap",
+            "crashrig-input",
             "crashrig-stats",
         ],
     ),
@@ -41,6 +49,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-geometry",
             "crashrig-camera",
             "crashrig-colmap",
+            "crashrig-input",
             "crashrig-stats",
         ],
     ),
@@ -50,6 +59,18 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-geometry",
             "crashrig-camera",
             "crashrig-colmap",
+            "crashrig-input",
+            "crashrig-stats",
+            "crashrig-plot",
+            "crashrig-outdir",
+        ],
+    ),
+    (
+        "crashrig-grid",
+        &[
+            "crashrig-geometry",
+            "crashrig-input",
+            "crashrig-mc",
             "crashrig-stats",
             "crashrig-plot",
             "crashrig-outdir",
@@ -59,6 +80,8 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
         "crashrig-study",
         &[
             "crashrig-geometry",
+            "crashrig-grid",
+            "crashrig-input",
             "crashrig-camera",
             "crashrig-colmap",
             "crashrig-rig",
@@ -77,16 +100,28 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
         &[
             "crashrig-mc",
             "crashrig-stats",
-            "crashrig-study",
+            "crashrig-grid",
             "crashrig-outdir",
+        ],
+    ),
+    (
+        "crashrig-merge",
+        &[
+            "crashrig-grid",
             "crashrig-measure",
+            "crashrig-place",
+            "crashrig-outdir",
+            "crashrig-stats",
         ],
     ),
     (
         "crashrig-cli",
         &[
+            "crashrig-merge",
             "crashrig-place",
             "crashrig-geometry",
+            "crashrig-grid",
+            "crashrig-input",
             "crashrig-stats",
             "crashrig-camera",
             "crashrig-colmap",
@@ -105,6 +140,8 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
         "crashrig-python",
         &[
             "crashrig-geometry",
+            "crashrig-grid",
+            "crashrig-input",
             "crashrig-stats",
             "crashrig-camera",
             "crashrig-colmap",
@@ -115,6 +152,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-covariance",
             "crashrig-outdir",
             "crashrig-place",
+            "crashrig-merge",
         ],
     ),
     (
@@ -132,9 +170,47 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
     ("xtask", &[]),
 ];
 
+/// Builds a dependent may choose and the packages their normal dependency tree must not hold
+/// (`cargo tree -e normal`): (package, cargo arguments, forbidden packages, the invariant of
+/// docs/ARCHITECTURE.md it keeps).
+pub const LEAN_BUILDS: &[(&str, &[&str], &[&str], &str)] = &[
+    (
+        "crashrig-mc",
+        &["--no-default-features"],
+        &[
+            "toml",
+            "serde_json",
+            "crashrig-colmap",
+            "crashrig-input",
+            "rusqlite",
+            "libsqlite3-sys",
+        ],
+        "the engine alone builds without its scenario reader",
+    ),
+    (
+        "crashrig-colmap",
+        &["--no-default-features"],
+        &["rusqlite", "libsqlite3-sys"],
+        "the model reader builds without SQLite",
+    ),
+    (
+        "crashrig-geometry",
+        &[],
+        &["serde_json", "toml", "csv", "rusqlite", "crashrig-input"],
+        "geometry knows no file format",
+    ),
+    (
+        "crashrig-input",
+        &["--no-default-features"],
+        &["serde_json", "crashrig-geometry"],
+        "the edge helpers without `json` are std and thiserror alone",
+    ),
+];
+
 /// Runs every check and returns the problems found (empty = tidy).
 pub fn check(root: &Path) -> Result<Vec<String>> {
     let mut problems = check_dag(root)?;
+    problems.extend(check_lean_builds(root)?);
     problems.extend(check_module_docs(root)?);
     problems.extend(check_code_map(root)?);
     problems.extend(crate::invariants::check(root)?);
@@ -227,6 +303,47 @@ pub fn check_dag(root: &Path) -> Result<Vec<String>> {
     Ok(problems)
 }
 
+/// Every build of [`LEAN_BUILDS`] leaves its forbidden packages out of its normal dependency
+/// tree (the tree cargo resolves for that package and those features, Cargo.lock offline).
+pub fn check_lean_builds(root: &Path) -> Result<Vec<String>> {
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let mut problems = Vec::new();
+    for (package, args, forbidden, invariant) in LEAN_BUILDS {
+        let out = Command::new(&cargo)
+            .current_dir(root)
+            .args([
+                "tree",
+                "--offline",
+                "-e",
+                "normal",
+                "--prefix",
+                "none",
+                "-p",
+                package,
+            ])
+            .args(*args)
+            .output()
+            .with_context(|| format!("running cargo tree -p {package}"))?;
+        anyhow::ensure!(
+            out.status.success(),
+            "cargo tree -p {package} failed: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let tree = String::from_utf8_lossy(&out.stdout);
+        let names: BTreeSet<&str> = tree
+            .lines()
+            .filter_map(|l| l.split_whitespace().next())
+            .collect();
+        for f in forbidden.iter().filter(|f| names.contains(*f)) {
+            problems.push(format!(
+                "`cargo tree -p {package} {}` holds `{f}`: {invariant} (docs/ARCHITECTURE.md)",
+                args.join(" ")
+            ));
+        }
+    }
+    Ok(problems)
+}
+
 /// Whether `from` reaches `target` through normal dependencies.
 fn reaches(edges: &Edges, from: &str, target: &str) -> bool {
     if from == target {
@@ -295,6 +412,32 @@ mod tests {
     fn tidy_dag_has_only_allowed_edges() {
         let problems = check_dag(&crate::project_root()).unwrap();
         assert!(problems.is_empty(), "{problems:#?}");
+    }
+
+    #[test]
+    fn tidy_lean_builds_leave_out_their_forbidden_packages() {
+        let problems = check_lean_builds(&crate::project_root()).unwrap();
+        assert!(problems.is_empty(), "{problems:#?}");
+        // The check sees what it forbids: the default build of mc holds toml.
+        let out = Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()))
+            .current_dir(crate::project_root())
+            .args([
+                "tree",
+                "--offline",
+                "-e",
+                "normal",
+                "--prefix",
+                "none",
+                "-p",
+                "crashrig-mc",
+            ])
+            .output()
+            .unwrap();
+        assert!(
+            String::from_utf8_lossy(&out.stdout)
+                .lines()
+                .any(|l| l.split_whitespace().next() == Some("toml"))
+        );
     }
 
     #[test]

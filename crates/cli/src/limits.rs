@@ -86,6 +86,16 @@ pub fn parse_camera(s: &str) -> Result<String, String> {
     }
 }
 
+/// clap value parser of an image name (`--image-a`, `colmap points --image` …): not empty or
+/// blank.
+pub fn parse_image_name(s: &str) -> Result<String, String> {
+    if s.trim().is_empty() {
+        Err("must name an image of the model (e.g. `cam_in/000001.png`)".into())
+    } else {
+        Ok(s.to_string())
+    }
+}
+
 /// clap value parser of `--threads`: 1 ..= [`MAX_THREADS`].
 pub fn parse_threads(s: &str) -> Result<usize, String> {
     let v: u128 = s
@@ -138,6 +148,8 @@ mod tests {
         assert!(parse_measure_samples("1000000000").is_err());
         assert!(parse_camera("").is_err() && parse_camera("  ").is_err());
         assert_eq!(parse_camera("cam_in/"), Ok("cam_in/".to_string()));
+        assert!(parse_image_name("").is_err() && parse_image_name(" ").is_err());
+        assert_eq!(parse_image_name("a.png"), Ok("a.png".to_string()));
         assert_eq!(parse_threads("1024"), Ok(1024));
         assert!(parse_threads("1025").is_err());
         assert!(parse_threads("0").is_err());

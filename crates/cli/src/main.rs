@@ -49,7 +49,7 @@ enum Command {
     /// Forward-intersection precision over a grid of the car interior (scenario TOML).
     Grid(cmd::grid::GridArgs),
     /// Marker trajectories with σ (position, displacement, velocity) from a crash-test sequence.
-    Measure(cmd::measure::MeasureArgs),
+    Measure(Box<cmd::measure::MeasureArgs>),
     /// The main job: reproduce the paper end to end from bundled fixtures, with a report.
     Paper(cmd::paper::PaperArgs),
     /// The whole study on your own COLMAP project (study file), with results.json and a report.
@@ -136,7 +136,7 @@ fn main() -> std::process::ExitCode {
         Command::Bootstrap(a) => cmd::bootstrap::run(a, &cli.global),
         Command::Propagate(a) => cmd::propagate::run(a, &cli.global),
         Command::Grid(a) => cmd::grid::run(a, &cli.global),
-        Command::Measure(a) => cmd::measure::run(a, &cli.global),
+        Command::Measure(a) => cmd::measure::run(*a, &cli.global),
         Command::Paper(a) => cmd::paper::run(a, &cli.global),
         Command::Study(a) => cmd::study::run(a, &cli.global),
         Command::Export(c) => cmd::export::run(c, &cli.global),

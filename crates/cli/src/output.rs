@@ -1,4 +1,4 @@
-//! Output helpers shared by the commands: JSON on stdout, atomic file writes.
+//! Output helpers shared by the commands: JSON and text on stdout, atomic file writes.
 
 use anyhow::Context;
 use std::io::Write;
@@ -68,6 +68,42 @@ pub fn write_all_or_none(dir: &Path, files: &[(String, Vec<u8>)]) -> anyhow::Res
         done.push(path);
     }
     Ok(())
+}
+
+/// Treats a closed stdout pipe as success (the reader went away), other errors as errors.
+pub fn quiet_pipe(r: std::io::Result<()>) -> anyhow::Result<()> {
+    match r {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => other.context("writing to stdout"),
+    }
+}
+
+/// Prints what a shard run (`grid`, `measure`, `place` with `--shard i/N`) wrote: with `json`
+/// its `shard.json`, else one line.
+pub fn print_shard(
+    m: &crashrig_outdir::shard::Manifest,
+    files: usize,
+    out: &Path,
+    json: bool,
+) -> anyhow::Result<()> {
+    if json {
+        return print_json(m);
+    }
+    let print = || -> std::io::Result<()> {
+        let mut w = std::io::stdout().lock();
+        writeln!(
+            w,
+            "shard {}: items {}..{} of {} in {:.3} s; wrote {files} files to {} (merge all {} with `crashrig merge`)",
+            m.shard,
+            m.items.start,
+            m.items.end,
+            m.items.total,
+            m.elapsed_s,
+            out.display(),
+            m.shard.count()
+        )
+    };
+    quiet_pipe(print())
 }
 
 /// Prints each of a library's warnings as one `warning: …` line on stderr.

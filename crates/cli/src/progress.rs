@@ -2,7 +2,7 @@
 //!
 //! The libraries report `(done, total)` through a [`crashrig_stats::progress::Monitor`] or a
 //! plain callback ([`crashrig_stats::progress::Progress`]; `study` adds a stage name:
-//! [`crashrig_study::pipeline::Progress`]); this module is the only place that draws. When
+//! [`crashrig_study::Progress`]); this module is the only place that draws. When
 //! stderr is not a terminal no callback is handed to the libraries at all.
 
 use std::io::IsTerminal;

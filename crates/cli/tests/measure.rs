@@ -488,3 +488,159 @@ fn export_refuses_bad_input_and_writes_nothing() {
     );
     one_error(&export(&m2, &["--test-number", "a/b"]), &["--test-number"]);
 }
+
+/// `--scale-bars` on the bundled sequence's three bars: `length_check.csv` with the contract's
+/// header (one line per epoch and bar), `summary.json`'s `length_check` with every field of the
+/// contract, one line per bar on stdout; the ISO-MME export of that output is unchanged.
+#[test]
+fn scale_bars_write_the_length_check() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("m");
+    let f = fixture();
+    let bars = f.join("scale_bars.csv").display().to_string();
+    let o = run(
+        &base_args(&out, &f.join("observations_scale_bars.csv")),
+        &["--scale-bars", &bars, "--mpe-mm", "0.5"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(stdout.matches("length check bar_").count(), 3, "{stdout}");
+    let csv = std::fs::read_to_string(out.join("length_check.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next(),
+        Some("epoch,bar,length_mm,measured_mm,error_mm,sigma_mm,z")
+    );
+    let first: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(&first[..3], ["000001", "bar_door", "300"]);
+    assert_eq!(csv.lines().count(), 1 + 50 * 3);
+    assert!(out.join("length_check.png").is_file() && out.join("length_check.svg").is_file());
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let bars = s["length_check"].as_array().unwrap();
+    assert_eq!(bars.len(), 3);
+    for key in [
+        "name",
+        "length_mm",
+        "epochs",
+        "mean_error_mm",
+        "rms_error_mm",
+        "max_abs_error_mm",
+        "coverage_2sigma",
+        "bias_z",
+        "scatter_ratio",
+        "verdict",
+        "within_mpe",
+    ] {
+        assert!(bars.iter().all(|b| b.get(key).is_some()), "{key}");
+    }
+    assert_eq!(bars[2]["name"], "bar_roof");
+    assert_eq!(bars[2]["epochs"], 50);
+    let files: Vec<&str> = s["files"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    assert!(files.contains(&"length_check.csv"), "{files:?}");
+
+    // The export reads the same directory as before.
+    let iso = tmp.path().join("iso");
+    let e = Command::new(env!("CARGO_BIN_EXE_crashrig"))
+        .args(["export", "iso-mme"])
+        .arg(&out)
+        .arg("--out")
+        .arg(&iso)
+        .args(["--test-number", "T37", "--json"])
+        .output()
+        .unwrap();
+    assert!(e.status.success(), "{}", stderr(&e));
+    let j: serde_json::Value = serde_json::from_slice(&e.stdout).unwrap();
+    assert_eq!(j["source"], "displacements.csv");
+}
+
+/// A bar that is not consistent is a `warning:` line naming the bar and the verdict, and its
+/// reason is in `summary.json`'s `warnings`: the tie's baseline 1 % long is a bias.
+#[test]
+fn an_inconsistent_scale_bar_is_a_warning() {
+    let tmp = tempfile::tempdir().unwrap();
+    let f = fixture();
+    let mut tie: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(f.join("tie.json")).unwrap()).unwrap();
+    for v in tie["base_mm"].as_array_mut().unwrap() {
+        *v = (v.as_f64().unwrap() * 1.01).into();
+    }
+    let tie_path = tmp.path().join("tie.json");
+    std::fs::write(&tie_path, serde_json::to_vec(&tie).unwrap()).unwrap();
+    let out = tmp.path().join("m");
+    let mut args = base_args(&out, &f.join("observations_scale_bars.csv"));
+    let k = args.iter().position(|a| a == "--tie").unwrap();
+    args[k + 1] = tie_path.display().to_string();
+    let bars = f.join("scale_bars.csv").display().to_string();
+    let k = args.iter().position(|a| a == "--samples").unwrap();
+    args[k + 1] = "1000".into();
+    let o = run(&args, &["--scale-bars", &bars]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    let roof: Vec<&str> = err
+        .lines()
+        .filter(|l| l.starts_with("warning: scale bar `bar_roof`"))
+        .collect();
+    assert_eq!(roof.len(), 1, "{err}");
+    assert!(roof[0].contains(": bias — "), "{err}");
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(s["length_check"][2]["verdict"], "bias");
+    let warnings = s["warnings"].as_array().unwrap();
+    assert!(
+        warnings
+            .iter()
+            .any(|w| format!("warning: {}", w.as_str().unwrap()) == roof[0]),
+        "{warnings:?}"
+    );
+}
+
+#[test]
+fn bad_scale_bars_are_one_error_line_and_nothing_written() {
+    let tmp = tempfile::tempdir().unwrap();
+    let f = fixture();
+    let out = tmp.path().join("out");
+    let bars = tmp.path().join("bars.csv");
+    std::fs::write(
+        &bars,
+        "name,marker_1,marker_2,length_mm,sigma_mm\nx,bar_door_1,nowhere,300,0.02\n",
+    )
+    .unwrap();
+    let args = base_args(&out, &f.join("observations_scale_bars.csv"));
+    let (bad, good) = (
+        bars.display().to_string(),
+        f.join("scale_bars.csv").display().to_string(),
+    );
+    let cases: [(Vec<&str>, String); 3] = [
+        (
+            vec!["--scale-bars", &bad],
+            format!("{}:2: marker_2 `nowhere`", bars.display()),
+        ),
+        (vec!["--mpe-mm", "1"], "--scale-bars".to_string()),
+        (
+            vec!["--scale-bars", &good, "--mpe-mm", "-1"],
+            "--mpe-mm: -1 is not a number > 0 (mm)".to_string(),
+        ),
+    ];
+    for (extra, needle) in cases {
+        let o = run(&args, &extra);
+        let err = stderr(&o);
+        assert!(!o.status.success(), "{extra:?}");
+        let lines: Vec<&str> = err.lines().filter(|l| !l.starts_with("warning:")).collect();
+        assert!(
+            lines[0].starts_with("error: ") && err.contains(&needle),
+            "{extra:?}: {err}"
+        );
+        // Ours are one line; clap's usage error (a flag without the one it needs) adds its
+        // usage lines.
+        if extra[0] == "--scale-bars" {
+            assert_eq!(lines.len(), 1, "{err}");
+        }
+        assert!(!out.exists(), "{extra:?}");
+    }
+}

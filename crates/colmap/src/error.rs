@@ -205,14 +205,25 @@ pub enum Error {
         /// The id asked for.
         id: u64,
     },
-    /// The model has no image of this name.
-    #[error("{}: image {name:?} is not in the model", path.display())]
+    /// The model has no image of this name (compared in Unicode normal form C).
+    #[error("{}: image {name:?} is not in the model{}", path.display(), nearest_text(nearest))]
     NoImage {
         /// The model directory.
         path: PathBuf,
         /// The name asked for.
         name: String,
+        /// The model's image names nearest to it ([`crate::Reconstruction::nearest_image_names`]).
+        nearest: Vec<String>,
     },
+}
+
+/// `; nearest: a, b` (empty without names).
+fn nearest_text(nearest: &[String]) -> String {
+    if nearest.is_empty() {
+        String::new()
+    } else {
+        format!("; nearest: {}", nearest.join(", "))
+    }
 }
 
 /// Shorthand for `Result<T, crashrig_colmap::Error>`.

@@ -34,8 +34,9 @@
 //! - [`Reconstruction::image_cam_from_world`], [`Reconstruction::image_by_name`]: poses.
 //! - [`database::Database::open`]: read-only access to `database.db` (keypoints, matches,
 //!   two-view geometries oriented as asked, rigs, frames, pose priors).
-//! - [`input_file::read_limited`]: the one reader of every input file of the workspace (a regular
-//!   file within a size limit; `/dev/zero`, FIFOs and directories are refused).
+//! - Every model file is read through [`crashrig_input::file::read_limited`] (a regular file
+//!   within [`crashrig_input::file::MAX_MODEL_FILE_BYTES`]; `/dev/zero`, FIFOs and directories
+//!   are refused).
 //! - [`fmt::g17`]: `%.17g` number formatting as COLMAP's text writer.
 //! - The entries of `crashrig colmap` (feature `commands`, on by default): [`info::model_info`],
 //!   [`info::database_info`], [`convert::convert`] and [`lookup::points`], each a typed result
@@ -81,7 +82,6 @@ mod error;
 pub mod fmt;
 #[cfg(feature = "commands")]
 pub mod info;
-pub mod input_file;
 pub mod lookup;
 mod raw_pose;
 mod reconstruction;

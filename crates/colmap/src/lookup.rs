@@ -148,6 +148,11 @@ pub fn points(dir: &Path, query: &PointsQuery) -> Result<Points> {
             .ok_or_else(|| Error::NoImage {
                 path: PathBuf::from(dir),
                 name: image.clone(),
+                nearest: model
+                    .nearest_image_names(image, 3)
+                    .into_iter()
+                    .map(|n| format!("{n:?}"))
+                    .collect(),
             }),
     }
 }

@@ -95,8 +95,8 @@ pub struct Reconstruction {
 }
 
 fn read_file(path: &Path) -> Result<Vec<u8>> {
-    use crate::input_file;
-    input_file::read_limited(path, input_file::MAX_MODEL_FILE_BYTES).map_err(|source| Error::Io {
+    use crashrig_input::file;
+    file::read_limited(path, file::MAX_MODEL_FILE_BYTES).map_err(|source| Error::Io {
         path: path.to_path_buf(),
         source,
     })
@@ -415,9 +415,34 @@ impl Reconstruction {
     pub fn image(&self, image_id: u32) -> Option<&Image> {
         self.image_idx.get(&image_id).map(|&i| &self.images[i])
     }
-    /// The first image with this exact name.
+    /// The first image with this name: the exact name, else the first whose name is equal in
+    /// Unicode normal form C (`Cópia` typed composed finds a name stored decomposed).
     pub fn image_by_name(&self, name: &str) -> Option<&Image> {
-        self.name_idx.get(name).map(|&i| &self.images[i])
+        if let Some(&i) = self.name_idx.get(name) {
+            return Some(&self.images[i]);
+        }
+        let want = crate::select::nfc(name);
+        self.images
+            .iter()
+            .find(|im| crate::select::nfc(&im.name) == want)
+    }
+
+    /// The names of the model's images nearest to `name` (Levenshtein distance in Unicode
+    /// normal form C, ties in file order), at most `shown`: for the error when
+    /// [`Reconstruction::image_by_name`] finds nothing.
+    pub fn nearest_image_names(&self, name: &str, shown: usize) -> Vec<&str> {
+        let want = crate::select::nfc(name);
+        let mut by_distance: Vec<(usize, usize, &str)> = self
+            .images
+            .iter()
+            .enumerate()
+            .map(|(k, im)| {
+                let d = strsim::levenshtein(&crate::select::nfc(&im.name), &want);
+                (d, k, im.name.as_str())
+            })
+            .collect();
+        by_distance.sort_unstable();
+        by_distance.into_iter().take(shown).map(|t| t.2).collect()
     }
     /// Names of images that COLMAP's text format cannot hold: a name containing ASCII
     /// whitespace (COLMAP and pycolmap read an `images.txt` name up to the first blank, and

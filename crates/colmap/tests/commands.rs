@@ -273,17 +273,22 @@ fn points_near_a_pixel_nearest_first() {
         "point3D_id", "x", "y", "z", "u", "v", "track", rows[0].point3d_id
     );
     assert!(text.starts_with(&head), "{text}");
+    // A name that is not in the model: the error names the model's nearest names (issue 36),
+    // the nearest first (one letter off).
+    let typo = format!("{name}x");
     let missing = PointsQuery::Near {
-        image: "no such image.png".into(),
+        image: typo.clone(),
         pixel,
         radius_px: 1.0,
     };
     let e = points(&dir, &missing).unwrap_err();
-    assert_eq!(
-        e.to_string(),
-        format!(
-            "{}: image \"no such image.png\" is not in the model",
+    let e = e.to_string();
+    assert!(
+        e.starts_with(&format!(
+            "{}: image {typo:?} is not in the model; nearest: {name:?}, \"",
             dir.display()
-        )
+        )),
+        "{e}"
     );
+    assert_eq!(e.matches(", \"").count(), 2, "three names: {e}");
 }

@@ -214,6 +214,16 @@ fn golden_every_camera_model_id() {
         m.image_by_name("image with spaces.png").map(|i| i.image_id),
         Some(3)
     );
+    // Issue 36: a name typed in another Unicode normal form finds it; none is suggested.
+    assert_eq!(
+        m.image_by_name("image with spaces.png\u{301}")
+            .map(|i| i.image_id),
+        None
+    );
+    assert_eq!(
+        m.nearest_image_names("image with space.png", 1),
+        vec!["image with spaces.png"]
+    );
     // ... but not COLMAP's text format: it is flagged, and only it.
     assert_eq!(m.names_unsafe_for_text(), vec!["image with spaces.png"]);
     let w = m.text_format_warning().expect("a warning");

@@ -31,6 +31,10 @@ pub struct CovarianceDocument {
     pub parameters: usize,
     /// The pixel σ used, px.
     pub pixel_sigma_px: f64,
+    /// Points left out because they lie on the projection centre of an image observing them;
+    /// absent when there is none.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub points_at_camera_centre: Vec<PointAtCentre>,
     /// Points of the model left out.
     pub points_left_out: usize,
     /// Redundancy `2·observations − parameters`.
@@ -52,6 +56,16 @@ pub struct EpochSigmas {
     pub sigma_angles_deg: [f64; 3],
     /// σ of the centre, mm.
     pub sigma_position_mm: [f64; 3],
+}
+
+/// One entry of [`CovarianceDocument::points_at_camera_centre`].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PointAtCentre {
+    /// The images on whose projection centre the point lies.
+    pub images: Vec<String>,
+    /// The point.
+    #[serde(rename = "point3D_id")]
+    pub point3d_id: u64,
 }
 
 /// [`CovarianceDocument::joint`].

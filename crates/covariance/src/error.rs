@@ -66,7 +66,7 @@ pub enum Error {
         problem: String,
     },
     /// Options of the command that do not fit together or are out of range, named as the front
-    /// end spells them ([`crashrig_geometry::options::Spelling`]).
+    /// end spells them ([`crashrig_input::options::Spelling`]).
     #[error("{0}")]
     Usage(String),
     /// The caller's [`crate::Monitor`] cancelled the call: nothing was returned.

@@ -7,14 +7,19 @@
 //!    Jacobians ([`jacobian`]). Unknowns: one pose per frame (images of a COLMAP ≥ 3.12 frame
 //!    share their rig's pose; each image's `sensor_from_rig` is held at its model value; a
 //!    legacy model has one frame per image), the free intrinsics of each camera
-//!    ([`Intrinsics`]), and every 3-D point seen by at least two registered images.
+//!    ([`Intrinsics`]), and every 3-D point seen by at least two registered images. A point
+//!    on the projection centre of an image observing it (closer than
+//!    [`CAMERA_CENTRE_FRACTION`] of the median viewing distance: its ray is undefined) is left
+//!    out with one warning ([`CovarianceResult::points_at_camera_centre`]).
 //! 2. The points are eliminated by the Schur complement one 3×3 block at a time (never a dense
 //!    point block): `S = U − Σⱼ Wⱼ Vⱼ⁻¹ Wⱼᵀ` over poses and intrinsics, dense (faer), memory
 //!    linear in the observations plus `S` itself.
 //! 3. The datum is the lab's control points: held fixed (`sigma_mm` 0) or with a prior
 //!    `N(model position, σ²)` per axis. Fewer than three non-collinear control points in any
-//!    connected part of the model, or any parameter left undetermined (a Jacobi-scaled Cholesky
-//!    pivot below 1e-11), is an [`Error`], never an infinite covariance.
+//!    connected part of the model, or any direction left undetermined (the Jacobi-scaled `S`'s
+//!    smallest eigenvalue below [`RANK_TOLERANCE`] (or `n·ε`) times its largest, the error
+//!    naming the unknowns it moves), is an [`Error`], never an infinite or arbitrary
+//!    covariance.
 //! 4. Intrinsics are marginalised: A's pose covariance is the pose block of `S⁻¹`.
 //! 5. The pixel σ is given, or the a-posteriori `σ̂₀ = sqrt(Σ r² / (2·n_obs − n_params))`.
 //!
@@ -56,6 +61,8 @@ pub mod synthetic;
 
 pub use control::{ControlPoint, ControlPoints, MAX_CONTROL_POINTS, read_control_points};
 pub use error::Error;
+pub use problem::{CAMERA_CENTRE_FRACTION, PointAtCameraCentre};
+pub use solve::RANK_TOLERANCE;
 
 use crashrig_colmap::{CameraSelector, Reconstruction};
 use crashrig_geometry::{Mat3, Mat6, Rigid3, UncertainPose, so3};
@@ -118,10 +125,10 @@ impl Scale {
     /// [`Error::Usage`] (names in `spelling`): neither or both given, a bar without its
     /// length or points, a factor out of range.
     pub fn from_options(
-        options: &crashrig_geometry::options::ScaleOptions,
-        spelling: crashrig_geometry::options::Spelling,
+        options: &crashrig_input::options::ScaleOptions,
+        spelling: crashrig_input::options::Spelling,
     ) -> Result<Scale, Error> {
-        use crashrig_geometry::options::GivenScale;
+        use crashrig_input::options::GivenScale;
         match options.required(spelling) {
             Ok(GivenScale::MmPerUnit(f)) => Ok(Scale::MmPerUnit(f)),
             Ok(GivenScale::ScaleBar { points, length_mm }) => {
@@ -204,6 +211,10 @@ pub struct CovarianceResult {
     /// Points of the model left out: seen by fewer than two registered images and not a
     /// control point (they carry no information on the poses).
     pub points_left_out: usize,
+    /// Points of the model left out because they lie on the projection centre of an image that
+    /// observes them (closer than [`CAMERA_CENTRE_FRACTION`] of the median viewing distance):
+    /// their rays there are undefined. Not counted in [`Self::points_left_out`].
+    pub points_at_camera_centre: Vec<PointAtCameraCentre>,
     /// Things the user should know (one line each).
     pub warnings: Vec<String>,
 }
@@ -414,6 +425,9 @@ fn covariance_in_phases(
         });
     }
     let mut warnings = Vec::new();
+    if let Some(w) = centre_warning(&p.at_camera_centre) {
+        warnings.push(w);
+    }
     if p.rejected > 0 {
         warnings.push(format!(
             "{} observation(s) cannot be projected at the model's estimate (behind the camera \
@@ -434,12 +448,53 @@ fn covariance_in_phases(
         mm_per_unit: options.mm_per_unit,
         frames: p.frames.len(),
         points_left_out: p.points_left_out,
+        points_at_camera_centre: p.at_camera_centre,
         warnings,
     })
 }
 
+/// Points listed in the warning about points on a camera centre before "and N more".
+const CENTRE_POINTS_SHOWN: usize = 5;
+
+/// The one warning line about points left out because they lie on a camera centre: their ids
+/// and images (the first [`CENTRE_POINTS_SHOWN`] points, two images each, then counts).
+fn centre_warning(points: &[PointAtCameraCentre]) -> Option<String> {
+    if points.is_empty() {
+        return None;
+    }
+    let listed: Vec<String> = points
+        .iter()
+        .take(CENTRE_POINTS_SHOWN)
+        .map(|p| {
+            format!(
+                "{} ({})",
+                p.point3d_id,
+                problem::name_list("image", &p.images, 2)
+            )
+        })
+        .collect();
+    let more = match points.len().saturating_sub(CENTRE_POINTS_SHOWN) {
+        0 => String::new(),
+        n => format!(" and {n} more"),
+    };
+    Some(format!(
+        "{} point(s) lie on the projection centre of an image that observes them (their rays \
+         there are undefined) and were left out: point3D {}{more}",
+        points.len(),
+        listed.join(", ")
+    ))
+}
+
 /// The unit and range checks of `options` (each error names its flag).
 fn check_options(options: &Options) -> Result<(), Error> {
+    if options.camera_a.is_blank() {
+        return Err(Error::Setting {
+            name: "--camera",
+            problem: "is empty: name camera A (an image-name prefix such as `cam_out/`, or a \
+                      camera id); an empty prefix would make every image camera A"
+                .into(),
+        });
+    }
     if !(options.mm_per_unit.is_finite() && options.mm_per_unit > 0.0) {
         return Err(Error::Setting {
             name: "--mm-per-unit",
@@ -525,6 +580,14 @@ impl CovarianceResult {
             observations: self.observations,
             parameters: self.parameters,
             pixel_sigma_px: self.pixel_sigma_px,
+            points_at_camera_centre: self
+                .points_at_camera_centre
+                .iter()
+                .map(|p| contract::PointAtCentre {
+                    images: p.images.clone(),
+                    point3d_id: p.point3d_id,
+                })
+                .collect(),
             points_left_out: self.points_left_out,
             redundancy: self.redundancy,
             sigma0_px: self.sigma0_px.is_finite().then_some(self.sigma0_px),

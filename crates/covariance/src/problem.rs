@@ -65,6 +65,23 @@ pub(crate) struct Obs {
     pub image: usize,
 }
 
+/// A point of the model that lies on the projection centre of an image observing it: its ray
+/// there is undefined (any direction), so it is left out with all its observations.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PointAtCameraCentre {
+    /// The COLMAP `point3D_id`.
+    pub point3d_id: u64,
+    /// The images on whose projection centre it lies (model order).
+    pub images: Vec<String>,
+}
+
+/// A point closer to the projection centre of an image that observes it than this fraction of
+/// the model's median viewing distance (over all observations) lies "on" that centre. Such a
+/// point is inside the lens (1 mm from the centre in a scene seen from 10 m): no photograph
+/// shows it, its ray is undefined, and its Jacobians are 10⁴ × (and more) those of a real
+/// observation, which would swamp the reduced system.
+pub const CAMERA_CENTRE_FRACTION: f64 = 1e-4;
+
 /// One epoch of camera A.
 #[derive(Debug, Clone)]
 pub(crate) struct AEpoch {
@@ -94,6 +111,8 @@ pub(crate) struct Problem {
     pub points_left_out: usize,
     /// Control points used: (point3D_id, position in model units, kind).
     pub control: Vec<(u64, Vec3, PointKind)>,
+    /// Free points left out because they lie on the centre of an image that observes them.
+    pub at_camera_centre: Vec<PointAtCameraCentre>,
 }
 
 impl Problem {
@@ -140,6 +159,10 @@ pub(crate) fn build(
         image_idx,
     } = registered(model, mode);
 
+    let near_centre = CAMERA_CENTRE_FRACTION
+        * median_viewing_distance(model, &image_idx, &images, &frames).unwrap_or(0.0);
+    let mut at_camera_centre = Vec::new();
+
     // Observations per point, at the model's estimate.
     let mut points = Vec::new();
     let mut obs = Vec::with_capacity(model.num_observations());
@@ -153,6 +176,18 @@ pub(crate) fn build(
             .get(&p.point3d_id)
             .copied()
             .unwrap_or(PointKind::Free);
+        let centres = images_at_centre(&p.track, &xyz, &image_idx, &images, &frames, near_centre);
+        if !centres.is_empty() {
+            let names = centres.iter().map(|&i| images[i].name.clone()).collect();
+            if kind != PointKind::Free {
+                return Err(control_at_centre(model, control, p.point3d_id, names));
+            }
+            at_camera_centre.push(PointAtCameraCentre {
+                point3d_id: p.point3d_id,
+                images: names,
+            });
+            continue;
+        }
         let start = obs.len();
         let mut sq = 0.0;
         for t in &p.track {
@@ -174,7 +209,7 @@ pub(crate) fn build(
                 &fr.rig_from_world,
                 &xyz,
             ) {
-                Ok(pr) if pr.pixel.iter().all(|v| v.is_finite()) => {
+                Ok(pr) if finite(&pr) => {
                     sq += (xy - pr.pixel).norm_squared();
                     obs.push(Obs { image: i });
                 }
@@ -213,7 +248,8 @@ pub(crate) fn build(
         camera_used[images[o.image].camera] = true;
     }
 
-    let a_epochs = a_epochs(model, camera_a, &image_idx, &images, &frame_used)?;
+    let a_epochs = a_epochs(model, camera_a, &image_idx, &images, &frame_used)
+        .map_err(|e| with_centre_hint(e, model, &at_camera_centre))?;
 
     // Renumber frames and cameras to the used ones.
     let (frames, frame_map) = compact(frames, &frame_used);
@@ -239,7 +275,118 @@ pub(crate) fn build(
         rejected,
         points_left_out,
         control: control_used,
+        at_camera_centre,
     })
+}
+
+/// True when the projection and all its Jacobians are finite numbers.
+fn finite(pr: &crate::jacobian::Projection) -> bool {
+    pr.pixel.iter().all(|v| v.is_finite())
+        && pr.d_pose.iter().all(|v| v.is_finite())
+        && pr.d_point.iter().all(|v| v.is_finite())
+        && pr.d_params.iter().all(|v| v.is_finite())
+}
+
+/// `x` in the camera axes of image `e` (model units): its distance from the projection centre
+/// is the norm.
+fn cam_point(e: &ImageEntry, frame: &FrameBlock, x: &Vec3) -> Vec3 {
+    let x_rig = frame.rig_from_world * nalgebra::Point3::from(*x);
+    (e.sensor_from_rig * x_rig).coords
+}
+
+/// The median distance between an observed point and the projection centre of the registered
+/// image observing it, over all observations (the scene's scale as the cameras see it); `None`
+/// without observations.
+fn median_viewing_distance(
+    model: &Reconstruction,
+    image_idx: &HashMap<u32, usize>,
+    images: &[ImageEntry],
+    frames: &[FrameBlock],
+) -> Option<f64> {
+    let mut d: Vec<f64> = Vec::with_capacity(model.num_observations());
+    for p in model.points3d() {
+        let xyz = Vec3::from(p.xyz);
+        for t in &p.track {
+            if let Some(&i) = image_idx.get(&t.image_id) {
+                let e = &images[i];
+                let v = cam_point(e, &frames[e.frame], &xyz).norm();
+                if v.is_finite() {
+                    d.push(v);
+                }
+            }
+        }
+    }
+    if d.is_empty() {
+        return None;
+    }
+    let mid = d.len() / 2;
+    let (_, m, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
+    Some(*m)
+}
+
+/// The registered images of `track` on whose projection centre `x` lies (closer than
+/// `near_centre`), each once, in track order.
+fn images_at_centre(
+    track: &[crashrig_colmap::TrackElement],
+    x: &Vec3,
+    image_idx: &HashMap<u32, usize>,
+    images: &[ImageEntry],
+    frames: &[FrameBlock],
+    near_centre: f64,
+) -> Vec<usize> {
+    let mut out = Vec::new();
+    for t in track {
+        let Some(&i) = image_idx.get(&t.image_id) else {
+            continue;
+        };
+        let e = &images[i];
+        if cam_point(e, &frames[e.frame], x).norm() <= near_centre && !out.contains(&i) {
+            out.push(i);
+        }
+    }
+    out
+}
+
+/// The error for a control point that lies on the projection centre of an image observing it
+/// (the lab's datum would rest on an undefined ray): names the file, the line and the images.
+fn control_at_centre(
+    model: &Reconstruction,
+    control: &ControlPoints,
+    id: u64,
+    images: Vec<String>,
+) -> Error {
+    let line = control
+        .points
+        .iter()
+        .find(|c| c.point3d_id == id)
+        .map_or(1, |c| c.line);
+    Error::ControlCsv {
+        path: control.path.clone(),
+        line,
+        problem: format!(
+            "control point {id} lies on the projection centre of {} of the model {} that \
+             observes it (closer than {CAMERA_CENTRE_FRACTION:e} of the median viewing \
+             distance): its ray there is undefined; choose another control point",
+            name_list("image", &images, 3),
+            model.dir().display()
+        ),
+    }
+}
+
+/// `image `a`` / `images `a`, `b` and 2 more`: at most `shown` names, then a count.
+pub(crate) fn name_list(what: &str, names: &[String], shown: usize) -> String {
+    let mut s = String::from(what);
+    if names.len() != 1 {
+        s.push('s');
+    }
+    for (k, n) in names.iter().take(shown).enumerate() {
+        s.push_str(if k == 0 { " " } else { ", " });
+        s.push_str(&format!("`{n}`"));
+    }
+    if names.len() > shown {
+        s.push_str(&format!(" and {} more", names.len() - shown));
+    }
+    s
 }
 
 /// The kind of every control point (fixed, or a prior σ in model units); every id must be a
@@ -365,9 +512,15 @@ fn a_epochs(
         );
     }
     if by_key.is_empty() {
+        let hint = camera_a.suggestions(model.images());
         return Err(cam_err(format!(
-            "no image of the model's {} matches",
-            model.images().len()
+            "no image of the model's {} matches{}",
+            model.images().len(),
+            if hint.is_empty() {
+                String::new()
+            } else {
+                format!("; {hint}")
+            }
         )));
     }
     let mut a_epochs = Vec::new();
@@ -386,6 +539,46 @@ fn a_epochs(
     }
 
     Ok(a_epochs)
+}
+
+/// A camera-A error about an image without observations, completed with how many of the
+/// points it observes were left out for lying on a camera centre (the cause, when there are).
+fn with_centre_hint(e: Error, model: &Reconstruction, at_centre: &[PointAtCameraCentre]) -> Error {
+    let Error::Camera {
+        model: dir,
+        selector,
+        problem,
+    } = e
+    else {
+        return e;
+    };
+    let image = model
+        .images()
+        .iter()
+        .find(|im| problem.contains(&format!("image `{}`", im.name)));
+    let left_out = image.map_or(0, |im| {
+        at_centre
+            .iter()
+            .filter(|p| {
+                model
+                    .point3d(p.point3d_id)
+                    .is_some_and(|pt| pt.track.iter().any(|t| t.image_id == im.image_id))
+            })
+            .count()
+    });
+    let problem = if left_out > 0 {
+        format!(
+            "{problem}; {left_out} of the points it observes lie on the projection centre of an \
+             image that observes them and were left out"
+        )
+    } else {
+        problem
+    };
+    Error::Camera {
+        model: dir,
+        selector,
+        problem,
+    }
 }
 
 /// Keeps the used items; returns them and the old → new index map.

@@ -10,11 +10,27 @@ use faer::linalg::solvers::Solve;
 use nalgebra::{Matrix3, SymmetricEigen};
 use std::path::Path;
 
-/// A pivot of the Jacobi-scaled Cholesky factor below this (squared) means the parameter is
-/// not determined: in exact arithmetic a gauge freedom gives a zero pivot; a well-posed
-/// bundle gives pivots of 1e-6 and above (the squared inverse condition of one parameter
-/// against all others).
-const SINGULAR_PIVOT: f64 = 1e-11;
+/// The rank test's relative tolerance: the reduced system, Jacobi-scaled (unit diagonal), is
+/// numerically singular when its smallest eigenvalue is below `max(RANK_TOLERANCE, n·ε)` times
+/// its largest (`n` unknowns, `ε` the double-precision epsilon, as numpy's `matrix_rank`).
+/// Well-posed real bundles measured 2·10⁻¹¹ … 3·10⁻⁷ (`docs/COVARIANCE.md`); numerically
+/// singular ones 1.5·10⁻¹⁵ and below. At this bound the rounding error of the covariance,
+/// about `ε` over the ratio, is still below 0.3 %.
+pub const RANK_TOLERANCE: f64 = 1e-13;
+
+/// Iterations of the power and inverse iterations of the rank test (each stops earlier once
+/// its estimate changes by less than [`ITERATION_CONVERGED`] relative).
+const MAX_ITERATIONS: usize = 60;
+
+/// Relative change of an eigenvalue estimate at which its iteration stops.
+const ITERATION_CONVERGED: f64 = 1e-4;
+
+/// A component of the undetermined direction (unit vector in Jacobi-scaled unknowns) at least
+/// this fraction of its largest is named in the error.
+const DIRECTION_SHARE: f64 = 0.25;
+
+/// Unknowns named in the error at most (the rest is counted).
+const DIRECTION_NAMED: usize = 6;
 
 /// Eigenvalues of a point's 3×3 block below this fraction of its largest are treated as zero
 /// (a point at infinity along that direction: it is absorbed, not inverted).
@@ -160,8 +176,15 @@ fn pseudo_inverse(v: &Matrix3<f64>) -> Matrix3<f64> {
     out
 }
 
-/// The columns `cols` of `S⁻¹`, or [`Error::Singular`] naming the first parameter that the
-/// observations and control points leave undetermined.
+/// The relative tolerance of the rank test for `n` unknowns ([`RANK_TOLERANCE`]).
+pub(crate) fn rank_tolerance(n: usize) -> f64 {
+    RANK_TOLERANCE.max(n as f64 * f64::EPSILON)
+}
+
+/// The columns `cols` of `S⁻¹`, or [`Error::Singular`] naming the parameters that the
+/// observations and control points leave undetermined: a zero diagonal, or a smallest
+/// eigenvalue of the Jacobi-scaled system below [`rank_tolerance`] times its largest (then the
+/// error names the unknowns of the undetermined direction).
 pub(crate) fn inverse_columns(
     p: &Problem,
     s: &Mat<f64>,
@@ -169,29 +192,50 @@ pub(crate) fn inverse_columns(
     model: &Path,
 ) -> Result<Mat<f64>, Error> {
     let n = s.nrows();
-    let singular = |k: usize, why: &str| Error::Singular {
-        model: model.to_path_buf(),
-        problem: format!("{} is not determined ({why})", parameter_name(p, k)),
-    };
     let mut d = vec![0.0; n];
     for (k, dk) in d.iter_mut().enumerate() {
         let v = s[(k, k)];
         if !(v.is_finite() && v > 0.0) {
-            return Err(singular(k, "no information"));
+            return Err(Error::Singular {
+                model: model.to_path_buf(),
+                problem: format!(
+                    "{} is not determined (no information)",
+                    parameter_name(p, k)
+                ),
+            });
         }
         *dk = 1.0 / v.sqrt();
     }
     let scaled = Mat::<f64>::from_fn(n, n, |i, j| s[(i, j)] * d[i] * d[j]);
-    let llt = scaled.llt(faer::Side::Lower).map_err(|_| {
-        let k = first_small_pivot(&scaled).unwrap_or(0);
-        singular(k, "a gauge freedom or a degenerate configuration")
-    })?;
-    let l = llt.L();
-    for k in 0..n {
-        let piv = l[(k, k)] * l[(k, k)];
-        if !(piv.is_finite() && piv > SINGULAR_PIVOT) {
-            return Err(singular(k, "a gauge freedom or a degenerate configuration"));
+    let tol = rank_tolerance(n);
+    let largest = largest_eigenvalue(&scaled);
+    let llt = match scaled.llt(faer::Side::Lower) {
+        Ok(llt) => llt,
+        Err(_) => {
+            let problem = match null_direction(&scaled, largest, tol) {
+                Some(v) => direction_message(p, &v, None, tol),
+                None => {
+                    let k = first_small_pivot(&scaled, tol * largest).unwrap_or(0);
+                    format!(
+                        "{} is not determined (a gauge freedom or a degenerate configuration)",
+                        parameter_name(p, k)
+                    )
+                }
+            };
+            return Err(Error::Singular {
+                model: model.to_path_buf(),
+                problem,
+            });
         }
+    };
+    let (smallest, v) = smallest_eigenpair(n, |x| llt.solve(x), tol * largest);
+    // `!(a >= b)` also refuses a NaN estimate.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    if !(smallest >= tol * largest) {
+        return Err(Error::Singular {
+            model: model.to_path_buf(),
+            problem: direction_message(p, &v, Some(smallest / largest), tol),
+        });
     }
     let mut e = Mat::<f64>::zeros(n, cols.len());
     for (j, &c) in cols.iter().enumerate() {
@@ -201,16 +245,227 @@ pub(crate) fn inverse_columns(
     Ok(Mat::from_fn(n, cols.len(), |i, j| x[(i, j)] * d[i]))
 }
 
-/// The first pivot of an unpivoted Cholesky that falls below [`SINGULAR_PIVOT`] (for the
-/// message when faer refuses the matrix).
+/// A fixed start vector for the iterations: entries in (−1, 1) from a hash of the index (no
+/// symmetry that could make it orthogonal to the direction sought), unit length.
+fn start_vector(n: usize) -> Mat<f64> {
+    let mut x = Mat::<f64>::from_fn(n, 1, |k, _| {
+        let mut z = (k as u64)
+            .wrapping_add(1)
+            .wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        2.0 * ((z >> 11) as f64 + 0.5) / (1u64 << 53) as f64 - 1.0
+    });
+    let norm = x.norm_l2();
+    x /= faer::Scale(norm);
+    x
+}
+
+/// The largest eigenvalue of the symmetric positive semi-definite `m` by power iteration: a
+/// lower bound that converges to it (at least the largest diagonal entry).
+fn largest_eigenvalue(m: &Mat<f64>) -> f64 {
+    let n = m.nrows();
+    let diag = (0..n).map(|k| m[(k, k)]).fold(0.0, f64::max);
+    let mut x = start_vector(n);
+    let mut estimate = 0.0_f64;
+    for _ in 0..MAX_ITERATIONS {
+        let y = m * &x;
+        let norm = y.norm_l2();
+        if !(norm.is_finite() && norm > 0.0) {
+            break;
+        }
+        x = y / faer::Scale(norm);
+        let done = (norm - estimate).abs() <= ITERATION_CONVERGED * norm;
+        estimate = norm;
+        if done {
+            break;
+        }
+    }
+    estimate.max(diag)
+}
+
+/// The smallest eigenvalue of a symmetric positive definite matrix given by its `solve`
+/// (`x ↦ M⁻¹x`), and its unit eigenvector, by inverse iteration. Each estimate `1/‖M⁻¹x‖`
+/// (`x` unit) is an upper bound of the smallest eigenvalue, so the iteration stops as soon as
+/// one falls below `enough` (the matrix is then certainly that close to singular), when it
+/// has converged, or after [`MAX_ITERATIONS`]. A solve that overflows gives 0.
+fn smallest_eigenpair(
+    n: usize,
+    solve: impl Fn(&Mat<f64>) -> Mat<f64>,
+    enough: f64,
+) -> (f64, Mat<f64>) {
+    let mut x = start_vector(n);
+    let mut estimate = f64::INFINITY;
+    for _ in 0..MAX_ITERATIONS {
+        let y = solve(&x);
+        let norm = y.norm_l2();
+        if !(norm.is_finite() && norm > 0.0) {
+            return (0.0, x);
+        }
+        x = y / faer::Scale(norm);
+        let lambda = 1.0 / norm;
+        let done = lambda < enough || (estimate - lambda).abs() <= ITERATION_CONVERGED * lambda;
+        estimate = lambda;
+        if done {
+            break;
+        }
+    }
+    (estimate, x)
+}
+
+/// The undetermined direction of a scaled system that Cholesky refused (rounding made it
+/// slightly indefinite): the eigenvector of its smallest eigenvalue, found on the system
+/// shifted by the smallest multiple of `largest·tol` (× 10² steps) that factorises. `None`
+/// when no shift up to 10⁻² of the largest eigenvalue does.
+fn null_direction(scaled: &Mat<f64>, largest: f64, tol: f64) -> Option<Mat<f64>> {
+    let n = scaled.nrows();
+    let mut shift = tol * largest;
+    while shift <= 1e-2 * largest {
+        let shifted = Mat::<f64>::from_fn(n, n, |i, j| {
+            scaled[(i, j)] + if i == j { shift } else { 0.0 }
+        });
+        if let Ok(llt) = shifted.llt(faer::Side::Lower) {
+            return Some(smallest_eigenpair(n, |x| llt.solve(x), 0.0).1);
+        }
+        shift *= 1e2;
+    }
+    None
+}
+
+/// The error text for an undetermined direction `v` (unit, Jacobi-scaled unknowns): the
+/// unknowns it moves, grouped by frame and camera, with the eigenvalue ratio (`None`: the
+/// factorisation failed) and a hint.
+fn direction_message(p: &Problem, v: &Mat<f64>, ratio: Option<f64>, tol: f64) -> String {
+    let n = v.nrows();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| v[(b, 0)].abs().total_cmp(&v[(a, 0)].abs()).then(a.cmp(&b)));
+    let top = v[(order[0], 0)].abs();
+    let named: Vec<usize> = order
+        .iter()
+        .copied()
+        .take_while(|&k| v[(k, 0)].abs() >= DIRECTION_SHARE * top)
+        .collect();
+    let more = named.len().saturating_sub(DIRECTION_NAMED);
+    let named = &named[..named.len().min(DIRECTION_NAMED)];
+    // Blocks (a frame's pose or a camera's intrinsics) in order of their largest component.
+    let mut blocks: Vec<(Block, Vec<usize>)> = Vec::new();
+    for &k in named {
+        let b = block(p, k);
+        match blocks.iter_mut().find(|(bb, _)| *bb == b) {
+            Some((_, ks)) => ks.push(k),
+            None => blocks.push((b, vec![k])),
+        }
+    }
+    let parts: Vec<String> = blocks.iter().map(|(b, ks)| block_text(p, *b, ks)).collect();
+    let one = named.len() == 1 && more == 0;
+    let what = match parts.as_slice() {
+        [only] => only.clone(),
+        [rest @ .., last] => format!("{} and {last}", rest.join(", ")),
+        [] => "a parameter".into(),
+    };
+    let more = if more > 0 {
+        format!(" and {more} more unknown(s)")
+    } else {
+        String::new()
+    };
+    let verb = if one {
+        "is not determined".to_string()
+    } else {
+        "are not determined: one combination of them is free".to_string()
+    };
+    let size = match ratio {
+        Some(r) => format!(
+            "the Jacobi-scaled reduced system's smallest eigenvalue is {r:.1e} of its largest, \
+             below the rank tolerance {tol:.0e}"
+        ),
+        None => "the Jacobi-scaled reduced system is not positive definite".into(),
+    };
+    let hint = if blocks.iter().any(|(b, _)| matches!(b, Block::Camera(_))) {
+        "; try --intrinsics colmap or fixed"
+    } else {
+        "; a degenerate configuration: an image whose points are too few or nearly on one \
+         line, or images that share one centre"
+    };
+    format!("{what}{more} {verb} ({size}{hint})")
+}
+
+/// The frame or camera an unknown of the reduced system belongs to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Block {
+    Frame(usize),
+    Camera(usize),
+    Other,
+}
+
+fn block(p: &Problem, k: usize) -> Block {
+    if k < 6 * p.frames.len() {
+        return Block::Frame(k / 6);
+    }
+    p.cameras
+        .iter()
+        .position(|c| k >= c.offset && k < c.offset + c.free.len())
+        .map_or(Block::Other, Block::Camera)
+}
+
+const POSE_AXES: [&str; 6] = [
+    "position x",
+    "position y",
+    "position z",
+    "rotation about x",
+    "rotation about y",
+    "rotation about z",
+];
+
+/// "the pose (position x, rotation about z) of the frame of image `…`", "intrinsics `f`, `k` of
+/// camera 1 (SIMPLE_RADIAL)".
+fn block_text(p: &Problem, b: Block, ks: &[usize]) -> String {
+    match b {
+        Block::Frame(f) => format!(
+            "the pose ({}) of the frame of image `{}`",
+            ks.iter()
+                .map(|k| POSE_AXES[k % 6])
+                .collect::<Vec<_>>()
+                .join(", "),
+            p.frames[f].label
+        ),
+        Block::Camera(c) => {
+            let cam = &p.cameras[c];
+            let names: Vec<String> = ks
+                .iter()
+                .map(|k| {
+                    format!(
+                        "`{}`",
+                        cam.camera.model.param_names()[cam.free[k - cam.offset]]
+                    )
+                })
+                .collect();
+            format!(
+                "intrinsic{} {} of camera {} ({})",
+                if names.len() > 1 { "s" } else { "" },
+                names.join(", "),
+                cam.camera_id,
+                cam.camera.model
+            )
+        }
+        Block::Other => ks
+            .iter()
+            .map(|k| format!("parameter {k}"))
+            .collect::<Vec<_>>()
+            .join(", "),
+    }
+}
+
+/// The first pivot of an unpivoted Cholesky that falls below `limit` (for the message when
+/// no other way finds the undetermined direction).
 // `!(piv > limit)` also catches a NaN pivot.
 #[allow(clippy::neg_cmp_op_on_partial_ord)]
-fn first_small_pivot(m: &Mat<f64>) -> Option<usize> {
+fn first_small_pivot(m: &Mat<f64>, limit: f64) -> Option<usize> {
     let n = m.nrows();
     let mut a = m.clone();
     for k in 0..n {
         let piv = a[(k, k)];
-        if !(piv > SINGULAR_PIVOT) {
+        if !(piv > limit) {
             return Some(k);
         }
         let r = piv.sqrt();
@@ -230,18 +485,10 @@ fn first_small_pivot(m: &Mat<f64>) -> Option<usize> {
 
 /// A readable name of reduced-system parameter `k`.
 pub(crate) fn parameter_name(p: &Problem, k: usize) -> String {
-    const POSE: [&str; 6] = [
-        "position x",
-        "position y",
-        "position z",
-        "rotation about x",
-        "rotation about y",
-        "rotation about z",
-    ];
     if k < 6 * p.frames.len() {
         return format!(
             "the pose ({}) of the frame of image `{}`",
-            POSE[k % 6],
+            POSE_AXES[k % 6],
             p.frames[k / 6].label
         );
     }
@@ -255,4 +502,97 @@ pub(crate) fn parameter_name(p: &Problem, k: usize) -> String {
         }
     }
     format!("parameter {k}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synthetic::{ring_scene, with_line_image};
+    use crate::{ControlPoints, Intrinsics};
+    use crashrig_colmap::CameraSelector;
+
+    /// `Q·diag(λ)·Qᵀ` with a fixed orthogonal `Q` (Householder reflections of hashed vectors).
+    fn with_eigenvalues(lambda: &[f64]) -> Mat<f64> {
+        let n = lambda.len();
+        let mut q = Mat::<f64>::identity(n, n);
+        for r in 0..3 {
+            let mut v = start_vector(n + r).subrows(r, n).to_owned();
+            let norm = v.norm_l2();
+            v /= faer::Scale(norm);
+            let h = Mat::<f64>::identity(n, n) - (&v * v.transpose()) * faer::Scale(2.0);
+            q = &q * &h;
+        }
+        let d = Mat::<f64>::from_fn(n, n, |i, j| if i == j { lambda[i] } else { 0.0 });
+        &q * &d * q.transpose()
+    }
+
+    /// The power and inverse iterations against known spectra: a well separated smallest
+    /// eigenvalue is found to 10⁻⁴, a clustered one (10 % apart) is never under-estimated and
+    /// is over-estimated by at most 1 %, one at the rounding level (10⁻¹⁶ of the largest) is
+    /// put below the rank tolerance; the largest is found to 10⁻³.
+    #[test]
+    fn iterations_find_the_extreme_eigenvalues() {
+        for (lambda, tol) in [
+            (vec![1e-9, 1e-3, 0.1, 0.5, 1.0, 2.0, 3.0, 5.0], 1e-4),
+            (vec![1e-6, 1.1e-6, 0.2, 0.7, 1.3, 2.0, 4.0, 4.4], 1e-2),
+        ] {
+            let m = with_eigenvalues(&lambda);
+            let n = lambda.len();
+            let llt = m.llt(faer::Side::Lower).unwrap();
+            let (small, v) = smallest_eigenpair(n, |x| llt.solve(x), 0.0);
+            let (lo, hi) = (lambda[0], lambda[n - 1]);
+            // Rounding of M (~ε·‖M‖ = 10⁻¹⁵) is below 10⁻⁶ of λ_min here.
+            assert!(
+                small >= lo * (1.0 - 1e-6) && small <= lo * (1.0 + tol),
+                "{small} vs {lo}"
+            );
+            // The eigenvector: ‖M v‖ ≈ λ_min.
+            let mv = (&m * &v).norm_l2();
+            assert!(mv <= lo * (1.0 + 10.0 * tol), "{mv} vs {lo}");
+            let big = largest_eigenvalue(&m);
+            assert!(
+                big <= hi * (1.0 + 1e-12) && big >= hi * (1.0 - 1e-3),
+                "{big} vs {hi}"
+            );
+        }
+        let lambda = [5e-16, 1e-3, 0.1, 0.5, 1.0, 2.0, 3.0, 5.0];
+        let m = with_eigenvalues(&lambda);
+        let limit = rank_tolerance(lambda.len()) * largest_eigenvalue(&m);
+        match m.llt(faer::Side::Lower) {
+            Ok(llt) => {
+                let (small, _) = smallest_eigenpair(lambda.len(), |x| llt.solve(x), limit);
+                assert!(small < limit, "{small} vs {limit}");
+            }
+            // Rounding made it indefinite: refused all the same.
+            Err(_) => assert!(null_direction(&m, 5.0, 1e-13).is_some()),
+        }
+    }
+
+    /// Issue 36: the old guard (every pivot of the Jacobi-scaled Cholesky factor above 10⁻¹¹)
+    /// passes a numerically singular system — the line image at an offset of 10⁻⁶, whose
+    /// smallest eigenvalue is ~10⁻¹⁶ of the largest — while the rank test refuses it.
+    #[test]
+    fn the_rank_test_refuses_what_the_old_pivot_guard_passed() {
+        let scene = with_line_image(&ring_scene(4, 0.3), 1e-6);
+        let control = ControlPoints::from_ids("t", &scene.control_ids, 0.0);
+        let p = crate::problem::build(
+            &scene.model,
+            &CameraSelector::parse("cam_out/"),
+            &control,
+            1000.0,
+            Intrinsics::All,
+        )
+        .unwrap();
+        let s = reduced_information(&p, 0.5);
+        let n = s.nrows();
+        let scaled = Mat::<f64>::from_fn(n, n, |i, j| s[(i, j)] / (s[(i, i)] * s[(j, j)]).sqrt());
+        let llt = scaled.llt(faer::Side::Lower).expect("Cholesky succeeds");
+        let l = llt.L();
+        let smallest_pivot = (0..n)
+            .map(|k| l[(k, k)] * l[(k, k)])
+            .fold(f64::INFINITY, f64::min);
+        assert!(smallest_pivot > 1e-11, "{smallest_pivot}");
+        let e = inverse_columns(&p, &s, &[0], Path::new("m")).unwrap_err();
+        assert!(e.to_string().contains("cam_out/9999.png"), "{e}");
+    }
 }

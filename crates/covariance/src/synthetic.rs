@@ -180,3 +180,180 @@ pub fn lab_scene(settings: &LabSettings) -> Scene {
         .collect();
     Scene { model, control_ids }
 }
+
+/// The scene with one more image, `cam_pan/0001.png` (id 8 888), taken from the projection
+/// centre of image `image` (index in the model's image list) turned 2° about its vertical axis
+/// (a camera that panned without moving), observing every point that image observes, and with
+/// `count` more points (ids from 20 001) that lie `distance` (model units) from that common
+/// centre, a few degrees off the optical axis, observed by both images: points "triangulated"
+/// where two images share a centre, whose rays are undefined (issue 36: real models hold 2 to
+/// 42 of them, 10⁻¹¹ to 10⁻⁸ of the viewing distance from the centre). Observations are exact
+/// projections (the new points' at the principal point). Returns the scene and the new ids.
+pub fn with_points_at_centre(
+    scene: &Scene,
+    image: usize,
+    count: usize,
+    distance: f64,
+) -> (Scene, Vec<u64>) {
+    let m = &scene.model;
+    let mut images = m.images().to_vec();
+    let camera = m.cameras()[0].camera.clone();
+    let pose = images[image]
+        .stored_cam_from_world
+        .to_rigid()
+        .expect("a pose");
+    // Turned about the camera's own y axis (vertical in the image), centre unchanged.
+    let turn = so3::exp(&Vec3::new(0.0, 2.0_f64.to_radians(), 0.0));
+    let r = turn * pose.rotation.to_rotation_matrix();
+    let centre = pose.inverse().translation.vector;
+    let pan = rigid_from_rotation(&r, &(-(r * centre)));
+    let pan_id = 8_888;
+    let mut points = m.points3d().to_vec();
+    let mut pan_points2d = Vec::new();
+    let seen: Vec<u64> = images[image]
+        .points2d
+        .iter()
+        .filter_map(|p| p.point3d_id)
+        .collect();
+    for p in points.iter_mut().filter(|p| seen.contains(&p.point3d_id)) {
+        let xc = pan * nalgebra::Point3::from(Vec3::from(p.xyz));
+        let Ok(px) = camera.img_from_cam(&xc.coords) else {
+            continue;
+        };
+        p.track.push(TrackElement {
+            image_id: pan_id,
+            point2d_idx: pan_points2d.len() as u32,
+        });
+        pan_points2d.push(Point2D {
+            xy: [px.x, px.y],
+            point3d_id: Some(p.point3d_id),
+        });
+    }
+    let world_from_cam = pose.inverse();
+    let mut ids = Vec::new();
+    for k in 0..count {
+        let id = 20_001 + k as u64;
+        let a = 0.05 * (k as f64 + 1.0);
+        let dir = Vec3::new(a.sin(), 0.5 * a.sin(), a.cos()).normalize();
+        let x = world_from_cam * nalgebra::Point3::from(dir * distance);
+        let principal = [camera.params[1], camera.params[2]];
+        let mut track = Vec::new();
+        for (image_id, points2d) in [
+            (images[image].image_id, &mut images[image].points2d),
+            (pan_id, &mut pan_points2d),
+        ] {
+            track.push(TrackElement {
+                image_id,
+                point2d_idx: points2d.len() as u32,
+            });
+            points2d.push(Point2D {
+                xy: principal,
+                point3d_id: Some(id),
+            });
+        }
+        points.push(Point3D {
+            point3d_id: id,
+            xyz: [x.x, x.y, x.z],
+            rgb: [128, 128, 128],
+            error: 0.0,
+            track,
+        });
+        ids.push(id);
+    }
+    images.push(Image {
+        image_id: pan_id,
+        stored_cam_from_world: RawPose::from_rigid(&pan),
+        camera_id: 1,
+        name: "cam_pan/0001.png".into(),
+        points2d: pan_points2d,
+    });
+    (rebuilt(scene, images, points), ids)
+}
+
+/// The scene with one more image of camera A, `cam_out/9999.png` (id 9 999), that sees only
+/// eight points of its own near a 3 m line in front of it (ids from 30 001; also observed by
+/// the scene's first and last images, so they are tied to the rest). Points exactly on a line
+/// leave the image free to turn about that line (a rotation that moves none of their
+/// projections); `offset` (model units) moves every other point off the line, perpendicular to
+/// it, by ± `offset`: 0 is a singular bundle, 1e-8 a numerically singular one, 0.05 a
+/// well-posed one. The line runs along the image's x axis, tilted 0.2° towards its optical
+/// axis.
+pub fn with_line_image(scene: &Scene, offset: f64) -> Scene {
+    let m = &scene.model;
+    let mut images = m.images().to_vec();
+    let camera = m.cameras()[0].camera.clone();
+    let first = images[0].stored_cam_from_world.to_rigid().expect("a pose");
+    // The new image: image 0's orientation, its centre moved 0.4 down the lab and 0.3 aside.
+    let r = first.rotation;
+    let centre = first.inverse().translation.vector + Vec3::new(0.3, -0.4, 0.1);
+    let cam_from_world = rigid_from_rotation(
+        &r.to_rotation_matrix(),
+        &(-(r.to_rotation_matrix() * centre)),
+    );
+    let world_from_cam = cam_from_world.inverse();
+    let along = Vec3::new(1.0, 0.0, 0.2_f64.to_radians().tan()).normalize();
+    let new_id = 9_999;
+    let last = images.len() - 1;
+    let mut points = m.points3d().to_vec();
+    let mut new_points2d = Vec::new();
+    for k in 0..8 {
+        let id = 30_001 + k as u64;
+        let t = -1.5 + 3.0 * k as f64 / 7.0;
+        let off = if k % 2 == 0 { offset } else { -offset };
+        let x_cam = Vec3::new(0.0, 0.2, 4.5) + along * t + Vec3::new(0.0, off, 0.0);
+        let x = world_from_cam * nalgebra::Point3::from(x_cam);
+        let px = camera.img_from_cam(&x_cam).expect("in front");
+        let mut track = vec![TrackElement {
+            image_id: new_id,
+            point2d_idx: new_points2d.len() as u32,
+        }];
+        new_points2d.push(Point2D {
+            xy: [px.x, px.y],
+            point3d_id: Some(id),
+        });
+        for j in [0, last] {
+            let pose = images[j].stored_cam_from_world.to_rigid().expect("a pose");
+            let xc = pose * x;
+            let p = camera.img_from_cam(&xc.coords).expect("in front");
+            track.push(TrackElement {
+                image_id: images[j].image_id,
+                point2d_idx: images[j].points2d.len() as u32,
+            });
+            images[j].points2d.push(Point2D {
+                xy: [p.x, p.y],
+                point3d_id: Some(id),
+            });
+        }
+        points.push(Point3D {
+            point3d_id: id,
+            xyz: [x.x, x.y, x.z],
+            rgb: [128, 128, 128],
+            error: 0.0,
+            track,
+        });
+    }
+    images.push(Image {
+        image_id: new_id,
+        stored_cam_from_world: RawPose::from_rigid(&cam_from_world),
+        camera_id: 1,
+        name: "cam_out/9999.png".into(),
+        points2d: new_points2d,
+    });
+    rebuilt(scene, images, points)
+}
+
+/// `scene`'s cameras with new images and points (legacy layout), the same control points.
+fn rebuilt(scene: &Scene, images: Vec<Image>, points: Vec<Point3D>) -> Scene {
+    let model = Reconstruction::from_records(
+        scene.model.cameras().to_vec(),
+        Vec::new(),
+        Vec::new(),
+        images,
+        points,
+    )
+    .expect("a consistent synthetic model");
+    Scene {
+        model,
+        control_ids: scene.control_ids.clone(),
+    }
+}

@@ -82,8 +82,4 @@ pub enum Error {
         /// Size of the last update step.
         last_step: f64,
     },
-    /// Options of a command that do not fit together or are out of range; the message names
-    /// them as the front end spells them ([`crate::options::Spelling`]).
-    #[error("{0}")]
-    Usage(String),
 }

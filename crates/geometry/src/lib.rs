@@ -30,8 +30,6 @@
 //! - [`umeyama::align`]: similarity alignment of point sets.
 //! - [`UncertainPose`]: a nominal `b_from_a` with its 6×6 tangent covariance (sampling,
 //!   estimation from samples, first-order composition and inversion, ω φ κ for display).
-//! - `result_json::link_from_result_value` (feature `json`): the uncertain link of a
-//!   `calibrate --json` / `bootstrap --json` result.
 //!
 //! # Example
 //! The rig link "B relative to A" from two COLMAP image poses, as base (mm) and ω-φ-κ.
@@ -64,11 +62,7 @@ mod error;
 pub mod look_at;
 pub mod mean;
 pub mod opk;
-pub mod options;
 pub mod quat;
-#[cfg(feature = "json")]
-pub mod result_json;
-pub mod result_kind;
 pub mod se3;
 pub mod so3;
 pub mod tolerance;

@@ -255,7 +255,6 @@ mod testdata;
 mod view;
 
 pub use chain::{CameraId, Chain, ChainBuilder, PoseLinear, PoseMc, WorldPose};
-pub use crashrig_geometry::result_kind::ResultKind;
 pub use error::Error;
 pub use fixed::LinearTerm;
 pub use grid::{CHAIN_SAMPLES_MIN, GridStudy, INPUTS_PER_OBSERVER};
@@ -269,7 +268,7 @@ pub use model::{
 };
 pub use options::{ChainOptions, Draws, RunOptions};
 #[cfg(feature = "scenario")]
-pub use reference::link_from_result_json;
+pub use reference::{ResultKind, link_from_result_json};
 pub use result::{GridResult, PointStats};
 #[cfg(feature = "scenario")]
 pub use scenario::{AimKeys, LensKeys, aim_from_keys, candidates_from_toml_str, read_candidates};

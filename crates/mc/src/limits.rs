@@ -10,6 +10,9 @@
 #![cfg_attr(not(feature = "scenario"), allow(dead_code))]
 
 use crate::Error;
+#[cfg(feature = "scenario")]
+use crashrig_input::location::line_of;
+#[cfg(feature = "scenario")]
 use std::path::Path;
 #[cfg(feature = "scenario")]
 use toml::de::{DeTable, DeValue};
@@ -38,7 +41,8 @@ pub const MAX_PIXELS: f64 = 1e6;
 /// Largest |value| of any other number in a scenario (covariance entries in mm², deg², …).
 pub const MAX_ABS_OTHER: f64 = 1e14;
 /// Largest scenario file (bytes).
-pub const MAX_FILE_BYTES: u64 = crashrig_colmap::input_file::MAX_TOML_BYTES;
+#[cfg(feature = "scenario")]
+pub const MAX_FILE_BYTES: u64 = crashrig_input::file::MAX_TOML_BYTES;
 /// Largest nesting depth of arrays and inline tables in a scenario file.
 pub const MAX_NESTING: usize = 16;
 
@@ -62,43 +66,7 @@ fn fail(key: &str, problem: String) -> Error {
     }
 }
 
-/// 1-based line of a byte offset of a text (the line errors name; used by scenarios and studies).
-pub fn line_of(text: &str, offset: usize) -> usize {
-    text.as_bytes()[..offset.min(text.len())]
-        .iter()
-        .filter(|b| **b == b'\n')
-        .count()
-        + 1
-}
-
-/// The key whose value starts at byte `offset` of a TOML text (`threshold_mm = "5"` → the
-/// offset of `"5"` gives `threshold_mm`), so a parser's type error ("invalid type: string,
-/// expected f64", located at the value) can name the key. Looks left on the value's line for
-/// `key =`; dotted and quoted keys are returned as written. `None` when the offset is not
-/// right after `key =` (a value inside an array, a syntax error).
-///
-/// ```
-/// use crashrig_mc::limits::toml_value_key;
-/// let text = "[grid]\nthreshold_mm = \"5\"\n";
-/// assert_eq!(toml_value_key(text, text.find('"').unwrap()), Some("threshold_mm"));
-/// let inline = "camera = { model = 3, width = 10 }";
-/// assert_eq!(toml_value_key(inline, inline.find('3').unwrap()), Some("model"));
-/// assert_eq!(toml_value_key("x = [1, 2]", 8), None);
-/// ```
-pub fn toml_value_key(text: &str, offset: usize) -> Option<&str> {
-    let offset = offset.min(text.len());
-    let line_start = text[..offset].rfind('\n').map_or(0, |p| p + 1);
-    let before = text[line_start..offset]
-        .trim_end()
-        .strip_suffix('=')?
-        .trim_end();
-    let start = before
-        .rfind(|c: char| !(c.is_ascii_alphanumeric() || "_-.\"'".contains(c)))
-        .map_or(0, |p| p + 1);
-    let key = &before[start..];
-    (!key.is_empty()).then_some(key)
-}
-
+#[cfg(feature = "scenario")]
 fn located(path: &Path, text: &str, offset: usize, e: Error) -> Error {
     Error::Located {
         path: path.to_path_buf(),
@@ -108,13 +76,12 @@ fn located(path: &Path, text: &str, offset: usize, e: Error) -> Error {
 }
 
 /// Reads a scenario file with the size bound and a located UTF-8 check.
+#[cfg(feature = "scenario")]
 pub(crate) fn read_text(path: &Path) -> Result<String, Error> {
     let bytes =
-        crashrig_colmap::input_file::read_limited(path, MAX_FILE_BYTES).map_err(|source| {
-            Error::Io {
-                path: path.to_path_buf(),
-                source,
-            }
+        crashrig_input::file::read_limited(path, MAX_FILE_BYTES).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
         })?;
     String::from_utf8(bytes).map_err(|e| {
         let valid = e.utf8_error().valid_up_to();
@@ -524,7 +491,8 @@ fn header_of(line: &str) -> Option<&str> {
     Some(inner.trim())
 }
 
-#[cfg(test)]
+// The tests read scenario documents.
+#[cfg(all(test, feature = "scenario"))]
 mod tests {
     use super::*;
 

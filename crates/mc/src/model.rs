@@ -7,7 +7,6 @@
 use crate::error::Error;
 use crashrig_camera::Camera as Lens;
 use crashrig_geometry::UncertainPose;
-use crashrig_geometry::result_kind::ResultKind;
 use nalgebra::{Matrix3, Matrix6, Vector3};
 use std::path::PathBuf;
 
@@ -49,8 +48,9 @@ pub struct Camera {
     /// How this camera's rotation noise acts: `Tangent` for `covariance_tangent` and `from`,
     /// the scenario's `rotation_noise` for the σ keys.
     pub rotation_noise: RotationNoise,
-    /// The result file a `from = "…"` link was read from (path as resolved) and its kind.
-    pub from: Option<(PathBuf, ResultKind)>,
+    /// The result file a `from = "…"` link was read from (path as resolved; its kind,
+    /// `calibrate` or `bootstrap`, decided which covariance was taken: `docs/SCENARIO.md`).
+    pub from: Option<PathBuf>,
 }
 
 impl Camera {

@@ -2,7 +2,7 @@
 //!
 //! [`link_from_result_json`] reads one `calibrate --json` or `bootstrap --json` document and
 //! returns the link `A_from_B` it reports as an [`UncertainPose`] (mm, rad). Which fields are
-//! taken is defined once, in [`crashrig_geometry::result_json`] (shared with `measure`):
+//! taken is defined once, in [`crashrig_input::result_json`] (shared with `measure`):
 //! a `calibrate` result (it has `n_epochs`) gives the mean link and `sem_covariance_tangent`,
 //! the uncertainty of that mean; a `bootstrap` result (`method` and `iterations`) gives
 //! `covariance_tangent`, the spread of its replicates; a link written by hand (neither marker)
@@ -10,7 +10,7 @@
 
 use crate::error::Error;
 use crashrig_geometry::UncertainPose;
-pub use crashrig_geometry::result_json::ResultKind;
+pub use crashrig_input::result_json::ResultKind;
 use serde_json::Value;
 use std::path::Path;
 
@@ -27,11 +27,8 @@ pub fn link_from_result_json(path: &Path) -> Result<(ResultKind, UncertainPose),
         file: path.to_path_buf(),
         problem,
     };
-    let text = crashrig_colmap::input_file::read_text_limited(
-        path,
-        crashrig_colmap::input_file::MAX_JSON_BYTES,
-    )
-    .map_err(|e| fail(format!("cannot read: {e}")))?;
+    let text = crashrig_input::file::read_text_limited(path, crashrig_input::file::MAX_JSON_BYTES)
+        .map_err(|e| fail(format!("cannot read: {e}")))?;
     let value: Value = serde_json::from_str(&text).map_err(|e| {
         fail(format!(
             "not a JSON document (line {}, column {}): {e}",
@@ -47,7 +44,7 @@ pub fn link_from_result_json(path: &Path) -> Result<(ResultKind, UncertainPose),
 /// # Errors
 /// As [`link_from_result_json`], without the file name.
 pub fn link_from_result_value(v: &Value) -> Result<(ResultKind, UncertainPose), String> {
-    crashrig_geometry::result_json::link_from_result_value(v).map_err(|e| e.to_string())
+    crashrig_input::result_json::link_from_result_value(v).map_err(|e| e.to_string())
 }
 
 #[cfg(test)]

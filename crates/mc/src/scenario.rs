@@ -12,7 +12,6 @@ use crate::model::{
     Adaptive, Axis, Camera, Grid, MAX_NDIG, Observer, ObserverSigma, PixelNoise, PoseSigma,
     RotationNoise, Scenario, Tolerance, check_observers, topological_order,
 };
-use crate::reference::ResultKind;
 use crashrig_geometry::uncertain::check_covariance;
 use crashrig_geometry::{Mat6, Rigid3, UncertainPose, opk, quat};
 use nalgebra::Vector3;
@@ -236,7 +235,7 @@ pub(crate) fn toml_error(e: &toml::de::Error, text: &str, path: &Path) -> Error 
     let message = e.message().trim();
     let key = e
         .span()
-        .and_then(|span| crate::limits::toml_value_key(text, span.start));
+        .and_then(|span| crashrig_input::location::toml_value_key(text, span.start));
     Error::Toml {
         path: PathBuf::from(path),
         line,
@@ -381,13 +380,8 @@ impl Scenario {
     }
 }
 
-/// A camera's pose, its given ω φ κ (rad), its noise kind and the reference it came from.
-type CameraPose = (
-    UncertainPose,
-    Vector3<f64>,
-    RotationNoise,
-    Option<(PathBuf, ResultKind)>,
-);
+/// A camera's pose, its given ω φ κ (rad), its noise kind and the result file it came from.
+type CameraPose = (UncertainPose, Vector3<f64>, RotationNoise, Option<PathBuf>);
 
 /// The pose of one `[[camera]]`: from a `from = "…"` result, or from `position_mm` /
 /// `angles_deg` with `covariance_tangent` or the σ keys.
@@ -419,7 +413,7 @@ fn camera_pose(
             }
         }
         let file = base.join(f);
-        let (kind, pose) = crate::reference::link_from_result_json(&file).map_err(|e| match e {
+        let (_, pose) = crate::reference::link_from_result_json(&file).map_err(|e| match e {
             Error::Reference { file, problem, .. } => Error::Reference {
                 key: Some(k("from")),
                 file,
@@ -429,7 +423,7 @@ fn camera_pose(
         })?;
         let o = opk::opk_from_rotation(&pose.rotation());
         let angles = Vector3::new(o.omega, o.phi, o.kappa);
-        return Ok((pose, angles, RotationNoise::Tangent, Some((file, kind))));
+        return Ok((pose, angles, RotationNoise::Tangent, Some(file)));
     }
     let position = finite3(k("position_mm"), required(k("position_mm"), c.position_mm)?)?;
     let angles =

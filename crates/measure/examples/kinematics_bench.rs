@@ -96,7 +96,7 @@ fn main() {
     for _ in 0..repeats {
         for (k, (_, cfc)) in variants.iter().enumerate() {
             let start = Instant::now();
-            let m = measure(&epochs, None, &rig, &obs, &settings(*cfc)).expect("measure");
+            let m = measure(&epochs, None, &rig, &obs, None, &settings(*cfc)).expect("measure");
             best[k] = best[k].min(start.elapsed().as_secs_f64());
             assert_eq!(m.rows.len(), n_epochs * n_markers);
         }

@@ -34,7 +34,8 @@
 //! are split into runs of [`RUN`] epochs processed in parallel; each run owns its rows'
 //! streaming accumulators and feeds them in replicate order, so the result is bit-identical
 //! for any thread count. Memory is O(rows + threads·RUN·markers·BLOCK), independent of the
-//! number of draws.
+//! number of draws. With scale bars ([`crate::length`]), each chunk's positions also feed
+//! every bar's distance moments, one task per bar in replicate order (memory O(bars·epochs)).
 
 use crate::Error;
 use crate::filter::{Cfc, CfcSpec};
@@ -42,11 +43,13 @@ use crate::input::{Inward, JointA, Observation};
 use crate::kinematics::{
     self, Differences, KinRow, Kinematics, LANES, Lanes, Run, RunAcc, Scratch,
 };
+use crate::length::{self, BarAcc, BarEpochPrep, BarPrep, LengthCheck, ScaleBars};
 use crate::sequence::frame_number;
 use crashrig_camera::Camera;
 use crashrig_geometry::triangulate::{self, View};
 use crashrig_geometry::{Mat3, Mat6, UncertainPose, Vec3, Vec6, so3};
 use crashrig_stats::progress::{Cancelled, Counter, Monitor, Part};
+use crashrig_stats::summary::median;
 use crashrig_stats::{Moments, StreamRng, stream};
 use nalgebra::{DMatrix, Matrix2, Vector2, Vector3};
 use rand::RngExt;
@@ -122,7 +125,7 @@ pub const REPROJECTION_OUTLIER_ROBUST_SIGMAS: f64 = 5.0;
 /// good rows; the robust limit flags rows that disagree with the rest of the sequence (a
 /// mislabelled or mis-detected marker). `None` for fewer than 3 residuals.
 pub fn robust_reprojection_limit(residuals: &[f64]) -> Option<f64> {
-    let mut v: Vec<f64> = residuals
+    let v: Vec<f64> = residuals
         .iter()
         .copied()
         .filter(|r| r.is_finite())
@@ -130,20 +133,10 @@ pub fn robust_reprojection_limit(residuals: &[f64]) -> Option<f64> {
     if v.len() < 3 {
         return None;
     }
-    let med = median_sorted(&mut v);
-    let mut dev: Vec<f64> = v.iter().map(|r| (r - med).abs()).collect();
-    let mad = median_sorted(&mut dev);
+    let med = median(&v)?;
+    let dev: Vec<f64> = v.iter().map(|r| (r - med).abs()).collect();
+    let mad = median(&dev)?;
     Some(med + REPROJECTION_OUTLIER_ROBUST_SIGMAS * 1.4826 * mad)
-}
-
-fn median_sorted(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
 }
 
 /// Why a row is flagged.
@@ -267,6 +260,8 @@ pub struct Measurement {
     /// How much of the variance the trigger offset contributes (with
     /// [`Settings::sync_sigma_ms`] > 0).
     pub sync_share: Option<SyncShare>,
+    /// The length check of the scale bars ([`crate::length`]; with scale bars).
+    pub length_check: Option<LengthCheck>,
 }
 
 /// The share of the variance that camera A's trigger offset contributes: the measurement is
@@ -305,18 +300,16 @@ pub struct ShareStats {
 impl ShareStats {
     /// The statistics of the per-row shares of `pairs` (σ with, σ without the offset).
     fn of(pairs: impl Iterator<Item = (Option<Vec3>, Option<Vec3>)>) -> Option<ShareStats> {
-        let mut v: Vec<f64> = pairs
+        let v: Vec<f64> = pairs
             .filter_map(|(with, without)| {
                 let (w, o) = (with?.norm_squared(), without?.norm_squared());
                 (w > 0.0).then(|| (1.0 - o / w).max(0.0))
             })
             .collect();
-        if v.is_empty() {
-            return None;
-        }
         let max = v.iter().copied().fold(0.0, f64::max);
         Some(ShareStats {
-            median: median_sorted(&mut v),
+            // The shares are finite (≥ 0 and ≤ 1), so `None` only for no share at all.
+            median: median(&v)?,
             max,
             rows: v.len(),
         })
@@ -453,6 +446,21 @@ struct LinkPrep {
     c: Option<(Mat3, Vec3, Mat6)>,
 }
 
+impl LinkPrep {
+    /// The link's and the tie's nominal rotation, centre and covariance factor.
+    fn new(rig: &Rig) -> LinkPrep {
+        LinkPrep {
+            r_ab: rig.a_from_b.rotation().into_inner(),
+            c_ab: rig.a_from_b.center(),
+            l_ab: rig.a_from_b.factor(),
+            c: rig
+                .c
+                .as_ref()
+                .map(|(p, _)| (p.rotation().into_inner(), p.center(), p.factor())),
+        }
+    }
+}
+
 /// A row's streaming moments of position, displacement and velocity.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct Acc {
@@ -467,6 +475,8 @@ pub(crate) struct Acc {
 pub(crate) struct Accs {
     pub rows: BTreeMap<(usize, usize), Acc>,
     pub runs: BTreeMap<(usize, usize), RunAcc>,
+    /// The scale bars' moments by bar index ([`crate::length`]).
+    pub bars: BTreeMap<usize, BarAcc>,
 }
 
 /// Where the Monte Carlo's moments come from.
@@ -884,6 +894,10 @@ fn prep_view(
 /// without a tie or a pixel cannot be undistorted; [`Error::Sequence`] when (with a frame
 /// rate) an epoch name has no frame number or frame numbers do not increase along the
 /// sequence. [`Error::in_files`] names the file each is about.
+/// With `scale_bars` ([`crate::length`]), the distance of every bar's two markers is taken
+/// in each replicate too, and [`Measurement::length_check`] holds the bars' errors, σ and
+/// verdicts.
+///
 /// With `joint`: [`Error::Json`] naming the joint's file when a measured epoch is not in
 /// it or its matrix is not positive semi-definite.
 pub fn measure(
@@ -891,10 +905,29 @@ pub fn measure(
     joint: Option<&JointA>,
     rig: &Rig,
     observations: &[Observation],
+    scale_bars: Option<&ScaleBars>,
     settings: &Settings,
 ) -> Result<Measurement, Error> {
     let whole = Draws::Shard(crashrig_outdir::shard::Shard::whole());
-    measure_parts(epochs, joint, rig, observations, settings, whole, None).map(|(m, _)| m)
+    let input = Input {
+        epochs,
+        joint,
+        rig,
+        observations,
+        scale_bars,
+    };
+    measure_parts(&input, settings, whole, None).map(|(m, _)| m)
+}
+
+/// What a measurement measures: the epochs with A's poses (and their joint covariance), the
+/// rig, the observations and the scale bars ([`measure`]'s arguments).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Input<'a> {
+    pub epochs: &'a [Epoch],
+    pub joint: Option<&'a JointA>,
+    pub rig: &'a Rig,
+    pub observations: &'a [Observation],
+    pub scale_bars: Option<&'a ScaleBars>,
 }
 
 /// [`measure`] with the moments drawn for one shard's markers or given
@@ -903,11 +936,10 @@ pub fn measure(
 /// are empty). The replicates drawn are reported, chunk by chunk, to `monitor` (two equal
 /// parts with a sync σ: the run with and the run without it), which may stop the run between
 /// chunks with [`Error::Cancelled`]; the result does not depend on it.
+/// The scale bars are measured in the first pass only (a trigger offset moves B and C
+/// rigidly together: a distance does not see it).
 pub(crate) fn measure_parts(
-    epochs: &[Epoch],
-    joint: Option<&JointA>,
-    rig: &Rig,
-    observations: &[Observation],
+    input: &Input<'_>,
     settings: &Settings,
     draws: Draws<'_>,
     monitor: Option<&dyn Monitor>,
@@ -916,7 +948,7 @@ pub(crate) fn measure_parts(
     let part = |i| monitor.map(|m| Part::new(m, i, parts));
     let first = part(0);
     let ticks = Counter::monitored(first.as_ref().map(|p| p as _), settings.samples);
-    let (mut m, accs) = measure_once(epochs, joint, rig, observations, settings, draws, 0, &ticks)?;
+    let (mut m, accs) = measure_once(input, settings, draws, 0, &ticks)?;
     let mut all = vec![accs];
     if settings.sync_sigma_ms > 0.0 {
         let without = Settings {
@@ -925,8 +957,11 @@ pub(crate) fn measure_parts(
         };
         let second = part(1);
         let ticks = Counter::monitored(second.as_ref().map(|p| p as _), settings.samples);
-        let (m0, accs0) =
-            measure_once(epochs, joint, rig, observations, &without, draws, 1, &ticks)?;
+        let no_bars = Input {
+            scale_bars: None,
+            ..*input
+        };
+        let (m0, accs0) = measure_once(&no_bars, &without, draws, 1, &ticks)?;
         m.sync_share = Some(sync_share(&m, &m0, settings.sync_sigma_ms));
         all.push(accs0);
     }
@@ -956,17 +991,20 @@ fn sync_share(m: &Measurement, m0: &Measurement, sigma_ms: f64) -> SyncShare {
     }
 }
 
-#[allow(clippy::too_many_arguments)]
 fn measure_once(
-    epochs: &[Epoch],
-    joint: Option<&JointA>,
-    rig: &Rig,
-    observations: &[Observation],
+    input: &Input<'_>,
     settings: &Settings,
     draws: Draws<'_>,
     pass: usize,
     ticks: &Counter<'_>,
 ) -> Result<(Measurement, Accs), Error> {
+    let Input {
+        epochs,
+        rig,
+        observations,
+        scale_bars,
+        ..
+    } = *input;
     check_settings(settings)?;
     check_draws(observations.len(), settings.samples)?;
     crate::input::check_in_image(observations, &rig.camera_b, rig.c.as_ref().map(|(_, c)| c))?;
@@ -978,17 +1016,6 @@ fn measure_once(
         .enumerate()
         .map(|(i, m)| (m.as_str(), i))
         .collect();
-
-    // Link preparation.
-    let link = LinkPrep {
-        r_ab: rig.a_from_b.rotation().into_inner(),
-        c_ab: rig.a_from_b.center(),
-        l_ab: rig.a_from_b.factor(),
-        c: rig
-            .c
-            .as_ref()
-            .map(|(p, _)| (p.rotation().into_inner(), p.center(), p.factor())),
-    };
 
     // Per-epoch preparation (nominal intersections).
     let mut preps: Vec<EpochPrep> = Vec::with_capacity(groups.by_epoch.len());
@@ -1005,10 +1032,6 @@ fn measure_once(
             .collect();
         robust_reprojection_limit(&all)
     });
-    let track = match settings.frame_rate_hz {
-        Some(hz) if settings.sync_sigma_ms > 0.0 => ATrack::new(epochs, hz),
-        _ => None,
-    };
     let filter = match (settings.cfc, settings.frame_rate_hz) {
         (Some(spec), Some(hz)) => Some(Cfc::new(spec.class, spec.standard, hz)?),
         _ => None,
@@ -1021,72 +1044,32 @@ fn measure_once(
         };
         kinematics::runs(groups.markers.len(), &frames, has)
     });
-    let kin_work = filter
-        .as_ref()
-        .zip(kin_runs.as_deref())
-        .map(|(filter, runs)| KinWork { filter, runs });
-    let (accs, kin_accs) = match draws {
-        Draws::Given(given) => {
-            let given = given.get(pass).ok_or_else(|| {
-                Error::Input("the shards hold no moments of the run without the offset".into())
-            })?;
-            given_moments(&preps, kin_work.as_ref(), given)?
-        }
-        Draws::Shard(shard) => {
-            let mine = shard.range(groups.markers.len());
-            for slot in preps.iter_mut().flat_map(|p| p.slots.iter_mut()) {
-                slot.drawn = mine.contains(&slot.marker);
-            }
-            // Only this shard's markers' runs are filtered.
-            let my_runs: Option<Vec<Vec<Run>>> = kin_runs.as_ref().map(|runs| {
-                let keep = |(m, r): (usize, &Vec<Run>)| {
-                    if mine.contains(&m) {
-                        r.clone()
-                    } else {
-                        Vec::new()
-                    }
-                };
-                runs.iter().enumerate().map(keep).collect()
-            });
-            let my_work = filter
-                .as_ref()
-                .zip(my_runs.as_deref())
-                .map(|(filter, runs)| KinWork { filter, runs });
-            let a_factor = joint
-                .map(|j| {
-                    let measured: Vec<usize> = groups.by_epoch.keys().copied().collect();
-                    joint_factor(j, epochs, &measured)
-                })
-                .transpose()?;
-            run_monte_carlo(
-                &preps,
-                &link,
-                a_factor.as_ref(),
-                settings,
-                reference_epoch,
-                track.as_ref(),
-                my_work.as_ref(),
-                ticks,
-            )?
-        }
+    let bars = scale_bars.map_or_else(Vec::new, |b| bar_preps(&b.bars, &marker_idx, &preps));
+    let mut work = Work {
+        preps,
+        reference: reference_epoch,
+        filter: filter.as_ref(),
+        kin_runs: kin_runs.as_deref(),
+        bars: &bars,
+        n_markers: groups.markers.len(),
+        measured: groups.by_epoch.keys().copied().collect(),
     };
-    let part = match draws {
-        Draws::Shard(shard) => {
-            let mine = shard.range(groups.markers.len());
-            shard_part(&preps, kin_runs.as_deref(), &accs, &kin_accs, &mine)
-        }
-        Draws::Given(_) => Accs::default(),
-    };
+    let (moments, part) = draw_moments(&mut work, input, settings, draws, pass, ticks)?;
+    let preps = work.preps;
     let rows = assemble(
         &preps,
-        &accs,
+        &moments.rows,
         settings,
         reference_epoch,
         reprojection_limit_px,
     );
-    let kinematics = kin_work
+    let kinematics = filter
         .as_ref()
-        .map(|k| assemble_kinematics(&preps, k, &kin_accs, reference_epoch, rows.len()));
+        .zip(kin_runs.as_deref())
+        .map(|(filter, runs)| {
+            let k = KinWork { filter, runs };
+            assemble_kinematics(&preps, &k, &moments.runs, reference_epoch, rows.len())
+        });
     let m = Measurement {
         epochs: measured,
         markers: groups.markers,
@@ -1104,30 +1087,168 @@ fn measure_once(
         reprojection_limit_px,
         kinematics,
         sync_share: None,
+        length_check: scale_bars.map(|b| length::assemble(b, &bars, &moments.bars)),
     };
     Ok((m, part))
 }
 
-/// The accumulators of the rows and kinematic runs of the markers `mine` (a shard's).
+/// A measurement prepared for its Monte Carlo.
+struct Work<'a> {
+    /// The measured epochs' views and nominal intersections.
+    preps: Vec<EpochPrep>,
+    /// The reference epoch of the displacements.
+    reference: usize,
+    /// The kinematics' filter (with `cfc`).
+    filter: Option<&'a Cfc>,
+    /// Every marker's kinematic runs (with `cfc`).
+    kin_runs: Option<&'a [Vec<Run>]>,
+    /// The scale bars.
+    bars: &'a [BarPrep],
+    /// Markers of the measurement.
+    n_markers: usize,
+    /// The measured epochs (indices into the input's epochs).
+    measured: Vec<usize>,
+}
+
+/// The Monte Carlo's moments of every row, kinematic run and scale bar.
+struct AllMoments {
+    rows: Vec<Vec<Acc>>,
+    runs: Vec<Vec<RunAcc>>,
+    bars: Vec<BarAcc>,
+}
+
+/// The moments of `work`, drawn here (for a shard's markers and bars) or taken from a shard
+/// set ([`Draws`]), and the part a shard writes.
+fn draw_moments(
+    work: &mut Work<'_>,
+    input: &Input<'_>,
+    settings: &Settings,
+    draws: Draws<'_>,
+    pass: usize,
+    ticks: &Counter<'_>,
+) -> Result<(AllMoments, Accs), Error> {
+    let shard = match draws {
+        Draws::Given(given) => {
+            let given = given.get(pass).ok_or_else(|| {
+                Error::Input("the shards hold no moments of the run without the offset".into())
+            })?;
+            let kin = work.filter.zip(work.kin_runs);
+            let kin = kin.map(|(filter, runs)| KinWork { filter, runs });
+            return Ok((
+                given_moments(&work.preps, kin.as_ref(), work.bars, given)?,
+                Accs::default(),
+            ));
+        }
+        Draws::Shard(shard) => shard,
+    };
+    let mine = shard.range(work.n_markers);
+    let my_bars = shard.range(work.bars.len());
+    // A shard draws its markers and the markers of its bars (a bar needs both positions).
+    let bar_markers: BTreeSet<usize> = work.bars[my_bars.clone()]
+        .iter()
+        .flat_map(|b| b.markers.iter().flatten().copied())
+        .collect();
+    for slot in work.preps.iter_mut().flat_map(|p| p.slots.iter_mut()) {
+        slot.drawn = mine.contains(&slot.marker) || bar_markers.contains(&slot.marker);
+    }
+    // Only this shard's markers' runs are filtered.
+    let my_runs: Option<Vec<Vec<Run>>> = work.kin_runs.map(|runs| {
+        let keep = |(m, r): (usize, &Vec<Run>)| {
+            if mine.contains(&m) {
+                r.clone()
+            } else {
+                Vec::new()
+            }
+        };
+        runs.iter().enumerate().map(keep).collect()
+    });
+    let my_work = work
+        .filter
+        .zip(my_runs.as_deref())
+        .map(|(filter, runs)| KinWork { filter, runs });
+    let a_factor = input
+        .joint
+        .map(|j| joint_factor(j, input.epochs, &work.measured))
+        .transpose()?;
+    let track = match settings.frame_rate_hz {
+        Some(hz) if settings.sync_sigma_ms > 0.0 => ATrack::new(input.epochs, hz),
+        _ => None,
+    };
+    let link = LinkPrep::new(input.rig);
+    let moments = run_monte_carlo(
+        &work.preps,
+        &link,
+        a_factor.as_ref(),
+        settings,
+        work.reference,
+        track.as_ref(),
+        my_work.as_ref(),
+        (work.bars, my_bars.clone()),
+        ticks,
+    )?;
+    let part = shard_part(&work.preps, work.kin_runs, &moments, &mine, my_bars);
+    Ok((moments, part))
+}
+
+/// Every scale bar prepared for the draws: its markers' indices (`None`: a marker seen only
+/// in epochs without a pose of A) and the measured epochs in which both have a position.
+fn bar_preps(
+    bars: &[length::ScaleBar],
+    marker_idx: &HashMap<&str, usize>,
+    preps: &[EpochPrep],
+) -> Vec<BarPrep> {
+    bars.iter()
+        .map(|bar| {
+            let markers = [
+                marker_idx.get(bar.marker_1.as_str()).copied(),
+                marker_idx.get(bar.marker_2.as_str()).copied(),
+            ];
+            let mut epochs = Vec::new();
+            if let [Some(m1), Some(m2)] = markers {
+                for (e, p) in preps.iter().enumerate() {
+                    let at = |m: usize| {
+                        let s = p.slot_of[m]?;
+                        p.slots[s].nominal.map(|x| (s, x))
+                    };
+                    if let (Some((s1, x1)), Some((s2, x2))) = (at(m1), at(m2)) {
+                        epochs.push(BarEpochPrep {
+                            e,
+                            s1,
+                            s2,
+                            nominal_mm: (x1 - x2).norm(),
+                        });
+                    }
+                }
+            }
+            BarPrep::new(markers, epochs)
+        })
+        .collect()
+}
+
+/// The accumulators of the rows and kinematic runs of the markers `mine` and of the scale
+/// bars `my_bars` (a shard's).
 fn shard_part(
     preps: &[EpochPrep],
     kin_runs: Option<&[Vec<Run>]>,
-    accs: &[Vec<Acc>],
-    kin_accs: &[Vec<RunAcc>],
+    moments: &AllMoments,
     mine: &std::ops::Range<usize>,
+    my_bars: std::ops::Range<usize>,
 ) -> Accs {
     let mut part = Accs::default();
     for (e, p) in preps.iter().enumerate() {
         for (s, slot) in p.slots.iter().enumerate() {
             if mine.contains(&slot.marker) {
-                part.rows.insert((e, slot.marker), accs[e][s]);
+                part.rows.insert((e, slot.marker), moments.rows[e][s]);
             }
         }
     }
-    for (runs, racc) in kin_runs.into_iter().flatten().zip(kin_accs) {
+    for (runs, racc) in kin_runs.into_iter().flatten().zip(&moments.runs) {
         for (run, acc) in runs.iter().zip(racc) {
             part.runs.insert((run.marker, run.start), acc.clone());
         }
+    }
+    for b in my_bars {
+        part.bars.insert(b, moments.bars[b].clone());
     }
     part
 }
@@ -1137,12 +1258,12 @@ fn shard_part(
 /// # Errors
 /// [`Error::Input`] naming the first row or run that no shard holds, or a run whose length
 /// differs (the shards come from other inputs).
-#[allow(clippy::type_complexity)]
 fn given_moments(
     preps: &[EpochPrep],
     kin: Option<&KinWork<'_>>,
+    bars: &[BarPrep],
     given: &Accs,
-) -> Result<(Vec<Vec<Acc>>, Vec<Vec<RunAcc>>), Error> {
+) -> Result<AllMoments, Error> {
     let mut accs = Vec::with_capacity(preps.len());
     for (e, p) in preps.iter().enumerate() {
         let row = |slot: &Slot| {
@@ -1183,7 +1304,30 @@ fn given_moments(
         }
         kin_accs.push(racc);
     }
-    Ok((accs, kin_accs))
+    let mut bar_accs = Vec::with_capacity(bars.len());
+    for (b, bar) in bars.iter().enumerate() {
+        match given.bars.get(&b) {
+            Some(acc) if acc.dist.len() == bar.epochs.len() => bar_accs.push(acc.clone()),
+            _ => {
+                return Err(Error::Input(format!(
+                    "no shard holds the moments of scale bar {b} over {} epochs",
+                    bar.epochs.len()
+                )));
+            }
+        }
+    }
+    if given.bars.len() != bars.len() {
+        return Err(Error::Input(format!(
+            "the shards hold the moments of {} scale bars, the run has {}",
+            given.bars.len(),
+            bars.len()
+        )));
+    }
+    Ok(AllMoments {
+        rows: accs,
+        runs: kin_accs,
+        bars: bar_accs,
+    })
 }
 
 /// One epoch's observations: marker → camera → observation.
@@ -1434,9 +1578,6 @@ fn assemble_kinematics(
 /// continuing where the previous chunk stopped, so the scratch is O(epochs · slots · CHUNK).
 const CHUNK: usize = 32;
 
-/// The Monte Carlo's per-(epoch, slot) and per-(marker, run) accumulators.
-type Accumulators = (Vec<Vec<Acc>>, Vec<Vec<RunAcc>>);
-
 /// The kinematics work of the Monte Carlo: the filter and every marker's runs.
 struct KinWork<'a> {
     filter: &'a Cfc,
@@ -1460,8 +1601,9 @@ fn run_monte_carlo(
     reference: usize,
     track: Option<&ATrack>,
     kin: Option<&KinWork<'_>>,
+    (bars, my_bars): (&[BarPrep], std::ops::Range<usize>),
     ticks: &Counter<'_>,
-) -> Result<Accumulators, Cancelled> {
+) -> Result<AllMoments, Cancelled> {
     let n_epochs = preps.len();
     let with_velocity = settings.frame_rate_hz.is_some();
     let mut accs: Vec<Vec<Acc>> = preps
@@ -1474,6 +1616,7 @@ fn run_monte_carlo(
             .map(|rs| rs.iter().map(|r| RunAcc::new(r.len)).collect())
             .collect()
     });
+    let mut bar_accs: Vec<BarAcc> = bars.iter().map(|b| BarAcc::new(b.epochs.len())).collect();
     let n_blocks = settings.samples.div_ceil(BLOCK);
     let seed = settings.seed;
     let sync_s = settings.sync_sigma_ms / 1000.0;
@@ -1529,10 +1672,19 @@ fn run_monte_carlo(
                         }
                     });
             }
+            // Each bar's moments are fed by one task, replicate by replicate.
+            bar_accs[my_bars.clone()]
+                .par_iter_mut()
+                .zip(bars[my_bars.clone()].par_iter())
+                .for_each_init(Vec::new, |d, (acc, bar)| acc.feed(bar, bufs, m, d));
             ticks.add(m);
         }
     }
-    Ok((accs, kin_accs))
+    Ok(AllMoments {
+        rows: accs,
+        runs: kin_accs,
+        bars: bar_accs,
+    })
 }
 
 /// Feeds the position, displacement and velocity moments of epoch `e`'s rows with the `m`

@@ -97,7 +97,7 @@ pub enum Error {
         source: Box<Error>,
     },
     /// Options of the command that do not fit together or are out of range, named as the front
-    /// end spells them ([`crashrig_geometry::options::Spelling`]).
+    /// end spells them ([`crashrig_input::options::Spelling`]).
     #[error("{0}")]
     Usage(String),
     /// The caller's [`crashrig_stats::progress::Monitor`] cancelled the call: nothing was

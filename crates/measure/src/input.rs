@@ -2,9 +2,9 @@
 //! outward camera's pose covariance (JSON).
 
 use crate::Error;
-use crashrig_colmap::input_file;
 use crashrig_geometry::uncertain::COVARIANCE_RELATIVE_TOLERANCE;
 use crashrig_geometry::{Mat6, Rigid3, UncertainPose};
+use crashrig_input::file as input_file;
 use nalgebra::Vector2;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -284,7 +284,7 @@ fn uncertain(
 
 /// Reads a link `parent_from_child` with its covariance from a `calibrate --json` or
 /// `bootstrap --json` result, exactly as a scenario's `from = "…json"` reads it (one reader,
-/// [`crashrig_geometry::result_json`]):
+/// [`crashrig_input::result_json`]):
 ///
 /// - `base_mm`: the child's projection centre in the parent's axes (mm);
 /// - `angles_deg`: ω φ κ of `R_parent_from_child` (degrees);
@@ -300,7 +300,7 @@ fn uncertain(
 /// is not symmetric positive semi-definite included).
 pub fn load_link(path: &Path) -> Result<UncertainPose, Error> {
     let doc = read_json(path)?;
-    crashrig_geometry::result_json::link_from_result_value(&doc)
+    crashrig_input::result_json::link_from_result_value(&doc)
         .map(|(_, link)| link)
         .map_err(|e| json_err(path, e.key.unwrap_or("$"), e.problem))
 }
@@ -604,7 +604,7 @@ pub fn check_in_image(
 
 /// Smallest and largest model scale (mm per model unit): a model in nanometre …
 /// kilometre-scale units.
-pub use crashrig_geometry::options::MM_PER_UNIT_RANGE;
+pub use crashrig_input::options::MM_PER_UNIT_RANGE;
 
 /// The model's units in mm: `given` (`--mm-per-unit`, `[measure] mm_per_unit`), else the
 /// `mm_per_unit` that the A-covariance file states (a `crashrig covariance` result). Units

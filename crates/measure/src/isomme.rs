@@ -75,8 +75,8 @@
 
 use crate::Error;
 use crate::input::{read_json, read_text};
-use crashrig_colmap::input_file;
 use crashrig_geometry::{Mat3, Vec3};
+use crashrig_input::file as input_file;
 use serde_json::Value;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;

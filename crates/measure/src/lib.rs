@@ -25,6 +25,8 @@
 //! - [`input::read_observations`], [`input::load_link`], [`input::read_a_covariance`]: the
 //!   input files.
 //! - [`engine::measure`]: the measurement → [`engine::Measurement`] (typed rows).
+//! - [`length`]: the length check of scale bars (`--scale-bars`): each bar's distance in every
+//!   replicate, its error against the certificate with σ, and the verdict on the predicted σ.
 //! - [`plausible`]: the bound on the replicates, the finiteness check of the result and the
 //!   plausibility warnings (frame rate, velocity) that name the suspect flag and its unit.
 //! - [`output`]: the rows as `crashrig measure`'s files (`trajectories.csv`,
@@ -86,7 +88,7 @@
 //!     cfc: None,
 //!     sync_sigma_ms: 0.0,
 //! };
-//! let m = measure(&epochs, None, &rig, &obs, &settings)?;
+//! let m = measure(&epochs, None, &rig, &obs, None, &settings)?;
 //! assert_eq!(m.rows.len(), 3);
 //! let row = &m.rows[1];
 //! assert!((row.position_mm.unwrap() - Vec3::new(250.0, 0.0, 2000.0)).norm() < 1e-9);
@@ -106,6 +108,7 @@ pub mod filter;
 pub mod input;
 pub mod isomme;
 pub mod kinematics;
+pub mod length;
 mod options;
 pub mod output;
 pub mod plausible;
@@ -117,4 +120,4 @@ mod simd;
 pub use engine::{Epoch, Measurement, Rig, Row, Settings, measure};
 pub use error::Error;
 pub use options::{DEFAULT_SEED, MeasureOptions};
-pub use run::{ANoise, MeasureConfig, MeasureRun, OutputDir, check_out, run};
+pub use run::{ANoise, MeasureConfig, MeasureRun, OutputDir, ScaleBarsFile, check_out, run};

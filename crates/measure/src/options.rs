@@ -3,7 +3,7 @@
 //! the σ of camera A, the model's units, the link and the tie read, the filter.
 //!
 //! ```no_run
-//! use crashrig_geometry::options::Spelling;
+//! use crashrig_input::options::Spelling;
 //! use crashrig_measure::MeasureOptions;
 //! let options = MeasureOptions {
 //!     mm_per_unit: Some(1000.0),
@@ -21,7 +21,7 @@
 use crate::filter::{CfcSpec, Standard};
 use crate::{ANoise, Error, MeasureConfig, MeasureRun, OutputDir, Settings, input};
 use crashrig_geometry::Vec3;
-use crashrig_geometry::options::{Spelling, check_mm_per_unit};
+use crashrig_input::options::{Spelling, check_mm_per_unit};
 use std::path::PathBuf;
 
 /// The seed of `measure` when none is given.
@@ -74,6 +74,13 @@ pub struct MeasureOptions {
     pub cfc_standard: Option<String>,
     /// σ of A's trigger offset (ms).
     pub sync_sigma_ms: f64,
+    /// The scale bars of the length check (CSV `name,marker_1,marker_2,length_mm,sigma_mm`).
+    #[serde(default)]
+    pub scale_bars: Option<PathBuf>,
+    /// The lab's maximum permissible error of a length (mm); needs
+    /// [`MeasureOptions::scale_bars`].
+    #[serde(default)]
+    pub mpe_mm: Option<f64>,
 }
 
 impl MeasureOptions {
@@ -108,6 +115,8 @@ impl MeasureOptions {
             cfc: None,
             cfc_standard: None,
             sync_sigma_ms: 0.0,
+            scale_bars: None,
+            mpe_mm: None,
         }
     }
 
@@ -153,6 +162,22 @@ impl MeasureOptions {
                 name("cfc_standard"),
                 name("cfc")
             )));
+        }
+        match (self.mpe_mm, &self.scale_bars) {
+            (Some(_), None) => {
+                return Err(Error::Usage(format!(
+                    "{} needs {} (the maximum permissible error of the bars' lengths)",
+                    name("mpe_mm"),
+                    name("scale_bars")
+                )));
+            }
+            (Some(e), Some(_)) if !(e.is_finite() && e > 0.0) => {
+                return Err(Error::Usage(format!(
+                    "{}: {e} is not a number > 0 (mm)",
+                    name("mpe_mm")
+                )));
+            }
+            _ => {}
         }
         let given = self
             .mm_per_unit
@@ -201,6 +226,10 @@ impl MeasureOptions {
                 cfc,
                 sync_sigma_ms: self.sync_sigma_ms,
             },
+            scale_bars: self.scale_bars.clone().map(|path| crate::ScaleBarsFile {
+                path,
+                mpe_mm: self.mpe_mm,
+            }),
             out: self.out.clone(),
         })
     }
@@ -308,5 +337,22 @@ mod tests {
         );
         // Units are never guessed.
         assert!(message(&options(), Spelling::Flag).contains("--mm-per-unit"));
+        let mpe = MeasureOptions {
+            mpe_mm: Some(1.0),
+            ..options()
+        };
+        assert_eq!(
+            message(&mpe, Spelling::Flag),
+            "--mpe-mm needs --scale-bars (the maximum permissible error of the bars' lengths)"
+        );
+        let mpe = MeasureOptions {
+            mpe_mm: Some(-1.0),
+            scale_bars: Some("bars.csv".into()),
+            ..options()
+        };
+        assert_eq!(
+            message(&mpe, Spelling::Keyword),
+            "mpe_mm: -1 is not a number > 0 (mm)"
+        );
     }
 }

@@ -1,6 +1,7 @@
 //! The output files of a measurement, in the formats of `crashrig measure` (docs/MEASURE.md):
 //! `trajectories.csv` (the contract's fixed header), `displacements.csv`, one trajectory plot
-//! per marker (`plots/<marker>.png|svg`) and the numbers of `summary.json`.
+//! per marker (`plots/<marker>.png|svg`), the numbers of `summary.json` and, with scale bars,
+//! `length_check.csv` and its plot `length_check.png|svg`.
 //!
 //! `crashrig measure` and the study's `[measure]` step both write through these functions, so
 //! the two outputs have one format. Numbers are written with Rust's shortest round-trip
@@ -47,7 +48,7 @@
 //!     cfc: None,
 //!     sync_sigma_ms: 0.0,
 //! };
-//! let m = measure(&epochs, None, &rig, &obs, &settings)?;
+//! let m = measure(&epochs, None, &rig, &obs, None, &settings)?;
 //! let csv = output::trajectories_csv(&m);
 //! let mut lines = csv.lines();
 //! assert_eq!(lines.next(), Some(output::TRAJECTORIES_HEADER));
@@ -68,6 +69,7 @@ use crate::Error;
 use crate::engine::{Measurement, Row, Settings};
 use crashrig_geometry::Vec3;
 use crashrig_plot::{BandPanel, Format};
+use crashrig_stats::summary::median;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -176,6 +178,110 @@ pub fn kinematics_csv(m: &Measurement) -> Option<String> {
         );
     }
     Some(s)
+}
+
+/// Header of `length_check.csv` (fixed by the contract).
+pub const LENGTH_CHECK_HEADER: &str = "epoch,bar,length_mm,measured_mm,error_mm,sigma_mm,z";
+
+/// The length check's table in the output directory.
+pub const LENGTH_CHECK_CSV: &str = "length_check.csv";
+
+/// `length_check.csv` of a measurement with scale bars ([`LENGTH_CHECK_HEADER`]): one line per
+/// (epoch, bar) in which both markers of the bar have a position, epochs in sequence order,
+/// bars in file order; `sigma_mm` (the replicates' σ of the distance combined with the
+/// certificate's) and `z` are blank where the Monte Carlo gives none. `None` without scale
+/// bars.
+pub fn length_check_csv(m: &Measurement) -> Option<String> {
+    let lc = m.length_check.as_ref()?;
+    let mut lines: Vec<(usize, usize, String)> = Vec::new();
+    for (b, bar) in lc.bars.iter().enumerate() {
+        for (&e, k) in bar.epochs.iter().zip(&bar.stats.epochs) {
+            let line = format!(
+                "{},{},{},{},{},{},{}",
+                csv_field(&m.epochs[e].name),
+                csv_field(&bar.bar.name),
+                num(bar.bar.length_mm),
+                num(k.measured_mm),
+                num(k.error_mm),
+                k.sigma_mm.map(num).unwrap_or_default(),
+                k.z.map(num).unwrap_or_default()
+            );
+            lines.push((e, b, line));
+        }
+    }
+    lines.sort_by_key(|(e, b, _)| (*e, *b));
+    let mut s = format!("{LENGTH_CHECK_HEADER}\n");
+    for (_, _, line) in lines {
+        s.push_str(&line);
+        s.push('\n');
+    }
+    Some(s)
+}
+
+/// The length check's plot (`length_check.png|svg`): one panel per scale bar measured in at
+/// least one epoch, its error (measured − certificate length, mm) against time in ms (or the
+/// sequence index) with the ±2σ band and a line at zero. `None` without scale bars or without
+/// a measured bar.
+///
+/// # Errors
+/// [`Error::Plot`] (`marker` names the length check).
+pub fn length_check_plot(m: &Measurement) -> Result<Option<MarkerPlot>, Error> {
+    let Some(lc) = m.length_check.as_ref() else {
+        return Ok(None);
+    };
+    let xs: Vec<f64> = m
+        .epochs
+        .iter()
+        .enumerate()
+        .map(|(i, e)| e.time_s.map_or(i as f64, |t| t * 1000.0))
+        .collect();
+    let x_label = if m.epochs.iter().all(|e| e.time_s.is_some()) {
+        "t [ms]"
+    } else {
+        "epoch (sequence index)"
+    };
+    let measured: Vec<_> = lc.bars.iter().filter(|b| !b.epochs.is_empty()).collect();
+    if measured.is_empty() {
+        return Ok(None);
+    }
+    let mut series = Vec::with_capacity(measured.len());
+    for bar in &measured {
+        let mut ys = vec![f64::NAN; xs.len()];
+        let mut hw = vec![f64::NAN; xs.len()];
+        for (&e, k) in bar.epochs.iter().zip(&bar.stats.epochs) {
+            ys[e] = k.error_mm;
+            hw[e] = k.sigma_mm.map_or(f64::NAN, |s| 2.0 * s);
+        }
+        let label = format!("{} error [mm]", bar.bar.name);
+        series.push((label, ys, hw));
+    }
+    let panels: Vec<BandPanel<'_>> = series
+        .iter()
+        .map(|(label, ys, hw)| BandPanel {
+            y_label: label,
+            ys,
+            half_widths: hw,
+        })
+        .collect();
+    let options = crashrig_plot::BandOptions {
+        marked: &[],
+        reference_y: Some(0.0),
+    };
+    let title = "length check: measured − certificate length per epoch, ±2σ";
+    let draw = |f| {
+        crashrig_plot::banded_panels_with(&xs, &panels, &options, title, x_label, f).map_err(
+            |source| Error::Plot {
+                marker: "length check".into(),
+                source,
+            },
+        )
+    };
+    Ok(Some(MarkerPlot {
+        marker: "length check".into(),
+        stem: "length_check".into(),
+        png: draw(Format::Png)?,
+        svg: draw(Format::Svg)?,
+    }))
 }
 
 /// File stems of the markers: characters other than ASCII letters, digits, `-` and `_` become
@@ -477,17 +583,97 @@ fn kinematics_summary(m: &Measurement) -> Option<KinematicsSummary> {
     })
 }
 
-fn median(mut v: Vec<f64>) -> Option<f64> {
-    if v.is_empty() {
-        return None;
+/// One scale bar of `summary.json`'s `length_check` ([`crate::length`]; the contract's fields
+/// and, beyond them, the bar's markers and certificate σ, the σ of the mean error, the scatter
+/// band and its degrees of freedom).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BarSummary {
+    /// The bar's name.
+    pub name: String,
+    /// Its first marker.
+    pub marker_1: String,
+    /// Its second marker.
+    pub marker_2: String,
+    /// The certificate's length (mm).
+    pub length_mm: f64,
+    /// The certificate's σ (mm).
+    pub sigma_mm: f64,
+    /// Epochs in which both markers have a position.
+    pub epochs: usize,
+    /// Mean error over those epochs (mm).
+    pub mean_error_mm: Option<f64>,
+    /// RMS error (mm).
+    pub rms_error_mm: Option<f64>,
+    /// The length measurement error E: the largest |error| (mm).
+    pub max_abs_error_mm: Option<f64>,
+    /// Share of the epochs with |z| ≤ 2.
+    pub coverage_2sigma: Option<f64>,
+    /// σ of the mean error (replicates and certificate; mm).
+    pub mean_error_sigma_mm: Option<f64>,
+    /// Mean error over its σ: the part of the error every epoch shares.
+    pub bias_z: Option<f64>,
+    /// Spread of the measured distance over the epochs over the RMS of its predicted
+    /// epoch-to-epoch σ.
+    pub scatter_ratio: Option<f64>,
+    /// The two-sided 99 % band of `scatter_ratio` under honest σ.
+    pub scatter_band_99: Option<[f64; 2]>,
+    /// Its effective degrees of freedom.
+    pub scatter_dof: Option<f64>,
+    /// `consistent`, `sigma_too_small` or `bias` (`null` without epochs).
+    pub verdict: Option<&'static str>,
+    /// `max_abs_error_mm ≤ --mpe-mm` (only with `--mpe-mm`; `null` without epochs).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub within_mpe: Option<Option<bool>>,
+}
+
+impl BarSummary {
+    /// The bar in one line (what `crashrig measure` prints): its error, bias and scatter with
+    /// their limits, the maximum permissible error and the verdict.
+    pub fn line(&self) -> String {
+        let f = |v: Option<f64>, d: usize| v.map_or("—".to_string(), |v| format!("{v:.d$}"));
+        let band = self
+            .scatter_band_99
+            .map_or("—".to_string(), |[lo, hi]| format!("{lo:.2} … {hi:.2}"));
+        let mpe = match self.within_mpe {
+            Some(Some(true)) => ", within the MPE",
+            Some(Some(false)) => ", ABOVE the MPE",
+            _ => "",
+        };
+        format!(
+            "length check {} ({} mm, {} epochs): E = {} mm, mean error {} mm, bias_z {} (|z| ≤ 3), scatter ratio {} (99 % band {band}){mpe}: {}",
+            self.name,
+            self.length_mm,
+            self.epochs,
+            f(self.max_abs_error_mm, 3),
+            f(self.mean_error_mm, 3),
+            f(self.bias_z, 2),
+            f(self.scatter_ratio, 2),
+            self.verdict.unwrap_or("no verdict")
+        )
     }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    })
+
+    fn new(b: &crate::length::BarCheck, mpe_given: bool) -> BarSummary {
+        let s = &b.stats;
+        BarSummary {
+            name: b.bar.name.clone(),
+            marker_1: b.bar.marker_1.clone(),
+            marker_2: b.bar.marker_2.clone(),
+            length_mm: b.bar.length_mm,
+            sigma_mm: b.bar.sigma_mm,
+            epochs: b.epochs.len(),
+            mean_error_mm: s.mean_error_mm,
+            rms_error_mm: s.rms_error_mm,
+            max_abs_error_mm: s.max_abs_error_mm,
+            coverage_2sigma: s.coverage_2sigma,
+            mean_error_sigma_mm: s.mean_error_sigma_mm,
+            bias_z: s.bias_z,
+            scatter_ratio: s.scatter_ratio,
+            scatter_band_99: s.scatter_band.map(|(lo, hi)| [lo, hi]),
+            scatter_dof: s.scatter_dof,
+            verdict: s.verdict.map(crate::length::Verdict::name),
+            within_mpe: mpe_given.then_some(b.within_mpe),
+        }
+    }
 }
 
 /// The numbers of `summary.json` that depend only on the measurement and its settings (no
@@ -544,6 +730,9 @@ pub struct Summary {
     /// The trigger offset's share of the variance (with `--sync-sigma-ms`; absent otherwise).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sync_offset: Option<SyncSummary>,
+    /// The length check, one entry per scale bar (with `--scale-bars`; absent otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub length_check: Option<Vec<BarSummary>>,
 }
 
 impl Summary {
@@ -578,11 +767,17 @@ impl Summary {
             rows_reprojection_outlier: count(&|r| r.flags.reprojection_outlier),
             rows_flagged: count(&|r| r.flags.any()),
             max_sigma_mm: smax.iter().copied().reduce(f64::max),
-            median_sigma_max_mm: median(smax),
+            median_sigma_max_mm: median(&smax),
             max_displacement_sigma_mm: dmax.iter().copied().reduce(f64::max),
-            median_displacement_sigma_max_mm: median(dmax),
+            median_displacement_sigma_max_mm: median(&dmax),
             kinematics: kinematics_summary(m),
             sync_offset: m.sync_share.as_ref().map(SyncSummary::new),
+            length_check: m.length_check.as_ref().map(|lc| {
+                lc.bars
+                    .iter()
+                    .map(|b| BarSummary::new(b, lc.mpe_mm.is_some()))
+                    .collect()
+            }),
         }
     }
 }
@@ -609,6 +804,10 @@ pub struct SummaryDocument {
     pub epoch_names: Vec<String>,
     /// Markers in order.
     pub marker_names: Vec<String>,
+    /// The run's warnings (skipped epochs, scale bars that are not `consistent`), without the
+    /// `warning: ` prefix; absent when there are none.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
     /// Files written, relative to the output directory (empty when nothing was written).
     pub files: Vec<String>,
     /// Wall-clock time of the run (s).
@@ -665,6 +864,9 @@ fn replaceable(name: &str) -> bool {
         "trajectories.csv"
             | "displacements.csv"
             | "kinematics.csv"
+            | LENGTH_CHECK_CSV
+            | "length_check.png"
+            | "length_check.svg"
             | "summary.json"
             | "plots/"
             | crashrig_outdir::shard::MANIFEST
@@ -702,12 +904,5 @@ mod tests {
         assert_eq!(csv_field("head"), "head");
         assert_eq!(csv_field("a,b"), "\"a,b\"");
         assert_eq!(csv_field("say \"hi\""), "\"say \"\"hi\"\"\"");
-    }
-
-    #[test]
-    fn median_of_odd_even_and_empty() {
-        assert_eq!(median(vec![3.0, 1.0, 2.0]), Some(2.0));
-        assert_eq!(median(vec![4.0, 1.0, 3.0, 2.0]), Some(2.5));
-        assert_eq!(median(Vec::new()), None);
     }
 }

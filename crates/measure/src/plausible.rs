@@ -95,7 +95,7 @@ pub fn check_measurable(m: &Measurement) -> Result<(), Error> {
 }
 
 /// Checks that every number of the result is finite (positions, σ, displacements,
-/// velocities, reprojection residuals).
+/// velocities, reprojection residuals, the length check's errors, σ and statistics).
 ///
 /// # Errors
 /// [`Error::Input`] naming the first epoch, marker and column that is not finite, and the
@@ -125,6 +125,32 @@ pub fn check_finite(m: &Measurement) -> Result<(), Error> {
                 value.trim(),
                 m.markers[r.marker],
                 m.epochs[r.epoch].name
+            )));
+        }
+    }
+    for bar in m.length_check.iter().flat_map(|lc| &lc.bars) {
+        let s = &bar.stats;
+        let per_epoch = s.epochs.iter().flat_map(|k| {
+            [
+                ("measured_mm", Some(k.measured_mm)),
+                ("sigma_mm", k.sigma_mm),
+                ("z", k.z),
+            ]
+        });
+        let numbers = [
+            ("mean_error_mm", s.mean_error_mm),
+            ("bias_z", s.bias_z),
+            ("scatter_ratio", s.scatter_ratio),
+            ("scatter_dof", s.scatter_dof),
+            ("scatter_band_99", s.scatter_band.map(|b| b.0 + b.1)),
+        ];
+        if let Some((name, v)) = per_epoch
+            .chain(numbers)
+            .find_map(|(name, v)| v.filter(|v| !v.is_finite()).map(|v| (name, v)))
+        {
+            return Err(Error::Input(format!(
+                "the length check is not finite ({name} = {v} for scale bar `{}`): nothing is written; check the marker pixels (px)",
+                bar.bar.name
             )));
         }
     }

@@ -31,6 +31,7 @@
 //!         cfc: None,
 //!         sync_sigma_ms: 0.0,
 //!     },
+//!     scale_bars: None,
 //!     out: None,
 //! };
 //! let r = run(&config, None)?;
@@ -42,8 +43,9 @@
 //! ```
 
 use crate::Error;
-use crate::engine::{Accs, Draws, Epoch, Measurement, Rig, Settings};
+use crate::engine::{Accs, Draws, Epoch, Input, Measurement, Rig, Settings};
 use crate::input::{self, CameraNames, JointA};
+use crate::length::{self, ScaleBars};
 use crate::output::{self, Skipped, SummaryDocument};
 use crate::sequence::{self, APose, CameraSelector};
 use crashrig_geometry::{UncertainPose, Vec3};
@@ -79,6 +81,15 @@ pub struct OutputDir {
     pub plots: bool,
 }
 
+/// The length check's inputs (`--scale-bars`, `--mpe-mm`; [`crate::length`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScaleBarsFile {
+    /// The scale-bar CSV `name,marker_1,marker_2,length_mm,sigma_mm`.
+    pub path: PathBuf,
+    /// The lab's maximum permissible error of a length (mm, > 0), if any.
+    pub mpe_mm: Option<f64>,
+}
+
 /// Everything a measurement needs, typed: the files of the sequence, the rig's links as
 /// uncertain poses, and the settings.
 #[derive(Debug, Clone)]
@@ -103,6 +114,8 @@ pub struct MeasureConfig {
     pub a_noise: ANoise,
     /// Replicates, seed, pixel σ, reference epoch, frame rate, thresholds.
     pub settings: Settings,
+    /// The scale bars of the length check, if any.
+    pub scale_bars: Option<ScaleBarsFile>,
     /// The output directory; `None`: compute only.
     pub out: Option<OutputDir>,
 }
@@ -114,8 +127,9 @@ pub struct MeasureRun {
     pub measurement: Measurement,
     /// `summary.json` (its numbers, skipped epochs, names, the files written, the time).
     pub summary: SummaryDocument,
-    /// Warnings for the user (epochs of the observations without a pose of camera A), one
-    /// sentence each without the `warning:` prefix.
+    /// Warnings for the user (epochs of the observations without a pose of camera A, scale
+    /// bars whose check is not `consistent`), one sentence each without the `warning:`
+    /// prefix; also in `summary.json`'s `warnings`.
     pub warnings: Vec<String>,
 }
 
@@ -175,28 +189,33 @@ pub(crate) fn run_parts(
         has_c: c.is_some(),
     };
     let observations = input::read_observations(&config.observations, &names)?;
+    let scale_bars = config
+        .scale_bars
+        .as_ref()
+        .map(|f| scale_bars(f, &observations))
+        .transpose()?;
     let (epochs, joint) = a_epochs(&seq.poses, &config.a_noise)?;
     let rig = Rig {
         a_from_b: config.a_from_b,
         camera_b,
         c: c.map(|(_, tie, cam)| (tie, cam)),
     };
-    let (measurement, accs) = crate::engine::measure_parts(
-        &epochs,
-        joint.as_ref(),
-        &rig,
-        &observations,
-        &config.settings,
-        draws,
-        monitor,
-    )
-    .and_then(|(m, accs)| {
-        crate::plausible::check_measurable(&m)?;
-        crate::plausible::check_finite(&m)?;
-        Ok((m, accs))
-    })
-    .map_err(|e| e.in_files(&config.observations, &config.model))?;
-    let warnings = measurement
+    let input = Input {
+        epochs: &epochs,
+        joint: joint.as_ref(),
+        rig: &rig,
+        observations: &observations,
+        scale_bars: scale_bars.as_ref(),
+    };
+    let (measurement, accs) =
+        crate::engine::measure_parts(&input, &config.settings, draws, monitor)
+            .and_then(|(m, accs)| {
+                crate::plausible::check_measurable(&m)?;
+                crate::plausible::check_finite(&m)?;
+                Ok((m, accs))
+            })
+            .map_err(|e| e.in_files(&config.observations, &config.model))?;
+    let mut warnings: Vec<String> = measurement
         .skipped
         .iter()
         .map(|s| {
@@ -209,7 +228,10 @@ pub(crate) fn run_parts(
             )
         })
         .collect();
-    let mut summary = summary_document(&measurement, config);
+    if let Some(lc) = &measurement.length_check {
+        warnings.extend(lc.warnings());
+    }
+    let mut summary = summary_document(&measurement, config, &warnings);
     if let Some(out) = &config.out {
         let mut files = output_files(&measurement, out.plots)?;
         summary.files = files.iter().map(|(n, _)| n.clone()).collect();
@@ -225,6 +247,28 @@ pub(crate) fn run_parts(
         warnings,
     };
     Ok((r, accs))
+}
+
+/// The scale bars of `f` (their markers checked against the observations' markers) and the
+/// maximum permissible error.
+///
+/// # Errors
+/// [`length::read_scale_bars`]'s; [`Error::Setting`] for a maximum permissible error that is
+/// not a finite number > 0.
+fn scale_bars(f: &ScaleBarsFile, observations: &[input::Observation]) -> Result<ScaleBars, Error> {
+    if let Some(e) = f.mpe_mm
+        && !(e.is_finite() && e > 0.0)
+    {
+        return Err(Error::Setting {
+            name: "--mpe-mm",
+            problem: format!("{e} (a number > 0, mm)"),
+        });
+    }
+    Ok(ScaleBars {
+        path: f.path.clone(),
+        bars: length::read_scale_bars(&f.path, observations)?,
+        mpe_mm: f.mpe_mm,
+    })
 }
 
 /// The epochs of A's sequence with their uncertain poses, and the file's joint covariance of
@@ -275,7 +319,11 @@ fn a_epochs(poses: &[APose], noise: &ANoise) -> Result<(Vec<Epoch>, Option<Joint
 }
 
 /// `summary.json` without the files and the time (filled in by [`run`] when it writes).
-fn summary_document(m: &Measurement, config: &MeasureConfig) -> SummaryDocument {
+fn summary_document(
+    m: &Measurement,
+    config: &MeasureConfig,
+    warnings: &[String],
+) -> SummaryDocument {
     SummaryDocument {
         numbers: output::Summary::new(
             m,
@@ -293,6 +341,7 @@ fn summary_document(m: &Measurement, config: &MeasureConfig) -> SummaryDocument 
             .collect(),
         epoch_names: m.epochs.iter().map(|e| e.name.clone()).collect(),
         marker_names: m.markers.clone(),
+        warnings: warnings.to_vec(),
         files: Vec::new(),
         elapsed_s: 0.0,
     }
@@ -313,7 +362,14 @@ fn output_files(m: &Measurement, plots: bool) -> Result<Vec<(String, Vec<u8>)>, 
     if let Some(k) = output::kinematics_csv(m) {
         files.push(("kinematics.csv".to_string(), k.into_bytes()));
     }
+    if let Some(l) = output::length_check_csv(m) {
+        files.push((output::LENGTH_CHECK_CSV.to_string(), l.into_bytes()));
+    }
     if plots {
+        if let Some(p) = output::length_check_plot(m)? {
+            files.push(("length_check.png".to_string(), p.png));
+            files.push(("length_check.svg".to_string(), p.svg));
+        }
         for p in output::marker_plots(m)?
             .into_iter()
             .chain(output::kinematics_plots(m)?)

@@ -14,13 +14,18 @@
 //! same marker's), hence they are the unsharded run's bit for bit. With N > M some shards own
 //! no marker: they are valid (empty) shards and merge.
 //!
+//! Scale bars (`--scale-bars`, [`crate::length`]) are split the same way: shard i owns the bars
+//! `⌊(i−1)·B/N⌋ .. ⌊i·B/N⌋` of the B bars (file order) and also intersects both markers of each
+//! of them (the other shards' markers' rows are left out of its moments), so a bar's moments
+//! come from one process, replicate by replicate, as in the unsharded run.
+//!
 //! # The shard directory
 //! `shard.json` ([`crashrig_outdir::shard::Manifest`], `command = "measure"`, its `items` the
 //! marker range), [`OPTIONS`] (the options with absolute paths: what the merge runs again)
 //! and [`MOMENTS`] (every accumulator of its rows and kinematic runs in Rust's shortest
 //! round-trip decimals, per pass: 0 the measurement, 1 the one without the trigger offset).
 //! The fingerprint covers the bytes of every input file (the model directory's files, the
-//! link, the tie, the observations, A's covariance) and every option except the paths, the
+//! link, the tie, the observations, A's covariance, the scale bars) and every option except the paths, the
 //! output directory, the seed and the sample count (which the manifest states).
 //!
 //! # Example
@@ -44,16 +49,17 @@
 //!     shard::run(&options, Shard::new(i + 1, 2)?, dir, None)?;
 //! }
 //! let merged = shard::merge(&read_set(&dirs)?, &tmp.path().join("merged"), false, None)?;
-//! let whole = crashrig_measure::run(&options.config(crashrig_geometry::options::Spelling::Flag)?, None)?;
+//! let whole = crashrig_measure::run(&options.config(crashrig_input::options::Spelling::Flag)?, None)?;
 //! assert_eq!(merged.measurement, whole.measurement);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
 use crate::engine::{Acc, Accs, Draws};
 use crate::kinematics::{AxisMoments, RunAcc};
+use crate::length::{self, BarAcc};
 use crate::{Error, MeasureOptions, MeasureRun, OutputDir};
-use crashrig_geometry::options::Spelling;
 use crashrig_geometry::{Mat3, Vec3};
+use crashrig_input::options::Spelling;
 use crashrig_outdir::shard::{Manifest, Shard, check_set, fingerprint};
 use crashrig_stats::Moments;
 use crashrig_stats::progress::Monitor;
@@ -156,7 +162,7 @@ pub fn merge(
     let mut options: MeasureOptions = read_options(&options_path)?;
     if inputs_fingerprint(&options)? != m0.fingerprint {
         return Err(Error::Input(format!(
-            "{}: the inputs (model, link, tie, observations, A's covariance) or options are not those the shards ran with: rerun the shards",
+            "{}: the inputs (model, link, tie, observations, A's covariance, scale bars) or options are not those the shards ran with: rerun the shards",
             options_path.display()
         )));
     }
@@ -192,6 +198,7 @@ fn absolute(options: &MeasureOptions) -> Result<MeasureOptions, Error> {
         tie: opt(&options.tie)?,
         observations: abs(&options.observations)?,
         a_covariance: opt(&options.a_covariance)?,
+        scale_bars: opt(&options.scale_bars)?,
         out: None,
         ..options.clone()
     })
@@ -226,6 +233,7 @@ fn inputs_fingerprint(options: &MeasureOptions) -> Result<String, Error> {
         options.tie.as_ref(),
         Some(&options.observations),
         options.a_covariance.as_ref(),
+        options.scale_bars.as_ref(),
     ];
     for f in files {
         parts.push(match f {
@@ -239,6 +247,7 @@ fn inputs_fingerprint(options: &MeasureOptions) -> Result<String, Error> {
         tie: options.tie.as_ref().map(|_| PathBuf::new()),
         observations: PathBuf::new(),
         a_covariance: options.a_covariance.as_ref().map(|_| PathBuf::new()),
+        scale_bars: options.scale_bars.as_ref().map(|_| PathBuf::new()),
         out: None,
         // The manifest states these two, so that a shard of another seed or sample count is
         // named as such.
@@ -283,9 +292,12 @@ fn push_moments(s: &mut String, m: &Moments<3>) {
 }
 
 /// [`MOMENTS`]: per pass, a `row` line per (measured epoch, marker) — position, displacement
-/// and velocity moments, each `n, mean (3), m2 (9, column-major)` — and a `run` line per
+/// and velocity moments, each `n, mean (3), m2 (9, column-major)` — a `run` line per
 /// kinematic run (first epoch, marker, `n`, then per epoch of the run the mean and m2 per axis
-/// of the filtered displacement, velocity and acceleration).
+/// of the filtered displacement, velocity and acceleration) and a `bar` line per scale bar
+/// (its number of epochs in the `epoch` column, its index in the `marker` column, then the
+/// moments of the replicates' mean distance and scatter statistic and per epoch of the
+/// distance and its deviation from the mean, each `n, mean, m2`; [`crate::length`]).
 fn moments_csv(accs: &[Accs]) -> String {
     let mut s = format!("{HEADER}\n");
     for (pass, a) in accs.iter().enumerate() {
@@ -303,6 +315,17 @@ fn moments_csv(accs: &[Accs]) -> String {
                     .iter()
                     .chain(q.m2.iter())
                     .for_each(|&x| push_num(&mut s, x));
+            }
+            s.push('\n');
+        }
+        for (&b, acc) in &a.bars {
+            let _ = write!(s, "{pass},bar,{},{b}", acc.dist.len());
+            let epochs = acc.dist.iter().zip(&acc.dev).flat_map(|(d, v)| [d, v]);
+            for q in [&acc.mean, &acc.scatter].into_iter().chain(epochs) {
+                let (n, mean, m2) = length::scalar_parts(q);
+                let _ = write!(s, ",{n}");
+                push_num(&mut s, mean);
+                push_num(&mut s, m2);
             }
             s.push('\n');
         }
@@ -361,6 +384,17 @@ fn parse_line(line: &str, markers: &Range<usize>, accs: &mut Vec<Accs>) -> Resul
         return Err(format!("pass {pass} is not 0 or 1"));
     }
     let (e, m) = (int(f[2], "epoch")?, int(f[3], "marker")?);
+    if f[1] == "bar" {
+        // `epoch` is the bar's number of epochs, `marker` its index: any shard may own a bar.
+        let acc = parse_bar(&f[4..], e)?;
+        if accs.len() <= pass {
+            accs.resize_with(pass + 1, Accs::default);
+        }
+        if accs[pass].bars.insert(m, acc).is_some() {
+            return Err(format!("the moments of scale bar {m} are given twice"));
+        }
+        return Ok(());
+    }
     if !markers.contains(&m) {
         return Err(format!(
             "marker {m} is not one of this shard's markers {}..{}",
@@ -427,7 +461,36 @@ fn parse_line(line: &str, markers: &Range<usize>, accs: &mut Vec<Accs>) -> Resul
                 return Err(twice());
             }
         }
-        other => return Err(format!("kind `{other}` is not `row` or `run`")),
+        other => return Err(format!("kind `{other}` is not `row`, `run` or `bar`")),
     }
     Ok(())
+}
+
+/// A `bar` line's moments (after its first four fields) of a bar with `n` epochs.
+fn parse_bar(f: &[&str], n: usize) -> Result<BarAcc, String> {
+    let groups = 2 + 2 * n;
+    if f.len() != 3 * groups {
+        return Err(format!(
+            "a scale bar of {n} epochs has {} moments, not {}",
+            f.len(),
+            3 * groups
+        ));
+    }
+    let mut q = Vec::with_capacity(groups);
+    for g in f.chunks(3) {
+        let count = g[0]
+            .parse::<u64>()
+            .map_err(|_| format!("count `{}` is not a whole number", g[0]))?;
+        let x = |t: &str| {
+            t.parse::<f64>()
+                .map_err(|_| format!("`{t}` is not a number"))
+        };
+        q.push(length::scalar_from_parts(count, x(g[1])?, x(g[2])?));
+    }
+    Ok(BarAcc {
+        mean: q[0],
+        scatter: q[1],
+        dist: q[2..].iter().step_by(2).copied().collect(),
+        dev: q[3..].iter().step_by(2).copied().collect(),
+    })
 }

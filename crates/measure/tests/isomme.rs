@@ -157,13 +157,13 @@ fn refuses_a_measure_output_without_a_frame_rate() {
     assert!(msg.contains("--test-number"), "{msg}");
 }
 
-/// Every input of the export is read through `crashrig_colmap::input_file::read_limited`: a
+/// Every input of the export is read through `crashrig_input::file::read_limited`: a
 /// FIFO (reading it would wait for a writer for ever) and a file larger than its kind's limit
 /// (a sparse file: nothing is written to disk) are refused with the file named, without
 /// blocking and before anything is allocated.
 #[test]
 fn refuses_fifos_and_oversize_inputs() {
-    use crashrig_colmap::input_file::{MAX_CSV_BYTES, MAX_JSON_BYTES};
+    use crashrig_input::file::{MAX_CSV_BYTES, MAX_JSON_BYTES};
     let dir = tempfile::tempdir().unwrap();
     let oversize = |name: &str, limit: u64| {
         measure_dir(dir.path());

@@ -136,8 +136,8 @@ fn joint_draws_give_the_marginals_and_the_correlated_displacement() {
         joint_covariance_deg(),
     )
     .unwrap();
-    let with = measure(&epochs, Some(&joint), &rig, &obs, &settings(n)).unwrap();
-    let without = measure(&epochs, None, &rig, &obs, &settings(n)).unwrap();
+    let with = measure(&epochs, Some(&joint), &rig, &obs, None, &settings(n)).unwrap();
+    let without = measure(&epochs, None, &rig, &obs, None, &settings(n)).unwrap();
     let j = jacobian();
     let marginal = j * sigma_epoch() * j.transpose();
     let sd = |m: nalgebra::Matrix3<f64>| m.diagonal().map(f64::sqrt);
@@ -171,7 +171,7 @@ fn a_measured_epoch_missing_from_the_joint_is_an_error() {
         two,
     )
     .unwrap();
-    let e = measure(&epochs, Some(&joint), &rig, &obs, &settings(10))
+    let e = measure(&epochs, Some(&joint), &rig, &obs, None, &settings(10))
         .unwrap_err()
         .to_string();
     assert!(
@@ -233,6 +233,7 @@ fn a_fully_correlated_file_cancels_in_the_displacements() {
         mm_per_unit: 1000.0,
         a_noise,
         settings: settings(2_000),
+        scale_bars: None,
         out: None,
     };
     let joint = crashrig_measure::run(&config(ANoise::File(path)), None).unwrap();
@@ -333,7 +334,7 @@ fn bad_joint_matrices_name_the_key() {
     let (mut epochs, rig, obs) = scene();
     epochs.truncate(2);
     let obs: Vec<Observation> = obs.into_iter().filter(|o| o.epoch != "0002").collect();
-    let e = measure(&epochs, Some(&joint), &rig, &obs, &settings(10))
+    let e = measure(&epochs, Some(&joint), &rig, &obs, None, &settings(10))
         .unwrap_err()
         .to_string();
     assert!(

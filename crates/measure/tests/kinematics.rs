@@ -126,6 +126,7 @@ fn filtered_sigma_matches_the_numpy_monte_carlo() {
             None,
             &rig(),
             &obs,
+            None,
             &settings(samples, 26, class, standard, 0.0, 0.0),
         )
         .unwrap();
@@ -243,6 +244,7 @@ fn coverage(trials: u64, sync_ms: f64, standard: Standard) -> [(f64, f64); 3] {
             None,
             &rig(),
             &obs,
+            None,
             &settings(400, trial, 180, standard, sigma_px, sync_ms),
         )
         .unwrap();

@@ -105,6 +105,7 @@ fn positions_cover_the_truth_and_one_view_rows_are_flagged() {
         None,
         &f.rig,
         &f.observations,
+        None,
         &settings(2000, 11),
     )
     .unwrap();
@@ -160,7 +161,7 @@ fn agree_with_numpy(n_epochs: usize) {
         .filter(|o| keep.contains(&o.epoch.as_str()))
         .cloned()
         .collect();
-    let m = measure(&f.epochs, None, &f.rig, &obs, &settings(20_000, 5)).unwrap();
+    let m = measure(&f.epochs, None, &f.rig, &obs, None, &settings(20_000, 5)).unwrap();
     let reference = read_table(&dir().join("reference_sigma.csv"));
     let mut worst: f64 = 0.0;
     let mut compared = 0;
@@ -229,7 +230,7 @@ fn a_mislabelled_observation_is_a_reprojection_outlier() {
         .position(|o| o.epoch == "000030" && o.marker == "chest" && o.camera == input::Inward::C)
         .unwrap();
     obs[k].pixel.y += 15.0;
-    let m = measure(&f.epochs, None, &f.rig, &obs, &settings(10, 1)).unwrap();
+    let m = measure(&f.epochs, None, &f.rig, &obs, None, &settings(10, 1)).unwrap();
     let flagged: Vec<_> = m
         .rows
         .iter()
@@ -240,7 +241,7 @@ fn a_mislabelled_observation_is_a_reprojection_outlier() {
     // A limit given explicitly replaces the robust one.
     let mut s = settings(10, 1);
     s.max_reprojection_px = Some(1e-6);
-    let m = measure(&f.epochs, None, &f.rig, &f.observations, &s).unwrap();
+    let m = measure(&f.epochs, None, &f.rig, &f.observations, None, &s).unwrap();
     assert!(
         m.rows
             .iter()
@@ -256,7 +257,7 @@ fn velocity_sigma_is_the_central_difference_of_the_same_draws() {
     let f = fixture();
     let mut s = settings(700, 3);
     s.reference_epoch = Some("000009".into());
-    let m = measure(&f.epochs, None, &f.rig, &f.observations, &s).unwrap();
+    let m = measure(&f.epochs, None, &f.rig, &f.observations, None, &s).unwrap();
     let find = |e: &str, mk: &str| {
         m.rows
             .iter()
@@ -294,14 +295,22 @@ fn bit_identical_for_any_thread_count() {
             .num_threads(threads)
             .build()
             .unwrap()
-            .install(|| measure(&f.epochs, None, &f.rig, &f.observations, &s).unwrap())
+            .install(|| measure(&f.epochs, None, &f.rig, &f.observations, None, &s).unwrap())
     };
     let one = run(1);
     let two = run(2);
     let three = run(3);
     assert_eq!(one, two);
     assert_eq!(one, three);
-    let other = measure(&f.epochs, None, &f.rig, &f.observations, &settings(600, 43)).unwrap();
+    let other = measure(
+        &f.epochs,
+        None,
+        &f.rig,
+        &f.observations,
+        None,
+        &settings(600, 43),
+    )
+    .unwrap();
     assert_ne!(one.rows[0].sigma_mm, other.rows[0].sigma_mm);
 }
 
@@ -312,14 +321,14 @@ fn epoch_without_pose_is_skipped_and_reported() {
     let mut extra = obs[0].clone();
     extra.epoch = "000099".into();
     obs.push(extra);
-    let m = measure(&f.epochs, None, &f.rig, &obs, &settings(10, 1)).unwrap();
+    let m = measure(&f.epochs, None, &f.rig, &obs, None, &settings(10, 1)).unwrap();
     assert_eq!(m.skipped.len(), 1);
     assert_eq!(m.skipped[0].epoch, "000099");
     assert_eq!(m.skipped[0].observations, 1);
     assert_eq!(m.epochs.len(), 50);
     // Nothing measurable at all is an error.
     let only: Vec<Observation> = obs.into_iter().filter(|o| o.epoch == "000099").collect();
-    let e = measure(&f.epochs, None, &f.rig, &only, &settings(10, 1)).unwrap_err();
+    let e = measure(&f.epochs, None, &f.rig, &only, None, &settings(10, 1)).unwrap_err();
     assert!(e.to_string().contains("no observation belongs"), "{e}");
 }
 

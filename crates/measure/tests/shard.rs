@@ -1,10 +1,11 @@
 //! `measure --shard i/N` and its merge: the merged directory is the unsharded run's, byte for
 //! byte (every CSV and plot; `summary.json` except `elapsed_s`), for N = 1, 2, 3 and N above
-//! the number of markers, with velocities, with `--cfc` and a trigger offset, and with A's
-//! poses drawn jointly; and the merge refuses missing, repeated and foreign shards, naming
-//! them, without writing anything.
+//! the number of markers, with velocities, with `--cfc` and a trigger offset, with A's poses
+//! drawn jointly, and with scale bars (`length_check.csv`, `summary.json`'s `length_check`);
+//! and the merge refuses missing, repeated and foreign shards, naming them, without writing
+//! anything.
 
-use crashrig_geometry::options::Spelling;
+use crashrig_input::options::Spelling;
 use crashrig_measure::{MeasureOptions, OutputDir, shard};
 use crashrig_outdir::shard::{Shard, read_set};
 use std::collections::BTreeMap;
@@ -76,7 +77,11 @@ fn assert_merge_is_whole(o: &MeasureOptions, ns: &[usize], plots: bool, expect: 
         }),
         ..o.clone()
     };
-    crashrig_measure::run(&whole.config(Spelling::Flag).unwrap(), None).unwrap();
+    let markers = crashrig_measure::run(&whole.config(Spelling::Flag).unwrap(), None)
+        .unwrap()
+        .measurement
+        .markers
+        .len();
     let want = files(&whole_dir);
     for f in ["displacements.csv", "trajectories.csv"]
         .iter()
@@ -97,7 +102,7 @@ fn assert_merge_is_whole(o: &MeasureOptions, ns: &[usize], plots: bool, expect: 
         // Shards in reverse order: the order of the runs does not matter.
         for (i, dir) in dirs.iter().enumerate().rev() {
             let r = shard::run(o, Shard::new(i + 1, n).unwrap(), dir, None).unwrap();
-            assert_eq!(r.manifest.items.total, 8);
+            assert_eq!(r.manifest.items.total, markers);
         }
         let merged_dir = tmp.path().join(format!("merged{n}"));
         let mut given = dirs.clone();
@@ -142,6 +147,41 @@ fn merged_shards_are_the_unsharded_run_with_kinematics_and_a_trigger_offset() {
         ..options()
     };
     assert_merge_is_whole(&o, &[2, 3], true, &["kinematics.csv"]);
+}
+
+/// The bundled sequence with its three scale bars (14 markers: the eight and two per bar).
+fn with_scale_bars() -> MeasureOptions {
+    let f = fixture();
+    MeasureOptions {
+        observations: f.join("observations_scale_bars.csv"),
+        scale_bars: Some(f.join("scale_bars.csv")),
+        mpe_mm: Some(1.0),
+        ..options()
+    }
+}
+
+#[test]
+fn merged_shards_are_the_unsharded_run_with_scale_bars() {
+    // N = 2: the bars split 1 + 2, and bar 1's markers (sorted: bar_door_* before bar_roof_*,
+    // bar_seat_*) are owned by shard 1 while shard 2 owns bar_roof; N = 5: two shards without
+    // a bar, and bars whose markers another shard owns.
+    assert_merge_is_whole(
+        &with_scale_bars(),
+        &[2, 5],
+        true,
+        &["length_check.csv", "length_check.png", "length_check.svg"],
+    );
+}
+
+#[test]
+fn merged_shards_are_the_unsharded_run_with_scale_bars_kinematics_and_an_offset() {
+    // The run without the offset (pass 1) has no scale bars: the shards' moments say so.
+    let o = MeasureOptions {
+        cfc: Some(180),
+        sync_sigma_ms: 0.5,
+        ..with_scale_bars()
+    };
+    assert_merge_is_whole(&o, &[3], false, &["length_check.csv", "kinematics.csv"]);
 }
 
 #[test]

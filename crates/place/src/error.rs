@@ -27,13 +27,10 @@ pub enum Error {
     },
     /// A step of `crashrig grid` (the confirmation and the chosen layout's output) failed.
     #[error(transparent)]
-    Grid(#[from] crashrig_study::Error),
+    Grid(#[from] crashrig_grid::Error),
     /// The output directory.
     #[error(transparent)]
     OutDir(#[from] crashrig_outdir::Error),
-    /// The merge of `measure` shards (`crashrig merge`).
-    #[error(transparent)]
-    Measure(#[from] crashrig_measure::Error),
     /// A shard directory given to `merge` (or its inputs) does not fit the run.
     #[error("{}: {problem}", path.display())]
     Shard {

@@ -35,15 +35,14 @@
 
 pub mod approx;
 mod error;
-pub mod merge;
 pub mod search;
 pub mod shard;
 
 pub use error::Error;
 
+use crashrig_grid::{GridConfig, GridRun};
 use crashrig_mc::{GridStudy, Observer, Scenario};
 use crashrig_stats::progress::{self, Reporter};
-use crashrig_study::{GridConfig, GridRun};
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -182,7 +181,7 @@ impl Inputs {
                 2 - base
             )));
         }
-        let samples = crashrig_study::grid_run::resolve_samples(config.samples, &scenario)?;
+        let samples = crashrig_grid::resolve_samples(config.samples, &scenario)?;
         let seed = config.seed.unwrap_or(scenario.seed);
         // Counted, not listed: nothing sized by the grid is allocated before the checks.
         let points = [grid.x.count, grid.y.count, grid.z.count]
@@ -381,7 +380,7 @@ pub fn run(config: &PlaceConfig, progress: Option<&dyn Reporter>) -> Result<Plac
         plots: config.plots,
     };
     let winner_layout = inputs.layout(&shortlist.layouts[winner].1);
-    let grid_run = crashrig_study::run_grid_scenario(&winner_layout, &grid_config, progress)?;
+    let grid_run = crashrig_grid::run_grid_scenario(&winner_layout, &grid_config, progress)?;
     commit(&placement, staged, &config.out)?;
     Ok(PlaceRun {
         placement,

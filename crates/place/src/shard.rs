@@ -7,7 +7,7 @@
 //! (sequential rounds; one shard runs it, the others write an empty board). Each shard
 //! keeps the board of its best layouts, and confirms by the Monte Carlo, **on every grid
 //! point**, the layouts of its board within [`crate::CONFIRM_MARGIN`] of its own best
-//! ([`crashrig_study::grid_shard::write_scenario_rows`]; each point's draws come from its own
+//! ([`crashrig_grid::shard::write_scenario_rows`]; each point's draws come from its own
 //! streams, so the rows are the unsharded run's bit for bit). The board's order is total
 //! (score, then the candidate set), so the best layouts of the union of the shards' boards are
 //! the unsharded search's; and every layout the unsharded run confirms was confirmed by the
@@ -51,9 +51,9 @@ use crate::approx::Score;
 use crate::{
     Error, Inputs, PlaceConfig, PlaceRun, Shortlist, commit, replaceable, score_of, search,
 };
+use crashrig_grid::shard::{fingerprint_inputs, read_scenario_rows, write_scenario_rows};
 use crashrig_outdir::shard::{MANIFEST, Manifest, Shard};
 use crashrig_stats::progress::{Counter, Monitor, Reporter};
-use crashrig_study::grid_shard::{fingerprint_inputs, read_scenario_rows, write_scenario_rows};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -308,7 +308,7 @@ impl SearchFile {
 /// # Errors
 /// [`Error::Shard`] for a shard that is not a place shard, a board that names other
 /// candidates, K or method than the first shard's, or inputs that changed; the errors of [`crate::run`] and of
-/// [`crashrig_study::grid_shard::read_scenario_rows`] (a shard's rows, with file and line).
+/// [`crashrig_grid::shard::read_scenario_rows`] (a shard's rows, with file and line).
 pub fn merge(
     shards: &[(PathBuf, Manifest)],
     out: &Path,

@@ -199,14 +199,14 @@ fn place_merge_refuses_missing_repeated_foreign_and_changed_and_writes_nothing()
     );
     // A grid shard is not a place shard.
     let grid_shard = tmp.path().join("grid_shard");
-    let gc = crashrig_study::GridConfig {
+    let gc = crashrig_grid::GridConfig {
         scenario: repo("fixtures/scenarios/three_cameras_z0.toml"),
         out: grid_shard.clone(),
         samples: Some(50),
         seed: Some(1),
         plots: false,
     };
-    crashrig_study::grid_shard::run_grid_shard(&gc, Shard::new(2, 2).unwrap(), None).unwrap();
+    crashrig_grid::shard::run_grid_shard(&gc, Shard::new(2, 2).unwrap(), None).unwrap();
     let e = refused(&[dirs[0].clone(), grid_shard]);
     assert!(e.contains("a shard of another run"), "{e}");
     // Changed candidates since the shards ran.

@@ -17,7 +17,8 @@
 //!   contour and marked points (observers).
 //! - [`histogram`]: a histogram of values with vertical lines (e.g. mean ± 1σ).
 //! - [`series`]: a line series `ys` against `xs`.
-//! - [`banded_panels`] with [`BandPanel`]: stacked line panels with shaded bands (e.g. ±3σ).
+//! - [`banded_panels`] with [`BandPanel`]: stacked line panels with shaded bands (e.g. ±3σ);
+//!   [`banded_panels_with`] adds marked x positions and a reference line ([`BandOptions`]).
 //! - [`ellipses`] with [`EllipsePlot`]: magnified 1σ error ellipses with axes, ticks and a
 //!   scale key.
 //! - [`Overlay`]: hatched missing cells, outlines, cell labels, context lines (a car outline)
@@ -777,7 +778,44 @@ pub fn banded_panels_marked(
     x_label: &str,
     format: Format,
 ) -> Result<Vec<u8>, Error> {
+    let options = BandOptions {
+        marked,
+        reference_y: None,
+    };
+    banded_panels_with(xs, panels, &options, title, x_label, format)
+}
+
+/// What [`banded_panels_with`] adds to the panels.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct BandOptions<'a> {
+    /// Empty, or one flag per x: the x positions marked in every panel (a red ring and cross).
+    pub marked: &'a [bool],
+    /// A horizontal reference line drawn across every panel (e.g. zero error); each panel's y
+    /// range includes it.
+    pub reference_y: Option<f64>,
+}
+
+/// [`banded_panels`] with marked x positions and a reference line ([`BandOptions`]).
+///
+/// Errors: those of [`banded_panels`], `marked` neither empty nor `xs.len()` long, and a
+/// reference that is not finite.
+pub fn banded_panels_with(
+    xs: &[f64],
+    panels: &[BandPanel<'_>],
+    options: &BandOptions<'_>,
+    title: &str,
+    x_label: &str,
+    format: Format,
+) -> Result<Vec<u8>, Error> {
     const FIG: &str = "banded_panels";
+    let marked = options.marked;
+    if options.reference_y.is_some_and(|y| !y.is_finite()) {
+        return Err(Error::BadInput {
+            figure: FIG,
+            field: "reference_y",
+            problem: "is not finite",
+        });
+    }
     if !marked.is_empty() && marked.len() != xs.len() {
         return Err(Error::BadInput {
             figure: FIG,
@@ -806,7 +844,8 @@ pub fn banded_panels_marked(
                 problem: "a panel's length differs from xs",
             });
         }
-        let mut ext = Vec::with_capacity(3 * xs.len());
+        let mut ext = Vec::with_capacity(3 * xs.len() + 1);
+        ext.extend(options.reference_y);
         for (&y, &h) in p.ys.iter().zip(p.half_widths) {
             ext.push(y);
             if h.is_finite() {
@@ -827,8 +866,8 @@ pub fn banded_panels_marked(
         FIG,
         (900, height),
         format,
-        |root| draw_bands(xs, panels, marked, &ranges, xr, title, x_label, root),
-        |root| draw_bands(xs, panels, marked, &ranges, xr, title, x_label, root),
+        |root| draw_bands(xs, panels, options, &ranges, xr, title, x_label, root),
+        |root| draw_bands(xs, panels, options, &ranges, xr, title, x_label, root),
     )
 }
 
@@ -836,7 +875,7 @@ pub fn banded_panels_marked(
 fn draw_bands<DB: DrawingBackend>(
     xs: &[f64],
     panels: &[BandPanel<'_>],
-    marked: &[bool],
+    options: &BandOptions<'_>,
     ranges: &[(f64, f64)],
     xr: (f64, f64),
     title: &str,
@@ -861,6 +900,14 @@ fn draw_bands<DB: DrawingBackend>(
             .axis_desc_style((FONT, 15))
             .draw()
             .map_err(&e)?;
+        if let Some(y) = options.reference_y {
+            chart
+                .draw_series(LineSeries::new(
+                    [(xr.0, y), (xr.1, y)],
+                    BLACK.mix(0.6).stroke_width(1),
+                ))
+                .map_err(&e)?;
+        }
         // The band: one quadrilateral per interval where both ends have a finite band.
         let band = |i: usize| {
             let (x, y, h) = (xs[i], p.ys[i], p.half_widths[i]);
@@ -893,7 +940,7 @@ fn draw_bands<DB: DrawingBackend>(
         let flagged = xs
             .iter()
             .zip(p.ys)
-            .zip(marked)
+            .zip(options.marked)
             .filter(|((x, y), m)| **m && x.is_finite() && y.is_finite());
         chart
             .draw_series(flagged.map(|((&x, &y), _)| {
@@ -958,6 +1005,19 @@ mod tests {
         }];
         assert!(banded_panels(&xs, &bad, "m", "t", Format::Png).is_err());
         assert!(banded_panels(&xs, &[], "m", "t", Format::Png).is_err());
+        // A reference line: drawn, and a non-finite one refused.
+        let zero = BandOptions {
+            marked: &[],
+            reference_y: Some(0.0),
+        };
+        let svg = banded_panels_with(&xs, &panels, &zero, "m", "t", Format::Svg).unwrap();
+        let plain = banded_panels(&xs, &panels, "m", "t", Format::Svg).unwrap();
+        assert!(svg.len() > plain.len());
+        let nan = BandOptions {
+            reference_y: Some(f64::NAN),
+            ..zero
+        };
+        assert!(banded_panels_with(&xs, &panels, &nan, "m", "t", Format::Png).is_err());
     }
 
     #[test]

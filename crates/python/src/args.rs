@@ -88,6 +88,19 @@ pub fn camera(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<String> {
     Ok(text)
 }
 
+/// An image name as the commands take it (`image_a=`, `image_b=`).
+///
+/// # Errors
+/// `crashrig.Error` for an empty or blank name.
+pub fn image_name(text: String, what: &str) -> PyResult<String> {
+    if text.trim().is_empty() {
+        return Err(crate::py_error(format!(
+            "{what}: must name an image of the model (e.g. `cam_in/000001.png`)"
+        )));
+    }
+    Ok(text)
+}
+
 /// A temporary file holding TOML text (the libraries read their inputs from files).
 pub struct TextFile {
     _dir: tempfile::TempDir,

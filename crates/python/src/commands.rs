@@ -5,7 +5,7 @@ use crate::args::{self, Source, TextFile};
 use crate::convert::{document, to_python};
 use crate::watch::{self, Watch};
 use crate::{py_error, to_py_err};
-use crashrig_geometry::options::{ScaleOptions, Spelling, check_mm_per_unit};
+use crashrig_input::options::{ScaleOptions, Spelling, check_mm_per_unit};
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
@@ -154,8 +154,8 @@ fn bootstrap<'py>(
     let config = TieConfig {
         database: args::path(database, "database")?,
         model: args::path(model, "model")?,
-        image_a,
-        image_b,
+        image_a: args::image_name(image_a, "image_a")?,
+        image_b: args::image_name(image_b, "image_b")?,
         method,
         iterations,
         // The command's default seed.
@@ -198,13 +198,13 @@ fn propagate<'py>(
         Source::extract(scenario, "scenario")?,
         crashrig_mc::Scenario::from_toml_str,
     )?;
-    let config = crashrig_study::PropagateConfig {
+    let config = crashrig_grid::PropagateConfig {
         scenario: path,
         samples,
         seed,
     };
     let r = watch::run(py, progress, |w: &Watch| {
-        crashrig_study::run_propagate(&config, Some(w))
+        crashrig_grid::run_propagate(&config, Some(w))
     })?
     .map_err(to_py_err)?;
     warn_all(py, &r.warnings)?;
@@ -232,7 +232,7 @@ fn grid<'py>(
     out: Option<&Bound<'py, PyAny>>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    use crashrig_study::grid_run::ColumnValues;
+    use crashrig_grid::ColumnValues;
     let (path, _text) = scenario_file(
         Source::extract(scenario, "scenario")?,
         crashrig_mc::Scenario::from_toml_str,
@@ -246,7 +246,7 @@ fn grid<'py>(
                 .map_err(|e| py_error(format!("cannot create a temporary folder: {e}")))?,
         ),
     };
-    let config = crashrig_study::GridConfig {
+    let config = crashrig_grid::GridConfig {
         scenario: path,
         out: out
             .clone()
@@ -257,7 +257,7 @@ fn grid<'py>(
         plots: out.is_some(),
     };
     let r = watch::run(py, progress, |w: &Watch| {
-        crashrig_study::run_grid(&config, Some(w))
+        crashrig_grid::run_grid(&config, Some(w))
     })?
     .map_err(to_py_err)?;
     warn_all(py, &r.warnings)?;
@@ -282,9 +282,11 @@ fn grid<'py>(
 }
 
 /// Marker trajectories with σ from a crash-test sequence (`crashrig measure --json`): the
-/// summary document. `out` (optional here) receives the command's files. `progress(stage,
-/// done, total)` sees the replicates drawn; Ctrl-C or an exception it raises stops the call
-/// between chunks of replicates, with nothing written.
+/// summary document. `out` (optional here) receives the command's files. `scale_bars` (a
+/// scale-bar CSV) adds the length check (`"length_check"`, and `length_check.csv` in `out`),
+/// `mpe_mm` each bar's `"within_mpe"`. `progress(stage, done, total)` sees the replicates
+/// drawn; Ctrl-C or an exception it raises stops the call between chunks of replicates, with
+/// nothing written.
 ///
 /// Example:
 ///
@@ -300,7 +302,7 @@ fn grid<'py>(
     tie=None, mm_per_unit=None, sigma_a_position_mm=None, sigma_a_angles_deg=None,
     a_covariance=None, pixel_sigma_px=0.5, samples=2000, seed=None, reference_epoch=None,
     frame_rate_hz=None, threshold_mm=5.0, max_reprojection_px=None, plots=true, cfc=None,
-    cfc_standard=None, sync_sigma_ms=0.0, progress=None))]
+    cfc_standard=None, sync_sigma_ms=0.0, scale_bars=None, mpe_mm=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn measure<'py>(
     py: Python<'py>,
@@ -327,6 +329,8 @@ fn measure<'py>(
     cfc: Option<u32>,
     cfc_standard: Option<String>,
     sync_sigma_ms: f64,
+    scale_bars: Option<&Bound<'py, PyAny>>,
+    mpe_mm: Option<f64>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     use crashrig_measure::{MeasureOptions, OutputDir};
@@ -353,6 +357,8 @@ fn measure<'py>(
         cfc,
         cfc_standard,
         sync_sigma_ms,
+        scale_bars: args::opt_path(scale_bars, "scale_bars")?,
+        mpe_mm,
         ..MeasureOptions::new(
             args::path(model, "model")?,
             args::camera(camera_a, "camera_a")?,
@@ -456,7 +462,7 @@ fn study<'py>(
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     use crashrig_study::Study;
-    use crashrig_study::study_run::{StudyRunConfig, run_to_dir};
+    use crashrig_study::{StudyRunConfig, run_to_dir};
     let out = args::path(out, "out")?;
     if let Some(n) = samples
         && n < 2
@@ -570,8 +576,7 @@ fn merge<'py>(
     plots: bool,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    use crashrig_place::merge::{Merged, merge_shards};
-    use crashrig_study::merge::MergeRun;
+    use crashrig_merge::{Merged, merge_shards};
     if shards.is_instance_of::<pyo3::types::PyString>() {
         return Err(pyo3::exceptions::PyTypeError::new_err(
             "shards: expected a list of shard directories, got one str",
@@ -595,11 +600,10 @@ fn merge<'py>(
             warn_all(py, &r.warnings)?;
             document(py, &r.summary)
         }
-        Merged::Study(MergeRun::Grid(r)) => {
+        Merged::Grid(r) => {
             warn_all(py, &r.warnings)?;
             document(py, &r.summary)
         }
-        Merged::Study(_) => Err(py_error("this crashrig cannot return what it merged")),
     }
 }
 

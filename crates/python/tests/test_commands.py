@@ -133,6 +133,36 @@ def test_measure_equals_cli(cli, tmp_path):
     assert py_csv == (tmp_path / "cli" / "trajectories.csv").read_bytes()
 
 
+def test_measure_scale_bars_equals_cli(cli, tmp_path):
+    kwargs = dict(measure_kwargs(), observations=SEQ / "observations_scale_bars.csv")
+    got = crashrig.measure(SEQ / "model", out=tmp_path / "py", scale_bars=SEQ / "scale_bars.csv",
+                           mpe_mm=1.0, **kwargs)
+    want = cli("measure", SEQ / "model", "--camera-a", "cam_out/", "--camera-b", "2",
+               "--camera-c", "3", "--link", SEQ / "link.json", "--tie", SEQ / "tie.json",
+               "--observations", SEQ / "observations_scale_bars.csv", "--a-covariance",
+               SEQ / "a_covariance.json", "--mm-per-unit", "1000", "--pixel-sigma-px", "0.1",
+               "--frame-rate-hz", "1000", "--samples", "300", "--seed", "9",
+               "--scale-bars", SEQ / "scale_bars.csv", "--mpe-mm", "1",
+               "--out", tmp_path / "cli")
+    assert strip_timing(got) == strip_timing(want)
+    bars = got["length_check"]
+    assert [b["name"] for b in bars] == ["bar_door", "bar_seat", "bar_roof"]
+    assert all(b["verdict"] in ("consistent", "sigma_too_small", "bias") for b in bars)
+    assert all(isinstance(b["within_mpe"], bool) for b in bars)
+    py_csv = (tmp_path / "py" / "length_check.csv").read_bytes()
+    assert py_csv == (tmp_path / "cli" / "length_check.csv").read_bytes()
+    assert py_csv.startswith(b"epoch,bar,length_mm,measured_mm,error_mm,sigma_mm,z\n")
+    # A bad scale-bar file: the command's one-line message.
+    bad = tmp_path / "bars.csv"
+    bad.write_text("name,marker_1,marker_2,length_mm,sigma_mm\nx,head_l,head_l,300,0\n")
+    with pytest.raises(crashrig.Error) as e:
+        crashrig.measure(SEQ / "model", scale_bars=bad, **kwargs)
+    assert str(e.value).startswith(f"{bad}:2: ") and "to itself" in str(e.value)
+    # mpe_mm alone: named as Python spells it.
+    with pytest.raises(crashrig.Error, match="mpe_mm needs scale_bars"):
+        crashrig.measure(SEQ / "model", mpe_mm=1.0, **kwargs)
+
+
 def test_covariance_equals_cli(cli, tmp_path):
     model = FIXTURES / "covariance" / "mc" / "model"
     cp = FIXTURES / "covariance" / "mc" / "control_points.csv"
@@ -174,6 +204,17 @@ def test_bad_camera_name(cli):
         crashrig.calibrate(model, camera_a="nope/", camera_b="cam_in/")
     assert str(e.value) == cli.fail("calibrate", model, "--camera-a", "nope/", "--camera-b",
                                     "cam_in/")
+
+
+def test_empty_selectors_name_their_keyword():
+    """Issue 36: an empty selector would select every image; it is refused by its keyword."""
+    paper = FIXTURES / "rig" / "paper"
+    with pytest.raises(crashrig.Error, match="^camera_b: must name a camera"):
+        crashrig.calibrate(paper, camera_a="cam_out/", camera_b="")
+    with pytest.raises(crashrig.Error, match="^camera: must name a camera"):
+        crashrig.covariance(paper, camera=" ", control_points=paper / "x.csv", mm_per_unit=1.0)
+    with pytest.raises(crashrig.Error, match="^image_a: must name an image"):
+        crashrig.bootstrap(TWOVIEW / "database.db", TWOVIEW / "model", "", "b")
 
 
 def test_malformed_toml(cli, tmp_path):

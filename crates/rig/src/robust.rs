@@ -77,24 +77,13 @@ pub fn outlier_rule_description(n: usize) -> String {
     )
 }
 
-/// Median of a non-empty finite slice (mean of the two middle values for even length).
-pub(crate) fn median(values: &[f64]) -> f64 {
-    let mut v = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
 /// Modified z-scores of `values` (see the module doc); spreads below `resolution` are raised
 /// to it. Empty in, empty out.
 pub fn modified_z_scores(values: &[f64], resolution: f64) -> Vec<f64> {
     if values.is_empty() {
         return Vec::new();
     }
+    let median = |v: &[f64]| crashrig_stats::summary::median(v).unwrap_or(f64::NAN);
     let m = median(values);
     let dev: Vec<f64> = values.iter().map(|v| (v - m).abs()).collect();
     let mad = median(&dev);

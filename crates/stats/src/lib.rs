@@ -11,7 +11,8 @@
 //! # Entry points
 //! - [`stream`]: the RNG for replicate `index` of a run seeded with `seed`.
 //! - [`Moments`]: streaming mean / covariance of fixed-size vectors (Welford, mergeable).
-//! - [`summary::Summary`], [`summary::quantile`]: batch summaries of a slice.
+//! - [`summary::Summary`], [`summary::quantile`], [`summary::median`]: batch summaries of a
+//!   slice.
 //! - [`progress::Monitor`], [`progress::Counter`]: `(done, total)` progress reports and
 //!   cancellation of long calls (no UI).
 //!

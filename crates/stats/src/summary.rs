@@ -1,4 +1,4 @@
-//! Batch summaries of a slice: mean, σ (n − 1), SEM, quantiles.
+//! Batch summaries of a slice: mean, σ (n − 1), SEM, quantiles, the median.
 
 use crate::Error;
 
@@ -60,6 +60,33 @@ pub fn quantile(values: &[f64], p: f64) -> Result<f64, Error> {
     Ok(quantile_sorted(&v, p))
 }
 
+/// Median of the finite values of `values` (NaN and ±∞ are left out): the middle value, or
+/// `0.5·(a + b)` of the two middle values for an even count; `None` when no value is finite.
+///
+/// The one median of the workspace (grid and study summaries, the robust checks of `rig` and
+/// `measure`). It equals [`quantile`]`(finite, 0.5)` in exact arithmetic; the midpoint is
+/// formed as `0.5·(a + b)`, the correctly rounded mean of the two middle values.
+///
+/// ```
+/// use crashrig_stats::summary::median;
+/// assert_eq!(median(&[3.0, 1.0, 2.0]), Some(2.0));
+/// assert_eq!(median(&[4.0, f64::NAN, 1.0, 3.0, 2.0]), Some(2.5));
+/// assert_eq!(median(&[f64::NAN]), None);
+/// ```
+pub fn median(values: &[f64]) -> Option<f64> {
+    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    Some(if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    })
+}
+
 /// Type-7 quantile of an already sorted, finite, non-empty slice.
 pub fn quantile_sorted(sorted: &[f64], p: f64) -> f64 {
     let h = (sorted.len() - 1) as f64 * p;
@@ -95,6 +122,22 @@ mod tests {
             Summary::of(&[1.0, f64::NAN]),
             Err(Error::NotFinite { index: 1, .. })
         ));
+    }
+
+    #[test]
+    fn median_known_answers() {
+        assert_eq!(median(&[5.0]), Some(5.0));
+        assert_eq!(median(&[3.0, 1.0, 2.0]), Some(2.0));
+        assert_eq!(median(&[4.0, 1.0, 3.0, 2.0]), Some(2.5));
+        // Non-finite values are left out, not sorted to one end.
+        let v = [f64::INFINITY, 1.0, f64::NAN, 2.0, f64::NEG_INFINITY, 10.0];
+        assert_eq!(median(&v), Some(2.0));
+        assert_eq!(median(&[]), None);
+        assert_eq!(median(&[f64::NAN, f64::INFINITY]), None);
+        // The same median as the type-7 quantile at 0.5 (numpy.median([-7, 0.5, 3, 9]) = 1.75).
+        let v = [9.0, -7.0, 3.0, 0.5];
+        assert_eq!(median(&v), Some(1.75));
+        assert_eq!(quantile(&v, 0.5).unwrap(), 1.75);
     }
 
     #[test]

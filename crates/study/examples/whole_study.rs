@@ -3,8 +3,8 @@
 //! `cargo run -p crashrig-study --example whole_study [STUDY.toml OUT_DIR]`
 //! (default: the bundled own project, output in a temporary directory).
 
-use crashrig_study::report::{Provenance, write_outputs};
 use crashrig_study::{Options, Study, run_study};
+use crashrig_study::{Provenance, write_outputs};
 use std::path::PathBuf;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

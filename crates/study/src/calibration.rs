@@ -1,7 +1,7 @@
 //! Rig calibration from a COLMAP model: epochs → link `A_from_B` with its tangent covariance.
 //!
 //! One call, [`calibrate`], reads the model, pairs the images of cameras A and B into epochs
-//! ([`crate::epochs`]), converts model units to mm (scale bar or a factor), and calibrates the
+//! ([`epochs_from_model`]), converts model units to mm (scale bar or a factor), and calibrates the
 //! link with `crashrig_rig::calibrate`: statistics over the epochs (the paper's Tables 1–2),
 //! outliers, drift, the spread of one epoch's link (`covariance_tangent`) and the uncertainty
 //! of the mean link (`sem_covariance_tangent`, autocorrelation-aware, rule in `sem_rule`).
@@ -33,8 +33,9 @@ use crate::contract::{
     CalibrationDocument, DriftDocument, EpochDocument, LinkDocument, LinkStatisticsDocument,
     PairingDocument, RefinedDocument, ScaleDocument, SemDetailDocument,
 };
-use crate::epochs::{CameraSelector, EpochSet, ScaleBar, epochs_from_model, scale_from_points};
+pub use crate::epochs::{CameraSelector, EpochSet, ScaleBar, epochs_from_model, scale_from_points};
 pub use crate::error::CalibrationError;
+pub use crate::quality::{Reprojection, SplitHalf};
 use crashrig_colmap::Reconstruction;
 use crashrig_geometry::{Mat6, UncertainPose, Vec3, opk};
 use crashrig_rig::refine::RefineOptions;
@@ -84,10 +85,10 @@ impl Scale {
     /// [`crate::Error::Usage`] (names in `spelling`): both given, a bar without its length or
     /// points, a factor out of range.
     pub fn from_options(
-        options: &crashrig_geometry::options::ScaleOptions,
-        spelling: crashrig_geometry::options::Spelling,
+        options: &crashrig_input::options::ScaleOptions,
+        spelling: crashrig_input::options::Spelling,
     ) -> Result<Scale, crate::Error> {
-        use crashrig_geometry::options::GivenScale;
+        use crashrig_input::options::GivenScale;
         match options.given(spelling) {
             Ok(Some(GivenScale::MmPerUnit(f))) => Ok(Scale::MmPerUnit(f)),
             Ok(Some(GivenScale::ScaleBar { points, length_mm })) => {
@@ -215,10 +216,11 @@ pub struct CalibrationResult {
     /// Everything the rig crate computed (statistics, outliers, drift, refinement).
     pub calibration: Calibration,
     /// Reprojection residuals of camera A's and camera B's observations in the model
-    /// ([`crate::quality::reprojection`]), A first.
-    pub reprojection: Vec<crate::quality::Reprojection>,
-    /// The split-half check of the link ([`crate::quality::split_half`]; `None` below 4 epochs).
-    pub split_half: Option<crate::quality::SplitHalf>,
+    /// (COLMAP's camera models, the model's own poses and points), A first.
+    pub reprojection: Vec<Reprojection>,
+    /// The split-half check of the link (the mean link of each half of the sequence with its
+    /// σ of the mean; `None` below 4 epochs).
+    pub split_half: Option<SplitHalf>,
 }
 
 /// Calibrates as `crashrig calibrate` does (see the module doc).

@@ -1,7 +1,7 @@
 //! The JSON documents of the study crate as serde structs: `calibrate --json`
 //! ([`CalibrationDocument`], built by [`crate::calibration::CalibrationResult::document`]) and a
 //! study's `results.json` ([`StudyDocument`], built by
-//! [`crate::pipeline::StudyResult::document`]).
+//! [`crate::StudyResult::document`]).
 //!
 //! Both are written through their `to_json` value, whose object keys serde_json sorts; the fields
 //! of this module are declared in that order (alphabetical), so serialising
@@ -17,9 +17,25 @@
 //! assert_eq!(serde_json::to_string(&s).unwrap(), r#"{"source":"mm_per_unit"}"#);
 //! ```
 
-use crate::grids::GridSummary;
+use crashrig_geometry::Mat6;
+use crashrig_grid::summary::GridSummary;
 use crashrig_measure::output::Summary as MeasureSummary;
 use serde::Serialize;
+
+/// A 6×6 covariance (mm, rad) in the contract's units (mm, deg) as rows.
+pub fn covariance_deg_rows(c: &Mat6) -> Vec<[f64; 6]> {
+    let k = [
+        1.0,
+        1.0,
+        1.0,
+        180.0 / std::f64::consts::PI,
+        180.0 / std::f64::consts::PI,
+        180.0 / std::f64::consts::PI,
+    ];
+    (0..6)
+        .map(|i| std::array::from_fn(|j| c[(i, j)] * k[i] * k[j]))
+        .collect()
+}
 
 /// A 6×6 covariance in the contract's units (mm, deg), by rows.
 pub type CovarianceRows = Vec<Vec<f64>>;

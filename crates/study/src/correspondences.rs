@@ -99,9 +99,24 @@ fn model_image(
     name: &str,
     mm_per_unit: f64,
 ) -> Result<(u32, ModelImage), TieError> {
-    let image = model
-        .image_by_name(name)
-        .ok_or_else(|| model_error(dir, format!("image {name:?} is not in the model")))?;
+    let image = model.image_by_name(name).ok_or_else(|| {
+        let nearest: Vec<String> = model
+            .nearest_image_names(name, 3)
+            .iter()
+            .map(|n| format!("{n:?}"))
+            .collect();
+        model_error(
+            dir,
+            format!(
+                "image {name:?} is not in the model{}",
+                if nearest.is_empty() {
+                    String::new()
+                } else {
+                    format!("; nearest: {}", nearest.join(", "))
+                }
+            ),
+        )
+    })?;
     let camera = model
         .camera(image.camera_id)
         .ok_or_else(|| {
@@ -130,7 +145,8 @@ fn model_image(
     Ok((
         image.image_id,
         ModelImage {
-            name: name.to_string(),
+            // The model's own spelling (a name typed in another Unicode normal form finds it).
+            name: image.name.clone(),
             camera,
             cam_from_world: scale_pose(&pose, mm_per_unit),
         },
@@ -166,7 +182,7 @@ impl TieSource {
                 .map_err(|e| db_error(database, format!("reading the images table: {e}")))?
                 .ok_or_else(|| db_error(database, format!("image {name:?} is not in the database")))
         };
-        let (da, dbb) = (db_id(image_a)?, db_id(image_b)?);
+        let (da, dbb) = (db_id(&a.name)?, db_id(&b.name)?);
         Ok(TieSource {
             model_dir: model_dir.to_path_buf(),
             database_path: database.to_path_buf(),
@@ -176,16 +192,6 @@ impl TieSource {
             b,
             ids: (ma, mb, da, dbb),
         })
-    }
-
-    /// The model directory.
-    pub fn model_dir(&self) -> &Path {
-        &self.model_dir
-    }
-
-    /// The database file.
-    pub fn database_path(&self) -> &Path {
-        &self.database_path
     }
 
     /// B's observations of the model's 3-D points (mm), with A's pose.

@@ -51,6 +51,9 @@ fn select<'m>(
     sel: &CameraSelector,
     role: char,
 ) -> Result<Vec<&'m Image>, Error> {
+    if sel.is_blank() {
+        return Err(Error::EmptyCamera { role });
+    }
     let v: Vec<&Image> = model.images().iter().filter(|i| sel.matches(i)).collect();
     if v.is_empty() {
         return Err(Error::NoImagesForCamera {
@@ -58,6 +61,7 @@ fn select<'m>(
             role,
             selector: sel.to_string(),
             n_images: model.images().len(),
+            suggestions: sel.suggestions(model.images()),
         });
     }
     Ok(v)
@@ -66,8 +70,8 @@ fn select<'m>(
 /// Pairs the images of cameras `a` and `b` into epochs (see the module doc).
 ///
 /// # Errors
-/// [`Error::NoImagesForCamera`] when a selector matches nothing (one camera absent, a wrong
-/// prefix), [`Error::OverlappingCameras`] when an image matches both, [`Error::DuplicateEpoch`]
+/// [`Error::EmptyCamera`] for an empty selector, [`Error::NoImagesForCamera`] when a selector
+/// matches nothing (one camera absent, a wrong prefix), [`Error::OverlappingCameras`] when an image matches both, [`Error::DuplicateEpoch`]
 /// when two images of one camera share a key or a frame, [`Error::NoEpochs`] when nothing pairs.
 pub fn epochs_from_model(
     model: &Reconstruction,

@@ -88,7 +88,7 @@ pub enum Error {
         #[source]
         source: crashrig_plot::Error,
     },
-    /// A scenario file (of `grid` or `propagate`) cannot be used: the Monte Carlo library's
+    /// A bundled scenario of `crashrig paper` cannot be used: the Monte Carlo library's
     /// error, which names the file and line itself unless `path` is given.
     #[error("{}{source}", path.as_ref().map(|p| format!("{}: ", p.display())).unwrap_or_default())]
     Scenario {
@@ -98,44 +98,12 @@ pub enum Error {
         #[source]
         source: crashrig_mc::Error,
     },
-    /// A setting of a command out of its range.
-    #[error("{name} {problem}")]
-    Setting {
-        /// The setting as the command line spells it (`--samples`).
-        name: &'static str,
-        /// What is wrong.
-        problem: String,
-    },
-    /// A grid result that cannot be reported (a non-finite σ at a measurable point).
-    #[error("{}: {problem}", path.display())]
-    Grid {
-        /// The scenario file.
-        path: PathBuf,
-        /// What is wrong.
-        problem: String,
-    },
-    /// A CSV document could not be formatted.
-    #[error("formatting {what}: {source}")]
-    Csv {
-        /// Which document.
-        what: &'static str,
-        /// The CSV writer's error.
-        #[source]
-        source: csv::Error,
-    },
+    /// A layout's grid summary or maps (`crashrig_grid`'s error, which names the file).
+    #[error(transparent)]
+    Grid(#[from] crashrig_grid::Error),
     /// The output directory cannot be used or written.
     #[error(transparent)]
     OutDir(#[from] crashrig_outdir::Error),
-    /// A file of a shard directory (`crashrig merge`) that cannot be used.
-    #[error("{}{}: {problem}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
-    Shard {
-        /// The file.
-        path: PathBuf,
-        /// 1-based line, where known.
-        line: Option<usize>,
-        /// What is wrong.
-        problem: String,
-    },
     /// A bundled input of `crashrig paper` is missing or unusable (a bug of the program).
     #[error("internal: {problem}")]
     Bundled {
@@ -143,14 +111,8 @@ pub enum Error {
         #[source]
         problem: BundledError,
     },
-    /// A scenario without cameras given to `propagate`.
-    #[error("{}: `camera`: the scenario has no camera", path.display())]
-    NoCamera {
-        /// The scenario file.
-        path: PathBuf,
-    },
     /// Options of a command that do not fit together or are out of range, named as the front
-    /// end spells them ([`crashrig_geometry::options::Spelling`]).
+    /// end spells them ([`crashrig_input::options::Spelling`]).
     #[error("{0}")]
     Usage(String),
     /// The caller's [`crashrig_stats::progress::Monitor`] cancelled the call: nothing was
@@ -236,8 +198,9 @@ pub enum CalibrationError {
     /// A camera selector (prefix or camera id) that matches no image of the model.
     #[error(
         "{}: camera {role} `{selector}` matches no image (a name prefix such as `cam_out/`, \
-         or a camera id; the model has {n_images} images)",
-        model.display()
+         or a camera id; the model has {n_images} images{}{suggestions})",
+        model.display(),
+        if suggestions.is_empty() { "" } else { "; " }
     )]
     NoImagesForCamera {
         /// The model directory.
@@ -248,6 +211,19 @@ pub enum CalibrationError {
         selector: String,
         /// Number of images in the model.
         n_images: usize,
+        /// What the model has nearest ([`crashrig_colmap::CameraSelector::suggestions`]).
+        suggestions: String,
+    },
+    /// An empty (or blank) camera selector: it would select every image.
+    #[error(
+        "camera {role} is empty (--camera-{} / camera_{}): an empty image-name prefix would \
+         select every image; give a prefix such as `cam_out/` or a camera id",
+        role.to_ascii_lowercase(),
+        role.to_ascii_lowercase()
+    )]
+    EmptyCamera {
+        /// `'A'` or `'B'`.
+        role: char,
     },
     /// Cameras A and B select the same images.
     #[error("{}: cameras A and B both select image `{image}`", model.display())]

@@ -79,7 +79,7 @@ pub(crate) fn fixed_from_raw(
             let span = raw.span_of(name).unwrap_or_else(|| site.span.clone());
             Err(Error::Key {
                 path: site.path.to_path_buf(),
-                line: Some(crashrig_mc::limits::line_of(site.text, span.start)),
+                line: Some(crashrig_input::location::line_of(site.text, span.start)),
                 key,
                 message,
             })

@@ -20,14 +20,6 @@ pub enum Block {
     List(Vec<String>),
     /// A table.
     Table(Table),
-    /// Several small PNG figures side by side (three per row), one caption each, and a caption
-    /// for the group.
-    Gallery {
-        /// Caption of the group.
-        caption: String,
-        /// (caption, PNG bytes) of each figure.
-        items: Vec<(String, Vec<u8>)>,
-    },
     /// Trusted HTML written by this crate (inline SVG sketches); never user text.
     Raw(String),
     /// A PNG figure shown at full page width (at least 800 px on a normal screen).
@@ -220,23 +212,6 @@ fn render_block(s: &mut String, b: &Block, wide: &mut usize) {
             s.push_str("</ul>\n");
         }
         Block::Table(t) => render_table(s, t),
-        Block::Gallery { caption, items } => {
-            let _ = writeln!(
-                s,
-                "<div class=\"gallery\"><p class=\"gcap\">{}</p>",
-                escape(caption)
-            );
-            for (c, png) in items {
-                let _ = writeln!(
-                    s,
-                    "<figure><img alt=\"{}\" src=\"data:image/png;base64,{}\"><figcaption>{}</figcaption></figure>",
-                    escape(c),
-                    base64(png),
-                    escape(c)
-                );
-            }
-            s.push_str("</div>\n");
-        }
         Block::Raw(h) => {
             s.push_str(h);
             s.push('\n');
@@ -438,16 +413,11 @@ mod tests {
             caption: "f".into(),
             png: vec![1, 2, 3],
         });
-        r.push(Block::Gallery {
-            caption: "g".into(),
-            items: vec![("i".into(), vec![0xff])],
-        });
         let h = r.to_html();
         assert!(h.contains("<title>T &lt;1&gt;</title>"));
         assert!(h.contains("<p>p &amp; q</p>"));
         assert!(h.contains("<td>1</td>"));
         assert!(h.contains("data:image/png;base64,AQID"));
-        assert!(h.contains("class=\"gallery\"") && h.contains("data:image/png;base64,/w=="));
         assert!(h.trim_end().ends_with("</html>"));
         assert!(h.contains("<a href=\"#sec1\">H</a>"));
         assert!(h.contains("<details class=\"sec\" id=\"sec1\"><summary><h2>H</h2></summary>"));

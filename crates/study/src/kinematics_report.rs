@@ -8,16 +8,6 @@
 //! Every number is read from the typed [`crashrig_measure::Measurement`] and
 //! [`crashrig_measure::output::Summary`] that the study's `[measure]` step returned (no file or
 //! JSON in between).
-//!
-//! # Example
-//! ```
-//! use crashrig_study::kinematics_report::{Spread, sigma_share};
-//! // A quarter of the variance from the offset: without it σ would be √(1 − 0.25) ≈ 0.866 of
-//! // itself, so the offset accounts for 13.4 % of σ.
-//! assert!((sigma_share(0.25) - (1.0 - 0.75f64.sqrt())).abs() < 1e-15);
-//! let s = Spread::of(vec![3.0, 1.0, 2.0]).unwrap();
-//! assert_eq!((s.median, s.max), (2.0, 3.0));
-//! ```
 
 use crate::Error;
 use crate::html::{Block, Report, Table};
@@ -26,6 +16,7 @@ use crashrig_geometry::Vec3;
 use crashrig_measure::Measurement;
 use crashrig_measure::kinematics::KinRow;
 use crashrig_measure::output::{self as measure_output, MarkerPlot};
+use crashrig_stats::summary::median;
 use std::path::Path;
 
 /// Median and largest of a set of values.
@@ -43,7 +34,7 @@ impl Spread {
         let v: Vec<f64> = v.into_iter().filter(|x| x.is_finite()).collect();
         let max = v.iter().copied().reduce(f64::max)?;
         Some(Spread {
-            median: crate::grids::median(&v),
+            median: median(&v).unwrap_or(f64::NAN),
             max,
         })
     }
@@ -120,12 +111,12 @@ pub fn write(d: &Path, m: &MeasureResult) -> Result<Vec<MarkerPlot>, Error> {
     let Some(csv) = measure_output::kinematics_csv(ms) else {
         return Ok(Vec::new());
     };
-    crate::grids::write(d, "kinematics.csv", csv.as_bytes())?;
+    crate::files::write(d, "kinematics.csv", csv.as_bytes())?;
     let plots = measure_output::kinematics_plots(ms)
         .map_err(|e| crate::error::measure_plot_error(e, "kinematics"))?;
     for p in &plots {
-        crate::grids::write(&d.join("plots"), &format!("{}.png", p.stem), &p.png)?;
-        crate::grids::write(&d.join("plots"), &format!("{}.svg", p.stem), &p.svg)?;
+        crate::files::write(&d.join("plots"), &format!("{}.png", p.stem), &p.png)?;
+        crate::files::write(&d.join("plots"), &format!("{}.svg", p.stem), &p.svg)?;
     }
     Ok(plots)
 }
@@ -266,5 +257,10 @@ mod tests {
         assert_eq!(sigma_share(1.0), 1.0);
         // 75 % of the variance: σ halves without the source.
         assert!((sigma_share(0.75) - 0.5).abs() < 1e-15);
+        // A quarter of the variance from the offset: without it σ would be √(1 − 0.25) ≈ 0.866
+        // of itself, so the offset accounts for 13.4 % of σ.
+        assert!((sigma_share(0.25) - (1.0 - 0.75f64.sqrt())).abs() < 1e-15);
+        let s = Spread::of(vec![3.0, 1.0, 2.0]).unwrap();
+        assert_eq!((s.median, s.max), (2.0, 3.0));
     }
 }

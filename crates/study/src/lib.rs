@@ -1,27 +1,30 @@
-//! The crash-test rig study as a library.
+//! The crash-test rig study as a library: a study file → calibration of the rig link, the
+//! tie bootstrap, the chain propagation, one grid per layout (with a sensitivity), an optional
+//! measured test sequence → a typed [`StudyResult`], `results.json` and a self-contained
+//! `report.html`.
 //!
-//! Each step is a function with typed inputs and a typed result; the `crashrig` binary only
-//! turns arguments into a configuration, calls one function and prints the result.
-//! - [`contract`]: the JSON documents (`calibrate --json`, `results.json`) as serde structs;
-//! - [`study_file`]: the study file (TOML) → a validated [`Study`];
-//! - [`calibration`]: COLMAP model → epochs → the rig link `A_from_B` with its covariance;
-//! - [`tie`]: database + model → correspondences → bootstrap → the tie link with its covariance;
-//! - [`pipeline`]: [`run_study`] — calibration, tie, the chain outward → inward → tie, and one
-//!   grid study per layout, with a one-at-a-time sensitivity;
-//! - [`grid_run`]: [`run_grid`], the library entry of `crashrig grid`;
-//! - [`propagate_run`]: [`run_propagate`], the library entry of `crashrig propagate`;
-//! - [`merge`]: [`merge::merge_shards`], the library entry of `crashrig merge`;
-//! - [`study_run`]: [`study_run::run_to_dir`], the library entry of `crashrig study` (run +
-//!   every output file);
-//! - [`grids`]: grid summaries, `grid.csv` and heat maps;
-//! - [`fixed_maps`]: layouts with fixed observers (`aim = "fixed"`): coverage and
-//!   field-of-view footprints;
-//! - [`measure_step`]: `[measure]` — a test sequence measured with the study's own link;
-//! - [`quality`]: calibration quality — reprojection residuals per camera and the split-half
-//!   check of the link;
-//! - [`quality_report`]: the calibration's verdict box and the report section "Calibration
-//!   quality";
-//! - [`report`]: `results.json`, every step's files and the self-contained `report.html`.
+//! Each step is a function with typed inputs and a typed result; the `crashrig` binary and the
+//! Python module only turn arguments into a configuration, call one function and print.
+//!
+//! # Entry points
+//! - [`Study::from_path`] / [`Study::from_toml_str`]: the study file (TOML) → a validated
+//!   [`Study`] (its sections in [`study_file`]); every error names the file, key and line.
+//! - [`run_study`]`(&Study, &`[`Options`]`)` → [`StudyResult`]: calibration, tie, the chain
+//!   outward → inward → tie, one grid study per layout ([`LayoutResult`], drawn with
+//!   `crashrig_grid`'s summaries and maps) with a one-at-a-time sensitivity, and `[measure]`.
+//! - [`write_outputs`]: `results.json`, every step's files and `report.html` below a directory;
+//!   [`run_to_dir`] ([`StudyRunConfig`] → [`StudyRun`]) is the library entry of
+//!   `crashrig study`: run + every output file, staged and swapped in as a whole.
+//! - [`calibration::calibrate`] ([`calibration::CalibrationConfig`] →
+//!   [`calibration::CalibrationResult`]): COLMAP model → epochs → the rig link `A_from_B` with
+//!   its covariance, the entry of `crashrig calibrate`.
+//! - [`tie::bootstrap`] ([`tie::TieConfig`] → [`tie::TieResult`]): database + model →
+//!   correspondences → bootstrap → the tie link with its covariance, the entry of
+//!   `crashrig bootstrap`.
+//! - [`contract`]: the JSON documents (`calibrate --json`, `results.json`) as serde structs.
+//! - [`study_toml`] ([`PaperStudy`]): the study file of `crashrig paper`.
+//!
+//! The grid, propagate and merge commands are `crashrig-grid` and `crashrig-merge`.
 //!
 //! # Example
 //! ```no_run
@@ -35,33 +38,32 @@
 //! # Ok::<(), crashrig_study::Error>(())
 //! ```
 #![deny(missing_docs)]
+#![warn(unnameable_types)]
 
 pub mod calibration;
 pub mod contract;
-pub mod correspondences;
-pub mod epochs;
+mod correspondences;
+mod epochs;
 mod error;
-pub mod fixed_maps;
+mod files;
 mod fixed_observer;
-pub mod grid_run;
-pub mod grid_shard;
-pub mod grids;
-pub mod html;
-pub mod kinematics_report;
-pub mod measure_step;
-pub mod merge;
-pub mod paper_study;
-pub mod pipeline;
-pub mod propagate_run;
-pub mod quality;
-pub mod quality_report;
-pub mod report;
+mod html;
+mod kinematics_report;
+mod length_report;
+mod measure_step;
+mod paper_study;
+mod pipeline;
+mod quality;
+mod quality_report;
+mod report;
 pub mod study_file;
-pub mod study_run;
+mod study_run;
 pub mod tie;
 
 pub use error::{BundledError, Error, StepError};
-pub use grid_run::{GridConfig, GridRun, run_grid, run_grid_scenario};
-pub use pipeline::{Options, StudyResult, run_study};
-pub use propagate_run::{PropagateConfig, PropagateRun, run_propagate};
+pub use measure_step::{MeasureResult, MeasureSummary};
+pub use paper_study::{Inputs, PaperStudy, study_toml};
+pub use pipeline::{ChainPose, LayoutResult, Options, Progress, StudyResult, run_study};
+pub use report::{Provenance, write_outputs};
 pub use study_file::Study;
+pub use study_run::{StepLine, StudyRun, StudyRunConfig, run_to_dir};

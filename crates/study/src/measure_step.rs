@@ -7,7 +7,8 @@
 //! commands' JSON, without the text round trip. The files below `DIR/measure/` are written by
 //! the command's own writers, [`crashrig_measure::output`] (`trajectories.csv` with the
 //! contract header, `displacements.csv`, `plots/<marker>.png|svg`, `summary.json`; with `cfc`,
-//! `kinematics.csv` and `plots/<marker>_kinematics.png|svg`).
+//! `kinematics.csv` and `plots/<marker>_kinematics.png|svg`; with `scale_bars`, the length
+//! check's `length_check.csv` and `length_check.png|svg`).
 //!
 //! With `a_control_points`, camera A's per-epoch covariance comes from the bundle:
 //! [`crashrig_covariance::run`] on the named model and control points, its typed result
@@ -169,6 +170,13 @@ pub fn run_measure(
             cfc: s.cfc,
             sync_sigma_ms: s.sync_sigma_ms,
         },
+        scale_bars: s
+            .scale_bars
+            .clone()
+            .map(|path| crashrig_measure::ScaleBarsFile {
+                path,
+                mpe_mm: s.mpe_mm,
+            }),
         out: None,
     };
     let r = crashrig_measure::run(&config, None).map_err(|e| step(e.into()))?;

@@ -14,12 +14,12 @@ use crate::contract::{
     ACovarianceSummary, ChainCameraDocument, LayoutDocument, LinearDocument, MeasureDocument,
     ObserverDocument, PropagationDocument, StudyDocument,
 };
-use crate::grids::GridSummary;
 use crate::study_file::{
     ChainCamera, Layout, ObserverNoise, Study, StudyScale, TieMethod, TieResample,
 };
 use crate::tie::{self, TieConfig, TieResult};
 use crashrig_geometry::{Mat6, UncertainPose};
+use crashrig_grid::summary::GridSummary;
 use crashrig_mc::{
     CameraId, Chain, ChainBuilder, GridBuilder, GridResult, GridStudy, PoseLinear, PoseMc,
 };
@@ -637,21 +637,6 @@ fn deg3(v: Vector3<f64>) -> [f64; 3] {
     v.map(f64::to_degrees).into()
 }
 
-/// A 6×6 covariance (mm, rad) in the contract's units (mm, deg) as rows.
-pub fn covariance_deg_rows(c: &Mat6) -> Vec<[f64; 6]> {
-    let k = [
-        1.0,
-        1.0,
-        1.0,
-        180.0 / std::f64::consts::PI,
-        180.0 / std::f64::consts::PI,
-        180.0 / std::f64::consts::PI,
-    ];
-    (0..6)
-        .map(|i| std::array::from_fn(|j| c[(i, j)] * k[i] * k[j]))
-        .collect()
-}
-
 impl StudyResult {
     /// `results.json`: `calibration` and `tie` exactly as `calibrate --json` and
     /// `bootstrap --json` print them, then the propagation and each layout's summary. No
@@ -687,10 +672,10 @@ fn chain_camera_document(c: &ChainPose) -> ChainCameraDocument {
         angles_deg: deg3(m.nominal.angles_rad()),
         angles_sigma_deg: deg3(m.angles_sigma_rad),
         angles_singular: m.angles_singular,
-        covariance_tangent: covariance_deg_rows(&m.covariance_tangent),
+        covariance_tangent: crate::contract::covariance_deg_rows(&m.covariance_tangent),
         linear: LinearDocument {
             angles_sigma_deg: c.linear.angles_sigma_rad.map(deg3),
-            covariance_tangent: covariance_deg_rows(&c.linear.covariance_tangent),
+            covariance_tangent: crate::contract::covariance_deg_rows(&c.linear.covariance_tangent),
             position_sigma_mm: c.linear.position_sigma_mm.into(),
             tangent_sigma_deg: deg3(c.linear.tangent_sigma_rad),
         },
@@ -711,7 +696,7 @@ fn layout_document(l: &LayoutResult) -> LayoutDocument {
         .map(|((o, lo), c)| {
             let s = sigmas(c);
             ObserverDocument {
-                covariance_tangent: covariance_deg_rows(c),
+                covariance_tangent: crate::contract::covariance_deg_rows(c),
                 from: match lo.noise {
                     ObserverNoise::From(c) => Some(c.name()),
                     ObserverNoise::Given(_) => None,
@@ -828,13 +813,16 @@ sigma_angles_deg = [0.01, 0.01, 0.01]
                 .all(|p| p.sigma_max_mm.is_nan())
         );
         assert!(finite.iter().all(|s| s.is_finite()));
-        assert_eq!(l.summary.median_sigma_max_mm, crate::grids::median(&finite));
+        assert_eq!(
+            l.summary.median_sigma_max_mm,
+            crashrig_stats::summary::median(&finite).unwrap_or(f64::NAN)
+        );
         let below = finite
             .iter()
             .filter(|s| **s < l.summary.threshold_mm)
             .count();
         assert_eq!(l.summary.fraction_below_threshold, below as f64 / 24.0);
-        assert!(crate::grids::grid_csv(&l.result).contains("\n400,0,0,,,,\n"));
+        assert!(crashrig_grid::summary::grid_csv(&l.result).contains("\n400,0,0,,,,\n"));
     }
 
     fn observer(noise: ObserverNoise, position_mm: [f64; 3]) -> crate::study_file::Observer {

@@ -14,7 +14,7 @@
 //!
 //! # Example
 //! ```
-//! use crashrig_study::quality::SplitHalf;
+//! use crashrig_study::calibration::SplitHalf;
 //! // A difference of 0.3 mm with σ 0.2 mm on each half: σ of the difference √0.08 ≈ 0.28 mm.
 //! let s = SplitHalf::from_difference(10, 10, [0.3, 0.0, 0.0, 0.0, 0.0, 0.0], [0.04; 6], [0.04; 6]);
 //! assert!((s.z[0] - 0.3 / 0.08f64.sqrt()).abs() < 1e-12);
@@ -23,6 +23,7 @@
 
 use crashrig_colmap::{CameraSelector, Reconstruction};
 use crashrig_rig::{CalibrateOptions, Epoch};
+use crashrig_stats::summary::median;
 use nalgebra::{Point3, Vector3};
 
 /// Agreement bound of [`SplitHalf`]: |difference| ≤ `SPLIT_HALF_Z` × its σ on every axis.
@@ -84,7 +85,7 @@ pub fn reprojection(model: &Reconstruction, selector: &str, role: char) -> Repro
         } else {
             f64::NAN
         },
-        median_px: crate::grids::median(&residuals),
+        median_px: median(&residuals).unwrap_or(f64::NAN),
         max_px: residuals.iter().copied().fold(f64::NAN, f64::max),
         residuals_px: residuals,
     }
@@ -104,7 +105,7 @@ pub struct SplitHalf {
     pub sigma: [f64; 6],
     /// |difference| / σ per axis.
     pub z: [f64; 6],
-    /// Every |z| ≤ [`SPLIT_HALF_Z`].
+    /// Every |z| ≤ 2 (`SPLIT_HALF_Z`).
     pub agree: bool,
 }
 

@@ -303,3 +303,39 @@ fn pixel_sigma_sources(study: &Study, c: &CalibrationResult) -> Vec<String> {
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calibration::{CalibrationConfig, Scale, calibrate};
+
+    /// The report's calibration verdict names every warning it refers to ("Usable, with the
+    /// warnings below" used to stand over a list without them, issue 29).
+    #[test]
+    fn calibration_verdict_lists_its_warnings() {
+        let config = CalibrationConfig {
+            model: std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../../fixtures/rig/paper"),
+            camera_a: "cam_out/".into(),
+            camera_b: "cam_in/".into(),
+            scale: Scale::ScaleBar {
+                points: [1, 2],
+                length_mm: 2000.0,
+            },
+            ..CalibrationConfig::default()
+        };
+        let r = calibrate(&config, None).unwrap();
+        let v = verdict(&r);
+        for w in &r.warnings {
+            assert!(v.lines.contains(&format!("warning: {w}")), "{w}: {v:?}");
+        }
+        let mut with = r.clone();
+        with.warnings.push("a test warning".into());
+        let v = verdict(&with);
+        assert_eq!(v.answer, "Usable, with the warnings below.");
+        assert_eq!(
+            v.lines.last().map(String::as_str),
+            Some("warning: a test warning")
+        );
+    }
+}

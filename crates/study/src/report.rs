@@ -3,12 +3,14 @@
 //! ellipses, inputs with provenance and the commands that regenerate every number).
 
 use crate::Error;
-use crate::grids::{self, HeatMapPng};
+use crate::files;
 use crate::html::{Block, Report, Status, Table, Verdict, escape};
 use crate::measure_step::MeasureResult;
 use crate::pipeline::{LayoutResult, StudyResult, phi_deg};
 use crate::study_file::{ChainCamera, ObserverNoise, Study, StudyScale, TieMethod, TieResample};
+use crashrig_grid::summary::{self as grids, HeatMapPng};
 use crashrig_measure::output::{self as measure_output, MarkerPlot};
+use crashrig_stats::summary::median;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -30,14 +32,10 @@ pub struct Provenance {
 pub mod published {
     /// Table 1: base (mm).
     pub const BASE_MM: [f64; 3] = [61.98, -1.71, 179.76];
-    /// Table 1: σ (mm).
-    pub const BASE_SIGMA_MM: [f64; 3] = [2.25, 3.08, 1.53];
     /// Table 1: σ/√n (mm).
     pub const BASE_SEM_MM: [f64; 3] = [0.19, 0.26, 0.13];
     /// Table 2: ω φ κ (deg).
     pub const ANGLES_DEG: [f64; 3] = [179.92, -0.09, 179.76];
-    /// Table 2: σ (deg).
-    pub const ANGLES_SIGMA_DEG: [f64; 3] = [0.047, 0.059, 0.094];
     /// Table 2: σ/√n (deg).
     pub const ANGLES_SEM_DEG: [f64; 3] = [0.004, 0.005, 0.008];
     /// Table 3: σ of the translation in the world (mm), cam1..cam3.
@@ -73,13 +71,13 @@ pub fn write_outputs(
     prov: &Provenance,
 ) -> Result<(), Error> {
     let results = r.to_json();
-    grids::write(
+    files::write(
         &dir.join("calibration"),
         "calibrate.json",
         &json_pretty(&r.calibration.to_json()),
     )?;
     if let Some(t) = &r.tie {
-        grids::write(
+        files::write(
             &dir.join("tie"),
             "bootstrap.json",
             &json_pretty(&t.to_json()),
@@ -93,41 +91,43 @@ pub fn write_outputs(
         .zip(results["layouts"].as_array().into_iter().flatten())
     {
         let d = dir.join("grid").join(l.layout.slug());
-        grids::write(
+        files::write(
             &d,
             "grid.csv",
             grids::layout_csv(&l.grid, &l.result).as_bytes(),
         )?;
-        grids::write(&d, "summary.json", &json_pretty(lj))?;
+        files::write(&d, "summary.json", &json_pretty(lj))?;
         let m = grids::heat_maps(&l.grid, &l.result, &scale)?;
         for h in &m {
-            grids::write(&d, &h.file, &h.png)?;
-            grids::write(&d, &h.file.replace(".png", ".svg"), &h.svg)?;
+            files::write(&d, &h.file, &h.png)?;
+            files::write(&d, &h.file.replace(".png", ".svg"), &h.svg)?;
         }
         maps.push(m);
     }
-    let (plots, kin_plots) = match &r.measure {
+    let (plots, kin_plots, length_plot) = match &r.measure {
         Some(m) => (
             write_measure(&dir.join("measure"), m)?,
             crate::kinematics_report::write(&dir.join("measure"), m)?,
+            crate::length_report::write(&dir.join("measure"), m)?,
         ),
-        None => (Vec::new(), Vec::new()),
+        None => (Vec::new(), Vec::new(), None),
     };
-    grids::write(dir, "results.json", &json_pretty(&results))?;
-    let html = report_html(study, r, &maps, &[&plots, &kin_plots], prov);
-    grids::write(dir, "report.html", html.as_bytes())
+    files::write(dir, "results.json", &json_pretty(&results))?;
+    let length_plot: Vec<MarkerPlot> = length_plot.into_iter().collect();
+    let html = report_html(study, r, &maps, &[&plots, &kin_plots, &length_plot], prov);
+    files::write(dir, "report.html", html.as_bytes())
 }
 
 /// `DIR/measure/`: the files `crashrig measure` writes (`trajectories.csv`,
 /// `displacements.csv`, `plots/<marker>.png|svg`, `summary.json`); returns the plots.
 fn write_measure(d: &Path, m: &MeasureResult) -> Result<Vec<MarkerPlot>, Error> {
     let ms = &m.measurement;
-    grids::write(
+    files::write(
         d,
         "trajectories.csv",
         measure_output::trajectories_csv(ms).as_bytes(),
     )?;
-    grids::write(
+    files::write(
         d,
         "displacements.csv",
         measure_output::displacements_csv(ms).as_bytes(),
@@ -135,12 +135,12 @@ fn write_measure(d: &Path, m: &MeasureResult) -> Result<Vec<MarkerPlot>, Error> 
     let plots = measure_output::marker_plots(ms)
         .map_err(|e| crate::error::measure_plot_error(e, "trajectory"))?;
     for p in &plots {
-        grids::write(&d.join("plots"), &format!("{}.png", p.stem), &p.png)?;
-        grids::write(&d.join("plots"), &format!("{}.svg", p.stem), &p.svg)?;
+        files::write(&d.join("plots"), &format!("{}.png", p.stem), &p.png)?;
+        files::write(&d.join("plots"), &format!("{}.svg", p.stem), &p.svg)?;
     }
     if let Some(a) = &m.a_covariance {
         // What `crashrig covariance --out` writes, and the per-epoch σ plot of the report.
-        grids::write(d, "a_covariance.json", &json_pretty(&a.to_json()))?;
+        files::write(d, "a_covariance.json", &json_pretty(&a.to_json()))?;
         for (format, ext) in [
             (crashrig_plot::Format::Png, "png"),
             (crashrig_plot::Format::Svg, "svg"),
@@ -150,17 +150,24 @@ fn write_measure(d: &Path, m: &MeasureResult) -> Result<Vec<MarkerPlot>, Error> 
                     what: "camera A's σ per epoch".into(),
                     source,
                 })?;
-            grids::write(d, &format!("a_sigma.{ext}"), &bytes)?;
+            files::write(d, &format!("a_sigma.{ext}"), &bytes)?;
         }
     }
     let summary = serde_json::to_value(&m.summary).unwrap_or_default();
-    grids::write(d, "summary.json", &json_pretty(&summary))?;
+    files::write(d, "summary.json", &json_pretty(&summary))?;
     Ok(plots)
 }
 
-/// The report section of the measured sequence: summary, displacement σ vs position σ per
-/// marker, flagged rows, and one trajectory plot per marker.
-fn measure_report(rep: &mut Report, study: &Study, m: &MeasureResult, plots: &[MarkerPlot]) {
+/// The report section of the measured sequence: summary, the length check of the scale bars
+/// (with `scale_bars`: its own subsection, and the trajectories then theirs), displacement σ vs
+/// position σ per marker, flagged rows, and one trajectory plot per marker.
+fn measure_report(
+    rep: &mut Report,
+    study: &Study,
+    m: &MeasureResult,
+    plots: &[MarkerPlot],
+    length_plot: Option<&MarkerPlot>,
+) {
     let Some(sec) = &study.measure else { return };
     let ms = &m.measurement;
     let s = &m.summary;
@@ -212,6 +219,10 @@ fn measure_report(rep: &mut Report, study: &Study, m: &MeasureResult, plots: &[M
             ),
         ]],
     }));
+    if m.measurement.length_check.is_some() {
+        crate::length_report::section(rep, m, length_plot);
+        rep.push(Block::SubHeading("Trajectories".into()));
+    }
     let per_marker: Vec<Vec<String>> = ms
         .markers
         .iter()
@@ -224,7 +235,10 @@ fn measure_report(rep: &mut Report, study: &Study, m: &MeasureResult, plots: &[M
                 .filter(|r| r.epoch != ms.reference_epoch)
                 .filter_map(|r| r.displacement_sigma_mm.map(|v| v.max()))
                 .collect();
-            let (mp, md) = (grids::median(&pos), grids::median(&disp));
+            let (mp, md) = (
+                median(&pos).unwrap_or(f64::NAN),
+                median(&disp).unwrap_or(f64::NAN),
+            );
             // A marker measured in no epoch has no median: "—", never NaN.
             let cell = |v: f64| {
                 if v.is_finite() {
@@ -350,7 +364,7 @@ fn a_covariance_report(
             vec![
                 names[k].to_string(),
                 format!("{min:.d$}"),
-                format!("{:.d$}", grids::median(&v)),
+                format!("{:.d$}", median(&v).unwrap_or(f64::NAN)),
                 format!("{max:.d$}"),
             ]
         })
@@ -403,7 +417,7 @@ fn plan_sketch(l: &LayoutResult) -> String {
     let px = |x: f64| (x - x0) * k;
     let py = |y: f64| (y1 - y) * k;
     // Legend lines under the sketch (the text is 12 px: about 130 characters fit in 900 px).
-    let legend2 = if crate::fixed_maps::has_fixed(g) {
+    let legend2 = if crashrig_grid::fixed_maps::has_fixed(g) {
         36.0
     } else {
         18.0
@@ -447,7 +461,7 @@ fn plan_sketch(l: &LayoutResult) -> String {
             if bad { "#d22" } else { "#999" }
         );
     }
-    if crate::fixed_maps::has_fixed(g) {
+    if crashrig_grid::fixed_maps::has_fixed(g) {
         let _ = write!(
             s,
             "<text x=\"6\" y=\"{:.0}\" font-size=\"12\">open circles = not measurable (seen by fewer than two cameras); a fixed camera's arrow is its optical axis</text>",
@@ -674,12 +688,13 @@ fn fixed_vs_aimed(r: &StudyResult) -> String {
 
 /// The report page: the verdicts and the table of contents first (a few screens), then one
 /// collapsible section per step with the details. `measure_plots`: the measured sequence's
-/// trajectory plots and its kinematics plots (with `cfc`).
+/// trajectory plots, its kinematics plots (with `cfc`) and its length check's plot (with
+/// `scale_bars`; at most one).
 pub fn report_html(
     study: &Study,
     r: &StudyResult,
     maps: &[Vec<HeatMapPng>],
-    measure_plots: &[&[MarkerPlot]; 2],
+    measure_plots: &[&[MarkerPlot]; 3],
     prov: &Provenance,
 ) -> String {
     let paper = study.reference.as_deref() == Some("kaminski2023");
@@ -710,7 +725,13 @@ pub fn report_html(
     chain_section(&mut rep, r, paper);
     layouts_section(&mut rep, r, maps);
     if let Some(m) = &r.measure {
-        measure_report(&mut rep, study, m, measure_plots[0]);
+        measure_report(
+            &mut rep,
+            study,
+            m,
+            measure_plots[0],
+            measure_plots[2].first(),
+        );
         crate::kinematics_report::section(&mut rep, m, measure_plots[1]);
     }
     not_included(&mut rep, study, r);
@@ -782,6 +803,9 @@ fn verdicts(rep: &mut Report, r: &StudyResult) {
     rep.push(Block::Verdict(crate::quality_report::verdict(
         &r.calibration,
     )));
+    if let Some(v) = r.measure.as_ref().and_then(crate::length_report::verdict) {
+        rep.push(Block::Verdict(v));
+    }
     rep.push(Block::Raw("</div>".into()));
 }
 
@@ -1280,7 +1304,7 @@ fn paper_differences(rep: &mut Report, study: &Study, r: &StudyResult) {
                 .filter(|p| p.point.x <= 800.0)
                 .map(|p| p.sigma_max_mm)
                 .collect();
-            grids::median(&rb)
+            median(&rb).unwrap_or(f64::NAN)
         })
     };
     let fig13 = match (rear("three_cameras_z0_paper"), rear("three_cameras_z300_paper")) {
@@ -1323,7 +1347,7 @@ fn layouts_section(rep: &mut Report, r: &StudyResult, maps: &[Vec<HeatMapPng>]) 
     )));
     if r.layouts
         .iter()
-        .any(|l| crate::fixed_maps::has_fixed(&l.grid))
+        .any(|l| crashrig_grid::fixed_maps::has_fixed(&l.grid))
     {
         rep.push(Block::Paragraph("Layouts with fixed cameras (aim = \"fixed\"): a fixed camera is bolted in place with a real lens; it sees a point only when the point lies in front of it and projects inside its image (COLMAP's pixel convention). Each draw observes the true projection plus the camera's pixel noise, undistorts it through the lens model and intersects the perturbed rays of the cameras that see the point. A point seen by fewer than two cameras is not measurable: hatched grey on the maps, blank in grid.csv, and counted as not below the threshold. The outlines are each fixed camera's field-of-view footprint on the plane; a map of the number of cameras seeing each point follows the σ maps.".into()));
     }
@@ -1558,3 +1582,7 @@ fn ellipse_figures(rep: &mut Report, l: &LayoutResult) {
         }
     }
 }
+
+/// A study with a CFC filter: its kinematics files and report subsection.
+#[cfg(test)]
+mod kinematics_tests;

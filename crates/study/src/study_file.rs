@@ -162,9 +162,9 @@ pub struct Layout {
     pub pixel: Option<(f64, f64)>,
     /// `correlated` as written: `Some(true)` draws the `from` observers jointly from one chain
     /// draw (the physical, rigid-body model), `Some(false)` independently; `None` (key absent)
-    /// is the default the pipeline resolves against the chain's nominal poses
-    /// ([`crate::pipeline::resolve_correlated`]): jointly when at least two aimed `from`
-    /// observers stand at their chain cameras, else independently.
+    /// is the default [`crate::run_study`] resolves against the chain's nominal poses: jointly
+    /// when at least two aimed `from` observers stand at their chain cameras, else
+    /// independently.
     pub correlated: Option<bool>,
     /// At least two observers.
     pub observers: Vec<Observer>,
@@ -251,6 +251,10 @@ pub struct MeasureSection {
     /// `sync_sigma_ms`: σ of camera A's trigger offset against the inward cameras (ms, default
     /// 0; > 0 needs `frame_rate_hz`).
     pub sync_sigma_ms: f64,
+    /// `scale_bars`: the scale-bar CSV of the length check (as `measure --scale-bars`), if any.
+    pub scale_bars: Option<PathBuf>,
+    /// `mpe_mm`: the maximum permissible error of a bar's length (mm; needs `scale_bars`).
+    pub mpe_mm: Option<f64>,
 }
 
 /// A validated study.
@@ -322,6 +326,8 @@ struct RawMeasure {
     cfc: Option<Spanned<i64>>,
     cfc_standard: Option<Spanned<String>>,
     sync_sigma_ms: Option<Spanned<f64>>,
+    scale_bars: Option<Spanned<String>>,
+    mpe_mm: Option<Spanned<f64>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -396,7 +402,7 @@ struct RawObserver {
     pixel_sigma_px: Option<Spanned<f64>>,
 }
 
-pub(crate) use crashrig_mc::limits::line_of;
+pub(crate) use crashrig_input::location::line_of;
 
 /// The line of `[name]` / `[[name]]` (the `n`-th occurrence), for errors about a section.
 pub(crate) fn section_line(text: &str, name: &str, n: usize) -> Option<usize> {
@@ -522,6 +528,15 @@ impl Ctx<'_> {
             Some(s) => Ok(s),
             None => self.err(Some(section), key, "missing (required)"),
         }
+    }
+
+    /// A name (a camera selector, an image name) that must not be empty or blank: an empty
+    /// camera prefix would select every image.
+    fn non_empty(&self, v: &Spanned<String>, key: &str) -> Result<String, Error> {
+        if v.get_ref().trim().is_empty() {
+            return self.err(Some(v.span()), key, "must not be empty");
+        }
+        Ok(v.get_ref().clone())
     }
 
     /// A path relative to the study file that must exist.
@@ -690,7 +705,6 @@ impl Ctx<'_> {
     }
 }
 
-/// `[measure]` → [`MeasureSection`].
 /// Two observers of a layout closer than this (mm) are coincident: an error naming both.
 pub const MIN_OBSERVER_DISTANCE_MM: f64 = 1.0;
 
@@ -700,7 +714,7 @@ pub const MIN_OBSERVER_DISTANCE_MM: f64 = 1.0;
 ///
 /// # Errors
 /// The message (the caller names the file, line and key).
-pub fn check_layout_size(layout: &Layout, samples: usize) -> Result<(), String> {
+pub(crate) fn check_layout_size(layout: &Layout, samples: usize) -> Result<(), String> {
     use crashrig_mc::limits::{MAX_GRID_DRAWS, MAX_GRID_POINTS};
     let (nx, ny, nz) = (layout.x_mm.2, layout.y_mm.2, layout.z_mm.2);
     let points = nx as u128 * ny as u128 * nz as u128;
@@ -783,42 +797,22 @@ fn measure_section(
         false,
     )?;
     // A marker needs two views: camera B alone measures nothing.
-    if m.camera_c.is_none() {
+    let Some(c) = &m.camera_c else {
         return cx.err(
             Some(ms),
             "measure.camera_c",
             "missing: a marker needs two views, and camera B alone gives one; name the tied camera C (camera_c, with a [tie] section)",
         );
-    }
-    if let Some(c) = &m.camera_c
-        && !has_tie
-    {
+    };
+    if !has_tie {
         return cx.err(
             Some(c.span()),
             "measure.camera_c",
             "needs a [tie] section (the tie link B_from_C carries camera C)",
         );
     }
-    if m.a_control_points.is_none() {
-        let companions = [
-            (m.a_model.as_ref().map(|v| v.span()), "measure.a_model"),
-            (
-                m.a_pixel_sigma_px.as_ref().map(|v| v.span()),
-                "measure.a_pixel_sigma_px",
-            ),
-            (
-                m.a_intrinsics.as_ref().map(|v| v.span()),
-                "measure.a_intrinsics",
-            ),
-        ];
-        if let Some((span, key)) = companions.into_iter().find(|(s, _)| s.is_some()) {
-            return cx.err(
-                span,
-                key,
-                "needs measure.a_control_points (A's covariance from the bundle)",
-            );
-        }
-    }
+    let camera_c = cx.non_empty(c, "measure.camera_c")?;
+    bundle_companions(cx, m)?;
     let a_noise = match (
         &m.a_covariance,
         &m.sigma_a_position_mm,
@@ -880,11 +874,12 @@ fn measure_section(
         .map(|v| cx.positive(v, "measure.frame_rate_hz"))
         .transpose()?;
     let (cfc, sync_sigma_ms) = kinematics_keys(cx, m, frame_rate_hz)?;
+    let (scale_bars, mpe_mm) = length_check_keys(cx, m)?;
     Ok(MeasureSection {
         model,
-        camera_a: req(&m.camera_a, "measure.camera_a")?.into_inner(),
-        camera_b: req(&m.camera_b, "measure.camera_b")?.into_inner(),
-        camera_c: m.camera_c.as_ref().map(|c| c.get_ref().clone()),
+        camera_a: cx.non_empty(&req(&m.camera_a, "measure.camera_a")?, "measure.camera_a")?,
+        camera_b: cx.non_empty(&req(&m.camera_b, "measure.camera_b")?, "measure.camera_b")?,
+        camera_c: Some(camera_c),
         observations,
         mm_per_unit,
         a_noise,
@@ -914,7 +909,61 @@ fn measure_section(
             .transpose()?,
         cfc,
         sync_sigma_ms,
+        scale_bars,
+        mpe_mm,
     })
+}
+
+/// `a_model`, `a_pixel_sigma_px` and `a_intrinsics` need `a_control_points`: an error naming the
+/// first one given without it.
+fn bundle_companions(cx: &Ctx<'_>, m: &RawMeasure) -> Result<(), Error> {
+    if m.a_control_points.is_some() {
+        return Ok(());
+    }
+    let companions = [
+        (m.a_model.as_ref().map(|v| v.span()), "measure.a_model"),
+        (
+            m.a_pixel_sigma_px.as_ref().map(|v| v.span()),
+            "measure.a_pixel_sigma_px",
+        ),
+        (
+            m.a_intrinsics.as_ref().map(|v| v.span()),
+            "measure.a_intrinsics",
+        ),
+    ];
+    match companions.into_iter().find(|(s, _)| s.is_some()) {
+        Some((span, key)) => cx.err(
+            span,
+            key,
+            "needs measure.a_control_points (A's covariance from the bundle)",
+        ),
+        None => Ok(()),
+    }
+}
+
+/// `[measure]`'s length-check keys: `scale_bars` (an existing file, relative to the study
+/// file) and `mpe_mm` (> 0 mm, only with `scale_bars`); each error names the key and its line.
+fn length_check_keys(
+    cx: &Ctx<'_>,
+    m: &RawMeasure,
+) -> Result<(Option<PathBuf>, Option<f64>), Error> {
+    let scale_bars = m
+        .scale_bars
+        .as_ref()
+        .map(|v| cx.existing_path(v, "measure.scale_bars", false))
+        .transpose()?;
+    let mpe_mm = match (&m.mpe_mm, &scale_bars) {
+        (Some(v), None) => {
+            return cx.err(
+                Some(v.span()),
+                "measure.mpe_mm",
+                "needs measure.scale_bars (the maximum permissible error of the bars' lengths)",
+            );
+        }
+        (Some(v), Some(_)) => Some(cx.positive(v, "measure.mpe_mm")?),
+        (None, _) => None,
+    };
+    Ok((scale_bars, mpe_mm))
 }
 
 /// `[measure]`'s kinematics keys: `cfc` (a class of [`crashrig_measure::filter::CLASSES`] whose
@@ -1007,7 +1056,7 @@ fn parse_raw(text: &str, path: &Path) -> Result<Raw, Error> {
             + 1;
         // A type error is located at the value: name its key as every other error does.
         let message = e.message().trim();
-        let message = match crashrig_mc::limits::toml_value_key(text, offset) {
+        let message = match crashrig_input::location::toml_value_key(text, offset) {
             Some(key) => format!("`{key}`: {message}"),
             None => message.to_string(),
         };
@@ -1076,11 +1125,7 @@ fn calibration_section(
         true,
     )?;
     let name = |v: &Option<Spanned<String>>, key: &str| -> Result<String, Error> {
-        let v = cx.required(v, cs.clone(), key)?;
-        if v.get_ref().trim().is_empty() {
-            return cx.err(Some(v.span()), key, "must not be empty");
-        }
-        Ok(v.get_ref().clone())
+        cx.non_empty(cx.required(v, cs.clone(), key)?, key)
     };
     let camera_a = name(&c.camera_a, "calibration.camera_a")?;
     let camera_b = name(&c.camera_b, "calibration.camera_b")?;
@@ -1191,8 +1236,8 @@ fn tie_section(cx: &Ctx<'_>, t: &Spanned<RawTie>) -> Result<TieSection, Error> {
     Ok(TieSection {
         database,
         model,
-        image_a: req(&t.image_a, "tie.image_a")?.into_inner(),
-        image_b: req(&t.image_b, "tie.image_b")?.into_inner(),
+        image_a: cx.non_empty(&req(&t.image_a, "tie.image_a")?, "tie.image_a")?,
+        image_b: cx.non_empty(&req(&t.image_b, "tie.image_b")?, "tie.image_b")?,
         method,
         iterations: t.iterations.as_ref().map_or(Ok(500), |v| {
             cx.count(v, "tie.iterations", 2, crashrig_bootstrap::MAX_ITERATIONS)
@@ -1474,14 +1519,12 @@ impl Study {
     /// # Errors
     /// [`Error::Read`], [`Error::Toml`] or [`Error::Key`] naming the file, key and line.
     pub fn from_path(path: &Path) -> Result<Study, Error> {
-        let text = crashrig_colmap::input_file::read_text_limited(
-            path,
-            crashrig_colmap::input_file::MAX_TOML_BYTES,
-        )
-        .map_err(|source| Error::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text =
+            crashrig_input::file::read_text_limited(path, crashrig_input::file::MAX_TOML_BYTES)
+                .map_err(|source| Error::Read {
+                    path: path.to_path_buf(),
+                    source,
+                })?;
         Study::from_toml_str(&text, path)
     }
 
@@ -1521,13 +1564,13 @@ impl Study {
     }
 
     /// 1-based line of `[name]` (the `n`-th `[[name]]`) in the study file.
-    pub fn section_line(&self, name: &str, n: usize) -> Option<usize> {
+    pub(crate) fn section_line(&self, name: &str, n: usize) -> Option<usize> {
         section_line(&self.text, name, n)
     }
 
     /// An error about `key` of the first `[section]`, located at the key's line (else the
     /// section's).
-    pub fn key_error(&self, section: &str, key: &str, message: impl Into<String>) -> Error {
+    pub(crate) fn key_error(&self, section: &str, key: &str, message: impl Into<String>) -> Error {
         Error::Key {
             path: self.path.clone(),
             line: key_line(&self.text, section, 0, key),
@@ -1537,7 +1580,7 @@ impl Study {
     }
 
     /// An [`Error::Step`] for a failure of the step configured by section `key`.
-    pub fn step_error(&self, key: &str, n: usize, source: impl Into<StepError>) -> Error {
+    pub(crate) fn step_error(&self, key: &str, n: usize, source: impl Into<StepError>) -> Error {
         let section = key.split('[').next().unwrap_or(key);
         Error::Step {
             path: self.path.clone(),
@@ -1631,6 +1674,50 @@ mod tests {
         let m = message(&t);
         assert!(
             m.contains("study.toml") && m.contains("[outward]") && m.contains("missing section"),
+            "{m}"
+        );
+    }
+
+    /// Issue 36: an empty selector would make every image camera A (or B, C); an empty image
+    /// name finds nothing. Each is refused naming its key and line.
+    #[test]
+    fn empty_selectors_name_their_key_and_line() {
+        let t = text();
+        let lines: Vec<&str> = t.lines().collect();
+        for (from, key) in [
+            ("camera_a = \"cam_out/\"", "calibration.camera_a"),
+            ("camera_b = \"cam_in/\"", "calibration.camera_b"),
+            ("image_a = \"in/0001.png\"", "tie.image_a"),
+            ("image_b = \"side/0001.png\"", "tie.image_b"),
+            ("camera_b = \"2\"", "measure.camera_b"),
+            ("camera_c = \"3\"", "measure.camera_c"),
+        ] {
+            let at = lines.iter().position(|l| *l == from).expect(from);
+            let mut edited = lines.clone();
+            let blank = format!("{} = \" \"", from.split(' ').next().unwrap());
+            edited[at] = &blank;
+            let m = message(&edited.join("\n"));
+            assert!(
+                m.contains(&format!(
+                    "study.toml:{}: `{key}`: must not be empty",
+                    at + 1
+                )),
+                "{m}"
+            );
+        }
+        // [measure] camera_a is the second `camera_a = "cam_out/"`.
+        let at = lines
+            .iter()
+            .rposition(|l| *l == "camera_a = \"cam_out/\"")
+            .unwrap();
+        let mut edited = lines.clone();
+        edited[at] = "camera_a = \"\"";
+        let m = message(&edited.join("\n"));
+        assert!(
+            m.contains(&format!(
+                "study.toml:{}: `measure.camera_a`: must not be empty",
+                at + 1
+            )),
             "{m}"
         );
     }

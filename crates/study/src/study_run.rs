@@ -5,7 +5,7 @@
 //!
 //! # Example
 //! ```no_run
-//! use crashrig_study::study_run::{StudyRunConfig, run_to_dir};
+//! use crashrig_study::{StudyRunConfig, run_to_dir};
 //! use crashrig_study::Study;
 //! let path = std::path::Path::new("my_lab/study.toml");
 //! let study = Study::from_path(path)?;

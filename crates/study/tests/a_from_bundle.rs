@@ -8,8 +8,8 @@ use crashrig_covariance::synthetic::{LabSettings, lab_scene};
 use crashrig_measure::engine::Settings;
 use crashrig_measure::{ANoise, MeasureConfig};
 use crashrig_study::Study;
-use crashrig_study::pipeline::{Options, run_study};
-use crashrig_study::report::{Provenance, write_outputs};
+use crashrig_study::{Options, run_study};
+use crashrig_study::{Provenance, write_outputs};
 use std::path::{Path, PathBuf};
 
 fn own() -> PathBuf {
@@ -145,6 +145,7 @@ fn the_study_computes_a_from_the_bundle_and_measures_with_it() {
             cfc: None,
             sync_sigma_ms: 0.0,
         },
+        scale_bars: None,
         out: None,
     };
     let cmd = crashrig_measure::run(&config, None).unwrap();
@@ -278,18 +279,11 @@ fn a_bundle_without_datum_fails_the_step_naming_the_file() {
     )
     .unwrap();
     let study = Study::from_path(&path).expect("study");
-    let m = study.measure.as_ref().unwrap();
-    let e = crashrig_study::measure_step::run_measure(
-        &study,
-        m,
-        crashrig_geometry::UncertainPose::certain(crashrig_geometry::Rigid3::identity()),
-        Some(crashrig_geometry::UncertainPose::certain(
-            crashrig_geometry::Rigid3::identity(),
-        )),
-        10,
-        1,
-    )
-    .unwrap_err()
-    .to_string();
+    let options = Options {
+        samples: Some(200),
+        no_sensitivity: true,
+        ..Options::default()
+    };
+    let e = run_study(&study, &options).unwrap_err().to_string();
     assert!(e.contains("[measure]") && e.contains("two.csv"), "{e}");
 }

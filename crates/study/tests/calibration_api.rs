@@ -217,25 +217,6 @@ fn calibration_bad_scale_names_the_model() {
     assert!(e.to_string().contains("--scale-length-mm"), "{e}");
 }
 
-/// The report's calibration verdict names every warning it refers to ("Usable, with the
-/// warnings below" used to stand over a list without them, issue 29).
-#[test]
-fn calibration_verdict_lists_its_warnings() {
-    let r = paper();
-    let v = crashrig_study::quality_report::verdict(&r);
-    for w in &r.warnings {
-        assert!(v.lines.contains(&format!("warning: {w}")), "{w}: {v:?}");
-    }
-    let mut with = r.clone();
-    with.warnings.push("a test warning".into());
-    let v = crashrig_study::quality_report::verdict(&with);
-    assert_eq!(v.answer, "Usable, with the warnings below.");
-    assert_eq!(
-        v.lines.last().map(String::as_str),
-        Some("warning: a test warning")
-    );
-}
-
 /// Cancels at once.
 struct Stop;
 

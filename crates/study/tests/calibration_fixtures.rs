@@ -1,4 +1,4 @@
-//! Integration tests of the calibration (`crashrig_study::epochs` + `crashrig-rig`) on the
+//! Integration tests of the calibration (`crashrig_study::calibration::epochs_from_model` + `crashrig-rig`) on the
 //! pycolmap-written fixtures in `fixtures/rig/`.
 //!
 //! Each fixture directory holds a COLMAP model and `expected.json`, the injected per-epoch links
@@ -9,7 +9,7 @@ use crashrig_colmap::Reconstruction;
 use crashrig_geometry::angles::wrap_pi;
 use crashrig_rig::{CalibrateOptions, Calibration, calibrate};
 use crashrig_study::calibration::CalibrationError as Error;
-use crashrig_study::epochs::{CameraSelector, epochs_from_model, scale_from_points};
+use crashrig_study::calibration::{CameraSelector, epochs_from_model, scale_from_points};
 use serde_json::Value;
 use std::path::PathBuf;
 
@@ -329,6 +329,32 @@ mod errors {
         let msg = r.unwrap_err().to_string();
         assert!(
             msg.contains("cam_inside/") && msg.contains("paper"),
+            "{msg}"
+        );
+    }
+
+    /// Issue 36: an empty selector would select every image: refused as such; a prefix that
+    /// matches nothing names the nearest image-name beginnings.
+    #[test]
+    fn errors_empty_selector_and_nearest_names() {
+        let model = Reconstruction::read(&fixture("paper")).unwrap();
+        for blank in ["", " "] {
+            let r = epochs_from_model(&model, &sel("cam_out/"), &sel(blank));
+            assert!(matches!(r, Err(Error::EmptyCamera { role: 'B' })), "{r:?}");
+            let msg = r.unwrap_err().to_string();
+            assert!(
+                msg.starts_with("camera B is empty (--camera-b / camera_b)"),
+                "{msg}"
+            );
+        }
+        let msg = epochs_from_model(&model, &sel("cam_inn/"), &sel("cam_out/"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.ends_with(
+                "the model has 280 images; nearest image-name beginnings: `cam_in/` (140 images), \
+                 `cam_out/` (140 images))"
+            ),
             "{msg}"
         );
     }

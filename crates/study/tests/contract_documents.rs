@@ -14,9 +14,10 @@ use crashrig_study::Study;
 use crashrig_study::calibration::{
     CalibrationConfig, CalibrationResult, ResolvedScale, Scale, calibrate,
 };
-use crashrig_study::pipeline::{Options, StudyResult, covariance_deg_rows, run_study};
+use crashrig_study::contract::covariance_deg_rows;
 use crashrig_study::study_file::ObserverNoise;
 use crashrig_study::tie::TieResult;
+use crashrig_study::{Options, StudyResult, run_study};
 use nalgebra::Vector3;
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};

@@ -3,7 +3,7 @@
 //! and change nothing in the result.
 
 use crashrig_study::Study;
-use crashrig_study::pipeline::{Options, run_study};
+use crashrig_study::{Options, run_study};
 use std::path::Path;
 use std::sync::Mutex;
 

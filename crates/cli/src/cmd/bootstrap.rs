@@ -18,10 +18,10 @@ pub struct BootstrapArgs {
     #[arg(long)]
     pub model: PathBuf,
     /// Name of image A (the reference).
-    #[arg(long = "image-a", value_name = "NAME")]
+    #[arg(long = "image-a", value_name = "NAME", value_parser = crate::limits::parse_image_name)]
     pub image_a: String,
     /// Name of image B (reported relative to A).
-    #[arg(long = "image-b", value_name = "NAME")]
+    #[arg(long = "image-b", value_name = "NAME", value_parser = crate::limits::parse_image_name)]
     pub image_b: String,
     /// `absolute` (resection of B) or `relative` (essential matrix A–B).
     #[arg(long, default_value = "absolute", value_parser = ["absolute", "relative"])]

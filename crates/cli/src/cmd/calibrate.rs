@@ -5,7 +5,7 @@
 //! retry policy, JSON, report, plots) lives in `crashrig_study::calibration`.
 
 use crate::Global;
-use crashrig_geometry::options::{ScaleOptions, Spelling};
+use crashrig_input::options::{ScaleOptions, Spelling};
 use crashrig_study::calibration::{CalibrationConfig, Scale, calibrate};
 use std::path::PathBuf;
 
@@ -15,10 +15,10 @@ pub struct CalibrateArgs {
     /// COLMAP model directory (bundle without a rig constraint).
     pub model: PathBuf,
     /// Camera A (outward): an image-name prefix such as `cam_out/`, or a camera id.
-    #[arg(long = "camera-a", value_name = "A")]
+    #[arg(long = "camera-a", value_name = "A", value_parser = crate::limits::parse_camera)]
     pub camera_a: String,
     /// Camera B (inward): an image-name prefix or a camera id.
-    #[arg(long = "camera-b", value_name = "B")]
+    #[arg(long = "camera-b", value_name = "B", value_parser = crate::limits::parse_camera)]
     pub camera_b: String,
     /// Two point3D ids a known distance apart (scale bar).
     #[arg(long = "scale-points", num_args = 2, value_names = ["ID1", "ID2"],

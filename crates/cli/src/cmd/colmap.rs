@@ -43,7 +43,8 @@ pub enum ColmapCommand {
         /// A sparse model directory.
         model: PathBuf,
         /// The image (its name in the model, e.g. `cam_out/000001.png`).
-        #[arg(long, requires = "near", conflicts_with = "point")]
+        #[arg(long, requires = "near", conflicts_with = "point",
+              value_parser = crate::limits::parse_image_name)]
         image: Option<String>,
         /// The pixel (x y, COLMAP convention: upper-left corner of the image at 0 0).
         #[arg(long, num_args = 2, value_names = ["X", "Y"], requires = "image")]

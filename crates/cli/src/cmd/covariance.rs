@@ -6,7 +6,7 @@
 
 use crate::Global;
 use crashrig_covariance::{CovarianceConfig, Intrinsics, Scale};
-use crashrig_geometry::options::{ScaleOptions, Spelling};
+use crashrig_input::options::{ScaleOptions, Spelling};
 use std::path::PathBuf;
 
 /// Arguments of `crashrig covariance`.
@@ -15,7 +15,7 @@ pub struct CovarianceArgs {
     /// COLMAP model directory (the bundle of the lab sequence).
     pub model: PathBuf,
     /// Camera A (outward): an image-name prefix such as `cam_out/`, or a camera id.
-    #[arg(long = "camera", value_name = "A")]
+    #[arg(long = "camera", value_name = "A", value_parser = crate::limits::parse_camera)]
     pub camera: String,
     /// CSV with the column `point3D_id` and an optional `sigma_mm` (0 or absent: fixed).
     #[arg(long = "control-points", value_name = "FILE")]

@@ -1,8 +1,8 @@
 //! `crashrig grid`: forward-intersection precision over a grid. Arguments →
-//! [`GridConfig`] → [`crashrig_study::run_grid`] → print.
+//! [`GridConfig`] → [`crashrig_grid::run_grid`] → print.
 
 use crate::Global;
-use crashrig_study::GridConfig;
+use crashrig_grid::GridConfig;
 use std::path::PathBuf;
 
 /// Arguments of `crashrig grid`.
@@ -36,17 +36,17 @@ pub fn run(a: GridArgs, g: &Global) -> anyhow::Result<()> {
     };
     let bar = crate::progress::Bar::new("crashrig grid");
     if let Some(shard) = a.shard {
-        let r = crashrig_study::grid_shard::run_grid_shard(&config, shard, bar.reporter())?;
+        let r = crashrig_grid::shard::run_grid_shard(&config, shard, bar.reporter())?;
         bar.finish();
-        return super::merge::print_shard(&r.manifest, r.files, &config.out, g);
+        return crate::output::print_shard(&r.manifest, r.files, &config.out, g.json);
     }
-    let r = crashrig_study::run_grid(&config, bar.reporter())?;
+    let r = crashrig_grid::run_grid(&config, bar.reporter())?;
     bar.finish();
     print(&r, &config.out, g)
 }
 
 /// Prints a grid run (`crashrig grid`, and `crashrig merge` of grid shards).
-pub fn print(r: &crashrig_study::GridRun, out: &std::path::Path, g: &Global) -> anyhow::Result<()> {
+pub fn print(r: &crashrig_grid::GridRun, out: &std::path::Path, g: &Global) -> anyhow::Result<()> {
     crate::output::warn_all(&r.warnings);
     let s = &r.summary;
     if g.json {
@@ -76,5 +76,5 @@ pub fn print(r: &crashrig_study::GridRun, out: &std::path::Path, g: &Global) -> 
         }
         writeln!(w, "wrote {} files to {}", r.files, out.display())
     };
-    super::propagate::quiet_pipe(print())
+    crate::output::quiet_pipe(print())
 }

@@ -1,8 +1,7 @@
 //! `crashrig measure`: marker trajectories with their uncertainty from a crash-test sequence.
 
 use crate::Global;
-use crashrig_geometry::options::Spelling;
-use crashrig_measure::{MeasureOptions, OutputDir};
+use crashrig_input::options::Spelling;
 use std::path::PathBuf;
 
 /// Arguments of `crashrig measure`.
@@ -59,6 +58,9 @@ pub struct MeasureArgs {
     /// Skip the trajectory plots.
     #[arg(long)]
     pub no_plots: bool,
+    /// The length check of scale bars.
+    #[command(flatten)]
+    pub length: super::measure_options::LengthCheckArgs,
     /// Filtered kinematics and A's trigger offset.
     #[command(flatten)]
     pub kinematics: super::measure_options::KinematicsArgs,
@@ -68,16 +70,16 @@ pub struct MeasureArgs {
     pub shard: Option<crashrig_outdir::shard::Shard>,
 }
 
-/// Runs the command: arguments → [`MeasureOptions`] → [`crashrig_measure::run`] → print.
+/// Runs the command: arguments → [`crashrig_measure::MeasureOptions`] → [`crashrig_measure::run`] → print.
 pub fn run(a: MeasureArgs, g: &Global) -> anyhow::Result<()> {
-    let options = options(&a, g.seed);
+    let options = super::measure_options::options(&a, g.seed);
     let bar = crate::progress::Bar::new("crashrig measure");
     let replicates = bar.stage("replicates");
     if let Some(shard) = a.shard {
         let r = crashrig_measure::shard::run(&options, shard, &a.out, bar.monitor(&replicates))?;
         bar.finish();
         crate::output::warn_all(&options.warnings(&r.run, Spelling::Flag));
-        return super::merge::print_shard(&r.manifest, r.files, &a.out, g);
+        return crate::output::print_shard(&r.manifest, r.files, &a.out, g.json);
     }
     let r = crashrig_measure::run(&options.config(Spelling::Flag)?, bar.monitor(&replicates))?;
     bar.finish();
@@ -111,39 +113,8 @@ pub fn print(
     if let Some(sync) = &s.numbers.sync_offset {
         println!("{}", sync.line());
     }
-    Ok(())
-}
-
-/// The library's options these arguments stand for.
-fn options(a: &MeasureArgs, seed: Option<u64>) -> MeasureOptions {
-    use super::measure_options::three;
-    MeasureOptions {
-        camera_c: a.camera_c.clone(),
-        tie: a.tie.clone(),
-        out: Some(OutputDir {
-            dir: a.out.clone(),
-            plots: !a.no_plots,
-        }),
-        mm_per_unit: a.mm_per_unit,
-        sigma_a_position_mm: three(&a.a_noise.sigma_a_position_mm),
-        sigma_a_angles_deg: three(&a.a_noise.sigma_a_angles_deg),
-        a_covariance: a.a_noise.a_covariance.clone(),
-        pixel_sigma_px: a.pixel_sigma_px,
-        samples: a.samples,
-        seed,
-        reference_epoch: a.reference_epoch.clone(),
-        frame_rate_hz: a.frame_rate_hz,
-        threshold_mm: a.threshold_mm,
-        max_reprojection_px: a.max_reprojection_px,
-        cfc: a.kinematics.cfc,
-        cfc_standard: a.kinematics.cfc_standard.clone(),
-        sync_sigma_ms: a.kinematics.sync_sigma_ms,
-        ..MeasureOptions::new(
-            a.model.clone(),
-            a.camera_a.clone(),
-            a.camera_b.clone(),
-            a.link.clone(),
-            a.observations.clone(),
-        )
+    for bar in s.numbers.length_check.iter().flatten() {
+        println!("{}", bar.line());
     }
+    Ok(())
 }

@@ -1,7 +1,9 @@
 //! Option groups of `crashrig measure`: camera A's pose uncertainty (`--sigma-a-*`,
-//! `--a-covariance`) and the kinematics (`--cfc`, `--cfc-standard`, `--sync-sigma-ms`;
-//! `docs/KINEMATICS.md`).
+//! `--a-covariance`), the kinematics (`--cfc`, `--cfc-standard`, `--sync-sigma-ms`;
+//! `docs/KINEMATICS.md`) and the length check (`--scale-bars`, `--mpe-mm`; `docs/MEASURE.md`);
+//! and the arguments → the library's [`MeasureOptions`].
 
+use crashrig_measure::{MeasureOptions, OutputDir};
 use std::path::PathBuf;
 
 /// Camera A's pose uncertainty per epoch: σ values or a covariance file.
@@ -42,4 +44,57 @@ pub struct KinematicsArgs {
         allow_negative_numbers = true
     )]
     pub sync_sigma_ms: f64,
+}
+
+/// The length check of scale bars fixed to the car body.
+#[derive(Debug, Clone, clap::Args)]
+pub struct LengthCheckArgs {
+    /// Length check: scale bars fixed to the car body, CSV
+    /// `name,marker_1,marker_2,length_mm,sigma_mm` (length_check.csv, summary's length_check).
+    #[arg(long, value_name = "CSV")]
+    pub scale_bars: Option<PathBuf>,
+    /// The lab's maximum permissible error of a length (mm): each bar gets within_mpe (needs
+    /// --scale-bars).
+    #[arg(
+        long,
+        value_name = "MM",
+        requires = "scale_bars",
+        allow_negative_numbers = true
+    )]
+    pub mpe_mm: Option<f64>,
+}
+
+/// The library's options these arguments stand for.
+pub fn options(a: &super::measure::MeasureArgs, seed: Option<u64>) -> MeasureOptions {
+    MeasureOptions {
+        camera_c: a.camera_c.clone(),
+        tie: a.tie.clone(),
+        out: Some(OutputDir {
+            dir: a.out.clone(),
+            plots: !a.no_plots,
+        }),
+        mm_per_unit: a.mm_per_unit,
+        sigma_a_position_mm: three(&a.a_noise.sigma_a_position_mm),
+        sigma_a_angles_deg: three(&a.a_noise.sigma_a_angles_deg),
+        a_covariance: a.a_noise.a_covariance.clone(),
+        pixel_sigma_px: a.pixel_sigma_px,
+        samples: a.samples,
+        seed,
+        reference_epoch: a.reference_epoch.clone(),
+        frame_rate_hz: a.frame_rate_hz,
+        threshold_mm: a.threshold_mm,
+        max_reprojection_px: a.max_reprojection_px,
+        cfc: a.kinematics.cfc,
+        cfc_standard: a.kinematics.cfc_standard.clone(),
+        sync_sigma_ms: a.kinematics.sync_sigma_ms,
+        scale_bars: a.length.scale_bars.clone(),
+        mpe_mm: a.length.mpe_mm,
+        ..MeasureOptions::new(
+            a.model.clone(),
+            a.camera_a.clone(),
+            a.camera_b.clone(),
+            a.link.clone(),
+            a.observations.clone(),
+        )
+    }
 }

@@ -1,10 +1,10 @@
 //! `crashrig merge`: the shard directories of a `--shard i/N` run → the unsharded output.
-//! Arguments → [`crashrig_place::merge::merge_shards`] (refuses missing, repeated and foreign
-//! shards; merges by the command that wrote them) → print.
+//! Arguments → [`crashrig_merge::merge_shards`] (refuses missing, repeated and foreign
+//! shards; merges by the command that wrote them) → the print of that command.
 
 use crate::Global;
-use crashrig_outdir::shard::{MAX_SHARDS, Manifest};
-use std::path::{Path, PathBuf};
+use crashrig_outdir::shard::MAX_SHARDS;
+use std::path::PathBuf;
 
 /// Arguments of `crashrig merge`.
 #[derive(Debug, clap::Args)]
@@ -22,8 +22,7 @@ pub struct MergeArgs {
 
 /// Runs `crashrig merge`.
 pub fn run(a: MergeArgs, g: &Global) -> anyhow::Result<()> {
-    use crashrig_place::merge::{Merged, merge_shards};
-    use crashrig_study::merge::MergeRun;
+    use crashrig_merge::{Merged, merge_shards};
     let bar = crate::progress::Bar::new("crashrig merge");
     let read = bar.stage("shards read");
     let merged = merge_shards(&a.shards, &a.out, !a.no_plots, bar.monitor(&read))?;
@@ -31,30 +30,6 @@ pub fn run(a: MergeArgs, g: &Global) -> anyhow::Result<()> {
     match merged {
         Merged::Place(r) => super::place::print(&r, &a.out, g),
         Merged::Measure(r) => super::measure::print(&r, &r.warnings, &a.out, g),
-        Merged::Study(MergeRun::Grid(r)) => super::grid::print(&r, &a.out, g),
-        Merged::Study(_) => anyhow::bail!("this crashrig cannot print what it merged"),
+        Merged::Grid(r) => super::grid::print(&r, &a.out, g),
     }
-}
-
-/// Prints what a shard run wrote (`--json`: its `shard.json`).
-pub fn print_shard(m: &Manifest, files: usize, out: &Path, g: &Global) -> anyhow::Result<()> {
-    if g.json {
-        return crate::output::print_json(m);
-    }
-    let print = || -> std::io::Result<()> {
-        use std::io::Write;
-        let mut w = std::io::stdout().lock();
-        writeln!(
-            w,
-            "shard {}: items {}..{} of {} in {:.3} s; wrote {files} files to {} (merge all {} with `crashrig merge`)",
-            m.shard,
-            m.items.start,
-            m.items.end,
-            m.items.total,
-            m.elapsed_s,
-            out.display(),
-            m.shard.count()
-        )
-    };
-    super::propagate::quiet_pipe(print())
 }

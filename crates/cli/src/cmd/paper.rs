@@ -9,7 +9,7 @@
 
 use crate::Global;
 use anyhow::Context;
-use crashrig_study::paper_study::{PaperStudy, study_toml};
+use crashrig_study::{PaperStudy, study_toml};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 

@@ -46,7 +46,7 @@ pub fn run(a: PlaceArgs, g: &Global) -> anyhow::Result<()> {
     if let Some(shard) = a.shard {
         let r = crashrig_place::shard::run_shard(&config, shard, bar.reporter())?;
         bar.finish();
-        return super::merge::print_shard(&r.manifest, r.files, &config.out, g);
+        return crate::output::print_shard(&r.manifest, r.files, &config.out, g.json);
     }
     let r = crashrig_place::run(&config, bar.reporter())?;
     bar.finish();
@@ -101,5 +101,5 @@ pub fn print(r: &crashrig_place::PlaceRun, out: &Path, g: &Global) -> anyhow::Re
             out.join("grid").display()
         )
     };
-    super::propagate::quiet_pipe(print())
+    crate::output::quiet_pipe(print())
 }

@@ -1,10 +1,9 @@
 //! `crashrig propagate`: Monte Carlo and linear propagation through a camera chain.
-//! Arguments → [`PropagateConfig`] → [`crashrig_study::run_propagate`] → print.
+//! Arguments → [`PropagateConfig`] → [`crashrig_grid::run_propagate`] → print.
 
 use crate::Global;
-use anyhow::Context;
-use crashrig_study::PropagateConfig;
-use crashrig_study::propagate_run::PropagateJson;
+use crashrig_grid::PropagateConfig;
+use crashrig_grid::PropagateJson;
 use std::path::PathBuf;
 
 /// Arguments of `crashrig propagate`.
@@ -25,7 +24,7 @@ pub fn run(a: PropagateArgs, g: &Global) -> anyhow::Result<()> {
         seed: g.seed,
     };
     let bar = crate::progress::Bar::new("crashrig propagate");
-    let r = crashrig_study::run_propagate(&config, bar.reporter())?;
+    let r = crashrig_grid::run_propagate(&config, bar.reporter())?;
     bar.finish();
     crate::output::warn_all(&r.warnings);
     let out = r.document;
@@ -33,7 +32,7 @@ pub fn run(a: PropagateArgs, g: &Global) -> anyhow::Result<()> {
         return crate::output::print_json(&out);
     }
     // A closed pipe (e.g. `| head`) ends the output quietly instead of panicking.
-    quiet_pipe(print_table(&out))
+    crate::output::quiet_pipe(print_table(&out))
 }
 
 fn print_table(out: &PropagateJson) -> std::io::Result<()> {
@@ -72,12 +71,4 @@ fn print_table(out: &PropagateJson) -> std::io::Result<()> {
         )?;
     }
     Ok(())
-}
-
-/// Treats a closed stdout pipe as success (the reader went away), other errors as errors.
-pub fn quiet_pipe(r: std::io::Result<()>) -> anyhow::Result<()> {
-    match r {
-        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
-        other => other.context("writing to stdout"),
-    }
 }

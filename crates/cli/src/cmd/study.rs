@@ -1,10 +1,10 @@
 //! `crashrig study STUDY.toml --out DIR`: the whole study on the user's own data, with the
 //! report. Thin: study file → [`crashrig_study::Study`] → one [`crashrig_study::run_study`]
-//! call → [`crashrig_study::report::write_outputs`].
+//! call → [`crashrig_study::write_outputs`].
 
 use crate::Global;
 use crashrig_study::Study;
-use crashrig_study::study_run::{StudyRunConfig, run_to_dir};
+use crashrig_study::{StudyRunConfig, run_to_dir};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `crashrig study`.
@@ -84,7 +84,7 @@ pub fn summary_line(out: &Path, results: &serde_json::Value) -> String {
 }
 
 /// Reads the study, runs it and writes every output below `out`; returns `results.json`.
-/// (The work is [`crashrig_study::study_run::run_to_dir`]; this adds the progress bar, the
+/// (The work is [`crashrig_study::run_to_dir`]; this adds the progress bar, the
 /// step lines on stderr when there is no bar, and the warnings.)
 pub fn execute(
     study_path: &Path,

@@ -139,3 +139,130 @@ fn covariance_bad_input_is_one_error_line_and_writes_nothing() {
         .collect();
     expect_error(Some(&loose), &[], &["singular system", "not determined"]);
 }
+
+/// Issue 36: an empty selector is refused naming its flag (it would make every image camera A,
+/// or B), here and in `calibrate` and `bootstrap`.
+#[test]
+fn empty_selectors_are_one_error_line_naming_the_flag() {
+    expect_error_camera("", None, &[], &["--camera", "must name a camera"]);
+    expect_error_camera("  ", None, &[], &["--camera", "must name a camera"]);
+    let paper = fixture("rig/paper").display().to_string();
+    let r = run([
+        "calibrate",
+        &paper,
+        "--camera-a",
+        "cam_out/",
+        "--camera-b",
+        "",
+        "--mm-per-unit",
+        "1",
+    ]);
+    assert_clean_error(&r, &["--camera-b", "must name a camera"]);
+    let r = run([
+        "bootstrap",
+        "x.db",
+        "--model",
+        &paper,
+        "--image-a",
+        "",
+        "--image-b",
+        "b.png",
+    ]);
+    assert_clean_error(&r, &["--image-a", "must name an image"]);
+    // A prefix matching nothing names what the model has nearest.
+    expect_error_camera(
+        "cam_ot/",
+        None,
+        &[],
+        &[
+            "cam_ot/",
+            "nearest image-name beginnings: `cam_out/` (8 images)",
+        ],
+    );
+}
+
+/// The generated scene of `crashrig_covariance::synthetic` written as a model with its
+/// control points; returns (model dir, control file).
+fn write_scene(dir: &Path, scene: &crashrig_covariance::synthetic::Scene) -> (String, String) {
+    let model = dir.join("model");
+    std::fs::create_dir_all(&model).unwrap();
+    scene
+        .model
+        .write(&model, crashrig_colmap::ModelFormat::Binary)
+        .unwrap();
+    let cp = dir.join("control.csv");
+    let body: String = scene
+        .control_ids
+        .iter()
+        .map(|id| format!("{id}\n"))
+        .collect();
+    std::fs::write(&cp, format!("point3D_id\n{body}")).unwrap();
+    (
+        model.to_string_lossy().into_owned(),
+        cp.to_string_lossy().into_owned(),
+    )
+}
+
+/// Issue 36: points on a camera centre give one `warning:` line naming them and the output
+/// lists them; a numerically singular bundle is one error line naming the frame, and nothing
+/// is written.
+#[test]
+fn points_on_a_centre_warn_and_a_singular_bundle_is_refused() {
+    use crashrig_covariance::synthetic::{ring_scene, with_line_image, with_points_at_centre};
+    let dir = tempfile::tempdir().unwrap();
+    let (scene, _) = with_points_at_centre(&ring_scene(4, 0.3), 1, 2, 1e-10);
+    let (model, cp) = write_scene(&dir.path().join("centre"), &scene);
+    let out = dir.path().join("centre.json");
+    let r = run([
+        "covariance",
+        &model,
+        "--camera",
+        "cam_out/",
+        "--control-points",
+        &cp,
+        "--mm-per-unit",
+        "1000",
+        "--pixel-sigma-px",
+        "0.5",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(r.success, "{}", r.stderr);
+    let warnings: Vec<&str> = r
+        .stderr
+        .lines()
+        .filter(|l| l.starts_with("warning: "))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{}", r.stderr);
+    assert!(
+        warnings[0].starts_with("warning: 2 point(s) lie on the projection centre")
+            && warnings[0]
+                .contains("point3D 20001 (images `cam_out/0001.png`, `cam_pan/0001.png`)"),
+        "{}",
+        warnings[0]
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(v["points_at_camera_centre"][0]["point3D_id"], 20_001);
+
+    let scene = with_line_image(&ring_scene(4, 0.3), 1e-6);
+    let (model, cp) = write_scene(&dir.path().join("line"), &scene);
+    let out = dir.path().join("line.json");
+    let r = run([
+        "covariance",
+        &model,
+        "--camera",
+        "cam_out/",
+        "--control-points",
+        &cp,
+        "--mm-per-unit",
+        "1000",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_clean_error(
+        &r,
+        &["singular system", "cam_out/9999.png", "not determined"],
+    );
+    assert!(!out.exists());
+}

@@ -38,6 +38,22 @@ fn help_nominal() {
 }
 
 #[test]
+fn help_measure() {
+    check_help(
+        &["measure"],
+        &[
+            "--camera-a",
+            "--link",
+            "--observations",
+            "--cfc",
+            "--scale-bars",
+            "--mpe-mm",
+            "--shard",
+        ],
+    );
+}
+
+#[test]
 fn help_colmap() {
     check_help(&["colmap"], &["info", "convert"]);
     check_help(&["colmap", "info"], &["--json"]);

@@ -1,5 +1,5 @@
 //! Every output byte pinned to today's main before the issue-23 move of the command logic into
-//! the libraries (`crashrig_measure::run`, `crashrig_study::run_grid`, one heat-map renderer):
+//! the libraries (`crashrig_measure::run`, `crashrig_grid::run_grid`, one heat-map renderer):
 //! the commands of `fixtures/gen/pinned_outputs.py`, run by the built binary, must reproduce
 //! the FNV-1a hash of every file in `fixtures/pinned/manifest.txt` (written by the release
 //! binary of main at 90b8f76; timing lines of JSON left out).

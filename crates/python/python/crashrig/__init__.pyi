@@ -177,9 +177,15 @@ def measure(
     cfc: Optional[int] = None,
     cfc_standard: Optional[str] = None,
     sync_sigma_ms: float = 0.0,
+    scale_bars: Optional[PathLike] = None,
+    mpe_mm: Optional[float] = None,
     progress: Optional[Progress] = None,
 ) -> Dict[str, Any]:
     """``crashrig measure --json`` (seed 1 when not given, as the command).
+
+    ``scale_bars`` (CSV ``name,marker_1,marker_2,length_mm,sigma_mm``) adds the length check:
+    ``s["length_check"]``, one dict per bar with its verdict (``--scale-bars``); ``mpe_mm`` the
+    maximum permissible error (``--mpe-mm``).
 
     >>> s = crashrig.measure("model", camera_a="cam_out/", camera_b="cam_in/", link="link.json",
     ...                      observations="obs.csv", mm_per_unit=1000.0, seed=1)

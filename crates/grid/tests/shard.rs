@@ -2,9 +2,9 @@
 //! is the unsharded one — every CSV and plot byte for byte, `summary.json` equal except its
 //! timings — on the aimed, adaptive, fixed-camera and correlated paths.
 
+use crashrig_grid::shard::{merge_grid, run_grid_shard};
+use crashrig_grid::{GridConfig, run_grid};
 use crashrig_outdir::shard::{Shard, read_set};
-use crashrig_study::grid_shard::{merge_grid, run_grid_shard};
-use crashrig_study::{GridConfig, run_grid};
 use std::path::{Path, PathBuf};
 
 const AIMED: &str = r#"
@@ -231,7 +231,7 @@ fn merge_reports_shards_read_and_cancels_without_writing() {
         let m = Recorder::cancelling_after(after);
         let e = merge_grid(&set, &out, false, Some(&m)).unwrap_err();
         assert!(
-            matches!(e, crashrig_study::Error::Cancelled(_)),
+            matches!(e, crashrig_grid::Error::Cancelled(_)),
             "{after}: {e}"
         );
         assert_eq!(m.seen().len(), after);

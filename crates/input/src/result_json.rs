@@ -16,7 +16,7 @@
 //! positive semi-definiteness.
 //!
 //! ```
-//! use crashrig_geometry::result_json::{ResultKind, link_from_result_value};
+//! use crashrig_input::result_json::{ResultKind, link_from_result_value};
 //! let diag = |i: usize, j: usize| if i != j { 0.0 } else if i < 3 { 0.04 } else { 1e-4 };
 //! let cov: Vec<Vec<f64>> = (0..6).map(|i| (0..6).map(|j| diag(i, j)).collect()).collect();
 //! let doc = serde_json::json!({"method": "absolute", "iterations": 500,
@@ -28,10 +28,30 @@
 //! assert!((link.covariance_deg()[(3, 3)] - 1e-4).abs() < 1e-18); // back in degrees²
 //! ```
 
-use crate::{Mat6, Rigid3, UncertainPose, Vec3, opk, quat};
+use crashrig_geometry::{Mat6, Rigid3, UncertainPose, Vec3, opk, quat};
 use serde_json::Value;
 
-pub use crate::result_kind::ResultKind;
+/// Which kind of document a link was read from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ResultKind {
+    /// `crashrig calibrate --json`: the link's covariance is `sem_covariance_tangent`.
+    Calibrate,
+    /// `crashrig bootstrap --json`: the link's covariance is `covariance_tangent`.
+    Bootstrap,
+    /// Neither marker: a link written by hand (`base_mm`, `angles_deg` and a covariance).
+    Link,
+}
+
+impl ResultKind {
+    /// `"calibrate"`, `"bootstrap"` or `"link"`.
+    pub fn command(self) -> &'static str {
+        match self {
+            ResultKind::Calibrate => "calibrate",
+            ResultKind::Bootstrap => "bootstrap",
+            ResultKind::Link => "link",
+        }
+    }
+}
 
 /// What is wrong with a result document: the key (if one is to blame) and the problem.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]

@@ -1,11 +1,11 @@
 //! The library entry of `crashrig grid`: a typed [`GridConfig`] → [`run_grid`] → a typed
 //! [`GridRun`], with `grid.csv`, `grid_detail.csv`, the heat maps and `summary.json` written
-//! as one unit. The maps are drawn by [`crate::grids::level_maps`], the code the study's
-//! layouts draw with ([`GRID_STYLE`] vs [`crate::grids::LAYOUT_STYLE`] names what differs).
+//! as one unit. The maps are drawn by [`crate::summary::level_maps`], the code the study's
+//! layouts draw with ([`GRID_STYLE`] vs [`crate::summary::LAYOUT_STYLE`] names what differs).
 //!
 //! # Example
 //! ```no_run
-//! use crashrig_study::grid_run::{GridConfig, run_grid};
+//! use crashrig_grid::{GridConfig, run_grid};
 //! let config = GridConfig {
 //!     scenario: "fixtures/scenarios/three_cameras_z0.toml".into(),
 //!     out: "grid_out".into(),
@@ -15,13 +15,14 @@
 //! };
 //! let run = run_grid(&config, None)?;
 //! println!("{:.1} % below {} mm", 100.0 * run.summary.fraction_below_threshold, run.summary.threshold_mm);
-//! # Ok::<(), crashrig_study::Error>(())
+//! # Ok::<(), crashrig_grid::Error>(())
 //! ```
 
 use crate::Error;
-use crate::grids::{MapSpec, MapStyle};
+use crate::summary::{MapSpec, MapStyle};
 use crashrig_mc::{Grid, GridResult, GridStudy, PointStats, RunOptions, Scenario};
 use crashrig_stats::progress::{self, Reporter};
+use crashrig_stats::summary::median;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -56,7 +57,7 @@ pub struct GridRun {
 }
 
 /// The maps of `crashrig grid`.
-pub const GRID_STYLE: MapStyle = MapStyle {
+pub(crate) const GRID_STYLE: MapStyle = MapStyle {
     x_label: "x [mm]",
     label_observer_z: true,
     footprints_include_observers: true,
@@ -137,7 +138,7 @@ pub struct GridDocument {
     /// Median σ_max (mm).
     pub median_sigma_max_mm: f64,
     /// Share of points whose worst-direction σ (√ of the largest eigenvalue of the point's
-    /// covariance) is below the threshold ([`crate::grids::WorstDirection`], as the study's
+    /// covariance) is below the threshold ([`crate::summary::WorstDirection`], as the study's
     /// layouts).
     pub fraction_worst_below_threshold: f64,
     /// Median worst-direction σ (mm).
@@ -188,7 +189,7 @@ pub struct GridDocument {
 ///
 /// # Errors
 /// [`Error::Scenario`].
-pub fn load_scenario(path: &Path) -> Result<Scenario, Error> {
+pub(crate) fn load_scenario(path: &Path) -> Result<Scenario, Error> {
     Scenario::from_path(path).map_err(|e| match e {
         crashrig_mc::Error::Io { .. }
         | crashrig_mc::Error::Toml { .. }
@@ -229,7 +230,7 @@ pub fn resolve_samples(option: Option<usize>, scenario: &Scenario) -> Result<usi
 /// Whether a top-level entry of an existing output directory is something `grid` writes (so
 /// an old result may be replaced as a whole): its CSV, JSON and heat-map files, and the `.tmp*`
 /// files an interrupted older version could leave.
-pub fn replaceable(name: &str) -> bool {
+pub(crate) fn replaceable(name: &str) -> bool {
     [".csv", ".json", ".png", ".svg"]
         .iter()
         .any(|ext| name.ends_with(ext))
@@ -451,7 +452,7 @@ pub(crate) fn finish(
     files.write("grid.csv", &main_csv(&result, &angles, with_fixed)?)?;
     files.write("grid_detail.csv", &detail_csv(&result, &angles)?)?;
     if plots {
-        for h in crate::grids::level_maps(&grid, &result, &grid_specs(&grid), &GRID_STYLE)? {
+        for h in crate::summary::level_maps(&grid, &result, &grid_specs(&grid), &GRID_STYLE)? {
             files.write(&h.file, &h.png)?;
             files.write(&h.file.replace(".png", ".svg"), &h.svg)?;
         }
@@ -541,7 +542,7 @@ fn correlation_summary(
     let ism: Vec<f64> = ind.points.iter().map(|p| p.sigma_max_mm).collect();
     CorrelationSummary {
         independent_fraction_below_threshold: ind.fraction_below(threshold_mm),
-        independent_median_sigma_max_mm: median(&ism),
+        independent_median_sigma_max_mm: median(&ism).unwrap_or(f64::NAN),
         change_sigma_max_mm: spread(&change),
         ratio_correlated_over_independent: spread(&ratio),
     }
@@ -572,7 +573,7 @@ fn document(
         .filter(|p| p.converged == Some(false))
         .count();
     let with_fixed = crashrig_mc::coverage::has_fixed(grid);
-    let worst = crate::grids::WorstDirection::new(result, grid.threshold_mm);
+    let worst = crate::summary::WorstDirection::new(result, grid.threshold_mm);
     GridDocument {
         points: result.points.len(),
         // Not-measurable points draw nothing; the draws per point are those asked for.
@@ -583,7 +584,7 @@ fn document(
         threshold_mm: grid.threshold_mm,
         fraction_below_threshold: result.fraction_below(grid.threshold_mm),
         max_sigma_mm: sm.iter().copied().fold(f64::NAN, f64::max),
-        median_sigma_max_mm: median(&sm),
+        median_sigma_max_mm: median(&sm).unwrap_or(f64::NAN),
         fraction_worst_below_threshold: worst.fraction_below_threshold,
         median_sigma_worst_mm: worst.median_mm,
         max_sigma_worst_mm: worst.max_mm,
@@ -606,7 +607,7 @@ fn document(
             fraction_below_threshold: lsm.iter().filter(|s| **s < grid.threshold_mm).count() as f64
                 / lsm.len().max(1) as f64,
             max_sigma_mm: lsm.iter().copied().fold(f64::NAN, f64::max),
-            median_sigma_max_mm: median(&lsm),
+            median_sigma_max_mm: median(&lsm).unwrap_or(f64::NAN),
             ratio_mc_over_linear_sigma_max: spread(&ratio),
         },
         adaptive: grid.adaptive.map(|ad| AdaptiveSummary {
@@ -637,17 +638,11 @@ fn document(
     }
 }
 
-/// Median of the finite values (degenerate and not-measurable points are NaN and left out).
-fn median(v: &[f64]) -> f64 {
-    let finite: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-    crashrig_stats::summary::quantile(&finite, 0.5).unwrap_or(f64::NAN)
-}
-
 fn spread(v: &[f64]) -> Spread {
     let finite: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
     Spread {
         min: finite.iter().copied().fold(f64::INFINITY, f64::min),
-        median: median(&finite),
+        median: median(&finite).unwrap_or(f64::NAN),
         max: finite.iter().copied().fold(f64::NEG_INFINITY, f64::max),
     }
 }
@@ -757,7 +752,7 @@ impl GridRun {
 /// contract's for layouts without degenerate points); with fixed observers the column
 /// `observers_seen` is appended and the σ cells of not-measurable points are empty; adaptive
 /// runs add `draws` and `converged`.
-pub fn grid_columns(r: &GridResult, angles: &[f64], with_seen: bool) -> Vec<Column> {
+pub(crate) fn grid_columns(r: &GridResult, angles: &[f64], with_seen: bool) -> Vec<Column> {
     let degenerate = crashrig_mc::degenerate::is_degenerate_point;
     let flagged = r.points.iter().zip(angles).any(|(p, a)| degenerate(p, *a));
     let float = |name, value: &dyn Fn(&PointStats) -> f64, blank_nan| Column {
@@ -921,10 +916,10 @@ mod tests {
     use super::*;
 
     /// `grid_detail.csv`'s last column is the worst-direction σ: √7 and 2√7 mm for the known
-    /// covariances of [`crate::grids::tests::known_grid`], empty for the point not measurable.
+    /// covariances of [`crate::summary::tests::known_grid`], empty for the point not measurable.
     #[test]
     fn detail_csv_sigma_worst_known_answer() {
-        let r = crate::grids::tests::known_grid();
+        let r = crate::summary::tests::known_grid();
         let csv = String::from_utf8(detail_csv(&r, &[90.0; 3]).unwrap()).unwrap();
         let mut lines = csv.lines();
         assert!(

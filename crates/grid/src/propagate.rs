@@ -3,7 +3,7 @@
 //!
 //! # Example
 //! ```
-//! use crashrig_study::propagate_run::{PropagateConfig, run_propagate};
+//! use crashrig_grid::{PropagateConfig, run_propagate};
 //! let scenario = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
 //!     .join("../../fixtures/scenarios/paper_chain.toml");
 //! let config = PropagateConfig { scenario, samples: Some(2000), seed: Some(1) };
@@ -11,11 +11,11 @@
 //! assert_eq!(run.document.cameras.len(), 3);
 //! // The same seed gives the same numbers.
 //! assert_eq!(run_propagate(&config, None)?.document.cameras, run.document.cameras);
-//! # Ok::<(), crashrig_study::Error>(())
+//! # Ok::<(), crashrig_grid::Error>(())
 //! ```
 
 use crate::Error;
-use crate::grid_run::{load_scenario, resolve_samples};
+use crate::run::{load_scenario, resolve_samples};
 use crashrig_mc::{Chain, ChainOptions};
 use crashrig_stats::progress::{self, Reporter};
 use serde::Serialize;

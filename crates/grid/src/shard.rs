@@ -7,15 +7,15 @@
 //! parses back to the same bits; `points_independent.csv` in correlated mode) and
 //! `shard.json` ([`crashrig_outdir::shard::Manifest`]). [`merge_grid`] reads the shards back
 //! into one [`crashrig_mc::GridResult`] and reports it through the very code of
-//! [`crate::run_grid`] (`grid_run::finish`): the same `grid.csv`, `grid_detail.csv`, maps and
+//! [`crate::run_grid`] (`run::finish`): the same `grid.csv`, `grid_detail.csv`, maps and
 //! `summary.json` (equal except `elapsed_s` and `samples_per_second`, which add up the shards'
 //! times).
 //!
 //! # Example
 //! ```no_run
 //! use crashrig_outdir::shard::{Shard, read_set};
-//! use crashrig_study::GridConfig;
-//! use crashrig_study::grid_shard::{merge_grid, run_grid_shard};
+//! use crashrig_grid::GridConfig;
+//! use crashrig_grid::shard::{merge_grid, run_grid_shard};
 //!
 //! let mut dirs = Vec::new();
 //! for i in 1..=2 {
@@ -35,7 +35,7 @@
 //! ```
 
 use crate::Error;
-use crate::grid_run::{
+use crate::run::{
     Computed, GridConfig, GridRun, Pending, Prepared, compute, finish, prepare, prepare_scenario,
 };
 use crashrig_mc::{GridResult, PointStats, Scenario};
@@ -87,12 +87,11 @@ pub fn fingerprint_inputs(
 ) -> Result<String, Error> {
     let mut parts = vec![command.as_bytes().to_vec()];
     for path in files {
-        let bytes =
-            crashrig_colmap::input_file::read_limited(path, crashrig_mc::limits::MAX_FILE_BYTES)
-                .map_err(|source| Error::Read {
-                    path: path.to_path_buf(),
-                    source,
-                })?;
+        let bytes = crashrig_input::file::read_limited(path, crashrig_input::file::MAX_TOML_BYTES)
+            .map_err(|source| Error::Read {
+                path: path.to_path_buf(),
+                source,
+            })?;
         parts.push(bytes);
     }
     parts.extend(resolved.iter().map(|r| r.as_bytes().to_vec()));
@@ -232,7 +231,7 @@ impl MergedRows {
     /// # Errors
     /// As [`crate::run_grid`].
     pub fn write(self, out: &Path, plots: bool) -> Result<GridRun, Error> {
-        let files = Pending::new(out, crate::grid_run::replaceable)?;
+        let files = Pending::new(out, crate::run::replaceable)?;
         finish(&self.p, self.computed, &self.path, plots, files)
     }
 }
@@ -415,7 +414,7 @@ const COLUMNS: [&str; 32] = [
 
 /// `points.csv`: one row per point (its global index first), every field of [`PointStats`].
 fn rows_csv(first: usize, points: &[PointStats]) -> Result<Vec<u8>, Error> {
-    crate::grid_run::csv_bytes(|w| {
+    crate::run::csv_bytes(|w| {
         w.write_record(COLUMNS)?;
         for (k, p) in points.iter().enumerate() {
             let mut rec = vec![(first + k).to_string()];
@@ -458,11 +457,10 @@ fn read_rows(
         problem,
     };
     let limit = (range.len() as u64 + 1) * MAX_ROW_BYTES;
-    let bytes =
-        crashrig_colmap::input_file::read_limited(path, limit).map_err(|source| Error::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
+    let bytes = crashrig_input::file::read_limited(path, limit).map_err(|source| Error::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
     let mut r = csv::ReaderBuilder::new()
         .has_headers(true)
         .from_reader(bytes.as_slice());

@@ -3,13 +3,13 @@
 //! `covariance` (a factor or a scale bar).
 //!
 //! ```
-//! use crashrig_geometry::options::{GivenScale, ScaleOptions, Spelling};
+//! use crashrig_input::options::{GivenScale, ScaleOptions, Spelling};
 //! let o = ScaleOptions { mm_per_unit: Some(1000.0), ..ScaleOptions::default() };
 //! assert_eq!(o.given(Spelling::Flag)?, Some(GivenScale::MmPerUnit(1000.0)));
 //! let both = ScaleOptions { scale_points: Some(vec![1, 2]), ..o };
 //! let e = both.given(Spelling::Keyword).unwrap_err().to_string();
 //! assert!(e.starts_with("scale_points and scale_length_mm go together"), "{e}");
-//! # Ok::<(), crashrig_geometry::Error>(())
+//! # Ok::<(), crashrig_input::Error>(())
 //! ```
 
 use crate::Error;
@@ -31,6 +31,8 @@ const NAMES: &[(&str, &str)] = &[
     ("cfc_standard", "--cfc-standard"),
     ("frame_rate_hz", "--frame-rate-hz"),
     ("mm_per_unit", "--mm-per-unit"),
+    ("mpe_mm", "--mpe-mm"),
+    ("scale_bars", "--scale-bars"),
     ("scale_length_mm", "--scale-length-mm"),
     ("scale_points", "--scale-points"),
     ("sigma_a_angles_deg", "--sigma-a-angles-deg"),

@@ -1,7 +1,7 @@
-//! `crashrig_study::run_propagate`, the library entry of `crashrig propagate` (moved here from
+//! `crashrig_grid::run_propagate`, the library entry of `crashrig propagate` (moved here from
 //! the CLI with the code): the contract's fields, reproducibility, errors with the line.
 
-use crashrig_study::{PropagateConfig, run_propagate};
+use crashrig_grid::{PropagateConfig, run_propagate};
 use std::path::Path;
 
 #[test]

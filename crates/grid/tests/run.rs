@@ -1,9 +1,9 @@
-//! `crashrig_study::run_grid`, the library entry of `crashrig grid`: thread-count
+//! `crashrig_grid::run_grid`, the library entry of `crashrig grid`: thread-count
 //! independence, the contract's CSV header, the summary keys, fixed observers' coverage and
 //! maps, and errors naming the file and key (moved here from the CLI with the code).
 
-use crashrig_study::fixed_maps::NOT_MEASURABLE;
-use crashrig_study::{GridConfig, run_grid};
+use crashrig_grid::fixed_maps::NOT_MEASURABLE;
+use crashrig_grid::{GridConfig, run_grid};
 use std::path::Path;
 
 const SCENARIO: &str = r#"
@@ -36,7 +36,7 @@ fn args(dir: &Path, scenario: &Path, no_plots: bool) -> GridConfig {
 }
 
 /// Runs the grid and returns `summary.json`'s content.
-fn compute(config: &GridConfig) -> Result<serde_json::Value, crashrig_study::Error> {
+fn compute(config: &GridConfig) -> Result<serde_json::Value, crashrig_grid::Error> {
     let run = run_grid(config, None)?;
     Ok(serde_json::to_value(run.summary).unwrap())
 }
@@ -160,7 +160,7 @@ sigma_position_mm = [1.0, 1.0, 1.0]
 sigma_angles_deg = [0.01, 0.01, 0.01]
 "#;
 
-fn run(dir: &Path, text: &str) -> Result<serde_json::Value, crashrig_study::Error> {
+fn run(dir: &Path, text: &str) -> Result<serde_json::Value, crashrig_grid::Error> {
     let scen = dir.join("fixed.toml");
     std::fs::write(&scen, text).unwrap();
     compute(&args(&dir.join("out"), &scen, false))

@@ -8,14 +8,14 @@
 //! or exhaust its memory. `docs/LIMITS.md` lists the limits of each kind of file.
 //!
 //! ```
-//! use crashrig_colmap::input_file;
+//! use crashrig_input::file;
 //! let dir = std::env::temp_dir().join(format!("crashrig-input-file-doc-{}", std::process::id()));
 //! std::fs::create_dir_all(&dir)?;
 //! std::fs::write(dir.join("a.csv"), b"x\n1\n")?;
-//! assert_eq!(input_file::read_limited(&dir.join("a.csv"), 16)?, b"x\n1\n");
+//! assert_eq!(file::read_limited(&dir.join("a.csv"), 16)?, b"x\n1\n");
 //! // Too large for a 3-byte limit, and a directory is not a file.
-//! assert!(input_file::read_limited(&dir.join("a.csv"), 3).is_err());
-//! let e = input_file::read_limited(&dir, 16).unwrap_err();
+//! assert!(file::read_limited(&dir.join("a.csv"), 3).is_err());
+//! let e = file::read_limited(&dir, 16).unwrap_err();
 //! assert!(e.to_string().contains("not a regular file"));
 //! # std::fs::remove_dir_all(&dir)?;
 //! # Ok::<(), std::io::Error>(())

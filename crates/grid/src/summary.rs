@@ -3,23 +3,8 @@
 
 use crate::Error;
 use crashrig_mc::{Grid, GridResult};
+use crashrig_stats::summary::median;
 use serde::Serialize;
-use std::path::Path;
-
-/// Median of the finite values (NaN when there is none).
-pub fn median(values: &[f64]) -> f64 {
-    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
 
 /// Whether σ_max is at or above the threshold (a NaN σ counts as not below).
 pub fn not_below(sigma_mm: f64, threshold_mm: f64) -> bool {
@@ -48,7 +33,7 @@ impl WorstDirection {
         WorstDirection {
             fraction_below_threshold: worst.iter().filter(|s| **s < threshold_mm).count() as f64
                 / n,
-            median_mm: median(&worst),
+            median_mm: median(&worst).unwrap_or(f64::NAN),
             max_mm: worst
                 .iter()
                 .copied()
@@ -134,6 +119,7 @@ impl GridSummary {
                     .map(|p| p.sigma_mm[k])
                     .collect::<Vec<_>>(),
             )
+            .unwrap_or(f64::NAN)
         };
         let n = result.points.len().max(1) as f64;
         let worst = WorstDirection::new(result, t);
@@ -165,13 +151,13 @@ impl GridSummary {
             threshold_mm: t,
             fraction_below_threshold: result.fraction_below(t),
             max_sigma_mm: max,
-            median_sigma_max_mm: median(&sm),
+            median_sigma_max_mm: median(&sm).unwrap_or(f64::NAN),
             median_sigma_mm: [axis(0), axis(1), axis(2)],
             fraction_worst_below_threshold: worst.fraction_below_threshold,
             median_sigma_worst_mm: worst.median_mm,
             max_sigma_worst_mm: worst.max_mm,
             linear_fraction_below_threshold: lsm.iter().filter(|s| **s < t).count() as f64 / n,
-            linear_median_sigma_max_mm: median(&lsm),
+            linear_median_sigma_max_mm: median(&lsm).unwrap_or(f64::NAN),
             degenerate_points: result
                 .points
                 .iter()
@@ -568,16 +554,6 @@ pub fn level_maps(
         }
     }
     Ok(out)
-}
-
-/// Writes `bytes` to `dir/name` (creating `dir`).
-pub(crate) fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<(), Error> {
-    std::fs::create_dir_all(dir).map_err(|source| Error::Write {
-        path: dir.to_path_buf(),
-        source,
-    })?;
-    let path = dir.join(name);
-    std::fs::write(&path, bytes).map_err(|source| Error::Write { path, source })
 }
 
 #[cfg(test)]

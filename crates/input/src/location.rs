@@ -1,0 +1,80 @@
+//! Where in a user's text a problem is: the 1-based line of a byte offset, and the TOML key
+//! whose value starts there, so an error names the file, the line and the key (scenario,
+//! candidates and study files).
+//!
+//! ```
+//! use crashrig_input::location::{line_of, toml_value_key};
+//! let text = "[grid]\nthreshold_mm = \"5\"\n";
+//! let at = text.find('"').unwrap(); // where a parser reports "invalid type: string"
+//! assert_eq!((line_of(text, at), toml_value_key(text, at)), (2, Some("threshold_mm")));
+//! ```
+
+/// 1-based line of a byte offset of a text (an offset past the end is the last line).
+pub fn line_of(text: &str, offset: usize) -> usize {
+    text.as_bytes()[..offset.min(text.len())]
+        .iter()
+        .filter(|b| **b == b'\n')
+        .count()
+        + 1
+}
+
+/// The key whose value starts at byte `offset` of a TOML text (`threshold_mm = "5"` → the
+/// offset of `"5"` gives `threshold_mm`), so a parser's type error ("invalid type: string,
+/// expected f64", located at the value) can name the key. Looks left on the value's line for
+/// `key =`; dotted and quoted keys are returned as written. `None` when the offset is not
+/// right after `key =` (a value inside an array, a syntax error).
+///
+/// ```
+/// use crashrig_input::location::toml_value_key;
+/// let text = "[grid]\nthreshold_mm = \"5\"\n";
+/// assert_eq!(toml_value_key(text, text.find('"').unwrap()), Some("threshold_mm"));
+/// let inline = "camera = { model = 3, width = 10 }";
+/// assert_eq!(toml_value_key(inline, inline.find('3').unwrap()), Some("model"));
+/// assert_eq!(toml_value_key("x = [1, 2]", 8), None);
+/// ```
+pub fn toml_value_key(text: &str, offset: usize) -> Option<&str> {
+    let offset = offset.min(text.len());
+    let line_start = text[..offset].rfind('\n').map_or(0, |p| p + 1);
+    let before = text[line_start..offset]
+        .trim_end()
+        .strip_suffix('=')?
+        .trim_end();
+    let start = before
+        .rfind(|c: char| !(c.is_ascii_alphanumeric() || "_-.\"'".contains(c)))
+        .map_or(0, |p| p + 1);
+    let key = &before[start..];
+    (!key.is_empty()).then_some(key)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lines_count_from_one_and_stop_at_the_end() {
+        let text = "a = 1\nb = 2\n\nc = 3";
+        assert_eq!(line_of(text, 0), 1);
+        assert_eq!(line_of(text, 5), 1); // the newline itself ends line 1
+        assert_eq!(line_of(text, 6), 2);
+        assert_eq!(line_of(text, text.find('c').unwrap()), 4);
+        assert_eq!(line_of(text, 10_000), 4);
+        assert_eq!(line_of("", 3), 1);
+    }
+
+    #[test]
+    fn value_keys_are_named_as_written() {
+        let text = "[camera]\n  sigma.\"x-y\" =   [1, 2]\nname='a'";
+        assert_eq!(
+            toml_value_key(text, text.find("[1").unwrap()),
+            Some("sigma.\"x-y\"")
+        );
+        assert_eq!(
+            toml_value_key(text, text.find("'a'").unwrap()),
+            Some("name")
+        );
+        // Inside an array, or with no `=` before it, there is no key.
+        assert_eq!(toml_value_key(text, text.find('2').unwrap()), None);
+        assert_eq!(toml_value_key("= 3", 2), None);
+        assert_eq!(toml_value_key("x = 3", 99), None);
+    }
+}
