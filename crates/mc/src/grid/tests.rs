@@ -980,11 +980,16 @@ fn adaptive_batches_of_a_chunk_are_the_fixed_runs_draws() {
         let fixed_run = study.run(&crate::RunOptions::samples(n, 5), None).unwrap();
         // A tolerance no batch meets: every point stops at max_samples.
         let ad = adaptive(crate::Tolerance::AbsoluteMm(1e-6), crate::CHUNK, n);
-        let adaptive_run = study.run(&crate::RunOptions::adaptive(ad, 5), None).unwrap();
+        let adaptive_run = study
+            .run(&crate::RunOptions::adaptive(ad, 5), None)
+            .unwrap();
         assert!(adaptive_run.correlated);
         for (a, f) in adaptive_run.points.iter().zip(&fixed_run.points) {
             assert_eq!(a.converged, Some(false));
-            assert_eq!((a.count, a.mean_mm, a.covariance), (f.count, f.mean_mm, f.covariance));
+            assert_eq!(
+                (a.count, a.mean_mm, a.covariance),
+                (f.count, f.mean_mm, f.covariance)
+            );
         }
     }
 }
