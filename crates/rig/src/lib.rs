@@ -27,7 +27,8 @@
 //! - [`Epoch`], [`link_of`], [`links_of`]: per-epoch links.
 //! - [`link_statistics`] → [`LinkStatistics`]: mean, σ, SEM, covariance, SO(3) mean.
 //! - [`flag_outliers`] → [`OutlierReport`]; [`drift_report`] → [`DriftReport`].
-//! - [`sem::sem_covariance`] → [`sem::SemEstimate`]: the uncertainty of the mean link.
+//! - [`sem::sem_covariance`] → [`sem::SemEstimate`]: the uncertainty of the mean link and, per
+//!   axis, whether it can be relied on ([`likelihood`]: the drift model's REML likelihood).
 //! - [`refine()`] → [`Refinement`]: one link fitted jointly with all poses of A, with covariance
 //!   (a weighted mean of the same poses, floored at the uncertainty of the mean).
 //! - [`calibrate`] → [`Calibration`]: all of the above in one call.
@@ -73,6 +74,7 @@
 mod calibrate;
 pub mod drift;
 mod error;
+pub mod likelihood;
 mod link;
 pub mod refine;
 pub mod robust;

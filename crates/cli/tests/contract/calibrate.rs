@@ -1,6 +1,6 @@
 //! `crashrig calibrate`: JSON shape and the numpy statistics of `fixtures/rig/*/expected.json`.
 
-use crate::common::{
+use crate::contract::common::{
     angle_diff_deg, arr3, assert_clean_error, boolean, field, fixture, json_of, matrix, num,
     numbers, read_json, run, string, uint,
 };
@@ -187,7 +187,7 @@ fn calibrate_mm_per_unit_equals_scale_bar() {
 }
 
 /// `calibrate --json` on the rig-constrained `shared_frame` model with camera ids 1 and 2.
-fn shared_frame(extra: &[&str]) -> crate::common::Run {
+fn shared_frame(extra: &[&str]) -> crate::contract::common::Run {
     let dir = fixture("rig/shared_frame");
     let mut args = vec![
         "calibrate".to_string(),
@@ -290,7 +290,7 @@ fn calibrate_covariance_tangent_recomputed_from_epochs() {
     }
     // The uncertainty of the mean is covariance_tangent / n scaled by √(f_i f_j), f the
     // rule's variance factors (1e-12 relative: a few roundings).
-    assert_eq!(string(&v, "sem_rule"), "ar1_noise_fit");
+    assert_eq!(string(&v, "sem_rule"), "ar1_noise_fit_bound");
     let f = numbers(
         field(field(&v, "sem_detail"), "variance_inflation"),
         "variance_inflation",
