@@ -24,7 +24,7 @@
 //! writes it into docs/CALIBRATE.md between the `sem-coverage-table` markers:
 //!
 //! ```sh
-//! CRASHRIG_WRITE_SEM_TABLE=1 cargo test --release -p crashrig-rig --test sem_coverage \
+//! CRASHRIG_WRITE_SEM_TABLE=1 cargo test --release -p crashrig-rig --test tests \
 //!     -- --ignored sem_coverage_contract_grid_slow --nocapture
 //! ```
 
