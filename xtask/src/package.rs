@@ -138,11 +138,11 @@ fn check_readme(name: &str, dir: &Path, p: &serde_json::Value) -> Result<Vec<Str
     if !readme.contains("## Features") {
         problems.push(format!("{name}: README.md has no `## Features` section"));
     }
-    let lib = p["targets"]
-        .as_array()
-        .into_iter()
-        .flatten()
-        .find(|t| t["kind"].as_array().is_some_and(|k| k.iter().any(|k| k == "lib")));
+    let lib = p["targets"].as_array().into_iter().flatten().find(|t| {
+        t["kind"]
+            .as_array()
+            .is_some_and(|k| k.iter().any(|k| k == "lib"))
+    });
     let lib_rs = match lib.and_then(|t| t["src_path"].as_str()) {
         Some(path) => std::fs::read_to_string(path).with_context(|| path.to_string())?,
         None => String::new(),
@@ -160,10 +160,14 @@ fn check_readme(name: &str, dir: &Path, p: &serde_json::Value) -> Result<Vec<Str
     for f in features.keys().filter(|f| *f != "default") {
         let named = format!("`{f}`");
         if !readme.contains(&named) {
-            problems.push(format!("{name}: README.md does not name the feature {named}"));
+            problems.push(format!(
+                "{name}: README.md does not name the feature {named}"
+            ));
         }
         if lib.is_some() && !lib_rs.contains(&named) {
-            problems.push(format!("{name}: the crate docs do not name the feature {named}"));
+            problems.push(format!(
+                "{name}: the crate docs do not name the feature {named}"
+            ));
         }
     }
     Ok(problems)
@@ -219,7 +223,13 @@ pub fn features(root: &Path) -> Result<()> {
     let hack = cargo_hack(root)?;
     let mut c = Command::new(hack);
     c.current_dir(root)
-        .args(["hack", "check", "--each-feature", "--no-dev-deps", "--workspace"])
+        .args([
+            "hack",
+            "check",
+            "--each-feature",
+            "--no-dev-deps",
+            "--workspace",
+        ])
         .args(excludes(root)?);
     crate::run(c)?;
     let problems = crate::tidy::check_lean_builds(root)?;
@@ -253,7 +263,9 @@ fn consumer_closure(root: &Path, manifest: &str) -> Result<BTreeSet<String>> {
         let p = packages
             .iter()
             .find(|p| p["name"] == name.as_str())
-            .with_context(|| format!("examples/consumer depends on `{name}`, not in the workspace"))?;
+            .with_context(|| {
+                format!("examples/consumer depends on `{name}`, not in the workspace")
+            })?;
         for d in p["dependencies"].as_array().into_iter().flatten() {
             let dep = d["name"].as_str().unwrap_or_default();
             if d["path"].is_string() && d["kind"].is_null() && d["optional"] == false {
@@ -282,6 +294,11 @@ pub fn consumer(root: &Path) -> Result<()> {
     std::fs::create_dir_all(&packaged)?;
     std::fs::create_dir_all(app.join("src"))?;
     let src = root.join("examples/consumer");
+    // Not a workspace member, so `cargo fmt --all` does not see it.
+    let mut fmt = Command::new("rustfmt");
+    fmt.args(["--edition", "2024", "--check"])
+        .arg(src.join("src/main.rs"));
+    crate::run(fmt)?;
     let manifest = std::fs::read_to_string(src.join("Cargo.toml"))?;
     std::fs::write(app.join("Cargo.toml"), &manifest)?;
     std::fs::copy(src.join("src/main.rs"), app.join("src/main.rs"))?;
@@ -295,7 +312,11 @@ pub fn consumer(root: &Path) -> Result<()> {
         tar.arg("-xzf").arg(&file).arg("-C").arg(&packaged);
         crate::run(tar)?;
         let dir = packaged.join(format!("{name}-{version}"));
-        anyhow::ensure!(dir.join("Cargo.toml").is_file(), "{}: not unpacked", dir.display());
+        anyhow::ensure!(
+            dir.join("Cargo.toml").is_file(),
+            "{}: not unpacked",
+            dir.display()
+        );
         patches.push(format!(
             "patch.crates-io.{name}.path={:?}",
             dir.to_string_lossy()
@@ -308,8 +329,15 @@ pub fn consumer(root: &Path) -> Result<()> {
     };
     let app_manifest = app.join("Cargo.toml");
     let mut tree = cargo_in(&app);
-    tree.args(["tree", "-e", "normal", "--prefix", "none", "--manifest-path"])
-        .arg(&app_manifest);
+    tree.args([
+        "tree",
+        "-e",
+        "normal",
+        "--prefix",
+        "none",
+        "--manifest-path",
+    ])
+    .arg(&app_manifest);
     with_patches(&mut tree);
     let out = tree.output().context("cargo tree of the consumer")?;
     anyhow::ensure!(

@@ -26,11 +26,18 @@ fn main() -> Result<()> {
         .ok_or("usage: crashrig-consumer FIXTURES_DIR")?;
     let fixtures = Path::new(&fixtures);
     let n = project_opencv(fixtures)?;
-    println!("consumer: crashrig-camera: {n} OPENCV projections agree with pycolmap to 1e-9 px");
+    println!(
+        "consumer: crashrig-camera: {n} OPENCV projections agree with pycolmap (1e-9 px, rejects included)"
+    );
     let n = read_model(fixtures)?;
     println!("consumer: crashrig-colmap: {n} image centres agree with pycolmap to 1e-13");
-    engine()?;
-    println!("consumer: crashrig-mc: chain and grid σ agree with the closed form");
+    let (chain, grid) = engine()?;
+    println!(
+        "consumer: crashrig-mc: cam2 σ {chain:.4?} mm (closed form {:.4} mm per axis), grid point σ \
+         {grid:.4?} mm (closed form 1, 1, {:.4} mm), within 4 standard errors",
+        1.25f64.sqrt(),
+        0.5f64.sqrt()
+    );
     Ok(())
 }
 
@@ -67,8 +74,17 @@ fn project_opencv(fixtures: &Path) -> Result<usize> {
     let cases = g["project"].as_array().expect("project cases");
     for case in cases {
         let p = Vector3::from_column_slice(&f64s(&case["point"]));
+        let ours = camera.img_from_cam(&p);
+        if case["pixel"].is_null() {
+            // Behind the camera or on its plane: pycolmap rejects it, so must we.
+            assert!(
+                ours.is_err(),
+                "{p:?}: pycolmap rejects, crashrig gave {ours:?}"
+            );
+            continue;
+        }
         let want = Vector2::from_column_slice(&f64s(&case["pixel"]));
-        let got = camera.img_from_cam(&p).expect("in front of the camera");
+        let got = ours.unwrap_or_else(|r| panic!("{p:?} rejected ({r}), pycolmap projects it"));
         assert!(
             (got - want).norm() < 1e-9,
             "OPENCV projection of {p:?}: {got:?}, pycolmap {want:?}"
@@ -116,10 +132,9 @@ fn assert_sigma(what: &str, got: f64, want: f64, n: usize) {
 /// at the origin seen along +x from (−1000, 0, 0) and along +y from (0, −1000, 0) by observers
 /// with 1 mm position noise; their rays cross at the closest point (x, y, z) = (δ₂ₓ, δ₁ᵧ,
 /// (δ₁z + δ₂z)/2), so σ = (1, 1, 1/√2) mm.
-fn engine() -> Result<()> {
-    let position_only = |mm: f64, pose: Rigid3| {
-        UncertainPose::from_sigmas(pose, Vec3::repeat(mm), Vec3::zeros())
-    };
+fn engine() -> Result<(Vector3<f64>, Vector3<f64>)> {
+    let position_only =
+        |mm: f64, pose: Rigid3| UncertainPose::from_sigmas(pose, Vec3::repeat(mm), Vec3::zeros());
     let mut b = ChainBuilder::new();
     let cam1 = b.world("cam1", position_only(1.0, Rigid3::identity()))?;
     let cam2 = b.link(
@@ -135,11 +150,18 @@ fn engine() -> Result<()> {
     let want = (1.0f64 + 0.25).sqrt();
     for axis in 0..3 {
         let linear = lin[k].position_sigma_mm[axis];
-        assert!((linear - want).abs() < 1e-12, "cam2 first-order σ {linear}, want {want}");
+        assert!(
+            (linear - want).abs() < 1e-12,
+            "cam2 first-order σ {linear}, want {want}"
+        );
         assert_sigma("cam2 Monte Carlo", mc[k].position_sigma_mm[axis], want, n);
     }
 
-    let at = |v: f64| Axis { start: v, stop: v, count: 1 };
+    let at = |v: f64| Axis {
+        start: v,
+        stop: v,
+        count: 1,
+    };
     let mut covariance = Mat6::zeros();
     covariance.fixed_view_mut::<3, 3>(0, 0).fill_diagonal(1.0);
     let samples = 40_000;
@@ -159,5 +181,5 @@ fn engine() -> Result<()> {
         );
         assert_sigma("grid Monte Carlo", p.sigma_mm[axis], want[axis], samples);
     }
-    Ok(())
+    Ok((mc[k].position_sigma_mm, p.sigma_mm))
 }
