@@ -303,3 +303,8 @@ pub mod bench {
         );
     }
 }
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

@@ -41,6 +41,9 @@
 //!   SIGINT: before the swap the process then waits for the signal thread; inside the swap it
 //!   finishes the swap first).
 //!
+//! # Features
+//! None: the crate has no cargo features.
+//!
 //! # Example
 //! ```
 //! use crashrig_outdir::Staged;
@@ -923,3 +926,8 @@ mod tests {
         drop(s);
     }
 }
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

@@ -36,6 +36,9 @@
 //! Epochs from a COLMAP model (camera selectors, pairing, scale bar) are read by
 //! `crashrig_study::calibration::epochs_from_model`; this crate works on poses only.
 //!
+//! # Features
+//! None: the crate has no cargo features.
+//!
 //! # Example
 //! ```
 //! use crashrig_geometry::{Rigid3, Vec3, opk::rotation_from_opk};
@@ -92,3 +95,8 @@ pub use refine::{RefineOptions, Refinement, refine};
 pub use robust::{OutlierReport, flag_outliers, outlier_threshold};
 pub use sem::SemEstimate;
 pub use stats::{LinkStatistics, link_statistics};
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;
