@@ -109,17 +109,22 @@ pub fn convert(config: &ConvertConfig) -> Result<Converted> {
         ModelFormat::Text => model.text_format_warning().into_iter().collect(),
         ModelFormat::Binary => Vec::new(),
     };
-    let staged =
+    let files = model.encode(format).map_err(|source| Error::Writing {
+        path: output.clone(),
+        source: Box::new(source),
+    })?;
+    let mut staged =
         crashrig_outdir::Staged::new(output, model_file_name).map_err(|source| Error::Staging {
             path: output.clone(),
             source,
         })?;
-    model
-        .write(staged.dir(), format)
-        .map_err(|source| Error::Writing {
+    // Each file straight into the staging directory; the directory is swapped in as a whole.
+    for (name, bytes) in &files {
+        staged.write(name, bytes).map_err(|source| Error::Commit {
             path: output.clone(),
-            source: Box::new(source),
+            source,
         })?;
+    }
     staged.commit().map_err(|source| Error::Commit {
         path: output.clone(),
         source,
