@@ -24,13 +24,16 @@ pub const ANSWER_COLUMNS: [(&str, &str); 8] = [
         "fraction_below_threshold_of_measurable",
     ),
     (
-        "median / largest worst-direction σ [mm]",
+        "worst-direction σ: median / largest [mm]",
         "median_sigma_worst_mm",
     ),
     ("largest at (x, y, z) [mm]", "hot_spot.point_mm"),
-    ("why there", "hot_spot"),
     (
-        "dominant input (median worst-direction σ with its σ halved)",
+        "why there: ray angle; input dominating there (σ → σ with its σ halved)",
+        "hot_spot",
+    ),
+    (
+        "dominant input (median σ → with its σ halved)",
         "dominant_input",
     ),
 ];
@@ -70,14 +73,33 @@ pub fn answer_row(name: &str, v: &LayoutVerdict) -> Vec<String> {
         v.hot_spot
             .as_ref()
             .map_or("—".into(), |h| point(h.point_mm)),
-        hot_spot_reason(v),
+        hot_spot_cell(v),
         v.dominant_input.as_ref().map_or("—".into(), |d| {
             format!(
-                "{} ({:.2} → {:.2})",
+                "{}: {:.2} → {:.2} mm",
                 d.input, d.sigma_worst_mm, d.sigma_worst_halved_mm
             )
         }),
     ]
+}
+
+/// The "why there" cell: the intersection angle at the hot spot against the grid's median, and
+/// the input whose halved σ lowers the σ there most.
+fn hot_spot_cell(v: &LayoutVerdict) -> String {
+    let Some(h) = &v.hot_spot else {
+        return "—".into();
+    };
+    let mut cell = format!(
+        "rays meet at {:.1}° (grid median {:.1}°)",
+        h.intersection_angle_deg, h.median_intersection_angle_deg
+    );
+    if let Some(d) = &h.dominant_input {
+        cell.push_str(&format!(
+            "; {}: {:.2} → {:.2} mm",
+            d.input, d.sigma_worst_mm, d.sigma_worst_halved_mm
+        ));
+    }
+    cell
 }
 
 /// The thresholds of the layouts, as text ("5 mm", or "3 / 5 mm" when they differ).
@@ -95,9 +117,8 @@ pub fn thresholds(r: &StudyResult) -> String {
 fn answer_html(r: &StudyResult) -> String {
     use crate::html::escape;
     let mut s = format!(
-        "<table class=\"answer\" id=\"answer\">\n<caption>Is σ &lt; {} reached, in every direction? One row per layout; every σ is the worst-direction σ (√ of the largest eigenvalue of the point's covariance: the σ in the direction the point is least certain). Measurable: seen by two or more cameras under at least {}° (the rest is not measurable and is never counted as above the threshold); below the threshold: share of the measurable points. Same numbers as results.json → layouts[].verdict.</caption>\n<thead><tr>",
+        "<table class=\"answer\" id=\"answer\">\n<caption>Is σ &lt; {} reached, in every direction? One row per layout. Every σ is the worst-direction σ (the σ in the direction a point is least certain). Points no two cameras see are not measurable: counted apart, never as above the threshold. Same numbers: results.json → layouts[].verdict.</caption>\n<thead><tr>",
         escape(&thresholds(r)),
-        crashrig_mc::degenerate::MIN_INTERSECTION_ANGLE_DEG
     );
     for (h, _) in ANSWER_COLUMNS {
         s.push_str(&format!("<th>{}</th>", escape(h)));
@@ -128,6 +149,10 @@ pub const PAPER_LAYOUT_NAMES: &str = "Layout names: four_cameras = the paper's f
 /// (and the length check), then the boxes with the long lists.
 pub fn push(rep: &mut Report, r: &StudyResult, paper: bool) {
     rep.push(Block::Raw(answer_html(r)));
+    rep.push(Block::Paragraph(format!(
+        "How to read it: the worst-direction σ is √ of the largest eigenvalue of the point's 3×3 covariance, never below the largest of σx, σy, σz, so \"σ < 5 mm in every direction\" holds where it is below 5 mm. Measurable: seen by two or more cameras under at least {}°. The share below the threshold counts the measurable points only. Why there: the largest angle between two cameras' lines of sight at the worst point (the error along the rays grows as 1/sin of it), against its median over the grid, and the input whose halved σ lowers the σ at that point most (one-at-a-time sensitivity); the dominant input does the same for the median σ over the grid.",
+        crashrig_mc::degenerate::MIN_INTERSECTION_ANGLE_DEG
+    )));
     if paper {
         rep.push(Block::Paragraph(PAPER_LAYOUT_NAMES.into()));
     } else if r.layouts.iter().any(|l| !l.layout.description.is_empty()) {

@@ -294,7 +294,8 @@ summary{cursor:pointer}summary h2,summary h3{display:inline;margin:.3em 0}summar
 .verdict .q{font-weight:bold;margin:.3em 0}.verdict .a{font-size:1.1em;margin:.3em 0}.verdict ul{margin:.3em 0;padding-left:1.2em}\
 .toc{background:#f8f8f8;border:1px solid #ddd;padding:.3em 1em;margin:1em 0}.toc ol{margin:.2em 0}\
 .meta{color:#444}\
-table.answer{font-size:.9em;margin:.5em 0 1em}table.answer caption{font-weight:normal}table.answer td,table.answer th{text-align:left;vertical-align:top}\
+table.answer{font-size:.85em;margin:.5em 0 1em;width:100%}table.answer td[data-key=\"hot_spot.point_mm\"]{white-space:nowrap}table.answer caption{font-weight:normal}table.answer td,table.answer th{text-align:left;vertical-align:top;overflow-wrap:break-word;padding:.2em .4em}table.answer td[data-key=name]{overflow-wrap:anywhere}\
+@media (max-width:1000px){table.answer{font-size:.75em}table.answer td[data-key=\"hot_spot.point_mm\"]{white-space:normal}}\
 table.answer tr.fail td[data-key=reached]{color:#b00;font-weight:bold}table.answer tr.pass td[data-key=reached]{color:#070;font-weight:bold}";
 
 /// Marks `<body data-images="ok:N">` once every image decoded, or `"broken:K/N"`;
