@@ -132,7 +132,7 @@ fn test(slow: bool) -> Result<()> {
     let mut t = cargo();
     t.args(["test", "--workspace"]);
     if slow {
-        // The Slurm test needs a running cluster: `cargo test -p crashrig-cli --test contract
+        // The Slurm test needs a running cluster: `cargo test -p crashrig-cli --test tests
         // slurm -- --ignored` (docs/SCALE.md).
         t.args(["--release", "--", "--ignored", "--skip", "slurm_"]);
     }
@@ -348,7 +348,8 @@ fn report_check(rest: &[String]) -> Result<()> {
         "--package",
         "crashrig-cli",
         "--test",
-        "browser",
+        "tests",
+        "browser::",
         "--",
         "--nocapture",
     ])

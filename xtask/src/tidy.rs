@@ -213,6 +213,7 @@ pub fn check(root: &Path) -> Result<Vec<String>> {
     problems.extend(check_lean_builds(root)?);
     problems.extend(check_module_docs(root)?);
     problems.extend(check_code_map(root)?);
+    problems.extend(check_one_test_binary(root)?);
     problems.extend(crate::invariants::check(root)?);
     Ok(problems)
 }
@@ -384,6 +385,73 @@ pub fn check_module_docs(root: &Path) -> Result<Vec<String>> {
     Ok(problems)
 }
 
+/// One integration-test binary per crate (each binary links the whole dependency graph, so
+/// fewer binaries make the test command quicker): a crate with a `tests/` directory declares
+/// `autotests = false` and the one target `tests/tests.rs`, and every other `tests/*.rs` file
+/// is a `mod` of it — a file that is not would silently never run.
+pub fn check_one_test_binary(root: &Path) -> Result<Vec<String>> {
+    let mut problems = Vec::new();
+    for e in std::fs::read_dir(root.join("crates"))? {
+        let dir = e?.path();
+        let tests = dir.join("tests");
+        if !dir.join("Cargo.toml").exists() || !tests.is_dir() {
+            continue;
+        }
+        let rel = dir.strip_prefix(root).unwrap_or(&dir).display().to_string();
+        let rs: Vec<String> = std::fs::read_dir(&tests)?
+            .filter_map(|f| f.ok()?.file_name().into_string().ok())
+            .filter(|n| n.ends_with(".rs"))
+            .collect();
+        if rs.is_empty() {
+            continue;
+        }
+        let manifest = std::fs::read_to_string(dir.join("Cargo.toml"))?;
+        problems.extend(one_test_binary_problems(&rel, &manifest, &tests, &rs)?);
+    }
+    problems.sort();
+    Ok(problems)
+}
+
+fn one_test_binary_problems(
+    rel: &str,
+    manifest: &str,
+    tests: &Path,
+    rs: &[String],
+) -> Result<Vec<String>> {
+    let mut problems = Vec::new();
+    let compact: String = manifest.split_whitespace().collect();
+    if !compact.contains("autotests=false") {
+        problems.push(format!(
+            "{rel}/Cargo.toml: integration tests need `autotests = false` and one [[test]] `tests/tests.rs`"
+        ));
+    }
+    if compact.matches("[[test]]").count() != 1 || !compact.contains("path=\"tests/tests.rs\"") {
+        problems.push(format!(
+            "{rel}/Cargo.toml: exactly one [[test]] target, path = \"tests/tests.rs\""
+        ));
+    }
+    let main = match std::fs::read_to_string(tests.join("tests.rs")) {
+        Ok(t) => t,
+        Err(_) => {
+            problems.push(format!("{rel}/tests/tests.rs is missing"));
+            return Ok(problems);
+        }
+    };
+    let declared: BTreeSet<&str> = main
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix("mod ")?.strip_suffix(';'))
+        .collect();
+    for f in rs {
+        let name = f.trim_end_matches(".rs");
+        if name != "tests" && !declared.contains(name) {
+            problems.push(format!(
+                "{rel}/tests/{f} is not a `mod` of tests/tests.rs: it would never run"
+            ));
+        }
+    }
+    Ok(problems)
+}
+
 /// Every crate under crates/ has a section in docs/ARCHITECTURE.md's code map.
 pub fn check_code_map(root: &Path) -> Result<Vec<String>> {
     let arch = std::fs::read_to_string(root.join("docs/ARCHITECTURE.md"))
@@ -407,6 +475,30 @@ pub fn check_code_map(root: &Path) -> Result<Vec<String>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn tidy_one_test_binary_catches_a_stray_file() {
+        let problems = check_one_test_binary(&crate::project_root()).unwrap();
+        assert!(problems.is_empty(), "{problems:#?}");
+        let tmp = std::env::temp_dir().join(format!("xtask-one-binary-{}", std::process::id()));
+        std::fs::create_dir_all(&tmp).unwrap();
+        std::fs::write(tmp.join("tests.rs"), "//! t\nmod a;\n").unwrap();
+        let manifest =
+            "[package]\nautotests = false\n[[test]]\nname = \"tests\"\npath = \"tests/tests.rs\"\n";
+        let rs = [
+            "tests.rs".to_string(),
+            "a.rs".to_string(),
+            "b.rs".to_string(),
+        ];
+        let found = one_test_binary_problems("crates/x", manifest, &tmp, &rs).unwrap();
+        assert_eq!(
+            found,
+            ["crates/x/tests/b.rs is not a `mod` of tests/tests.rs: it would never run"]
+        );
+        let found = one_test_binary_problems("crates/x", "[package]\n", &tmp, &rs[..2]).unwrap();
+        assert_eq!(found.len(), 2, "{found:#?}");
+        std::fs::remove_dir_all(&tmp).unwrap();
+    }
 
     #[test]
     fn tidy_dag_has_only_allowed_edges() {

@@ -65,7 +65,6 @@ mod place;
 #[path = "contract/units.rs"]
 mod units;
 
-#[path = "contract/shard.rs"]
 mod shard;
 
 /// `cargo xtask shards` (std + anyhow only), run here with the built binary.

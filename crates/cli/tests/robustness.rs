@@ -16,10 +16,10 @@
 //! regular files (`/dev/zero`, a FIFO, a directory), sizes beyond their bound in a study, and
 //! SIGINT right before a study's swap.
 //!
-//! `cargo test -p crashrig-cli --test robustness` runs a fast subset (every 25th case plus all
+//! `cargo test -p crashrig-cli --test tests robustness::` runs a fast subset (every 25th case plus all
 //! degenerate-geometry, non-regular-input, unbounded-size and interrupted-study cases and one
 //! of each interruption kind); the whole suite (≥ 1 000 cases) is
-//! `cargo test -p crashrig-cli --test robustness -- --ignored` (or `cargo xtask test --slow`).
+//! `cargo test -p crashrig-cli --test tests robustness:: -- --ignored` (or `cargo xtask test --slow`).
 
 #[path = "robustness/harness.rs"]
 mod harness;

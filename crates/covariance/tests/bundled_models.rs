@@ -39,9 +39,9 @@ use crashrig_geometry::quat::rigid_from_rotation;
 use crashrig_geometry::{Mat3, Mat6, Vec3, so3};
 use std::path::{Path, PathBuf};
 
-mod common;
+use crate::common;
+use crate::rule;
 use common::moved;
-mod rule;
 use rule::{camera_a, control_points};
 
 /// Fewer points seen by two images than this: the model is skipped.

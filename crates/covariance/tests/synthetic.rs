@@ -9,7 +9,7 @@ use crashrig_geometry::quat::rigid_from_rotation;
 use crashrig_geometry::{Mat3, Mat6, Rigid3, Vec3, so3};
 use nalgebra::DMatrix;
 
-mod common;
+use crate::common;
 use common::moved;
 
 fn options(intrinsics: Intrinsics, sigma: Option<f64>) -> Options {

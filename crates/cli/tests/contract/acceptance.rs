@@ -7,7 +7,7 @@
 //! Tests marked `#[ignore = "violation: …"]` reproduce a confirmed violation of the contract or of
 //! the reference docs; they fail today and are left for the lead to fix.
 
-use crate::common::{
+use crate::contract::common::{
     assert_clean_error, fixture, json_of, matrix, num, numbers, read_json, run, string, uint,
     without_timing,
 };
@@ -485,7 +485,7 @@ fn keys(v: &Value, out: &mut BTreeSet<String>) {
 /// All of `docs/*.md` as one text.
 fn docs_text() -> String {
     let mut s = String::new();
-    for e in std::fs::read_dir(crate::common::root().join("docs")).unwrap() {
+    for e in std::fs::read_dir(crate::contract::common::root().join("docs")).unwrap() {
         let p = e.unwrap().path();
         if p.extension().is_some_and(|x| x == "md") {
             s.push_str(&std::fs::read_to_string(p).unwrap());

@@ -2,7 +2,7 @@
 //! `converged`, `summary.json` has `adaptive.unconverged_points`, and one `warning:` line says
 //! how many points stopped at `max_samples`.
 
-use crate::common::{assert_clean_error, read_json, run};
+use crate::contract::common::{assert_clean_error, read_json, run};
 
 /// Two observers 1 m apart looking at a 3 × 2 grid 1 m away, with 1 mm / 0.01° noise.
 fn scenario(tolerance_mm: f64, max_samples: usize) -> String {

@@ -1,6 +1,6 @@
 //! `crashrig bootstrap`: JSON shape and bit-identical output for any thread count.
 
-use crate::common::{
+use crate::contract::common::{
     angle_diff_deg, arr3, field, fixture, intervals3, json_of, read_json, run, run_env, string,
     uint,
 };

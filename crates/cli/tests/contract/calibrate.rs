@@ -1,6 +1,6 @@
 //! `crashrig calibrate`: JSON shape and the numpy statistics of `fixtures/rig/*/expected.json`.
 
-use crate::common::{
+use crate::contract::common::{
     angle_diff_deg, arr3, assert_clean_error, boolean, field, fixture, json_of, matrix, num,
     numbers, read_json, run, string, uint,
 };
@@ -187,7 +187,7 @@ fn calibrate_mm_per_unit_equals_scale_bar() {
 }
 
 /// `calibrate --json` on the rig-constrained `shared_frame` model with camera ids 1 and 2.
-fn shared_frame(extra: &[&str]) -> crate::common::Run {
+fn shared_frame(extra: &[&str]) -> crate::contract::common::Run {
     let dir = fixture("rig/shared_frame");
     let mut args = vec![
         "calibrate".to_string(),

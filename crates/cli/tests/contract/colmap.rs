@@ -1,6 +1,6 @@
 //! `crashrig colmap info` (model and database) and `crashrig colmap convert`.
 
-use crate::common::{boolean, field, fixture, json_of, read_json, run, string, uint};
+use crate::contract::common::{boolean, field, fixture, json_of, read_json, run, string, uint};
 use serde_json::Value;
 use std::path::Path;
 

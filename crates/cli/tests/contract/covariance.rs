@@ -1,7 +1,7 @@
 //! `crashrig covariance`: the JSON document (what `measure --a-covariance` reads) and one-line
 //! errors on bad input, with nothing written.
 
-use crate::common::{assert_clean_error, fixture, json_of, run};
+use crate::contract::common::{assert_clean_error, fixture, json_of, run};
 use std::path::Path;
 
 fn args_with(camera: &str, cp: &str, out: &str) -> Vec<String> {

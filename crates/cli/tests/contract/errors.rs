@@ -1,7 +1,7 @@
 //! Bad input: non-zero exit, one `error: ` line naming the file (and line for text), no
 //! panic, no backtrace (RUST_BACKTRACE=1 is set), no half-written output.
 
-use crate::common::{assert_clean_error, copy_dir, fixture, run};
+use crate::contract::common::{assert_clean_error, copy_dir, fixture, run};
 use std::path::Path;
 
 /// Asserts that `stderr` names `line` of a text file, as `file:LINE` or `line LINE`.

@@ -1,6 +1,8 @@
 //! `crashrig grid --out DIR`: grid.csv, summary.json, heat maps, determinism.
 
-use crate::common::{fixture, json_of, num, read_json, run, run_env, uint, without_timing};
+use crate::contract::common::{
+    fixture, json_of, num, read_json, run, run_env, uint, without_timing,
+};
 use approx::assert_abs_diff_eq;
 use std::path::{Path, PathBuf};
 

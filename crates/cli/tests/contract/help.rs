@@ -1,6 +1,6 @@
 //! `--help` of every command exits 0 and documents the command's contract options.
 
-use crate::common::{root, run};
+use crate::contract::common::{root, run};
 
 /// Runs `crashrig <cmd…> --help` and checks exit 0, text on stdout and every `option` named.
 fn check_help(cmd: &[&str], options: &[&str]) {

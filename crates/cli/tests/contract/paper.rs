@@ -1,6 +1,6 @@
 //! `crashrig paper --out DIR`: report.html, JSON, figures (a tiny run: few draws/iterations).
 
-use crate::common::{json_of, read_json, run};
+use crate::contract::common::{json_of, read_json, run};
 use std::path::{Path, PathBuf};
 
 /// Every file under `dir` (recursively) whose extension is `ext`.

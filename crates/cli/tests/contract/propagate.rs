@@ -1,6 +1,8 @@
 //! `crashrig propagate`: JSON shape, inputs echoed, bit-identical output for any thread count.
 
-use crate::common::{arr3, field, fixture, json_of, run, run_env, string, uint, without_timing};
+use crate::contract::common::{
+    arr3, field, fixture, json_of, run, run_env, string, uint, without_timing,
+};
 use approx::assert_relative_eq;
 use serde_json::Value;
 

@@ -2,7 +2,7 @@
 //! notes): scenario and text-model errors without a line, a failed grid leaving grid.csv,
 //! multi-line usage errors, and a non-COLMAP SQLite file read as an empty database.
 
-use crate::common::{assert_clean_error, fixture, run};
+use crate::contract::common::{assert_clean_error, fixture, run};
 use std::path::Path;
 
 fn edited_scenario(dir: &Path, name: &str, from: &str, to: &str, out: &str) -> String {
@@ -93,7 +93,7 @@ fn regression_usage_error_is_one_line() {
 fn regression_text_model_reference_error_names_the_line() {
     let tmp = tempfile::tempdir().expect("temp dir");
     let dir = tmp.path().join("model");
-    crate::common::copy_dir(&fixture("colmap/rig_opencv/txt"), &dir);
+    crate::contract::common::copy_dir(&fixture("colmap/rig_opencv/txt"), &dir);
     let p = dir.join("images.txt");
     let text = std::fs::read_to_string(&p).expect("read");
     let mut lines: Vec<String> = text.lines().map(str::to_string).collect();

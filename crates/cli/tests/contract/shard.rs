@@ -3,7 +3,7 @@
 //! a missing, repeated or foreign shard, or a directory that is not a shard, is one `error:`
 //! line naming it, and nothing is written.
 
-use crate::common::{assert_clean_error, read_json, run, without_timing};
+use crate::contract::common::{assert_clean_error, read_json, run, without_timing};
 use std::path::{Path, PathBuf};
 
 const SCENARIO: &str = r#"seed = 7
@@ -99,7 +99,7 @@ fn merge_of_all_shards_equals_the_unsharded_run() {
     // The shard's manifest under --json.
     let d = tmp.path().join("json");
     let r = run(["--json", "grid", s(&scen), "--out", s(&d), "--shard", "2/3"]);
-    let m = crate::common::json_of(&r);
+    let m = crate::contract::common::json_of(&r);
     assert_eq!(m["shard"]["index"], 2);
     assert_eq!(m["shard"]["count"], 3);
     assert_eq!(m["command"], "grid");
@@ -171,10 +171,11 @@ fn xtask_shards_runs_xargs_and_merges_to_the_unsharded_output() {
     .iter()
     .map(|a| a.to_string())
     .collect();
-    let (mut plan, bin) = crate::xtask_shards::parse(&args).unwrap();
+    let (mut plan, bin) = crate::contract::xtask_shards::parse(&args).unwrap();
     plan.quiet = true;
     assert_eq!(bin, None);
-    let dirs = crate::xtask_shards::run(&plan, Path::new(env!("CARGO_BIN_EXE_crashrig"))).unwrap();
+    let dirs = crate::contract::xtask_shards::run(&plan, Path::new(env!("CARGO_BIN_EXE_crashrig")))
+        .unwrap();
     assert_eq!(dirs.len(), 3);
     for d in &dirs {
         assert!(d.join("shard.json").is_file(), "{}", d.display());
@@ -196,11 +197,11 @@ fn xtask_shards_runs_xargs_and_merges_to_the_unsharded_output() {
 /// submits a 3-task job array and the merge (dependency `afterok`); the merged output equals
 /// the unsharded run. Needs a running Slurm cluster whose nodes see this directory (run on a
 /// single-node Debian `slurm-wlm` cluster, docs/SCALE.md):
-/// `cargo test -p crashrig-cli --test contract slurm -- --ignored`.
+/// `cargo test -p crashrig-cli --test tests slurm -- --ignored`.
 #[test]
 #[ignore = "needs a running Slurm cluster (sbatch, squeue); docs/SCALE.md"]
 fn slurm_job_array_and_merge_equal_the_unsharded_run() {
-    let root = crate::common::root();
+    let root = crate::contract::common::root();
     let tmp = tempfile::tempdir_in(std::env::temp_dir()).unwrap();
     let scen = tmp.path().join("s.toml");
     std::fs::write(&scen, SCENARIO).unwrap();
@@ -336,7 +337,7 @@ fn place_shards_merge_to_the_unsharded_placement() {
 
 /// `crashrig measure` of the bundled sequence with `extra` arguments.
 fn measure_args<'a>(out: &'a str, extra: &[&'a str]) -> Vec<String> {
-    let f = |p: &str| crate::common::fixture(&format!("measure/sequence/{p}"));
+    let f = |p: &str| crate::contract::common::fixture(&format!("measure/sequence/{p}"));
     let mut a: Vec<String> = [
         "measure".to_string(),
         f("model").display().to_string(),
@@ -455,10 +456,11 @@ fn xtask_shards_runs_measure_shards_and_merges() {
     let m = measure_args("x", &["--no-plots"]);
     args.extend(m[..m.len() - 3].iter().cloned());
     args.push("--no-plots".into());
-    let (mut plan, _) = crate::xtask_shards::parse(&args).unwrap();
+    let (mut plan, _) = crate::contract::xtask_shards::parse(&args).unwrap();
     plan.quiet = true;
     assert_eq!(plan.command, "measure");
-    let dirs = crate::xtask_shards::run(&plan, Path::new(env!("CARGO_BIN_EXE_crashrig"))).unwrap();
+    let dirs = crate::contract::xtask_shards::run(&plan, Path::new(env!("CARGO_BIN_EXE_crashrig")))
+        .unwrap();
     assert_eq!(dirs.len(), 2);
     for f in ["trajectories.csv", "displacements.csv", "kinematics.csv"] {
         assert!(

@@ -8,7 +8,7 @@
 //! Expected values are numpy's (`expected.json`, key `numpy`), computed from the injected links;
 //! the models reproduce those links to `roundtrip_max_error` (≤ 2e-12 mm / rad, checked below).
 
-use crate::common::{
+use crate::contract::common::{
     angle_diff_deg, arr3, assert_clean_error, boolean, field, fixture, json_of, matrix, num,
     numbers, read_json, run, string, uint,
 };
@@ -23,7 +23,7 @@ const REL: f64 = 1e-6;
 
 /// Runs `calibrate --json` on `fixtures/rig/sim/<name>` with its scale bar; returns the run
 /// and the fixture's expected.json.
-fn sim(name: &str, extra: &[&str]) -> (crate::common::Run, Value) {
+fn sim(name: &str, extra: &[&str]) -> (crate::contract::common::Run, Value) {
     let dir = fixture(&format!("rig/sim/{name}"));
     let e = read_json(&dir.join("expected.json"));
     assert!(num(&e, "roundtrip_max_error") <= 2e-12);

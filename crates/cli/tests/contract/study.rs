@@ -1,7 +1,7 @@
 //! `crashrig study STUDY.toml --out DIR` on an own project written by pycolmap
 //! (`fixtures/study/own/`, generator `fixtures/gen/own_study.py`).
 
-use crate::common::{assert_clean_error, json_of, read_json, run};
+use crate::contract::common::{assert_clean_error, json_of, read_json, run};
 use std::path::{Path, PathBuf};
 
 /// Copies the own project into a temporary directory (so a run never writes into the repo).
@@ -19,7 +19,7 @@ pub fn own_project(tmp: &Path) -> PathBuf {
         }
     }
     let dst = tmp.join("own");
-    copy(&crate::common::fixture("study/own"), &dst);
+    copy(&crate::contract::common::fixture("study/own"), &dst);
     dst
 }
 
@@ -272,7 +272,7 @@ fn study_missing_path_names_key_and_line() {
         &["`tie.model`", "nowhere", "does not exist"],
     );
     // The line of the key: `study.toml:<line>:`.
-    let line = std::fs::read_to_string(crate::common::fixture("study/own/study.toml"))
+    let line = std::fs::read_to_string(crate::contract::common::fixture("study/own/study.toml"))
         .expect("study")
         .lines()
         .position(|l| l.starts_with("model = \"tie/model\""))
@@ -332,7 +332,8 @@ fn study_results_fields_are_documented() {
     let mut all = Vec::new();
     paths(&results, "", &mut all);
     let doc = |name: &str| {
-        std::fs::read_to_string(crate::common::root().join("docs").join(name)).expect("doc")
+        std::fs::read_to_string(crate::contract::common::root().join("docs").join(name))
+            .expect("doc")
     };
     let (reference, calibrate, tie_doc) = (
         doc("REFERENCE.md"),
@@ -366,7 +367,7 @@ fn study_results_fields_are_documented() {
 /// hit lies within the radius, nearest first; `--point` gives that point's track.
 #[test]
 fn colmap_points_finds_the_point_at_a_pixel() {
-    let dir = crate::common::fixture("study/own/tie/model");
+    let dir = crate::contract::common::fixture("study/own/tie/model");
     let model = crashrig_colmap::Reconstruction::read(&dir).expect("model");
     let image = model.image_by_name("side/0001.png").expect("image");
     let (xy, id) = image
@@ -479,7 +480,7 @@ fn study_fixed_layout_equals_grid_on_the_scenario() {
     let study = own.join("study.toml");
     let text = std::fs::read_to_string(&study).expect("study");
     let cut = text.find("[[layout]]").expect("layout");
-    let scen = crate::common::fixture("scenarios/fixed_four_cameras.toml");
+    let scen = crate::contract::common::fixture("scenarios/fixed_four_cameras.toml");
     let stext = std::fs::read_to_string(&scen).expect("scenario");
     // The scenario's [grid] and observers as a study layout (same keys, other table names).
     let grid = &stext[stext.find("[grid]").expect("grid")..];

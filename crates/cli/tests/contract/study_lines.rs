@@ -5,7 +5,7 @@
 //! of the key (or, where the error is about a whole table, of its header), and leave no
 //! output behind.
 
-use crate::common::{assert_clean_error, run};
+use crate::contract::common::{assert_clean_error, run};
 
 /// One bad study file: a name, the edit of the own project's study text, and where the error
 /// must point: the 1-based line holding the `n`-th occurrence of `marker` in the edited text
@@ -467,7 +467,7 @@ fn cases() -> Vec<Case> {
 #[test]
 fn every_study_file_error_names_its_line() {
     let tmp = tempfile::tempdir().expect("temp dir");
-    let own = crate::study::own_project(tmp.path());
+    let own = crate::contract::study::own_project(tmp.path());
     let study = own.join("study.toml");
     let original = std::fs::read_to_string(&study).expect("study");
     let mut failures = Vec::new();

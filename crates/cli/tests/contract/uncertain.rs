@@ -3,7 +3,7 @@
 //! references to command results, φ = ±90° inputs, and bad matrices / references as one
 //! `error:` line naming the file, the key and the line.
 
-use crate::common::{assert_clean_error, field, fixture, json_of, matrix, run};
+use crate::contract::common::{assert_clean_error, field, fixture, json_of, matrix, run};
 use serde_json::Value;
 use std::path::Path;
 
@@ -62,8 +62,8 @@ fn uncertain_propagate_covariance_tangent_matches_numpy() {
         let w = worst(&lin, &want);
         assert!(w < 0.03, "{}: linear covariance off by {w}", c["name"]);
         // σ are the square roots of the diagonal.
-        let ps = crate::common::arr3(c, "position_sigma_mm");
-        let ts = crate::common::arr3(c, "tangent_sigma_deg");
+        let ps = crate::contract::common::arr3(c, "position_sigma_mm");
+        let ts = crate::contract::common::arr3(c, "tangent_sigma_deg");
         for k in 0..3 {
             assert!((ps[k] - mc[k][k].sqrt()).abs() < 1e-9);
             assert!((ts[k] - mc[3 + k][3 + k].sqrt()).abs() < 1e-12);
@@ -130,7 +130,7 @@ fn uncertain_from_calibrate_and_bootstrap_results() {
         let s = write(tmp.path(), "s.toml", &text);
         let v = propagate_json(Path::new(&s), 2000);
         let cam2 = &v["cameras"][1];
-        let pos = crate::common::arr3(cam2, "position_mm");
+        let pos = crate::contract::common::arr3(cam2, "position_mm");
         for k in 0..3 {
             assert!((pos[k] - base[k]).abs() < 1e-9, "{file}: {pos:?}");
         }
@@ -166,7 +166,7 @@ fn uncertain_phi_90_input_is_a_normal_pose() {
     assert!(c["angles_singular"].as_bool().expect("bool"));
     assert!(c["angles_sigma_deg"].is_null());
     assert!(c["linear"]["angles_sigma_deg"].is_null());
-    let t = crate::common::arr3(&c["linear"], "tangent_sigma_deg");
+    let t = crate::contract::common::arr3(&c["linear"], "tangent_sigma_deg");
     assert!((t[1] - 0.02).abs() < 1e-12, "{t:?}");
     let lines: Vec<&str> = r.stderr.lines().collect();
     assert_eq!(lines.len(), 1, "{}", r.stderr);

@@ -3,7 +3,7 @@
 //! flag or key and its unit — and that nothing is written on an error. Every run is capped
 //! (`capped`): a regression to a hang fails instead of blocking CI.
 
-use crate::common::{Run, assert_clean_error, fixture};
+use crate::contract::common::{Run, assert_clean_error, fixture};
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 /// Per-run limit of these tests (debug build, tiny inputs: each run takes seconds).
 const TIMEOUT: Duration = Duration::from_secs(300);
 
-/// Runs `crashrig args` like [`crate::common::run`], killed (and the test failed) after
+/// Runs `crashrig args` like [`crate::contract::common::run`], killed (and the test failed) after
 /// [`TIMEOUT`].
 fn capped(args: &[String]) -> Run {
     let dir = tempfile::tempdir().expect("temp dir");
@@ -353,14 +353,14 @@ fn study_line(text: &str, starts: &str) -> usize {
 fn units_study_measure_needs_camera_c_and_units() {
     let text = std::fs::read_to_string(fixture("study/own/study.toml")).expect("study");
     let line = study_line(&text, "[measure]");
-    crate::study::study_error(
+    crate::contract::study::study_error(
         |t| t.replace("camera_c = \"3\"\n", ""),
         &[
             &format!("study.toml:{line}: `measure.camera_c`: missing"),
             "two views",
         ],
     );
-    crate::study::study_error(
+    crate::contract::study::study_error(
         |t| t.replace("mm_per_unit = 1000.0\nsigma_a", "sigma_a"),
         &[
             &format!("study.toml:{line}: `measure.mm_per_unit`: missing"),
@@ -374,7 +374,7 @@ fn units_study_measure_needs_camera_c_and_units() {
 fn units_study_values_name_key_and_line() {
     let text = std::fs::read_to_string(fixture("study/own/study.toml")).expect("study");
     let line = study_line(&text, "position_mm = [150.0, 0.0, 0.0]");
-    crate::study::study_error(
+    crate::contract::study::study_error(
         |t| {
             t.replacen(
                 "position_mm = [150.0, 0.0, 0.0]",
@@ -385,7 +385,7 @@ fn units_study_values_name_key_and_line() {
         &[&format!("study.toml:{line}:"), "position_mm"],
     );
     let line = study_line(&text, "samples = 300");
-    crate::study::study_error(
+    crate::contract::study::study_error(
         |t| t.replace("samples = 300", "samples = 10000001"),
         &[
             &format!("study.toml:{line}: `samples`"),
@@ -393,7 +393,7 @@ fn units_study_values_name_key_and_line() {
         ],
     );
     let line = study_line(&text, "chain_samples");
-    crate::study::study_error(
+    crate::contract::study::study_error(
         |t| t.replace("chain_samples = 20000", "chain_samples = 1000000000000000"),
         &[
             &format!("study.toml:{line}: `chain_samples`"),
@@ -401,7 +401,7 @@ fn units_study_values_name_key_and_line() {
         ],
     );
     let line = study_line(&text, "iterations = 60");
-    crate::study::study_error(
+    crate::contract::study::study_error(
         |t| t.replace("iterations = 60", "iterations = 9223372036854775807"),
         &[
             &format!("study.toml:{line}: `tie.iterations`"),
@@ -409,7 +409,7 @@ fn units_study_values_name_key_and_line() {
         ],
     );
     let line = study_line(&text, "z_mm = [0.0, 0.0, 1]");
-    crate::study::study_error(
+    crate::contract::study::study_error(
         |t| t.replacen("z_mm = [0.0, 0.0, 1]", "z_mm = [0.0, 300.0, 10001]", 1),
         &[
             &format!("study.toml:{line}: `layout[0].z_mm`"),
@@ -417,7 +417,7 @@ fn units_study_values_name_key_and_line() {
         ],
     );
     let line = study_line(&text, "[[layout]]");
-    crate::study::study_error(
+    crate::contract::study::study_error(
         |t| {
             t.replacen(
                 "x_mm = [400.0, 1800.0, 8]",
@@ -438,7 +438,7 @@ fn units_study_values_name_key_and_line() {
     );
     // Coincident observers: σ would be empty (null) for every point; an error naming both.
     let line = study_line(&text, "position_mm = [1200.0, 650.0, 100.0]");
-    crate::study::study_error(
+    crate::contract::study::study_error(
         |t| {
             t.replacen(
                 "position_mm = [1200.0, 650.0, 100.0]",

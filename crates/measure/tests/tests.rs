@@ -1,0 +1,10 @@
+//! The integration tests of crashrig-measure, one test binary (`cargo test -p crashrig-measure --test tests`; a filter such as `filter::` runs one file).
+
+mod filter;
+mod isomme;
+mod joint;
+mod kinematics;
+mod length;
+mod progress;
+mod sequence;
+mod shard;
