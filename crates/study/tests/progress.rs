@@ -71,7 +71,7 @@ fn study_step_error_has_a_typed_source() {
     else {
         panic!("not a step error: {e}");
     };
-    assert_eq!((*line, key.as_str()), (Some(6), "calibration"));
+    assert_eq!((*line, key.as_str()), (Some(8), "calibration"));
     assert!(
         matches!(
             **source,
