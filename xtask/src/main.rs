@@ -135,6 +135,9 @@ fn ci() -> Result<()> {
 
 /// `cargo test --workspace`; with `slow`, `cargo test --release --workspace -- --ignored`:
 /// the tests marked `#[ignore = "slow: ..."]` (large-N statistical checks), in release.
+/// The tests run with `TMPDIR` set to a fresh `target/xtask-test-tmp/`, which must be empty
+/// afterwards: a test that leaves a file or directory in the temporary directory fails the run
+/// (the leftovers are listed).
 fn test(slow: bool) -> Result<()> {
     let mut t = cargo();
     t.args(["test", "--workspace"]);
@@ -143,7 +146,44 @@ fn test(slow: bool) -> Result<()> {
         // slurm -- --ignored` (docs/SCALE.md).
         t.args(["--release", "--", "--ignored", "--skip", "slurm_"]);
     }
-    run(t)
+    let tmp = target_dir().join("xtask-test-tmp");
+    if tmp.exists() {
+        std::fs::remove_dir_all(&tmp).with_context(|| format!("cannot clear {}", tmp.display()))?;
+    }
+    std::fs::create_dir_all(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
+    t.env("TMPDIR", &tmp);
+    run(t)?;
+    check_temp_dir_empty(&tmp)
+}
+
+/// The target directory (`CARGO_TARGET_DIR`, else `target/` of the workspace).
+fn target_dir() -> PathBuf {
+    std::env::var_os("CARGO_TARGET_DIR")
+        .map_or_else(|| project_root().join("target"), PathBuf::from)
+}
+
+/// Fails, listing them, when the tests left anything in their temporary directory `tmp`.
+fn check_temp_dir_empty(tmp: &Path) -> Result<()> {
+    let mut left: Vec<String> = std::fs::read_dir(tmp)
+        .with_context(|| format!("cannot list {}", tmp.display()))?
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    left.sort();
+    if !left.is_empty() {
+        bail!(
+            "the tests left {} entr{} in their temporary directory {}: {}",
+            left.len(),
+            if left.len() == 1 { "y" } else { "ies" },
+            tmp.display(),
+            left.join(", ")
+        );
+    }
+    eprintln!(
+        "xtask test: the temporary directory {} is empty after the tests",
+        tmp.display()
+    );
+    Ok(())
 }
 
 /// `crashrig paper` in release mode. Cargo's own build output is shown (a fresh clone compiles

@@ -24,6 +24,9 @@ pub struct Plan {
     pub command: String,
     /// The command's arguments without `--out` and `--shard` (its input first).
     pub grid_args: Vec<String>,
+    /// Capture the shards' and the merge's output and the commands run, shown only when one
+    /// fails (the tests set it, so a passing test prints nothing); `parse` gives `false`.
+    pub quiet: bool,
 }
 
 /// The commands that shard (the first argument after `--` names one; default `grid`).
@@ -93,6 +96,7 @@ pub fn parse(args: &[String]) -> Result<(Plan, Option<PathBuf>)> {
             out,
             command,
             grid_args: grid_args.to_vec(),
+            quiet: false,
         },
         bin,
     ))
@@ -103,6 +107,15 @@ pub fn shard_dir(plan: &Plan, i: usize) -> PathBuf {
     let mut root = plan.out.clone().into_os_string();
     root.push(".shards");
     PathBuf::from(root).join(i.to_string())
+}
+
+/// The captured stderr of a failed process (with `quiet`), else `inherited` (it was printed).
+fn captured(out: &std::process::Output, inherited: &str) -> String {
+    if out.stderr.is_empty() {
+        inherited.to_string()
+    } else {
+        String::from_utf8_lossy(&out.stderr).trim().to_string()
+    }
 }
 
 /// Runs the N shards with `xargs -P` (one `crashrig <command> … --shard i/N` process per shard),
@@ -121,7 +134,11 @@ pub fn run(plan: &Plan, bin: &Path) -> Result<Vec<PathBuf>> {
         .arg(&template)
         .args(["--shard", &format!("{{}}/{n}")])
         .stdin(Stdio::piped());
-    eprintln!("xtask shards: {xargs:?} <<< 1..{n}");
+    if plan.quiet {
+        xargs.stdout(Stdio::piped()).stderr(Stdio::piped());
+    } else {
+        eprintln!("xtask shards: {xargs:?} <<< 1..{n}");
+    }
     let mut child = xargs.spawn().context("cannot start `xargs` (findutils)")?;
     {
         use std::io::Write;
@@ -130,19 +147,36 @@ pub fn run(plan: &Plan, bin: &Path) -> Result<Vec<PathBuf>> {
             writeln!(stdin, "{i}")?;
         }
     }
-    let status = child.wait()?;
-    if !status.success() {
-        bail!("a shard failed (xargs: {status}); its error line is above");
+    let out = child.wait_with_output()?;
+    if !out.status.success() {
+        bail!(
+            "a shard failed (xargs: {}); its error line is {}",
+            out.status,
+            captured(&out, "above")
+        );
     }
     let mut merge = Command::new(bin);
     merge.arg("merge").args(&dirs).arg("--out").arg(&plan.out);
     if plan.grid_args.iter().any(|a| a == "--no-plots") {
         merge.arg("--no-plots");
     }
-    eprintln!("xtask shards: {merge:?}");
-    let status = merge.status().context("cannot start crashrig merge")?;
-    if !status.success() {
-        bail!("crashrig merge failed ({status})");
+    let out = if plan.quiet {
+        merge.output().context("cannot start crashrig merge")?
+    } else {
+        eprintln!("xtask shards: {merge:?}");
+        let status = merge.status().context("cannot start crashrig merge")?;
+        std::process::Output {
+            status,
+            stdout: Vec::new(),
+            stderr: Vec::new(),
+        }
+    };
+    if !out.status.success() {
+        bail!(
+            "crashrig merge failed ({}): {}",
+            out.status,
+            captured(&out, "above")
+        );
     }
     Ok(dirs)
 }

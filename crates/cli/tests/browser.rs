@@ -1,5 +1,6 @@
 //! The study report in a real browser (Debian's `chromium`, headless): the bundled paper study's
-//! `report.html` opens with its verdicts and a table of contents linking every collapsible
+//! `report.html` opens with its answer table on the first screen (at 1400 and 800 px), its
+//! verdicts and a table of contents linking every collapsible
 //! section, every figure decodes, the full-width figures are at least 800 px wide, no text is
 //! smaller than 9 px at a 1400 px and an 800 px wide window, the page loads in under 2 s and
 //! weighs under 8 MB. Screenshots at 1400 and 800 px are written to `CRASHRIG_SCREENSHOT_DIR`
@@ -136,11 +137,31 @@ fn report_in_a_real_browser() {
     }
     for box_ in [
         "Is σ &lt;",
-        "Where is it not reached?",
+        "Where is it not reached, and why?",
         "What dominates",
         "Can the calibration be trusted?",
+        "<table class=\"answer\" id=\"answer\">",
     ] {
         assert!(html.contains(box_), "verdict box {box_:?} missing");
+    }
+
+    // The first screen shows the answer: the answer table starts right under the title and
+    // ends within the first screen, at 1400 and at 800 px.
+    for (width, screen) in [(1400u32, 900.0), (800, 1000.0)] {
+        let d = dom(width, "", true);
+        let px = attr(&d, "data-answer-px");
+        let (top, bottom) = px.split_once(',').expect("data-answer-px = top,bottom");
+        let (top, bottom): (f64, f64) =
+            (top.parse().expect("top"), bottom.parse().expect("bottom"));
+        eprintln!("report_in_a_real_browser: {width} px: answer table from {top} to {bottom} px");
+        assert!(
+            top < 250.0,
+            "{width} px: the answer table starts at {top} px"
+        );
+        assert!(
+            bottom <= screen,
+            "{width} px: the answer table ends at {bottom} px (first screen {screen} px)"
+        );
     }
 
     // Every section open (`#all`): images, sizes and text at 1400 and 800 px.

@@ -32,16 +32,19 @@ mod inputs;
 
 use harness::{Case, Expect, run_case};
 
-fn all_cases() -> Vec<Case> {
+/// Every case, and the temporary directory holding the FIFO of the non-regular inputs (keep it
+/// until the cases have run; dropping it removes it).
+fn all_cases() -> (Vec<Case>, tempfile::TempDir) {
+    let specials = tempfile::tempdir().expect("temp dir");
     let mut v = cases::scenarios();
     v.extend(cases::models());
     v.extend(cases::databases());
     v.extend(cases::arguments());
     v.extend(cases::interruptions());
-    v.extend(inputs::non_regular());
+    v.extend(inputs::non_regular(specials.path()));
     v.extend(inputs::unbounded());
     v.extend(inputs::study_interrupted());
-    v
+    (v, specials)
 }
 
 /// Runs `cases` on a few worker threads and panics with every broken promise, after printing
@@ -90,7 +93,7 @@ fn run_all(cases: &[Case]) {
 
 #[test]
 fn robustness_generates_at_least_1000_cases_over_every_class() {
-    let cases = all_cases();
+    let (cases, _specials) = all_cases();
     assert!(cases.len() >= 1000, "{} cases", cases.len());
     let classes: std::collections::BTreeSet<&str> = cases.iter().map(|c| c.class).collect();
     assert_eq!(classes.len(), 17, "{classes:?}");
@@ -98,7 +101,7 @@ fn robustness_generates_at_least_1000_cases_over_every_class() {
 
 #[test]
 fn robustness_fast_subset() {
-    let cases = all_cases();
+    let (cases, _specials) = all_cases();
     let mut seen_interrupt = std::collections::BTreeSet::new();
     let subset: Vec<Case> = cases
         .into_iter()
@@ -124,5 +127,6 @@ fn robustness_fast_subset() {
 #[test]
 #[ignore = "slow: the full generated suite (≥ 1 000 runs of the binary)"]
 fn robustness_full_suite() {
-    run_all(&all_cases());
+    let (cases, _specials) = all_cases();
+    run_all(&cases);
 }

@@ -112,6 +112,42 @@ impl CameraSelector {
         matches!(self, Self::Prefix(p) if p.trim().is_empty())
     }
 
+    /// A hint for a prefix written without its trailing slash: when this is a prefix that does
+    /// not end in `/` and every image name it matches continues with `/` right after it (a
+    /// directory), the selector with the slash. Without the slash the prefix still selects
+    /// the images, but their keys keep the `/` (`cam_out` + `/0001.png`), so they pair with
+    /// nothing that was selected with the slash. `None` otherwise.
+    ///
+    /// ```
+    /// use crashrig_colmap::{CameraSelector, Image, RawPose};
+    /// let image = |name: &str| Image {
+    ///     image_id: 1,
+    ///     stored_cam_from_world: RawPose::IDENTITY,
+    ///     camera_id: 1,
+    ///     name: name.into(),
+    ///     points2d: vec![],
+    /// };
+    /// let images = [image("cam_out/0001.png"), image("cam_in/0001.png")];
+    /// let hint = CameraSelector::parse("cam_out").slash_hint(&images);
+    /// assert_eq!(hint.as_deref(), Some("`cam_out` is a directory of the image names: write `cam_out/`"));
+    /// assert_eq!(CameraSelector::parse("cam_out/").slash_hint(&images), None);
+    /// assert_eq!(CameraSelector::parse("cam_").slash_hint(&images), None);
+    /// ```
+    pub fn slash_hint(&self, images: &[Image]) -> Option<String> {
+        let Self::Prefix(p) = self else { return None };
+        if p.is_empty() || p.ends_with('/') {
+            return None;
+        }
+        let mut matched = images
+            .iter()
+            .filter_map(|i| prefix_end(&i.name, p).map(|end| &i.name[end..]))
+            .peekable();
+        matched.peek()?;
+        matched
+            .all(|rest| rest.starts_with('/'))
+            .then(|| format!("`{p}` is a directory of the image names: write `{p}/`"))
+    }
+
     /// What `images` offer nearest to this selector, for the error when it matches none: the
     /// image-name beginnings nearest to the prefix (each image's beginning, 2 characters shorter
     /// to 2 longer than the prefix, at the least Levenshtein distance in NFC; ties by the number

@@ -113,6 +113,27 @@ pub fn a_sequence(
     })
 }
 
+/// The camera selectors of a measurement checked against `model` before any work, as
+/// [`crate::run`] checks them first: camera A selects images with distinct epoch names, B and
+/// (when given) C each select one camera. A front end that runs other steps before the
+/// measurement (the study) calls it up front, so a wrong camera is reported before hours of work.
+///
+/// # Errors
+/// [`Error::Camera`] naming the role and what is wrong.
+pub fn check_cameras(
+    model: &Reconstruction,
+    camera_a: &str,
+    camera_b: &str,
+    camera_c: Option<&str>,
+) -> Result<(), Error> {
+    a_sequence(model, &CameraSelector::parse(camera_a), 1.0)?;
+    inward_camera(model, &CameraSelector::parse(camera_b), 'B')?;
+    if let Some(c) = camera_c {
+        inward_camera(model, &CameraSelector::parse(c), 'C')?;
+    }
+    Ok(())
+}
+
 /// The intrinsics of an inward camera and its COLMAP camera id.
 ///
 /// A camera id must exist in `cameras.*`; a prefix must match images that all use one camera.

@@ -286,6 +286,9 @@ pub struct RefinedDocument {
 pub struct StudyDocument {
     /// The calibration.
     pub calibration: CalibrationDocument,
+    /// The calibration's quality values the report judges it by (the split-half check and the
+    /// reprojection residuals per camera).
+    pub calibration_quality: CalibrationQualityDocument,
     /// One entry per layout.
     pub layouts: Vec<LayoutDocument>,
     /// The measured sequence (absent without `[measure]`).
@@ -300,6 +303,59 @@ pub struct StudyDocument {
     /// The tie as `bootstrap --json` prints it ([`crate::tie::TieResult::to_json`]; `null`
     /// without a tie).
     pub tie: Option<serde_json::Value>,
+}
+
+/// [`StudyDocument::calibration_quality`]: [`crate::calibration::SplitHalf`] and
+/// [`crate::calibration::Reprojection`] as the report shows them.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CalibrationQualityDocument {
+    /// Per camera (A first): the reprojection residuals of the calibration model.
+    pub reprojection: Vec<ReprojectionDocument>,
+    /// The split-half check (`null` below 4 epochs).
+    pub split_half: Option<SplitHalfDocument>,
+}
+
+/// One entry of [`CalibrationQualityDocument::reprojection`].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ReprojectionDocument {
+    /// Images of the camera with a pose.
+    pub images: usize,
+    /// Largest residual length, px (`null` without observations).
+    pub max_px: f64,
+    /// Median residual length, px (`null` without observations).
+    pub median_px: f64,
+    /// Observations of a 3-D point.
+    pub observations: usize,
+    /// `A` or `B`.
+    pub role: String,
+    /// The camera selector.
+    pub selector: String,
+    /// σ per image axis, px (`null` without observations).
+    pub sigma_px: f64,
+}
+
+/// [`CalibrationQualityDocument::split_half`].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SplitHalfDocument {
+    /// Every |z| ≤ `bound_z`: the halves agree.
+    pub agree: bool,
+    /// The agreement bound on |difference| / σ.
+    pub bound_z: f64,
+    /// Second half's mean link minus the first's (x y z mm, θx θy θz deg; tangent about the
+    /// first).
+    pub difference: [f64; 6],
+    /// The largest |difference| / σ.
+    pub max_z: f64,
+    /// Epochs of the first half.
+    pub n_first: usize,
+    /// Epochs of the second half.
+    pub n_second: usize,
+    /// The axes' names (`x y z θx θy θz`).
+    pub order: [&'static str; 6],
+    /// σ of the difference (mm, deg).
+    pub sigma: [f64; 6],
+    /// |difference| / σ per axis.
+    pub z: [f64; 6],
 }
 
 /// [`StudyDocument::propagation`].
@@ -368,6 +424,9 @@ pub struct LayoutDocument {
     pub sensitivity: Vec<Sensitivity>,
     /// The grid summary.
     pub summary: GridSummary,
+    /// The layout's answer on the report's first screen (worst-direction σ; not-measurable
+    /// points counted apart).
+    pub verdict: LayoutVerdict,
 }
 
 /// One entry of [`LayoutDocument::observers`].
@@ -392,11 +451,89 @@ pub struct ObserverDocument {
 pub struct Sensitivity {
     /// Fraction below the threshold with that input's σ halved.
     pub fraction_below_threshold: f64,
+    /// Worst-direction σ (mm) at the layout's hot spot
+    /// ([`HotSpot`]) with that input's σ halved (`None` when nothing is
+    /// measurable).
+    pub hot_spot_sigma_worst_mm: Option<f64>,
     /// The input whose σ is halved (`outward`, `link` (calibration), `tie`, or an observer's
     /// name for a given σ).
     pub input: String,
     /// Median σ_max (mm) with that input's σ halved.
     pub median_sigma_max_mm: f64,
+    /// Median worst-direction σ (mm, over the measurable points) with that input's σ halved
+    /// (`None` when nothing is measurable).
+    pub median_sigma_worst_mm: Option<f64>,
+}
+
+/// One layout's answer (fields in `results.json`'s sorted key order).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LayoutVerdict {
+    /// Bounding box of the measurable points at or above the threshold, `[[x_lo, x_hi],
+    /// [y_lo, y_hi], [z_lo, z_hi]]` (mm, vehicle); `None` when every measurable point is below.
+    pub above_threshold_box_mm: Option<[[f64; 2]; 3]>,
+    /// The input whose halved σ lowers the median worst-direction σ most (`None` without
+    /// sensitivity runs).
+    pub dominant_input: Option<DominantInput>,
+    /// Share of all grid points that are measurable.
+    pub fraction_measurable: f64,
+    /// Of the measurable points, the share whose worst-direction σ is below the threshold
+    /// (0 when none is measurable).
+    pub fraction_below_threshold_of_measurable: f64,
+    /// The measurable point with the largest worst-direction σ and why it is worst (`None`
+    /// when no point is measurable).
+    pub hot_spot: Option<HotSpot>,
+    /// Median worst-direction σ over the measurable points (mm; `None` when none is).
+    pub median_sigma_worst_mm: Option<f64>,
+    /// Grid points.
+    pub points: usize,
+    /// Measurable points whose worst-direction σ is at or above the threshold.
+    pub points_above_threshold: usize,
+    /// Measurable points whose worst-direction σ is below the threshold.
+    pub points_below_threshold: usize,
+    /// Points seen by two or more cameras whose rays meet at less than the smallest
+    /// intersection angle (not measurable).
+    pub points_degenerate: usize,
+    /// Points with a worst-direction σ (seen by two or more cameras, not degenerate).
+    pub points_measurable: usize,
+    /// Points seen by fewer than two cameras (not measurable).
+    pub points_seen_by_fewer_than_two: usize,
+    /// Every point is measurable and below the threshold in every direction.
+    pub reached: bool,
+    /// Always `worst_direction`: the σ every number here is.
+    pub sigma: &'static str,
+    /// The threshold (mm).
+    pub threshold_mm: f64,
+}
+
+/// [`LayoutVerdict::hot_spot`]: the worst measurable point and what makes it worst.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct HotSpot {
+    /// The input whose halved σ lowers the σ at this point most, with that σ (`None` without
+    /// sensitivity runs).
+    pub dominant_input: Option<DominantInput>,
+    /// The largest angle (deg) between the lines of sight of two cameras that see the point:
+    /// the error along the rays grows as 1 / sin(angle).
+    pub intersection_angle_deg: f64,
+    /// The median of that angle over the measurable points (deg), for comparison.
+    pub median_intersection_angle_deg: f64,
+    /// Cameras that see the point.
+    pub observers_seen: usize,
+    /// The point (mm, vehicle).
+    pub point_mm: [f64; 3],
+    /// Its worst-direction σ (mm).
+    pub sigma_worst_mm: f64,
+}
+
+/// An input of the one-at-a-time sensitivity and its effect.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DominantInput {
+    /// `outward`, `link`, `tie` or `observer <name>`.
+    pub input: String,
+    /// The worst-direction σ (mm) with that input's σ halved: the median over the grid
+    /// ([`LayoutVerdict::dominant_input`]) or the σ at the hot spot ([`HotSpot::dominant_input`]).
+    pub sigma_worst_halved_mm: f64,
+    /// The same without halving (mm).
+    pub sigma_worst_mm: f64,
 }
 
 /// [`StudyDocument::measure`].

@@ -158,10 +158,14 @@ pub fn epochs_from_model(
     }
     let unpaired_b: Vec<String> = by_key_b.values().map(|i| i.name.clone()).collect();
     if pairs.is_empty() {
+        let hint = [('A', a), ('B', b)]
+            .into_iter()
+            .find_map(|(role, sel)| sel.slash_hint(model.images()).map(|h| (role, h)));
         return Err(Error::NoEpochs {
             model: dir,
             unpaired_a: unpaired_a.len(),
             unpaired_b: unpaired_b.len(),
+            hint,
         });
     }
     pairs.sort_by(|x, y| x.0.cmp(&y.0));

@@ -152,6 +152,37 @@ pub enum StepError {
     CameraCWithoutTie,
 }
 
+impl StepError {
+    /// The key of the step's section that the error is about, when it is one key (a camera
+    /// selector, the scale bar): its study-file error then points at that key's line, not at
+    /// the section's.
+    pub fn key(&self) -> Option<&'static str> {
+        let camera = |role: char| match role {
+            'A' => Some("camera_a"),
+            'B' => Some("camera_b"),
+            'C' => Some("camera_c"),
+            _ => None,
+        };
+        match self {
+            Self::Calibration(e) => match e {
+                CalibrationError::NoImagesForCamera { role, .. }
+                | CalibrationError::EmptyCamera { role } => camera(*role),
+                CalibrationError::NoEpochs {
+                    hint: Some((role, _)),
+                    ..
+                } => camera(*role),
+                CalibrationError::UnknownPoint { .. }
+                | CalibrationError::ZeroLengthScaleBar { .. } => Some("scale_points"),
+                CalibrationError::InvalidScaleLength { .. } => Some("scale_length_mm"),
+                _ => None,
+            },
+            Self::Measure(crashrig_measure::Error::Camera { role, .. }) => camera(*role),
+            Self::CameraCWithoutTie => Some("camera_c"),
+            _ => None,
+        }
+    }
+}
+
 /// Everything that can go wrong in a calibration; each message names the model directory (and
 /// the option at fault).
 #[derive(Debug, thiserror::Error)]
@@ -236,8 +267,9 @@ pub enum CalibrationError {
     /// Images of both cameras exist but none pair up.
     #[error(
         "{}: no epoch pairs camera A and B: {unpaired_a} image(s) of A and {unpaired_b} of B \
-         share neither a name (after removing the prefix) nor a frame",
-        model.display()
+         share neither a name (after removing the prefix) nor a frame{}",
+        model.display(),
+        hint.as_ref().map(|(_, h)| format!("; hint: {h}")).unwrap_or_default()
     )]
     NoEpochs {
         /// The model directory.
@@ -246,6 +278,9 @@ pub enum CalibrationError {
         unpaired_a: usize,
         /// Number of B images without a partner.
         unpaired_b: usize,
+        /// A selector written without its trailing slash: its role (`'A'` or `'B'`) and the hint
+        /// ([`crashrig_colmap::CameraSelector::slash_hint`]).
+        hint: Option<(char, String)>,
     },
     /// Two images of the same camera claim the same epoch key.
     #[error("{}: images `{first}` and `{second}` of camera {role} both pair as epoch `{key}`", model.display())]

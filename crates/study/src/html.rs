@@ -293,7 +293,10 @@ summary{cursor:pointer}summary h2,summary h3{display:inline;margin:.3em 0}summar
 .verdict.pass{border-color:#2a2;background:#eef8ee}.verdict.fail{border-color:#d22;background:#fdeeee}\
 .verdict .q{font-weight:bold;margin:.3em 0}.verdict .a{font-size:1.1em;margin:.3em 0}.verdict ul{margin:.3em 0;padding-left:1.2em}\
 .toc{background:#f8f8f8;border:1px solid #ddd;padding:.3em 1em;margin:1em 0}.toc ol{margin:.2em 0}\
-.meta{color:#444}";
+.meta{color:#444}\
+table.answer{font-size:.85em;margin:.5em 0 1em;width:100%}table.answer td[data-key=\"hot_spot.point_mm\"]{white-space:nowrap}table.answer caption{font-weight:normal}table.answer td,table.answer th{text-align:left;vertical-align:top;overflow-wrap:break-word;padding:.2em .4em}table.answer td[data-key=name]{overflow-wrap:anywhere}\
+@media (max-width:1000px){table.answer{font-size:.75em}table.answer td[data-key=\"hot_spot.point_mm\"]{white-space:normal}}\
+table.answer tr.fail td[data-key=reached]{color:#b00;font-weight:bold}table.answer tr.pass td[data-key=reached]{color:#070;font-weight:bold}";
 
 /// Marks `<body data-images="ok:N">` once every image decoded, or `"broken:K/N"`;
 /// `data-wide-min-px` = the natural width of the narrowest full-width figure (−1: none),
@@ -320,7 +323,8 @@ if(!t||el.getClientRects().length===0||el.closest('script,style')){continue;}\
 var px=parseFloat(getComputedStyle(el).fontSize),svg=el.closest('svg');\
 if(svg){var vb=svg.viewBox&&svg.viewBox.baseVal,r=svg.getBoundingClientRect();if(vb&&vb.width>0){px*=r.width/vb.width;}}\
 if(px<f){f=px;}}document.body.setAttribute('data-min-font-px',f<1e9?f.toFixed(1):'-1');\
-document.body.setAttribute('data-toc',document.querySelectorAll('.toc a').length+'/'+document.querySelectorAll('details').length);});})();</script>\n";
+document.body.setAttribute('data-toc',document.querySelectorAll('.toc a').length+'/'+document.querySelectorAll('details').length);\
+var an=document.getElementById('answer');if(an){var ar=an.getBoundingClientRect();document.body.setAttribute('data-answer-px',Math.round(ar.top+window.scrollY)+','+Math.round(ar.bottom+window.scrollY));}});})();</script>\n";
 
 /// Escapes text for HTML element content and attribute values.
 pub fn escape(s: &str) -> String {

@@ -49,6 +49,7 @@ mod correspondences;
 mod epochs;
 mod error;
 mod files;
+mod first_screen;
 mod fixed_observer;
 mod html;
 mod kinematics_report;
@@ -62,6 +63,7 @@ mod report;
 pub mod study_file;
 mod study_run;
 pub mod tie;
+mod verdict;
 
 pub use error::{BundledError, Error, StepError};
 pub use measure_step::{MeasureResult, MeasureSummary};

@@ -69,6 +69,8 @@ pub struct LayoutResult {
     pub summary: GridSummary,
     /// One-at-a-time sensitivity (empty with [`Options::no_sensitivity`]).
     pub sensitivity: Vec<Sensitivity>,
+    /// The layout's answer on the report's first screen (`results.json` → `layouts[].verdict`).
+    pub verdict: crate::contract::LayoutVerdict,
 }
 
 /// Everything a study computes.
@@ -344,6 +346,7 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
     let seed = options.seed.unwrap_or(study.seed);
     let samples = options.samples.unwrap_or(study.samples);
     check_sizes(study, samples)?;
+    check_measure_cameras(study)?;
     let steps = Steps::new(study, options);
 
     let sub = steps.within("calibration".into());
@@ -402,6 +405,24 @@ pub fn run_study(study: &Study, options: &Options<'_>) -> Result<StudyResult, Er
         layouts,
         measure,
     })
+}
+
+/// `[measure]`'s cameras against its model, before any step runs: a wrong camera is reported
+/// at its key's line before the calibration, the tie and the layouts are computed.
+fn check_measure_cameras(study: &Study) -> Result<(), Error> {
+    let Some(m) = &study.measure else {
+        return Ok(());
+    };
+    let step = |e: crashrig_measure::Error| study.step_error("measure", 0, e);
+    let model = crashrig_colmap::Reconstruction::read(&m.model)
+        .map_err(|e| step(crashrig_measure::Error::from(e)))?;
+    crashrig_measure::sequence::check_cameras(
+        &model,
+        &m.camera_a,
+        &m.camera_b,
+        m.camera_c.as_deref(),
+    )
+    .map_err(step)
 }
 
 /// The run's sizes within their limits: `samples` and every layout's grid (`docs/LIMITS.md`).
@@ -552,25 +573,39 @@ impl LayoutRun<'_> {
         let (grid, result) = self.grid(layout, &unit, format!("layout {}", layout.name))?;
         let summary = GridSummary::new(&grid, &result);
         self.steps.tick(&format!("layout {}", layout.name));
+        let hot = crate::verdict::hot_spot_index(&result);
         let mut sensitivity = Vec::new();
         if !no_sensitivity {
             for (input, s) in sensitivity_variants(layout, &unit) {
                 let (g, r) = self.grid(layout, &s, format!("sensitivity {}", layout.name))?;
                 let sm = GridSummary::new(&g, &r);
+                let worst: Vec<f64> = r
+                    .points
+                    .iter()
+                    .map(|p| p.sigma_worst_mm())
+                    .filter(|s| s.is_finite())
+                    .collect();
                 sensitivity.push(Sensitivity {
                     input,
                     median_sigma_max_mm: sm.median_sigma_max_mm,
                     fraction_below_threshold: sm.fraction_below_threshold,
+                    median_sigma_worst_mm: crashrig_stats::summary::median(&worst),
+                    hot_spot_sigma_worst_mm: hot
+                        .and_then(|i| r.points.get(i))
+                        .map(|p| p.sigma_worst_mm())
+                        .filter(|s| s.is_finite()),
                 });
                 self.steps.tick(&format!("sensitivity {}", layout.name));
             }
         }
+        let verdict = crate::verdict::layout_verdict(&grid, &result, &sensitivity);
         Ok(LayoutResult {
             layout: layout.clone(),
             grid,
             result,
             summary,
             sensitivity,
+            verdict,
         })
     }
 
@@ -677,6 +712,7 @@ impl StudyResult {
     pub fn document(&self) -> StudyDocument {
         StudyDocument {
             calibration: self.calibration.document(),
+            calibration_quality: quality_document(&self.calibration),
             layouts: self.layouts.iter().map(layout_document).collect(),
             measure: self.measure.as_ref().map(measure_document),
             propagation: PropagationDocument {
@@ -696,6 +732,39 @@ impl StudyResult {
         // Serialising plain numbers, strings and arrays cannot fail; non-finite numbers
         // become null.
         serde_json::to_value(self.document()).unwrap_or(Value::Null)
+    }
+}
+
+/// `calibration_quality` of `results.json`: the split-half check and the reprojection residuals
+/// the report's calibration verdict and section show.
+fn quality_document(c: &CalibrationResult) -> crate::contract::CalibrationQualityDocument {
+    use crate::contract::{ReprojectionDocument, SplitHalfDocument};
+    let deg = |i: usize| if i < 3 { 1.0 } else { 1f64.to_degrees() };
+    crate::contract::CalibrationQualityDocument {
+        reprojection: c
+            .reprojection
+            .iter()
+            .map(|r| ReprojectionDocument {
+                images: r.images,
+                max_px: r.max_px,
+                median_px: r.median_px,
+                observations: r.residuals_px.len(),
+                role: r.role.to_string(),
+                selector: r.selector.clone(),
+                sigma_px: r.sigma_px,
+            })
+            .collect(),
+        split_half: c.split_half.as_ref().map(|s| SplitHalfDocument {
+            agree: s.agree,
+            bound_z: crate::quality::SPLIT_HALF_Z,
+            difference: std::array::from_fn(|i| s.difference[i] * deg(i)),
+            max_z: s.z.iter().copied().fold(0.0, f64::max),
+            n_first: s.n_first,
+            n_second: s.n_second,
+            order: ["x", "y", "z", "θx", "θy", "θz"],
+            sigma: std::array::from_fn(|i| s.sigma[i] * deg(i)),
+            z: s.z,
+        }),
     }
 }
 
@@ -749,6 +818,7 @@ fn layout_document(l: &LayoutResult) -> LayoutDocument {
         observers,
         sensitivity: l.sensitivity.clone(),
         summary: l.summary.clone(),
+        verdict: l.verdict.clone(),
     }
 }
 

@@ -707,8 +707,8 @@ pub fn report_html(
         },
         ..Default::default()
     };
+    verdicts(&mut rep, r, paper, &r.unit_warnings(study));
     rep.push(Block::Raw(meta_html(study, r, prov)));
-    verdicts(&mut rep, r, &r.unit_warnings(study));
     rep.push(Block::Toc);
     rep.push(Block::Heading("Verdict per layout".into()));
     rep.push(Block::Table(Table {
@@ -793,32 +793,26 @@ fn meta_html(study: &Study, r: &StudyResult, prov: &Provenance) -> String {
     )
 }
 
-/// The verdict boxes: are the inputs' lengths plausible (only when they are not: the unit
-/// warnings qualify every verdict after it), is the threshold reached (in every direction),
-/// where not, what dominates, and can the calibration be trusted.
-fn verdicts(rep: &mut Report, r: &StudyResult, unit_warnings: &[String]) {
-    rep.push(Block::Raw("<div class=\"verdicts\">".into()));
+/// The first screen: the inputs' plausibility when a length looks typed in another unit (it
+/// qualifies every answer after it), the answer table and the layout names, the calibration's
+/// verdict (and the length check's), then the boxes with the long lists.
+fn verdicts(rep: &mut Report, r: &StudyResult, paper: bool, unit_warnings: &[String]) {
     if let Some(v) = units_verdict(unit_warnings) {
+        rep.push(Block::Raw("<div class=\"verdicts\">".into()));
         rep.push(Block::Verdict(v));
+        rep.push(Block::Raw("</div>".into()));
     }
-    let mut reached = reached_verdict(r);
-    if !unit_warnings.is_empty() {
-        reached.answer = format!(
-            "{} — unless a length is in the wrong unit: see the {} unit warning{} (a length typed in metres changes this answer).",
-            reached.answer.trim_end_matches('.'),
-            unit_warnings.len(),
-            if unit_warnings.len() == 1 { "" } else { "s" }
-        );
-    }
-    rep.push(Block::Verdict(reached));
-    rep.push(Block::Verdict(where_verdict(r)));
-    rep.push(Block::Verdict(dominant_verdict(r)));
+    crate::first_screen::push(rep, r, paper);
+    rep.push(Block::Raw("<div class=\"verdicts\">".into()));
     rep.push(Block::Verdict(crate::quality_report::verdict(
         &r.calibration,
     )));
     if let Some(v) = r.measure.as_ref().and_then(crate::length_report::verdict) {
         rep.push(Block::Verdict(v));
     }
+    rep.push(Block::Raw("</div>".into()));
+    rep.push(Block::Raw("<div class=\"verdicts\">".into()));
+    crate::first_screen::list_boxes(rep, r);
     rep.push(Block::Raw("</div>".into()));
 }
 
@@ -828,7 +822,7 @@ fn units_verdict(unit_warnings: &[String]) -> Option<Verdict> {
     (!unit_warnings.is_empty()).then(|| Verdict {
         question: "Are the inputs' lengths plausible (millimetres)?".into(),
         answer: format!(
-            "No: {} length{} or σ look{} typed in another unit (metres?); the verdicts below hold only if {} right.",
+            "No: {} length{} or σ look{} typed in another unit (metres?); the answers below hold only if {} right — every one stands unless a length is in the wrong unit.",
             unit_warnings.len(),
             if unit_warnings.len() == 1 { "" } else { "s" },
             if unit_warnings.len() == 1 { "s" } else { "" },
@@ -837,156 +831,6 @@ fn units_verdict(unit_warnings: &[String]) -> Option<Verdict> {
         lines: unit_warnings.iter().map(|w| format!("warning: {w}")).collect(),
         status: Status::Fail,
     })
-}
-
-/// The thresholds of the layouts, as text ("5 mm", or "3 / 5 mm" when they differ).
-fn thresholds(r: &StudyResult) -> String {
-    let mut t: Vec<f64> = r.layouts.iter().map(|l| l.summary.threshold_mm).collect();
-    t.sort_by(f64::total_cmp);
-    t.dedup();
-    let t: Vec<String> = t.iter().map(|v| format!("{v}")).collect();
-    format!("{} mm", t.join(" / "))
-}
-
-fn reached_verdict(r: &StudyResult) -> Verdict {
-    let n = r.layouts.len();
-    let full: Vec<&str> = r
-        .layouts
-        .iter()
-        .filter(|l| l.summary.fraction_worst_below_threshold >= 1.0)
-        .map(|l| l.layout.name.as_str())
-        .collect();
-    let lines = r
-        .layouts
-        .iter()
-        .map(|l| {
-            let s = &l.summary;
-            if !s.max_sigma_mm.is_finite() {
-                return format!("{}: no point is seen by two cameras", l.layout.name);
-            }
-            format!(
-                "{}: {:.1} % of the points in every direction ({:.1} % per axis); median worst-direction σ {:.2} mm, largest {:.2} mm",
-                l.layout.name,
-                100.0 * s.fraction_worst_below_threshold,
-                100.0 * s.fraction_below_threshold,
-                s.median_sigma_worst_mm,
-                s.max_sigma_worst_mm
-            )
-        })
-        .collect();
-    let (answer, status) = if n == 0 {
-        ("No layout in this study.".to_string(), Status::Info)
-    } else if full.len() == n {
-        (
-            "Yes: at every grid point of every layout, in every direction.".to_string(),
-            Status::Pass,
-        )
-    } else if full.is_empty() {
-        (
-            format!("No: no layout reaches it at every point in every direction (0 of {n})."),
-            Status::Fail,
-        )
-    } else {
-        (
-            format!(
-                "In {} of {n} layouts everywhere, in every direction: {}.",
-                full.len(),
-                full.join(", ")
-            ),
-            Status::Fail,
-        )
-    };
-    Verdict {
-        question: format!("Is σ < {} reached, in every direction?", thresholds(r)),
-        answer,
-        lines,
-        status,
-    }
-}
-
-fn where_verdict(r: &StudyResult) -> Verdict {
-    let mut lines = Vec::new();
-    for l in &r.layouts {
-        let s = &l.summary;
-        if !s.max_sigma_mm.is_finite() {
-            lines.push(format!(
-                "{}: the whole grid is not measurable",
-                l.layout.name
-            ));
-            continue;
-        }
-        let worst_dir = l
-            .result
-            .points
-            .iter()
-            .filter(|p| grids::not_below(p.sigma_worst_mm(), s.threshold_mm))
-            .count();
-        if worst_dir == 0 {
-            continue;
-        }
-        lines.push(match s.worst.above_threshold_box_mm {
-            Some(b) => format!(
-                "{}: {} points at or above {} mm (worst direction; {} per axis) within x {:.0}…{:.0}, y {:.0}…{:.0} mm; largest σ_max {:.2} mm at ({:.0}, {:.0}, {:.0})",
-                l.layout.name, worst_dir, s.threshold_mm, s.worst.points_above_threshold, b[0][0], b[0][1], b[1][0], b[1][1], s.max_sigma_mm, s.worst.max_point_mm[0], s.worst.max_point_mm[1], s.worst.max_point_mm[2]
-            ),
-            None => format!(
-                "{}: {} points at or above {} mm in their worst direction only (per axis all below); largest worst-direction σ {:.2} mm",
-                l.layout.name, worst_dir, s.threshold_mm, s.max_sigma_worst_mm
-            ),
-        });
-    }
-    let (answer, status) = if lines.is_empty() {
-        (
-            "Nowhere: every point of every layout is below it.".to_string(),
-            Status::Pass,
-        )
-    } else {
-        (format!("In {} layout(s):", lines.len()), Status::Fail)
-    };
-    Verdict {
-        question: "Where is it not reached?".into(),
-        answer,
-        lines,
-        status,
-    }
-}
-
-fn dominant_verdict(r: &StudyResult) -> Verdict {
-    let mut count: Vec<(String, usize)> = Vec::new();
-    let mut lines = Vec::new();
-    for l in &r.layouts {
-        let Some(d) = l
-            .sensitivity
-            .iter()
-            .min_by(|a, b| a.median_sigma_max_mm.total_cmp(&b.median_sigma_max_mm))
-        else {
-            continue;
-        };
-        match count.iter_mut().find(|(n, _)| *n == d.input) {
-            Some(c) => c.1 += 1,
-            None => count.push((d.input.clone(), 1)),
-        }
-        lines.push(format!(
-            "{}: {} (median σ_max {:.2} → {:.2} mm with its σ halved)",
-            l.layout.name, d.input, l.summary.median_sigma_max_mm, d.median_sigma_max_mm
-        ));
-    }
-    count.sort_by_key(|c| std::cmp::Reverse(c.1));
-    let answer = match count.first() {
-        None => {
-            "Not computed (no sensitivity runs: --no-sensitivity, or nothing measurable).".into()
-        }
-        Some((input, k)) => format!(
-            "Mostly {input} ({k} of {} layouts): halving its σ helps most.",
-            lines.len()
-        ),
-    };
-    Verdict {
-        question: "What dominates the uncertainty?".into(),
-        answer,
-        lines,
-        status: Status::Info,
-    }
 }
 
 fn calibration_section(rep: &mut Report, study: &Study, r: &StudyResult, paper: bool) {

@@ -1105,9 +1105,58 @@ fn kinematics_keys(
     Ok((cfc, sync))
 }
 
+/// The sections a study file may have (`[name]`, `[[layout]]`).
+const SECTIONS: [&str; 5] = ["calibration", "tie", "outward", "layout", "measure"];
+
+/// A top-level table or array of tables that is not a known section (a misspelled
+/// `[calibraton]`): an error naming it as an unknown section at its header's line, with the
+/// nearest known section (serde alone would call it an "unknown field").
+fn unknown_section(text: &str, path: &Path) -> Option<Error> {
+    use toml::de::{DeTable, DeValue};
+    let doc = DeTable::parse(text).ok()?;
+    doc.get_ref().iter().find_map(|(k, v)| {
+        let name = k.get_ref().as_ref();
+        let is_section = match v.get_ref() {
+            DeValue::Table(_) => true,
+            DeValue::Array(a) => {
+                !a.is_empty() && a.iter().all(|e| matches!(e.get_ref(), DeValue::Table(_)))
+            }
+            _ => false,
+        };
+        if !is_section || SECTIONS.contains(&name) {
+            return None;
+        }
+        let nearest = SECTIONS
+            .iter()
+            .min_by_key(|s| strsim::levenshtein(s, name))
+            .copied()
+            .unwrap_or("calibration");
+        let bracket = |n: &str| {
+            if n == "layout" {
+                "[[layout]]".to_string()
+            } else {
+                format!("[{n}]")
+            }
+        };
+        Some(Error::Key {
+            path: path.to_path_buf(),
+            line: Some(line_of(text, k.span().start)),
+            key: name.to_string(),
+            message: format!(
+                "unknown section; did you mean {}? (sections: {})",
+                bracket(nearest),
+                SECTIONS.map(bracket).join(", ")
+            ),
+        })
+    })
+}
+
 /// The study text as the raw TOML document: a syntax or type error names its line, column and
 /// (for a value) its key; a vector of the wrong length names its key.
 fn parse_raw(text: &str, path: &Path) -> Result<Raw, Error> {
+    if let Some(e) = unknown_section(text, path) {
+        return Err(e);
+    }
     let raw: Raw = toml::from_str(text).map_err(|e| {
         let offset = e.span().map_or(0, |s| s.start);
         let line = line_of(text, offset);
@@ -1227,16 +1276,17 @@ fn calibration_scale(
                 }
             }
             (None, None, Some(f)) => StudyScale::MmPerUnit(cx.scale(f, "calibration.mm_per_unit")?),
-            (Some(_), None, _) => {
+            // Located at the key that is there (the missing one has no line).
+            (Some(p), None, _) => {
                 return cx.err(
-                    Some(cs),
+                    Some(p.span()),
                     "calibration.scale_length_mm",
                     "required with scale_points",
                 );
             }
-            (None, Some(_), _) => {
+            (None, Some(l), _) => {
                 return cx.err(
-                    Some(cs),
+                    Some(l.span()),
                     "calibration.scale_points",
                     "required with scale_length_mm",
                 );
@@ -1422,11 +1472,20 @@ fn layout_section(
             }
             Some((sv, cx.positive(f, &k("focal_px"))?))
         }
-        (Some(_), None) => {
-            return cx.err(Some(ls), &k("focal_px"), "required with pixel_sigma_px");
+        // Located at the key that is there (the missing one has no line).
+        (Some(s), None) => {
+            return cx.err(
+                Some(s.span()),
+                &k("focal_px"),
+                "required with pixel_sigma_px",
+            );
         }
-        (None, Some(_)) => {
-            return cx.err(Some(ls), &k("pixel_sigma_px"), "required with focal_px");
+        (None, Some(f)) => {
+            return cx.err(
+                Some(f.span()),
+                &k("pixel_sigma_px"),
+                "required with focal_px",
+            );
         }
     };
     if l.observer.len() < 2 {
@@ -1651,14 +1710,21 @@ impl Study {
         }
     }
 
-    /// An [`Error::Step`] for a failure of the step configured by section `key`.
+    /// An [`Error::Step`] for a failure of the step configured by section `key`, located at
+    /// the line of the key the failure is about ([`StepError::key`]), else at the section's.
     pub(crate) fn step_error(&self, key: &str, n: usize, source: impl Into<StepError>) -> Error {
         let section = key.split('[').next().unwrap_or(key);
+        let source = source.into();
+        let line = source
+            .key()
+            .and_then(|k| key_line(&self.text, section, n, k))
+            .or_else(|| self.section_line(section, n))
+            .or(Some(1));
         Error::Step {
             path: self.path.clone(),
-            line: self.section_line(section, n).or(Some(1)),
+            line,
             key: key.to_string(),
-            source: Box::new(source.into()),
+            source: Box::new(source),
         }
     }
 }
@@ -1917,5 +1983,130 @@ mod tests {
             m.contains("`layout[0].observer`") && m.contains("at least two"),
             "{m}"
         );
+    }
+
+    /// The 1-based line of the first line of `t` that starts with `start`.
+    fn line_starting(t: &str, start: &str) -> usize {
+        t.lines()
+            .position(|l| l.starts_with(start))
+            .expect("the line")
+            + 1
+    }
+
+    /// A misspelled section is an unknown section with the nearest known name, at its header's
+    /// line (serde alone calls it an "unknown field").
+    #[test]
+    fn misspelled_section_is_an_unknown_section_with_the_nearest_name() {
+        let t = text().replace("[calibration]", "[calibraton]");
+        let m = message(&t);
+        let line = line_starting(&t, "[calibraton]");
+        assert!(
+            m.contains(&format!("study.toml:{line}: `calibraton`")),
+            "{m}"
+        );
+        assert!(
+            m.contains("unknown section; did you mean [calibration]?"),
+            "{m}"
+        );
+        assert!(!m.contains("unknown field"), "{m}");
+        let t = text().replace("[outward]", "[outwrad]");
+        let m = message(&t);
+        assert!(m.contains("did you mean [outward]?"), "{m}");
+        assert!(
+            m.contains(&format!(":{}:", line_starting(&t, "[outwrad]"))),
+            "{m}"
+        );
+        // An array of tables too.
+        let t = format!("{}\n[[layuots]]\nname = \"x\"\n", text());
+        let m = message(&t);
+        assert!(
+            m.contains("`layuots`: unknown section; did you mean [[layout]]?"),
+            "{m}"
+        );
+        assert!(
+            m.contains(&format!(":{}:", line_starting(&t, "[[layuots]]"))),
+            "{m}"
+        );
+        // A misspelled key stays an unknown field.
+        let m = message(&text().replace("samples = 300", "sampels = 300"));
+        assert!(m.contains("unknown field") && m.contains("sampels"), "{m}");
+    }
+
+    /// `required with …` points at the key that is there, not at the section.
+    #[test]
+    fn a_lone_partner_key_points_at_its_own_line() {
+        let t = text().replace("scale_length_mm = 1500.0\n", "");
+        let m = message(&t);
+        let line = line_starting(&t, "scale_points");
+        assert!(
+            m.contains(&format!(
+                ":{line}: `calibration.scale_length_mm`: required with scale_points"
+            )),
+            "{m}"
+        );
+    }
+
+    /// Runs the study of `t` without sensitivity; returns the error's message and the steps
+    /// the progress callback saw.
+    fn run_error(t: &str) -> (String, Vec<String>) {
+        let study = parse(t).expect("the study file reads");
+        let steps = std::sync::Mutex::new(Vec::new());
+        let cb = |stage: &str, _: u64, _: u64| steps.lock().unwrap().push(stage.to_string());
+        let options = crate::Options {
+            no_sensitivity: true,
+            samples: Some(4),
+            progress: Some(&cb),
+            ..Default::default()
+        };
+        let e = crate::run_study(&study, &options).expect_err("the study fails");
+        (e.to_string(), steps.into_inner().unwrap())
+    }
+
+    /// A calibration camera that matches no image is reported at the key's line, not at
+    /// `[calibration]`'s.
+    #[test]
+    fn a_wrong_calibration_camera_points_at_its_key_line() {
+        let t = text().replace("camera_b = \"cam_in/\"", "camera_b = \"cam_ni/\"");
+        let (m, _) = run_error(&t);
+        let line = line_starting(&t, "camera_b = \"cam_ni/\"");
+        assert!(
+            m.contains(&format!("study.toml:{line}: [calibration]")),
+            "{m}"
+        );
+        assert!(m.contains("camera B `cam_ni/` matches no image"), "{m}");
+        assert!(m.contains("`cam_in/`"), "the nearest name: {m}");
+    }
+
+    /// A camera prefix without its trailing slash selects the images but pairs none: the error
+    /// gets the hint and points at that key's line.
+    #[test]
+    fn a_camera_prefix_without_its_slash_gets_a_hint() {
+        let t = text().replace(
+            "camera_a = \"cam_out/\"\ncamera_b",
+            "camera_a = \"cam_out\"\ncamera_b",
+        );
+        let (m, _) = run_error(&t);
+        let line = line_starting(&t, "camera_a = \"cam_out\"");
+        assert!(
+            m.contains(&format!("study.toml:{line}: [calibration]")),
+            "{m}"
+        );
+        assert!(m.contains("no epoch pairs camera A and B"), "{m}");
+        assert!(
+            m.contains("hint: `cam_out` is a directory of the image names: write `cam_out/`"),
+            "{m}"
+        );
+    }
+
+    /// A wrong `[measure]` camera is reported before any step runs (no calibration, no layout),
+    /// at the key's line.
+    #[test]
+    fn a_wrong_measure_camera_is_reported_before_any_work() {
+        let t = text().replace("camera_b = \"2\"", "camera_b = \"27\"");
+        let (m, steps) = run_error(&t);
+        let line = line_starting(&t, "camera_b = \"27\"");
+        assert!(m.contains(&format!("study.toml:{line}: [measure]")), "{m}");
+        assert!(m.contains("camera B (27)"), "{m}");
+        assert!(steps.is_empty(), "no step ran before the error: {steps:?}");
     }
 }

@@ -71,7 +71,7 @@ fn study_step_error_has_a_typed_source() {
     else {
         panic!("not a step error: {e}");
     };
-    assert_eq!((*line, key.as_str()), (Some(6), "calibration"));
+    assert_eq!((*line, key.as_str()), (Some(8), "calibration"));
     assert!(
         matches!(
             **source,
@@ -79,7 +79,7 @@ fn study_step_error_has_a_typed_source() {
         ),
         "{source:?}"
     );
-    let prefix = format!("{}:6: [calibration]: ", path.display());
+    let prefix = format!("{}:8: [calibration]: ", path.display());
     assert_eq!(e.to_string(), format!("{prefix}{source}"));
     assert!(
         e.to_string()

@@ -59,26 +59,30 @@ pub fn at_least_two(flag: &str, n: usize) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// One line per run: where the report is and each layout's fraction below the threshold.
+/// One line per run: where the report and `results.json` are, and per layout the share of the
+/// grid that is measurable (seen by two or more cameras) and, of that, the share whose
+/// worst-direction σ is below the threshold (`results.json` → `layouts[].verdict`, the numbers
+/// of the report's first screen).
 pub fn summary_line(out: &Path, results: &serde_json::Value) -> String {
+    let pct = |v: &serde_json::Value| 100.0 * v.as_f64().unwrap_or(f64::NAN);
     let layouts: Vec<String> = results["layouts"]
         .as_array()
         .into_iter()
         .flatten()
         .map(|l| {
+            let v = &l["verdict"];
             format!(
-                "{} {:.0} %",
+                "{} {:.1} % / {:.1} %",
                 l["name"].as_str().unwrap_or(""),
-                100.0
-                    * l["summary"]["fraction_below_threshold"]
-                        .as_f64()
-                        .unwrap_or(f64::NAN)
+                pct(&v["fraction_measurable"]),
+                pct(&v["fraction_below_threshold_of_measurable"]),
             )
         })
         .collect();
     format!(
-        "report {} (below threshold: {})",
+        "report {}, numbers in {} (per layout: % of the grid measurable, i.e. seen by two or more cameras / % of those with worst-direction σ below the threshold: {})",
         out.join("report.html").display(),
+        out.join("results.json").display(),
         layouts.join(", ")
     )
 }

@@ -451,7 +451,7 @@ fn user_mistakes_on_fresh_inputs_are_clean_errors() {
     .unwrap();
     assert_clean_error(
         &run(["study", &study.display().to_string(), "--out", &outs]),
-        &["nocam.toml:5", "[calibration]"],
+        &["nocam.toml:8", "[calibration]"],
     );
     assert!(!out.exists());
 

@@ -153,6 +153,32 @@ fn every_command_is_in_the_readme_and_reference_tables() {
     }
 }
 
+/// The README's `cargo run` commands select the package `cargo xtask paper` builds
+/// (`--package crashrig-cli`), so running them after it reuses that release build: a
+/// workspace-wide selection unifies features differently and recompiles a dozen crates.
+#[test]
+fn readme_cargo_run_commands_reuse_the_paper_build() {
+    let readme = std::fs::read_to_string(root().join("README.md")).expect("README");
+    let xtask = std::fs::read_to_string(root().join("xtask/src/main.rs")).expect("xtask");
+    let paper = &xtask[xtask.find("fn paper(").expect("xtask's paper")..];
+    let paper = &paper[..paper.find("\n}\n").expect("its end")];
+    assert!(
+        paper.contains("\"--package\",\n        \"crashrig-cli\","),
+        "xtask paper builds --package crashrig-cli"
+    );
+    let runs: Vec<&str> = readme
+        .lines()
+        .filter(|l| l.trim_start().starts_with("cargo run"))
+        .collect();
+    assert!(runs.len() >= 2, "{runs:?}");
+    for l in runs {
+        assert!(
+            l.contains("--release -p crashrig-cli --bin crashrig"),
+            "README: `{l}` does not select the package `cargo xtask paper` builds"
+        );
+    }
+}
+
 #[test]
 fn help_commands_are_parsed() {
     let help =

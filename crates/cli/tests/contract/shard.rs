@@ -171,7 +171,8 @@ fn xtask_shards_runs_xargs_and_merges_to_the_unsharded_output() {
     .iter()
     .map(|a| a.to_string())
     .collect();
-    let (plan, bin) = crate::contract::xtask_shards::parse(&args).unwrap();
+    let (mut plan, bin) = crate::contract::xtask_shards::parse(&args).unwrap();
+    plan.quiet = true;
     assert_eq!(bin, None);
     let dirs = crate::contract::xtask_shards::run(&plan, Path::new(env!("CARGO_BIN_EXE_crashrig")))
         .unwrap();
@@ -455,7 +456,8 @@ fn xtask_shards_runs_measure_shards_and_merges() {
     let m = measure_args("x", &["--no-plots"]);
     args.extend(m[..m.len() - 3].iter().cloned());
     args.push("--no-plots".into());
-    let (plan, _) = crate::contract::xtask_shards::parse(&args).unwrap();
+    let (mut plan, _) = crate::contract::xtask_shards::parse(&args).unwrap();
+    plan.quiet = true;
     assert_eq!(plan.command, "measure");
     let dirs = crate::contract::xtask_shards::run(&plan, Path::new(env!("CARGO_BIN_EXE_crashrig")))
         .unwrap();

@@ -287,7 +287,8 @@ fn study_missing_path_names_key_and_line() {
 #[test]
 fn study_model_without_the_named_cameras() {
     study_error(
-        |t| t.replace("camera_a = \"cam_out/\"", "camera_a = \"cam_front/\""),
+        // The calibration's camera only ([measure] has its own camera_a).
+        |t| t.replacen("camera_a = \"cam_out/\"", "camera_a = \"cam_front/\"", 1),
         &["[calibration]", "cam_front/"],
     );
 }

@@ -265,7 +265,7 @@ fn cases() -> Vec<Case> {
                 "threshold_mm = 3.0",
                 "threshold_mm = 3.0\npixel_sigma_px = 0.5"
             ),
-            "[[layout]]"
+            "pixel_sigma_px = 0.5"
         ),
         case!(
             "layout: duplicate name",
@@ -429,11 +429,12 @@ fn cases() -> Vec<Case> {
             ),
             "sigma_a_position_mm"
         ),
-        // Errors of a step that runs (named at its section's header).
+        // Errors of a step that runs: named at the line of the key they are about, else at the
+        // section's header.
         case!(
             "calibration: camera not in the model",
             |t| once(t, "camera_a = \"cam_out/\"", "camera_a = \"cam_front/\""),
-            "[calibration]"
+            "camera_a = \"cam_front/\""
         ),
         case!(
             "tie: image not in the database",
@@ -457,7 +458,7 @@ fn cases() -> Vec<Case> {
         case!(
             "measure: camera not in the model",
             |t| once(t, "camera_b = \"2\"", "camera_b = \"9\""),
-            "[measure]"
+            "camera_b = \"9\""
         ),
     ]
 }

@@ -36,16 +36,16 @@ fn tree(rel: &str, prefix: &str) -> Vec<(String, Vec<u8>)> {
     v
 }
 
-/// A FIFO nobody writes to (reading it would wait for ever), made once per test process.
-fn fifo() -> Option<PathBuf> {
-    let dir = std::env::temp_dir().join(format!("crashrig-robustness-fifo-{}", std::process::id()));
+/// A FIFO nobody writes to (reading it would wait for ever) in `dir`, the caller's own
+/// temporary directory (removed when the caller drops it; two tests of one process never share
+/// a path). `None` without `mkfifo` (its output captured, never printed).
+fn fifo(dir: &Path) -> Option<PathBuf> {
     let p = dir.join("fifo");
     if !p.exists() {
-        std::fs::create_dir_all(&dir).ok()?;
         let ok = std::process::Command::new("mkfifo")
             .arg(&p)
-            .status()
-            .is_ok_and(|s| s.success());
+            .output()
+            .is_ok_and(|o| o.status.success());
         if !ok {
             return None;
         }
@@ -53,13 +53,14 @@ fn fifo() -> Option<PathBuf> {
     Some(p)
 }
 
-/// Special inputs: `/dev/zero` (never ends), a FIFO (never opened for writing), a directory.
-fn specials() -> Vec<(String, &'static str)> {
+/// Special inputs: `/dev/zero` (never ends), a FIFO in `dir` (never opened for writing), a
+/// directory.
+fn specials(dir: &Path) -> Vec<(String, &'static str)> {
     let mut v = vec![
         ("/dev/zero".to_string(), "not a regular file"),
         ("{in}".to_string(), "directory"),
     ];
-    if let Some(f) = fifo() {
+    if let Some(f) = fifo(dir) {
         v.push((f.display().to_string(), "not a regular file"));
     }
     v
@@ -99,12 +100,13 @@ fn measure(key: &str, value: &str) -> Vec<std::ffi::OsString> {
 }
 
 /// Non-regular inputs of `propagate`, `grid`, `study` and `measure`: a clean error naming the
-/// path, never a hang (FIFO) or an allocation abort (`/dev/zero`).
-pub fn non_regular() -> Vec<Case> {
+/// path, never a hang (FIFO) or an allocation abort (`/dev/zero`). The FIFO is made in `dir`,
+/// which must outlive the cases' runs.
+pub fn non_regular(dir: &Path) -> Vec<Case> {
     let class = "non-regular input";
     let seq = tree("measure/sequence", "");
     let mut out = Vec::new();
-    for (path, what) in specials() {
+    for (path, what) in specials(dir) {
         for cmd in [
             vec!["propagate", path.as_str()],
             vec!["grid", path.as_str(), "--out", "{out}"],
