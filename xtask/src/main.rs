@@ -5,6 +5,7 @@
 
 mod invariants;
 mod shards;
+mod syntax;
 mod tidy;
 
 use anyhow::{Context, Result, bail};
