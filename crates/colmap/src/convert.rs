@@ -109,11 +109,12 @@ pub fn convert(config: &ConvertConfig) -> Result<Converted> {
         ModelFormat::Text => model.text_format_warning().into_iter().collect(),
         ModelFormat::Binary => Vec::new(),
     };
-    let staged =
-        crashrig_outdir::Staged::new(output, model_file_name).map_err(|source| Error::Staging {
+    let staged = crashrig_outdir::Staged::new(output, model_file_name).map_err(|problem| {
+        Error::Staging {
             path: output.clone(),
-            source,
-        })?;
+            problem,
+        }
+    })?;
     model
         .write(staged.dir(), format)
         .map_err(|source| Error::Writing {
