@@ -50,10 +50,6 @@ pub const CYCLE_ALLOWED: &[&str] = &[];
 
 /// Error types that still show their source in their own message: `(file, Type::Variant)`.
 pub const ERROR_SOURCE_ALLOWED: &[(&str, &str)] = &[
-    ("crates/grid/src/error.rs", "Error::Read"),
-    ("crates/grid/src/error.rs", "Error::Plot"),
-    ("crates/grid/src/error.rs", "Error::Scenario"),
-    ("crates/grid/src/error.rs", "Error::Csv"),
     ("crates/mc/src/error.rs", "Error::Io"),
     ("crates/mc/src/error.rs", "Error::Camera"),
     ("crates/mc/src/error.rs", "Error::ColmapModel"),
