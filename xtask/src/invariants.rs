@@ -50,10 +50,6 @@ pub const CYCLE_ALLOWED: &[&str] = &[];
 
 /// Error types that still show their source in their own message: `(file, Type::Variant)`.
 pub const ERROR_SOURCE_ALLOWED: &[(&str, &str)] = &[
-    ("crates/mc/src/error.rs", "Error::Io"),
-    ("crates/mc/src/error.rs", "Error::Camera"),
-    ("crates/mc/src/error.rs", "Error::ColmapModel"),
-    ("crates/mc/src/error.rs", "Error::Located"),
     ("crates/measure/src/error.rs", "Error::Io"),
     ("crates/measure/src/error.rs", "Error::Located"),
     ("crates/outdir/src/lib.rs", "Error::Io"),
