@@ -50,7 +50,6 @@ pub const CYCLE_ALLOWED: &[&str] = &[];
 
 /// Error types that still show their source in their own message: `(file, Type::Variant)`.
 pub const ERROR_SOURCE_ALLOWED: &[(&str, &str)] = &[
-    ("crates/plot/src/error.rs", "Error::Png"),
     ("crates/study/src/error.rs", "Error::Read"),
     ("crates/study/src/error.rs", "Error::Step"),
     ("crates/study/src/error.rs", "Error::Mc"),
