@@ -50,20 +50,6 @@ pub const CYCLE_ALLOWED: &[&str] = &[];
 
 /// Error types that still show their source in their own message: `(file, Type::Variant)`.
 pub const ERROR_SOURCE_ALLOWED: &[(&str, &str)] = &[
-    ("crates/study/src/error.rs", "Error::Read"),
-    ("crates/study/src/error.rs", "Error::Step"),
-    ("crates/study/src/error.rs", "Error::Mc"),
-    ("crates/study/src/error.rs", "Error::Write"),
-    ("crates/study/src/error.rs", "Error::Plot"),
-    ("crates/study/src/error.rs", "Error::Scenario"),
-    ("crates/study/src/error.rs", "Error::Bundled"),
-    ("crates/study/src/error.rs", "CalibrationError::Rig"),
-    ("crates/study/src/error.rs", "CalibrationError::Plot"),
-    ("crates/study/src/error.rs", "CalibrationError::Io"),
-    ("crates/study/src/error.rs", "BundledError::Toml"),
-    ("crates/study/src/tie.rs", "LinkError::Resection"),
-    ("crates/study/src/tie.rs", "LinkError::Undistort"),
-    ("crates/study/src/tie.rs", "LinkError::RelativeOrientation"),
 ];
 
 /// Binary crates (may read the environment: they are the user interface).
