@@ -49,8 +49,7 @@ pub const JSON_ALLOWED: &[&str] = &[];
 pub const CYCLE_ALLOWED: &[&str] = &[];
 
 /// Error types that still show their source in their own message: `(file, Type::Variant)`.
-pub const ERROR_SOURCE_ALLOWED: &[(&str, &str)] = &[
-];
+pub const ERROR_SOURCE_ALLOWED: &[(&str, &str)] = &[];
 
 /// Binary crates (may read the environment: they are the user interface).
 const BINARIES: &[&str] = &["cli"];
