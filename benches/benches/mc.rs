@@ -1,11 +1,12 @@
 //! Criterion benchmarks of the Monte Carlo engine: the random-number source, the
 //! two-observer forward-intersection kernel, each kernel path (tangent, euler, full covariance,
-//! pixel noise, three observers, chain-drawn observers), the grid, and the chain propagation.
+//! pixel noise, three observers, chain-drawn observers) and the real-study map (per
+//! point-draw), the grid, and the chain propagation.
 //!
 //! Throughput is reported per draw (`Throughput::Elements`), so criterion prints draws/s.
 //! Single-threaded numbers come from a 1-thread rayon pool; the 2-thread grid uses a 2-thread
 //! pool. See docs/performance.md for the numbers and the roofline note.
-use crashrig_benches::{CHAIN, TWO_OBSERVERS, kernel_paths, levels, one_point_kernel};
+use crashrig_benches::{CHAIN, TWO_OBSERVERS, kernel_paths, levels, one_point_kernel, real_map};
 use crashrig_mc::{Chain, ChainOptions, GridStudy, Isa, RunOptions, Scenario};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use rand::RngExt;
@@ -98,14 +99,59 @@ fn kernel(c: &mut Criterion) {
     g.finish();
 }
 
+/// The real-study map (`crashrig_benches::real_map`): its correlated map and its independent
+/// companion, as `crashrig grid` runs them, `samples` draws per point; the throughput unit
+/// is the point-draw (one draw of one point in both maps).
+struct RealMap {
+    study: GridStudy,
+    independent: GridStudy,
+    samples: usize,
+}
+
+impl RealMap {
+    fn new(samples: usize) -> Self {
+        let sc =
+            Scenario::from_toml_str(&real_map(), Path::new("real_map.toml")).expect("scenario");
+        let study = GridStudy::new(&sc, 0, 0).expect("study");
+        let independent = study.independent();
+        RealMap {
+            study,
+            independent,
+            samples,
+        }
+    }
+
+    fn point_draws(&self) -> u64 {
+        (self.study.grid().points().len() * self.samples) as u64
+    }
+
+    fn run(&self, isa: Isa) -> (crashrig_mc::GridResult, crashrig_mc::GridResult) {
+        let o = RunOptions {
+            isa,
+            ..RunOptions::samples(self.samples, 7)
+        };
+        (
+            self.study.run(&o, None).expect("run"),
+            self.independent.run(&o, None).expect("run"),
+        )
+    }
+}
+
 fn paths(c: &mut Criterion) {
     // One grid point per kernel path (`crashrig_benches::kernel_paths`), one thread, every
-    // level: the per-draw cost of each path.
+    // level: the per-draw cost of each path; and the real-study map per point-draw.
     let n = 16 * 4096;
     let one = pool(1);
     let mut g = c.benchmark_group("paths_1thread");
-    g.throughput(Throughput::Elements(n as u64));
     g.sample_size(10);
+    let map = RealMap::new(1024);
+    g.throughput(Throughput::Elements(map.point_draws()));
+    for isa in levels() {
+        g.bench_function(format!("real_map/{}", isa.name()), |b| {
+            b.iter(|| one.install(|| black_box(map.run(isa))))
+        });
+    }
+    g.throughput(Throughput::Elements(n as u64));
     for (name, toml) in kernel_paths() {
         let sc = Scenario::from_toml_str(&toml, Path::new("bench.toml")).expect("scenario");
         let study = GridStudy::new(&sc, 0, 0).expect("study");
@@ -139,10 +185,15 @@ fn paths_quick(c: &mut Criterion) {
     let n = 4 * 4096;
     let one = pool(1);
     let mut g = c.benchmark_group("paths_quick_1thread");
-    g.throughput(Throughput::Elements(n as u64));
     g.sample_size(10);
     g.warm_up_time(std::time::Duration::from_millis(300));
     g.measurement_time(std::time::Duration::from_secs(1));
+    let map = RealMap::new(512);
+    g.throughput(Throughput::Elements(map.point_draws()));
+    g.bench_function("real_map", |b| {
+        b.iter(|| one.install(|| black_box(map.run(Isa::Auto))))
+    });
+    g.throughput(Throughput::Elements(n as u64));
     for (name, toml) in kernel_paths() {
         let sc = Scenario::from_toml_str(&toml, Path::new("bench.toml")).expect("scenario");
         let study = GridStudy::new(&sc, 0, 0).expect("study");

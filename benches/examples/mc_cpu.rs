@@ -5,10 +5,15 @@
 //!
 //! `cargo run --release -p crashrig-benches --example mc_cpu -- WHAT ENGINE MILLIONS`
 //! with WHAT = `normals` | `kernel` | `chain` | a kernel path of
-//! [`crashrig_benches::kernel_paths`] (`study`, `full_covariance`, `correlated`, …), ENGINE = `baseline` | `v3` | `v4` | `auto`, MILLIONS = draws (normals for `normals`) in millions. Runs on one thread and prints
-//! the rate per second of wall time and per second of the process's CPU time (Linux). Grid
-//! paths time `GridStudy::run` only (the study is set up before the clock starts).
-use crashrig_benches::{CHAIN, kernel_paths, level_of_name, one_point_kernel};
+//! [`crashrig_benches::kernel_paths`] (`study`, `full_covariance`, `correlated`, …) |
+//! `real_map` (the whole map of [`crashrig_benches::real_map`], correlated) |
+//! `real_map_independent` (its independent companion) | `real_map_both` (both, as
+//! `crashrig grid` runs them), ENGINE = `baseline` | `v3` | `v4` | `auto`, MILLIONS = draws
+//! (normals for `normals`; point-draws for the maps, spread over their 221 points) in
+//! millions. Runs on one thread and prints the rate per second of wall time and per second of
+//! the process's CPU time (Linux). Grid paths time `GridStudy::run` only (the study is set up
+//! before the clock starts).
+use crashrig_benches::{CHAIN, kernel_paths, level_of_name, one_point_kernel, real_map};
 use crashrig_mc::{Chain, ChainOptions, GridStudy, Isa, RunOptions, Scenario};
 use std::hint::black_box;
 use std::path::Path;
@@ -30,10 +35,14 @@ fn main() {
     // Grid paths: the study (and, in correlated mode, its chain propagation) is set up before
     // the clock starts, as in the criterion benches.
     let study = (!matches!(what, "normals" | "chain")).then(|| {
-        let toml = kernel_paths()
-            .into_iter()
-            .find(|(name, _)| *name == what)
-            .map_or_else(one_point_kernel, |(_, t)| t);
+        let toml = if what.starts_with("real_map") {
+            real_map()
+        } else {
+            kernel_paths()
+                .into_iter()
+                .find(|(name, _)| *name == what)
+                .map_or_else(one_point_kernel, |(_, t)| t)
+        };
         let sc = Scenario::from_toml_str(&toml, Path::new("kernel.toml")).expect("scenario");
         GridStudy::new(&sc, 0, 0).expect("study")
     });
@@ -51,18 +60,23 @@ fn main() {
             black_box(s);
         }
         (_, Some(study)) => {
-            let r = study
-                .run(
-                    &RunOptions {
-                        isa,
-                        ..RunOptions::samples(n, 7)
-                    },
-                    None,
-                )
-                .expect("run");
+            let points = study.grid().points().len();
+            let options = RunOptions {
+                isa,
+                ..RunOptions::samples(n / points, 7)
+            };
+            let mut runs = vec![];
+            if what != "real_map_independent" {
+                runs.push(study.run(&options, None).expect("run"));
+            }
+            if matches!(what, "real_map_independent" | "real_map_both") {
+                runs.push(study.independent().run(&options, None).expect("run"));
+            }
             // The exact result (shortest round-trip digits): before/after bit-identity.
-            let p = &r.points[0];
-            exact = format!("\n  mean {:?}\n  covariance {:?}", p.mean_mm, p.covariance);
+            for r in runs {
+                let p = &r.points[0];
+                exact += &format!("\n  mean {:?}\n  covariance {:?}", p.mean_mm, p.covariance);
+            }
         }
         _ => {
             let sc = Scenario::from_toml_str(CHAIN, Path::new("chain.toml")).expect("scenario");

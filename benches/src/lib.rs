@@ -82,6 +82,17 @@ pub fn study_path() -> String {
     include_str!("../study_path.toml").to_string()
 }
 
+/// The real-study path as a whole map (`benches/real_map.toml`): the chain of
+/// [`study_path`] with full covariances, `correlated = true`, over 221 grid points seen by
+/// two fixed OPENCV cameras with distortion and pixel noise and two aimed observers, all
+/// drawn jointly from the chain (one chain draw per replicate for the whole map).
+/// `crashrig grid` runs it and its independent companion map (observers drawn on their own
+/// with their propagated covariances); `benches/real_map_numpy.py` is its per-point NumPy
+/// reference.
+pub fn real_map() -> String {
+    include_str!("../real_map.toml").to_string()
+}
+
 /// A three-camera chain (the paper's cam1 → cam2 link, and a third camera).
 pub const CHAIN: &str = r#"
 seed = 1

@@ -1,9 +1,10 @@
 //! `cargo xtask`: developer automation for crashrig (the cargo-xtask convention).
 //!
 //! Verbs: `ci`, `tidy`, `test [--slow]`, `test-python`, `paper [--out DIR]`, `interop`, `bench [--e2e]`,
-//! `fixtures`, `report-check`, `shards`. Contributor-only work lives here; everything a user sees lives in `crashrig`.
+//! `fixtures`, `report-check`, `shards`, `package`, `features`, `consumer`. Contributor-only work lives here; everything a user sees lives in `crashrig`.
 
 mod invariants;
+mod package;
 mod shards;
 mod syntax;
 mod tidy;
@@ -17,7 +18,13 @@ cargo xtask <verb>
 
 verbs:
   ci                 fmt --check, clippy -D warnings, cargo doc -D warnings, the test suite, tidy
-  tidy               dependency DAG, module docs, ARCHITECTURE code map (also run by `cargo test`)
+  tidy               dependency DAG, lean builds, packaging metadata, module docs, ARCHITECTURE
+                     code map (also run by `cargo test`)
+  package            cargo package of every publishable crate, with its verification build
+  features           cargo hack check --each-feature of every publishable crate (installs
+                     cargo-hack into target/tools when missing) and the lean builds' trees
+  consumer           examples/consumer, outside the workspace, built against the packaged
+                     crates (target/package/*.crate) and run
   test [--slow]      the README test command; --slow: the #[ignore] slow statistical tests, in release
   paper [--out DIR]  the main job: `crashrig paper` in release mode (default DIR: out/paper)
   interop            COLMAP interop round trips against pycolmap (needs a Python with pycolmap; PYTHON=...)
@@ -54,6 +61,9 @@ fn main() -> Result<()> {
             }
         }
         "test" => test(rest.iter().any(|a| a == "--slow")),
+        "package" => package::package(&project_root(), true),
+        "features" => package::features(&project_root()),
+        "consumer" => package::consumer(&project_root()),
         "paper" => paper(rest),
         "interop" => interop(),
         "bench" => bench(rest.iter().any(|a| a == "--e2e")),

@@ -211,6 +211,7 @@ pub const LEAN_BUILDS: &[(&str, &[&str], &[&str], &str)] = &[
 pub fn check(root: &Path) -> Result<Vec<String>> {
     let mut problems = check_dag(root)?;
     problems.extend(check_lean_builds(root)?);
+    problems.extend(crate::package::check_packaging(root)?);
     problems.extend(check_module_docs(root)?);
     problems.extend(check_code_map(root)?);
     problems.extend(check_one_test_binary(root)?);

@@ -21,6 +21,9 @@
 //! - [`sigma`], [`bias`], [`percentile_interval`], [`bca_interval`]: scalar summaries.
 //! - [`normal::cdf`], [`normal::inverse_cdf`]: Φ and Φ⁻¹.
 //!
+//! # Features
+//! None: the crate has no cargo features.
+//!
 //! # Example
 //! ```
 //! use crashrig_bootstrap::{bca_interval, jackknife, run, sigma};
@@ -57,3 +60,8 @@ pub use error::{BcaReason, Error};
 pub use interval::{
     Interval, acceleration, bca_interval, bias, bias_correction, percentile_interval, sigma,
 };
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

@@ -37,6 +37,9 @@
 //!   [`OpenCvCamera::from_colmap`] / [`OpenCvCamera::to_colmap`].
 //! - [`Error`] (construction), [`ProjectionReject`] and [`UndistortError`] (partial maps).
 //!
+//! # Features
+//! None: the crate has no cargo features.
+//!
 //! # Example
 //! ```
 //! use crashrig_camera::{Camera, ModelId, OpenCvCamera, ProjectionReject, colmap_from_opencv_pixel};
@@ -88,3 +91,8 @@ pub use opencv::{
     OpenCvCamera, colmap_from_opencv_pixel, opencv_from_colmap_pixel,
 };
 pub use project::{COLMAP_UNDISTORT_MAX_ITERATIONS, COLMAP_UNDISTORT_STEP_SQ_TOL, Undistorted};
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

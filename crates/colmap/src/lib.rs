@@ -42,6 +42,13 @@
 //!   [`info::database_info`], [`convert::convert`] and [`lookup::points`], each a typed result
 //!   that serialises to the command's JSON and renders its text.
 //!
+//! # Features
+//! - `database` (default): [`database`], the `database.db` reader; it bundles SQLite (`rusqlite`).
+//! - `commands` (default, implies `database`): [`info`], [`convert`] and [`lookup::points`], the
+//!   entries of `crashrig colmap` (adds `serde` and `crashrig-outdir`).
+//!
+//! A dependent that only reads models uses `default-features = false`: no SQLite is compiled.
+//!
 //! # Example
 //! Write a one-image legacy model as text, read it back and get the camera centre.
 //! ```
@@ -96,3 +103,8 @@ pub use record::{
     SensorType, TrackElement,
 };
 pub use select::{CameraSelector, epoch_name};
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

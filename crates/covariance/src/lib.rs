@@ -27,6 +27,9 @@
 //! contract tangent covariance (centre in world axes, rotation about A's own axes), and the
 //! joint 6n×6n covariance of all epochs.
 //!
+//! # Features
+//! None: the crate has no cargo features.
+//!
 //! # Example
 //! Four images in a ring look at a 3 m cube of points; the eight corners are fixed control
 //! points.
@@ -609,3 +612,8 @@ impl CovarianceResult {
         text
     }
 }
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

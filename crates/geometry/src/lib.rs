@@ -31,6 +31,9 @@
 //! - [`UncertainPose`]: a nominal `b_from_a` with its 6×6 tangent covariance (sampling,
 //!   estimation from samples, first-order composition and inversion, ω φ κ for display).
 //!
+//! # Features
+//! None: the crate has no cargo features.
+//!
 //! # Example
 //! The rig link "B relative to A" from two COLMAP image poses, as base (mm) and ω-φ-κ.
 //! ```
@@ -90,3 +93,8 @@ pub type Rigid3 = nalgebra::Isometry3<f64>;
 pub fn projection_center(cam_from_world: &Rigid3) -> Vec3 {
     -(cam_from_world.rotation.inverse() * cam_from_world.translation.vector)
 }
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

@@ -22,6 +22,9 @@
 //!
 //! Every error is an [`Error`] naming the file (and line) or option at fault.
 //!
+//! # Features
+//! None: the crate has no cargo features.
+//!
 //! # Example
 //! A small scenario run whole and in two shards: the merged output is the unsharded one.
 //! ```
@@ -87,3 +90,8 @@ pub use run::{
     AdaptiveSummary, Column, ColumnValues, CorrelationSummary, GridConfig, GridDocument, GridRun,
     LinearSummary, Spread, resolve_samples, run_grid, run_grid_scenario,
 };
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

@@ -56,3 +56,8 @@ pub mod options;
 pub mod result_json;
 
 pub use error::Error;
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

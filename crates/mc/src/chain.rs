@@ -554,6 +554,21 @@ impl Chain {
         )
     }
 
+    /// [`Chain::monte_carlo`] for the tangent covariances alone (what a grid's `sigma_from`
+    /// needs with tangent noise): the ω φ κ statistics of the result are NaN (`covariance`,
+    /// `angles_mean_rad`, `angles_sigma_rad`); everything else is as `monte_carlo` gives it,
+    /// up to the last bits of lanes whose angles `monte_carlo` recomputes by the scalar
+    /// formulas (near gimbal lock).
+    pub(crate) fn monte_carlo_tangent(&self, options: &ChainOptions) -> Result<Vec<PoseMc>, Error> {
+        let mut r = self.run_simd::<false>(options.samples, options.seed, options.isa, None)?;
+        for p in &mut r {
+            p.covariance = Matrix6::from_element(f64::NAN);
+            p.angles_mean_rad = Vector3::from_element(f64::NAN);
+            p.angles_sigma_rad = Vector3::from_element(f64::NAN);
+        }
+        Ok(r)
+    }
+
     pub(crate) fn monte_carlo_engine(
         &self,
         samples: usize,
@@ -561,18 +576,28 @@ impl Chain {
         engine: Engine,
         monitor: Option<&dyn Monitor>,
     ) -> Result<Vec<PoseMc>, Error> {
-        let chunks = samples.div_ceil(CHUNK);
-        let ticks = Counter::monitored(monitor, chunks);
-        #[allow(clippy::infallible_destructuring_match)] // one variant outside the tests
-        let isa = match engine {
+        match engine {
             #[cfg(test)]
             Engine::Legacy => {
+                let ticks = Counter::monitored(monitor, samples.div_ceil(CHUNK));
                 let r = self.monte_carlo_legacy(samples, seed, &ticks);
                 ticks.finish();
-                return Ok(r);
+                Ok(r)
             }
-            Engine::Simd(isa) => isa,
-        };
+            Engine::Simd(isa) => self.run_simd::<true>(samples, seed, isa, monitor),
+        }
+    }
+
+    /// The vectorised Monte Carlo (see [`Chain::monte_carlo`]; without `ANGLES` no ω φ κ).
+    fn run_simd<const ANGLES: bool>(
+        &self,
+        samples: usize,
+        seed: u64,
+        isa: crate::kernel::Isa,
+        monitor: Option<&dyn Monitor>,
+    ) -> Result<Vec<PoseMc>, Error> {
+        let chunks = samples.div_ceil(CHUNK);
+        let ticks = Counter::monitored(monitor, chunks);
         let n = self.len();
         let key = crate::kernel::philox::key_of_seed(seed);
         let mut total = vec![CamSums::new(); n];
@@ -589,7 +614,7 @@ impl Chain {
                 let part = crate::kernel::simd::dispatch(
                     isa,
                     #[inline(always)]
-                    |width| lanes::run_task(self, key, k as u64, m, width),
+                    |width| lanes::run_task::<ANGLES>(self, key, k as u64, m, width),
                 );
                 ticks.add(1);
                 part

@@ -18,11 +18,11 @@
 //! path: a fixed view is an `Observation::Lens`, whose per-lane normalized coordinates come
 //! from `crate::view::undistort_lanes`.
 //!
-//! Determinism: as the aimed path, (point p, chunk k) is task `p·2²⁴ + k`
-//! (`crate::schedule::task_index`) and chunks merge in index order. The tests keep the former
+//! Scheduling, streams and determinism are the aimed path's (`crate::map`): [`FixedPath`]
+//! prepares a point's views. The tests keep the former
 //! scalar loop (ChaCha8 + ziggurat, `run_chunk_fixed`) as a statistical cross-check.
 
-use crate::block::{Observation, ObserverSpec, Prepared};
+use crate::block::{Observation, ObserverSpec};
 use crate::chain::Chain;
 use crate::error::Error;
 use crate::kernel::accumulate::Acc3;
@@ -31,9 +31,9 @@ use crate::kernel::lanes::NoiseFactor;
 use crate::kernel::normal::LANES;
 #[cfg(test)]
 use crate::kernel::{Normal3, exp_matrix, rot_opk};
-use crate::model::{Adaptive, Aim, Grid, PixelNoise, RotationNoise};
+use crate::map::{MapPath, Planned};
+use crate::model::{Aim, FixedCamera, Grid, PixelNoise, RotationNoise};
 use crate::result::PointStats;
-use crate::schedule::{CHUNK, Engine, PointTicks, adaptive_draws, task_index};
 #[cfg(test)]
 use crate::view::undistort;
 use crate::view::{FastLens, View, is_linear, sight};
@@ -41,7 +41,6 @@ use crashrig_geometry::triangulate::dlt_rows;
 #[cfg(test)]
 use nalgebra::Vector6;
 use nalgebra::{Matrix2, Matrix3, Matrix6, Vector2, Vector3};
-use rayon::prelude::*;
 
 /// Normals per view and draw: 6 pose + 2 pixel.
 #[cfg(test)]
@@ -60,15 +59,6 @@ pub(crate) struct Setup<'a> {
     pub(crate) pixel: Option<PixelNoise>,
     /// The chain, in correlated mode.
     pub(crate) chain: Option<&'a Chain>,
-}
-
-/// How many draws per point.
-#[derive(Debug, Clone, Copy)]
-pub(crate) enum Draws<'a> {
-    /// A fixed number.
-    Samples(usize),
-    /// GUM-S1 adaptive stopping.
-    Adaptive(&'a Adaptive),
 }
 
 /// Lower factor `L` (`L·Lᵀ = Σ`) of an observer's pose-noise covariance (mm, rad; order δC,
@@ -100,72 +90,92 @@ fn view_of<'a>(
     k: usize,
     point: &Vector3<f64>,
 ) -> Result<Option<View<'a>>, Error> {
-    let (o, s, kind) = (
-        &setup.grid.observers[k],
-        &setup.covariance[k],
-        &setup.kinds[k],
-    );
-    {
-        let source = match (setup.chain, o.sigma) {
-            (Some(_), crate::model::ObserverSigma::From(i)) => Some(i),
-            _ => None,
-        };
-        let l = factor_of(s);
+    let o = &setup.grid.observers[k];
+    let source = match (setup.chain, o.sigma) {
+        (Some(_), crate::model::ObserverSigma::From(i)) => Some(i),
+        _ => None,
+    };
+    let noise = Noise {
+        l: factor_of(&setup.covariance[k]),
         // A chain draw is always a tangent (body-axis) rotation error.
-        let euler = *kind == RotationNoise::Euler && source.is_none();
-        match &o.aim {
-            Aim::Point => {
-                let r = crashrig_geometry::look_at::world_from_cam_look_at(&o.position_mm, point)?;
-                let a = crashrig_geometry::opk::opk_from_rotation(&r);
-                let (sigma_px, focal) =
-                    setup.pixel.map_or((0.0, 1.0), |p| (p.sigma_px, p.focal_px));
-                Ok(Some(View {
-                    c: o.position_mm,
-                    r: r.into_inner(),
-                    opk: Vector3::new(a.omega, a.phi, a.kappa),
-                    l,
-                    #[cfg(test)]
-                    diag: is_diagonal(&l).then(|| l.diagonal()),
-                    euler,
-                    n0: Vector2::zeros(),
-                    u0: Vector2::zeros(),
-                    jinv: Matrix2::identity() / focal,
-                    sigma_px,
-                    lens: None,
-                    fast: None,
-                    full_lens: None,
-                    source,
-                }))
-            }
-            Aim::Fixed(f) => {
-                let Some((u0, n0, jinv)) = sight(f, &o.position_mm, point) else {
-                    return Ok(None);
-                };
-                Ok(Some(View {
-                    c: o.position_mm,
-                    r: f.rotation,
-                    opk: f.angles_rad,
-                    l,
-                    #[cfg(test)]
-                    diag: is_diagonal(&l).then(|| l.diagonal()),
-                    euler,
-                    n0,
-                    u0,
-                    jinv,
-                    sigma_px: f.pixel_sigma_px,
-                    lens: (!is_linear(&f.lens)).then_some(&f.lens),
-                    fast: FastLens::of(&f.lens),
-                    full_lens: Some(&f.lens),
-                    source,
-                }))
-            }
-        }
+        euler: setup.kinds[k] == RotationNoise::Euler && source.is_none(),
+        source,
+    };
+    match &o.aim {
+        Aim::Point => aimed_view(setup, &o.position_mm, noise, point).map(Some),
+        Aim::Fixed(f) => Ok(fixed_view(f, &o.position_mm, noise, point)),
     }
+}
+
+/// An observer's pose noise as a view carries it.
+#[derive(Debug, Clone, Copy)]
+struct Noise {
+    l: Matrix6<f64>,
+    euler: bool,
+    source: Option<usize>,
+}
+
+/// An aimed observer at `c` re-aimed at `point`: observed at the principal point, pixel noise
+/// (if any) from the grid's `pixel_sigma_px` at `focal_px`.
+fn aimed_view<'a>(
+    setup: &Setup<'a>,
+    c: &Vector3<f64>,
+    noise: Noise,
+    point: &Vector3<f64>,
+) -> Result<View<'a>, Error> {
+    let r = crashrig_geometry::look_at::world_from_cam_look_at(c, point)?;
+    let a = crashrig_geometry::opk::opk_from_rotation(&r);
+    let (sigma_px, focal) = setup.pixel.map_or((0.0, 1.0), |p| (p.sigma_px, p.focal_px));
+    Ok(View {
+        c: *c,
+        r: r.into_inner(),
+        opk: Vector3::new(a.omega, a.phi, a.kappa),
+        l: noise.l,
+        #[cfg(test)]
+        diag: is_diagonal(&noise.l).then(|| noise.l.diagonal()),
+        euler: noise.euler,
+        n0: Vector2::zeros(),
+        u0: Vector2::zeros(),
+        jinv: Matrix2::identity() / focal,
+        sigma_px,
+        lens: None,
+        fast: None,
+        full_lens: None,
+        source: noise.source,
+    })
+}
+
+/// A fixed camera at `c` looking at `point` through its lens, or `None` when it does not see
+/// it ([`sight`]).
+fn fixed_view<'a>(
+    f: &'a FixedCamera,
+    c: &Vector3<f64>,
+    noise: Noise,
+    point: &Vector3<f64>,
+) -> Option<View<'a>> {
+    let (u0, n0, jinv) = sight(f, c, point)?;
+    Some(View {
+        c: *c,
+        r: f.rotation,
+        opk: f.angles_rad,
+        l: noise.l,
+        #[cfg(test)]
+        diag: is_diagonal(&noise.l).then(|| noise.l.diagonal()),
+        euler: noise.euler,
+        n0,
+        u0,
+        jinv,
+        sigma_px: f.pixel_sigma_px,
+        lens: (!is_linear(&f.lens)).then_some(&f.lens),
+        fast: FastLens::of(&f.lens),
+        full_lens: Some(&f.lens),
+        source: noise.source,
+    })
 }
 
 /// The block engine's description of view `v` (`chain`: correlated mode; `pixel`: σ of the
 /// aimed views' normalized coordinates).
-fn spec<'a>(v: &'a View<'a>, chain: Option<&Chain>, pixel: Option<f64>) -> ObserverSpec<'a> {
+fn spec<'a>(v: &View<'a>, chain: Option<&Chain>, pixel: Option<f64>) -> ObserverSpec<'a> {
     let source = v.source.filter(|_| chain.is_some());
     ObserverSpec {
         c: v.c,
@@ -174,12 +184,8 @@ fn spec<'a>(v: &'a View<'a>, chain: Option<&Chain>, pixel: Option<f64>) -> Obser
         noise: NoiseFactor::from_lower(&v.l),
         tangent: !v.euler,
         source,
-        chain_to_own: match (source, chain) {
-            (Some(i), Some(chain)) => v.r.transpose() * chain.nominal()[i].rotation,
-            _ => Matrix3::identity(),
-        },
         observation: match v.full_lens {
-            Some(_) => Observation::Lens(v),
+            Some(_) => Observation::Lens(*v),
             None => pixel.map_or(Observation::Ray, Observation::Normalized),
         },
     }
@@ -451,130 +457,54 @@ fn finish(point: &Vector3<f64>, views: &[View<'_>], m: &Acc3) -> PointStats {
     }
 }
 
-/// The block engine's observers of each point's views (prepared once per point).
-struct Block<'a> {
-    prep: Vec<Prepared<'a>>,
-    rows: usize,
+/// The path of a map with fixed observers (and any aimed ones): each point's views.
+pub(crate) struct FixedPath<'s, 'a> {
+    setup: &'s Setup<'a>,
+    points: &'s [Vector3<f64>],
+    /// σ of the aimed views' normalized coordinates.
+    pixel: Option<f64>,
 }
 
-/// `m` draws of one point (task `task`) into `acc` with `engine`.
-#[allow(clippy::too_many_arguments)]
-fn run_chunk(
-    #[cfg_attr(not(test), allow(unused_variables))] views: &[View<'_>],
-    block: &Block<'_>,
-    chain: Option<&Chain>,
-    seed: u64,
-    task: u64,
-    m: usize,
-    acc: &mut Acc3,
-    engine: Engine,
-) {
-    match engine {
-        Engine::Simd(isa) => {
-            let key = crate::kernel::philox::key_of_seed(seed);
-            crate::kernel::simd::dispatch(
-                isa,
-                #[inline(always)]
-                |width| {
-                    let rows = block.rows;
-                    crate::block::run_prepared(&block.prep, rows, chain, key, task, m, acc, width)
-                },
-            );
-        }
-        #[cfg(test)]
-        Engine::Legacy => {
-            let mut rng = crashrig_stats::stream(seed, task);
-            run_chunk_fixed(views, chain, &mut rng, m, acc);
+impl<'s, 'a> FixedPath<'s, 'a> {
+    /// The fixed path of `setup` at `points`.
+    pub(crate) fn new(setup: &'s Setup<'a>, points: &'s [Vector3<f64>]) -> Self {
+        FixedPath {
+            setup,
+            points,
+            pixel: setup.pixel.map(|p| p.sigma_normalized()),
         }
     }
 }
 
-/// Runs the grid study with fixed (and aimed) observers at `points` (all of the grid's, or a
-/// shard of them), the first of which is grid point `first` (the global index keys the
-/// streams).
-pub(crate) fn run(
-    setup: &Setup<'_>,
-    (first, points): (usize, &[Vector3<f64>]),
-    draws: Draws<'_>,
-    seed: u64,
-    engine: Engine,
-    progress: &PointTicks<'_>,
-) -> Result<Vec<PointStats>, Error> {
-    let views: Vec<Vec<View<'_>>> = points
-        .iter()
-        .map(|p| views(setup, p))
-        .collect::<Result<_, _>>()?;
-    let chain = setup.chain;
-    let pixel = setup.pixel.map(|p| p.sigma_normalized());
-    let blocks: Vec<Block<'_>> = views
-        .iter()
-        .map(|vs| {
-            let (prep, rows) =
-                crate::block::layout(vs.iter().map(|v| spec(v, chain, pixel)), chain);
-            Block { prep, rows }
+impl<'a> MapPath<'a> for FixedPath<'_, 'a> {
+    type Extra = Vec<View<'a>>;
+
+    fn plan(&self, p: usize) -> Result<Planned<'a, Vec<View<'a>>>, Error> {
+        let vs = views(self.setup, &self.points[p])?;
+        let chain = self.setup.chain;
+        Ok(Planned {
+            kernel: crate::block::layout(vs.iter().map(|v| spec(v, chain, self.pixel)), chain),
+            extra: vs,
         })
-        .collect();
-    match draws {
-        Draws::Samples(samples) => {
-            let chunks = samples.div_ceil(CHUNK);
-            // Only points seen by at least two observers are drawn; task t = (measurable point
-            // t / chunks, chunk t % chunks), each point's chunks merged in order.
-            let drawn: Vec<usize> = (0..points.len()).filter(|&p| views[p].len() >= 2).collect();
-            let mut sums: Vec<Acc3> = points.iter().map(|p| Acc3::new(*p)).collect();
-            crate::kernel::ordered::map_fold_in_order(
-                drawn.len() * chunks,
-                |t| {
-                    let (p, k) = (drawn[t / chunks], t % chunks);
-                    let m = CHUNK.min(samples - k * CHUNK);
-                    let mut acc = Acc3::new(points[p]);
-                    if progress.stop() {
-                        return acc;
-                    }
-                    let task = task_index(first + p, k);
-                    run_chunk(
-                        &views[p], &blocks[p], chain, seed, task, m, &mut acc, engine,
-                    );
-                    progress.chunk_done(p);
-                    acc
-                },
-                |t, part| sums[drawn[t / chunks]].merge(&part),
-            );
-            Ok(points
-                .iter()
-                .zip(&sums)
-                .enumerate()
-                .map(|(p, (point, m))| {
-                    if views[p].len() < 2 {
-                        return not_measurable(point, views[p].len());
-                    }
-                    finish(point, &views[p], m)
-                })
-                .collect())
+    }
+
+    fn finish(
+        &self,
+        p: usize,
+        planned: &Planned<'a, Vec<View<'a>>>,
+        draws: Option<&Acc3>,
+    ) -> PointStats {
+        let (point, views) = (&self.points[p], &planned.extra);
+        match draws {
+            Some(m) if views.len() >= 2 => finish(point, views, m),
+            _ => not_measurable(point, views.len()),
         }
-        Draws::Adaptive(ad) => Ok(points
-            .par_iter()
-            .enumerate()
-            .map(|(p, point)| {
-                if views[p].len() < 2 || progress.stop() {
-                    // Nothing to draw, nothing left to stabilise: `converged` is true so that
-                    // every adaptive row says true/false and only points that stopped at
-                    // `max_samples` are unconverged.
-                    return PointStats {
-                        converged: Some(true),
-                        ..not_measurable(point, views[p].len())
-                    };
-                }
-                let (total, converged) = adaptive_draws(point, ad, |b, m, acc| {
-                    let task = task_index(first + p, b);
-                    run_chunk(&views[p], &blocks[p], chain, seed, task, m, acc, engine);
-                });
-                progress.point_done();
-                PointStats {
-                    converged: Some(converged),
-                    ..finish(point, &views[p], &total)
-                }
-            })
-            .collect()),
+    }
+
+    #[cfg(test)]
+    fn legacy(&self, extra: &Vec<View<'a>>, seed: u64, task: u64, m: usize, acc: &mut Acc3) {
+        let mut rng = crashrig_stats::stream(seed, task);
+        run_chunk_fixed(extra, self.setup.chain, &mut rng, m, acc);
     }
 }
 

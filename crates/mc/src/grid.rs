@@ -12,14 +12,14 @@ use crate::kernel::accumulate::Acc3;
 use crate::kernel::lanes::NoiseFactor;
 #[cfg(test)]
 use crate::kernel::{exp_matrix, rot_opk};
+use crate::map::{MapPath, MapRun, Planned};
 use crate::model::{Adaptive, Grid, ObserverSigma, PoseSigma, RotationNoise, Scenario};
 use crate::options::{ChainOptions, Draws, RunOptions};
 use crate::result::{GridResult, PointStats};
-use crate::schedule::{CHUNK, Engine, PointTicks, adaptive_draws, task_index};
+use crate::schedule::{CHUNK, Engine, PointTicks};
 use crashrig_geometry::uncertain::psd_factor;
 use crashrig_stats::progress::Monitor;
 use nalgebra::{DMatrix, Matrix3, Matrix6, Vector3, Vector6};
-use rayon::prelude::*;
 
 /// The resolved noise of one observer.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -136,7 +136,11 @@ impl GridStudy {
             .any(|o| matches!(o.sigma, ObserverSigma::From(_)));
         let mc = if needs_chain {
             let options = ChainOptions::new(samples.max(CHAIN_SAMPLES_MIN), seed ^ CHAIN_SEED_SALT);
-            chain.monte_carlo(&options, None)?
+            match rotation_noise {
+                // Only the tangent covariances are used (no ω φ κ statistics to compute).
+                RotationNoise::Tangent => chain.monte_carlo_tangent(&options)?,
+                RotationNoise::Euler => chain.monte_carlo(&options, None)?,
+            }
         } else {
             Vec::new()
         };
@@ -238,7 +242,9 @@ impl GridStudy {
         self.seed
     }
 
-    fn aim_all(&self, points: &[Vector3<f64>]) -> Result<Vec<Vec<Aimed>>, Error> {
+    /// Every observer aimed at each of `points` (tests).
+    #[cfg(test)]
+    pub(crate) fn aim_all(&self, points: &[Vector3<f64>]) -> Result<Vec<Vec<Aimed>>, Error> {
         points
             .iter()
             .map(|p| {
@@ -270,6 +276,11 @@ impl GridStudy {
         s.ctx.chain = None;
         s.ctx.chain_jacobians = Vec::new();
         s
+    }
+
+    /// The chain its observers are drawn from jointly (correlated mode).
+    pub(crate) fn chain(&self) -> Option<&Chain> {
+        self.ctx.chain.as_ref()
     }
 
     /// The grid.
@@ -344,49 +355,26 @@ impl GridStudy {
         engine: Engine,
         monitor: Option<&dyn Monitor>,
     ) -> Result<GridResult, Error> {
-        let chunks = samples.div_ceil(CHUNK);
         let (first, points) = self.selected_points();
-        let ticks = PointTicks::new(monitor, points.len(), chunks);
-        if self.has_fixed() {
-            let r = self.run_fixed(crate::fixed::Draws::Samples(samples), seed, engine, &ticks);
-            ticks.cancelled()?;
-            ticks.finish();
-            return r;
-        }
-        let aimed = self.aim_all(&points)?;
-        // Task t = (point t / chunks, chunk t % chunks); each point's chunks merged in order.
-        let mut sums: Vec<Acc3> = points.iter().map(|p| Acc3::new(*p)).collect();
-        crate::kernel::ordered::map_fold_in_order(
-            points.len() * chunks,
-            |t| {
-                let (p, k) = (t / chunks, t % chunks);
-                let m = CHUNK.min(samples - k * CHUNK);
-                let mut acc = Acc3::new(points[p]);
-                if ticks.stop() {
-                    return acc;
-                }
-                run_chunk(
-                    &aimed[p],
-                    &self.ctx,
-                    seed,
-                    task_index(first + p, k),
-                    m,
-                    &mut acc,
-                    engine,
-                );
-                ticks.chunk_done(p);
-                acc
-            },
-            |t, part| sums[t / chunks].merge(&part),
-        );
+        let ticks = PointTicks::new(monitor, points.len(), samples.div_ceil(CHUNK));
+        let run = MapRun {
+            chain: self.ctx.chain.as_ref(),
+            seed,
+            engine,
+            ticks: &ticks,
+            first,
+        };
+        let stats = if self.has_fixed() {
+            let (covariance, kinds) = self.resolved();
+            let setup = self.setup(&covariance, &kinds, self.ctx.chain.as_ref());
+            let path = crate::fixed::FixedPath::new(&setup, &points);
+            crate::map::run_samples(&path, &run, &points, samples)
+        } else {
+            crate::map::run_samples(&AimedPath::new(self, &points), &run, &points, samples)
+        };
         ticks.cancelled()?;
+        let stats = stats?;
         ticks.finish();
-        let stats = points
-            .iter()
-            .zip(&sums)
-            .enumerate()
-            .map(|(p, (point, m))| self.finish(point, &aimed[p], m))
-            .collect();
         Ok(self.result(stats))
     }
 
@@ -400,79 +388,57 @@ impl GridStudy {
     ) -> Result<GridResult, Error> {
         let (first, points) = self.selected_points();
         let ticks = PointTicks::new(monitor, points.len(), 1);
-        if self.has_fixed() {
-            let r = self.run_fixed(
-                crate::fixed::Draws::Adaptive(adaptive),
-                seed,
-                engine,
-                &ticks,
-            );
-            ticks.cancelled()?;
-            ticks.finish();
-            return r;
-        }
-        let aimed = self.aim_all(&points)?;
-        let stats = points
-            .par_iter()
-            .enumerate()
-            .map(|(p, point)| {
-                if ticks.stop() {
-                    // Skipped: the run returns `Cancelled`.
-                    return crate::fixed::not_measurable(point, 0);
-                }
-                let (total, converged) = adaptive_draws(point, adaptive, |b, m, acc| {
-                    run_chunk(
-                        &aimed[p],
-                        &self.ctx,
-                        seed,
-                        task_index(first + p, b),
-                        m,
-                        acc,
-                        engine,
-                    )
-                });
-                ticks.point_done();
-                PointStats {
-                    converged: Some(converged),
-                    ..self.finish(point, &aimed[p], &total)
-                }
-            })
-            .collect();
+        let run = MapRun {
+            chain: self.ctx.chain.as_ref(),
+            seed,
+            engine,
+            ticks: &ticks,
+            first,
+        };
+        let stats = if self.has_fixed() {
+            let (covariance, kinds) = self.resolved();
+            let setup = self.setup(&covariance, &kinds, self.ctx.chain.as_ref());
+            let path = crate::fixed::FixedPath::new(&setup, &points);
+            crate::map::run_adaptive(&path, &run, &points, adaptive)
+        } else {
+            crate::map::run_adaptive(&AimedPath::new(self, &points), &run, &points, adaptive)
+        };
         ticks.cancelled()?;
+        let stats = stats?;
         ticks.finish();
         Ok(self.result(stats))
     }
 
-    /// Whether any observer is fixed (`aim = "fixed"`): then `fixed.rs` runs the study.
-    fn has_fixed(&self) -> bool {
+    /// Whether any observer is fixed (`aim = "fixed"`): then `fixed.rs` prepares the points.
+    pub(crate) fn has_fixed(&self) -> bool {
         self.grid
             .observers
             .iter()
             .any(|o| o.aim != crate::model::Aim::Point)
     }
 
-    fn run_fixed(
-        &self,
-        draws: crate::fixed::Draws<'_>,
-        seed: u64,
-        engine: Engine,
-        ticks: &PointTicks<'_>,
-    ) -> Result<GridResult, Error> {
-        let covariance: Vec<Matrix6<f64>> =
-            self.observer_noise.iter().map(|n| n.covariance).collect();
-        let kinds: Vec<RotationNoise> = self.observer_noise.iter().map(|n| n.noise).collect();
-        let setup = crate::fixed::Setup {
+    /// Each observer's resolved covariance and its rotation-noise meaning.
+    pub(crate) fn resolved(&self) -> (Vec<Matrix6<f64>>, Vec<RotationNoise>) {
+        (
+            self.observer_noise.iter().map(|n| n.covariance).collect(),
+            self.observer_noise.iter().map(|n| n.noise).collect(),
+        )
+    }
+
+    /// What the fixed path needs of this study.
+    pub(crate) fn setup<'s>(
+        &'s self,
+        covariance: &'s [Matrix6<f64>],
+        kinds: &'s [RotationNoise],
+        chain: Option<&'s Chain>,
+    ) -> crate::fixed::Setup<'s> {
+        crate::fixed::Setup {
             grid: &self.grid,
-            covariance: &covariance,
-            kinds: &kinds,
+            covariance,
+            kinds,
             pixel: self.grid.pixel,
-            chain: self.ctx.chain.as_ref(),
-        };
-        let (first, points) = self.selected_points();
-        let selection = (first, points.as_slice());
-        Ok(self.result(crate::fixed::run(
-            &setup, selection, draws, seed, engine, ticks,
-        )?))
+            chain,
+        }
     }
 
     /// Each observer's additive share of the first-order covariance at `point` (`None` where
@@ -484,17 +450,8 @@ impl GridStudy {
     /// # Errors
     /// An aimed observer that cannot aim at `point` (straight above or below it).
     pub fn linear_terms(&self, point: &Vector3<f64>) -> Result<Vec<Option<LinearTerm>>, Error> {
-        let covariance: Vec<Matrix6<f64>> =
-            self.observer_noise.iter().map(|n| n.covariance).collect();
-        let kinds: Vec<RotationNoise> = self.observer_noise.iter().map(|n| n.noise).collect();
-        let setup = crate::fixed::Setup {
-            grid: &self.grid,
-            covariance: &covariance,
-            kinds: &kinds,
-            pixel: self.grid.pixel,
-            chain: None,
-        };
-        crate::fixed::linear_terms(&setup, point)
+        let (covariance, kinds) = self.resolved();
+        crate::fixed::linear_terms(&self.setup(&covariance, &kinds, None), point)
     }
 
     fn finish(&self, point: &Vector3<f64>, aimed: &[Aimed], m: &Acc3) -> PointStats {
@@ -519,8 +476,59 @@ pub const CHAIN_SAMPLES_MIN: usize = 100_000;
 /// Salt of the seed of the chain propagation that resolves `sigma_from`.
 const CHAIN_SEED_SALT: u64 = 0x5EED_C4A1_0000_0001;
 
-/// `m` draws of one grid point (task `task` of the run seeded `seed`) into `acc`.
-#[allow(clippy::too_many_arguments)]
+/// The aimed path of a map (no fixed observer): each point's observers aimed at it.
+pub(crate) struct AimedPath<'s> {
+    study: &'s GridStudy,
+    points: &'s [Vector3<f64>],
+}
+
+impl<'s> AimedPath<'s> {
+    pub(crate) fn new(study: &'s GridStudy, points: &'s [Vector3<f64>]) -> Self {
+        AimedPath { study, points }
+    }
+}
+
+impl<'s> MapPath<'s> for AimedPath<'s> {
+    type Extra = Vec<Aimed>;
+
+    fn plan(&self, p: usize) -> Result<Planned<'s, Vec<Aimed>>, Error> {
+        let s = self.study;
+        let aimed = aim(
+            &s.grid,
+            &s.observer_noise,
+            s.correlated,
+            &s.chain_nominal,
+            &self.points[p],
+        )?;
+        Ok(Planned {
+            kernel: crate::block::prepare(&aimed, &s.ctx),
+            extra: aimed,
+        })
+    }
+
+    fn finish(
+        &self,
+        p: usize,
+        planned: &Planned<'s, Vec<Aimed>>,
+        draws: Option<&Acc3>,
+    ) -> PointStats {
+        let point = &self.points[p];
+        match draws {
+            Some(m) => self.study.finish(point, &planned.extra, m),
+            None => crate::fixed::not_measurable(point, planned.extra.len()),
+        }
+    }
+
+    #[cfg(test)]
+    fn legacy(&self, extra: &Vec<Aimed>, seed: u64, task: u64, m: usize, acc: &mut Acc3) {
+        let mut rng = crashrig_stats::stream(seed, task);
+        legacy::run_chunk(extra, &self.study.ctx, &mut rng, m, acc);
+    }
+}
+
+/// `m` draws of one grid point (task `task` of the run seeded `seed`, replicates `0 .. m`)
+/// into `acc` (tests: the kernel of one point).
+#[cfg(test)]
 pub(crate) fn run_chunk(
     obs: &[Aimed],
     ctx: &Ctx,
@@ -530,21 +538,22 @@ pub(crate) fn run_chunk(
     acc: &mut Acc3,
     engine: Engine,
 ) {
-    match engine {
-        Engine::Simd(isa) => {
-            let key = crate::kernel::philox::key_of_seed(seed);
-            crate::kernel::simd::dispatch(
-                isa,
-                #[inline(always)]
-                |width| crate::block::run_task(obs, ctx, key, task, m, acc, width),
-            );
-        }
-        #[cfg(test)]
-        Engine::Legacy => {
-            let mut rng = crashrig_stats::stream(seed, task);
-            legacy::run_chunk(obs, ctx, &mut rng, m, acc);
-        }
+    let ticks = PointTicks::new(None, 1, 1);
+    let run = MapRun {
+        chain: ctx.chain.as_ref(),
+        seed,
+        engine,
+        ticks: &ticks,
+        first: 0,
+    };
+    if engine == Engine::Legacy {
+        let mut rng = crashrig_stats::stream(seed, task);
+        legacy::run_chunk(obs, ctx, &mut rng, m, acc);
+        return;
     }
+    let kernel = crate::block::prepare(obs, ctx);
+    let part = crate::map::draw_points(&run, &[(&kernel, task)], &[acc.shift()], 0, m).remove(0);
+    acc.merge(&part);
 }
 
 /// Inputs per observer of the intersection Jacobian behind the first-order map: δC (3, mm),

@@ -26,6 +26,12 @@
 //! - Determinism: work is cut into fixed chunks of [`CHUNK`] draws (tasks), each with its own
 //!   counter range, merged in index order: the same seed gives bit-identical results on any
 //!   number of threads and on every instruction-set level.
+//! - Common random numbers (correlated mode): replicate `j` of every grid point of a map takes
+//!   the same chain draw — one rig error per crash test, shared by all the points it measures
+//!   — drawn once per block of replicates for the points drawn together; a point's own noise
+//!   (pixels, independent observers) comes from its own stream. Each point's σ keeps its
+//!   distribution, and [`GridStudy::joint`] gives the joint errors of points measured in the
+//!   same test (cross-covariances, the σ of a distance).
 //!
 //! # Layers and features
 //! The crate reads bottom-up (`docs/ARCHITECTURE.md`): a `kernel` layer (instruction-set
@@ -44,7 +50,9 @@
 //!   ([`PoseMc::uncertain`], [`PoseLinear::uncertain`]).
 //! - [`GridBuilder`] → [`GridStudy`]: observers with a covariance or a chain camera's
 //!   (`observer_from`, optionally `correlated`); [`GridStudy::run`] → [`GridResult`] of
-//!   [`PointStats`] (σ per axis, covariance, ellipsoid, linear covariance).
+//!   [`PointStats`] (σ per axis, covariance, ellipsoid, linear covariance);
+//!   [`GridStudy::joint`] → [`JointResult`] (points measured in the same test: their
+//!   cross-covariances and the σ of their distances, [`DistanceStats`]).
 //! - One entry per engine, each taking a typed options value and an optional
 //!   [`crashrig_stats::progress::Monitor`] (progress and cancellation, [`Error::Cancelled`]):
 //!   [`GridStudy::run`]`(&`[`RunOptions`]`, monitor)` — draws per point ([`Draws::Samples`] or
@@ -230,8 +238,10 @@ mod error;
 mod fixed;
 mod grid;
 mod grid_builder;
+mod joint;
 mod kernel;
 pub mod limits;
+mod map;
 mod model;
 mod options;
 #[cfg(feature = "scenario")]
@@ -240,6 +250,8 @@ mod result;
 #[cfg(feature = "scenario")]
 mod scenario;
 mod schedule;
+#[cfg(test)]
+mod testdata;
 mod view;
 
 pub use chain::{CameraId, Chain, ChainBuilder, PoseLinear, PoseMc, WorldPose};
@@ -247,6 +259,7 @@ pub use error::Error;
 pub use fixed::LinearTerm;
 pub use grid::{CHAIN_SAMPLES_MIN, GridStudy, INPUTS_PER_OBSERVER};
 pub use grid_builder::GridBuilder;
+pub use joint::{DistanceStats, JOINT_POINTS_MAX, JointResult};
 pub use kernel::Isa;
 pub use model::{
     Adaptive, Aim, Axis, CORRELATED_POSITION_TOLERANCE_MM, Camera, FixedCamera, Grid, MAX_NDIG,
@@ -288,3 +301,8 @@ pub mod bench {
         );
     }
 }
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

@@ -173,3 +173,8 @@ pub(crate) fn adaptive_stable(
 pub(crate) fn task_index(point: usize, chunk: usize) -> u64 {
     ((point as u64) << 24) | chunk as u64
 }
+
+/// The task of a map's shared chain draws (correlated mode): replicate `j` of every grid point
+/// takes its chain normals from draw `j` of this stream — one rig error per crash test, common
+/// to every point it measures. Above every grid task `p·2²⁴ + k` (p < 2⁴⁰).
+pub(crate) const CHAIN_TASK: u64 = u64::MAX;

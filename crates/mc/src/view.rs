@@ -31,11 +31,14 @@ pub const UNDISTORT_RESIDUAL_PX: f64 = 1e-7;
 /// Largest number of chord-Newton refinements of the scalar undistortion before the fallback.
 const MAX_REFINE: usize = 8;
 
-/// Chord-Newton steps of the undistortion in lanes (every lane takes all of them). Two
-/// suffice for pixel σ of a few pixels: the predictor's error is second order in the pixel
-/// offset and each step multiplies it by the relative change of the lens Jacobian over the
-/// offset (≈ 10⁻⁴ for 0.5 px at 1000 px focal length).
-pub(crate) const REFINE_STEPS: usize = 2;
+/// Chord-Newton steps of the undistortion in lanes (every lane takes all of them). The
+/// predictor's error is second order in the pixel offset and each step multiplies it by the
+/// relative change of the lens Jacobian over the offset (≈ 10⁻⁴–10⁻³ for 0.5–0.8 px at
+/// 1000 px focal length near an image corner); the residual checked is the one before the last
+/// update, after `REFINE_STEPS − 1` steps: with two steps it was ≈ 10⁻⁷ px near the corners of
+/// a strongly distorting lens (k1 = −0.15), where most lanes then took the scalar fix-up; with
+/// three it is ≈ 10⁻¹⁰ px (`docs/performance.md`, +13 % on the real-study map).
+pub(crate) const REFINE_STEPS: usize = 3;
 
 /// Relative tolerance of the visibility round trip (pixel → ray → same ray).
 const ROUND_TRIP_TOL: f64 = 1e-9;
@@ -132,11 +135,28 @@ impl FastLens {
     /// [`FastLens::img_from_normalized`] on plain numbers (the lane loop).
     #[inline(always)]
     pub(crate) fn img_from_xy(&self, x: f64, y: f64) -> (f64, f64) {
+        self.img_from_xy_k::<true>(x, y)
+    }
+
+    /// Whether the radial term has a denominator (FULL_OPENCV's k4 k5 k6).
+    pub(crate) fn is_rational(&self) -> bool {
+        self.k[3..].iter().any(|k| *k != 0.0)
+    }
+
+    /// [`FastLens::img_from_xy`]; without `RATIONAL` the radial term's denominator is left
+    /// out, which gives the same bits when k4 = k5 = k6 = 0 (it is then exactly 1 for finite
+    /// `r²`): no division per lane and step for the lenses without it.
+    #[inline(always)]
+    pub(crate) fn img_from_xy_k<const RATIONAL: bool>(&self, x: f64, y: f64) -> (f64, f64) {
         let r2 = x * x + y * y;
         let [k1, k2, k3, k4, k5, k6] = self.k;
         let [p1, p2] = self.p;
-        let radial =
-            (1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (1.0 + r2 * (k4 + r2 * (k5 + r2 * k6)));
+        let numerator = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+        let radial = if RATIONAL {
+            numerator / (1.0 + r2 * (k4 + r2 * (k5 + r2 * k6)))
+        } else {
+            numerator
+        };
         let xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
         let yd = y * radial + 2.0 * p2 * x * y + p1 * (r2 + 2.0 * y * y);
         (self.f[0] * xd + self.c[0], self.f[1] * yd + self.c[1])
@@ -281,18 +301,11 @@ pub(crate) fn undistort_lanes(
         }
         return;
     };
-    let (t0, t1) = (v.u0.x, v.u0.y);
-    let mut res2 = [0.0; LANES];
-    for _ in 0..REFINE_STEPS {
-        for l in 0..LANES {
-            let (du, dv) = (s * ex[l], s * ey[l]);
-            let (p0, p1) = fast.img_from_xy(x[l], y[l]);
-            let (r0, r1) = (p0 - (t0 + du), p1 - (t1 + dv));
-            x[l] -= j[0] * r0 + j[1] * r1;
-            y[l] -= j[2] * r0 + j[3] * r1;
-            res2[l] = r0 * r0 + r1 * r1;
-        }
-    }
+    let res2 = if fast.is_rational() {
+        refine::<true>(v, &fast, j, ex, ey, x, y)
+    } else {
+        refine::<false>(v, &fast, j, ex, ey, x, y)
+    };
     for l in 0..b {
         // The last step's residual (before its update) bounds the result's from above.
         let r2 = res2[l];
@@ -300,4 +313,33 @@ pub(crate) fn undistort_lanes(
             scalar(l, x, y);
         }
     }
+}
+
+/// The [`REFINE_STEPS`] chord-Newton steps of [`undistort_lanes`] on `fast`'s projection (its
+/// denominator only with `RATIONAL`); the squared residual of each lane before the last
+/// update.
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // lane-indexed loops over parallel arrays vectorise
+fn refine<const RATIONAL: bool>(
+    v: &View<'_>,
+    fast: &FastLens,
+    j: [f64; 4],
+    ex: &Lane,
+    ey: &Lane,
+    x: &mut Lane,
+    y: &mut Lane,
+) -> Lane {
+    let (s, t0, t1) = (v.sigma_px, v.u0.x, v.u0.y);
+    let mut res2 = [0.0; LANES];
+    for _ in 0..REFINE_STEPS {
+        for l in 0..LANES {
+            let (du, dv) = (s * ex[l], s * ey[l]);
+            let (p0, p1) = fast.img_from_xy_k::<RATIONAL>(x[l], y[l]);
+            let (r0, r1) = (p0 - (t0 + du), p1 - (t1 + dv));
+            x[l] -= j[0] * r0 + j[1] * r1;
+            y[l] -= j[2] * r0 + j[3] * r1;
+            res2[l] = r0 * r0 + r1 * r1;
+        }
+    }
+    res2
 }

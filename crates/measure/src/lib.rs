@@ -33,6 +33,9 @@
 //!   `displacements.csv`, per-marker plots, the numbers of `summary.json`), shared by the
 //!   command and the study.
 //!
+//! # Features
+//! None: the crate has no cargo features.
+//!
 //! # Example
 //! Two inward cameras 500 mm apart looking along +z; a marker 2 m in front of them.
 //! ```
@@ -121,3 +124,8 @@ pub use engine::{Epoch, Measurement, Rig, Row, Settings, measure};
 pub use error::Error;
 pub use options::{DEFAULT_SEED, MeasureOptions};
 pub use run::{ANoise, MeasureConfig, MeasureRun, OutputDir, ScaleBarsFile, check_out, run};
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

@@ -12,6 +12,9 @@
 //! depends on another for merging); above it, the CLI and the Python module call this one
 //! function and print or return the typed [`Merged`] result.
 //!
+//! # Features
+//! None: the crate has no cargo features.
+//!
 //! # Example
 //! ```no_run
 //! use crashrig_merge::{Merged, merge_shards};
@@ -152,3 +155,8 @@ mod tests {
         assert!(matches!(e, Error::OutDir(_)), "{e:?}");
     }
 }
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

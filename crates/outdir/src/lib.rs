@@ -29,6 +29,9 @@
 //! - `sigint-after-file:K`, `sigint-before-swap` — raise SIGINT at that point instead (the
 //!   signal handler cleans up and exits with 130).
 //!
+//! # Features
+//! None: the crate has no cargo features.
+//!
 //! # Example
 //! ```
 //! use crashrig_outdir::Staged;
@@ -683,3 +686,8 @@ mod tests {
         drop(s);
     }
 }
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

@@ -14,6 +14,9 @@
 //!    `crashrig grid`; the layout with the best *confirmed* objective wins, and only confirmed
 //!    numbers are reported. Its grid output is written to `OUT/grid/`, `placement.json` to `OUT`.
 //!
+//! # Features
+//! None: the crate has no cargo features.
+//!
 //! # Example
 //! ```no_run
 //! use crashrig_place::{PlaceConfig, run};
@@ -433,3 +436,8 @@ pub(crate) fn score_of(
         grid.threshold_mm,
     )
 }
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

@@ -25,6 +25,9 @@
 //!   and an integer colour bar for counts.
 //! - [`Format`]: PNG or SVG; [`Format::from_path`] picks it from a file extension.
 //!
+//! # Features
+//! None: the crate has no cargo features.
+//!
 //! # Example
 //! ```
 //! use crashrig_plot::{Format, HeatMap, Marker, heatmap, histogram};
@@ -1127,3 +1130,8 @@ mod tests {
         assert_eq!(Format::from_path(Path::new("b.txt")), None);
     }
 }
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

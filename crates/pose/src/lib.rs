@@ -26,6 +26,9 @@
 //! - [`link_parameters`], [`link_covariance_absolute`], [`link_covariance_relative`],
 //!   [`scaled_a_from_b`]: the rig link `A_from_B` as base and ω φ κ with first-order σ.
 //!
+//! # Features
+//! None: the crate has no cargo features.
+//!
 //! # Example
 //! ```
 //! use crashrig_geometry::{Rigid3, Vec3};
@@ -81,3 +84,8 @@ pub use relative::{
     poses_from_essential, refine_relative_pose, rotation_only_ratio, sampson_error, tangent_basis,
     triangulate_depths,
 };
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

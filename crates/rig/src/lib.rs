@@ -27,13 +27,17 @@
 //! - [`Epoch`], [`link_of`], [`links_of`]: per-epoch links.
 //! - [`link_statistics`] → [`LinkStatistics`]: mean, σ, SEM, covariance, SO(3) mean.
 //! - [`flag_outliers`] → [`OutlierReport`]; [`drift_report`] → [`DriftReport`].
-//! - [`sem::sem_covariance`] → [`sem::SemEstimate`]: the uncertainty of the mean link.
+//! - [`sem::sem_covariance`] → [`sem::SemEstimate`]: the uncertainty of the mean link and, per
+//!   axis, whether it can be relied on ([`likelihood`]: the drift model's REML likelihood).
 //! - [`refine()`] → [`Refinement`]: one link fitted jointly with all poses of A, with covariance
 //!   (a weighted mean of the same poses, floored at the uncertainty of the mean).
 //! - [`calibrate`] → [`Calibration`]: all of the above in one call.
 //!
 //! Epochs from a COLMAP model (camera selectors, pairing, scale bar) are read by
 //! `crashrig_study::calibration::epochs_from_model`; this crate works on poses only.
+//!
+//! # Features
+//! None: the crate has no cargo features.
 //!
 //! # Example
 //! ```
@@ -73,6 +77,7 @@
 mod calibrate;
 pub mod drift;
 mod error;
+pub mod likelihood;
 mod link;
 pub mod refine;
 pub mod robust;
@@ -90,3 +95,8 @@ pub use refine::{RefineOptions, Refinement, refine};
 pub use robust::{OutlierReport, flag_outliers, outlier_threshold};
 pub use sem::SemEstimate;
 pub use stats::{LinkStatistics, link_statistics};
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

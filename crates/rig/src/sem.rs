@@ -3,55 +3,77 @@
 //! The epochs of a sequence are often not independent: a rig on a moving car drifts slowly
 //! (temperature, a settling mount) **and** scatters from epoch to epoch, and `Σ/n` (Σ the
 //! spread of one epoch's link) then understates the uncertainty of the mean. The rule used
-//! here, **`ar1_noise_fit`** ([`RULE`]), models each of the six tangent residual series (centre
-//! in A's axes, mm; rotation `log(R̄ᵀ·R)` about B's axes, rad) as slow AR(1) drift mixed with
-//! epoch noise, `x_t = μ + √s·a_t + √(1 − s)·e_t` (a unit AR(1) with coefficient ρ, white
-//! noise e, drift share s of the variance), and fits (ρ, s) to the series' own sample
-//! autocorrelations:
+//! here, **`ar1_noise_fit_bound`** ([`RULE`]), models each of the six tangent residual series
+//! (centre in A's axes, mm; rotation `log(R̄ᵀ·R)` about B's axes, rad) as slow AR(1) drift
+//! mixed with epoch noise, `x_t = μ + √s·a_t + √(1 − s)·e_t` (a unit AR(1) with coefficient
+//! ρ, white noise e, drift share s of the variance), and per axis:
 //!
-//! 1. `r_k`, `k = 1..=L`, `L = min(20, ⌊n/3⌋)` lags (divisor n, about the sample mean);
-//! 2. for every (ρ, s) of a grid (ρ = 0, 0.01, …, 0.99; s = 0, 0.025, …, 1) the **expected**
-//!    sample autocorrelations of that model at this n, demeaning included
-//!    ([`DriftModel`]: `E[γ̂_k] = s·A_k(ρ) + (1 − s)·B_k`, exact for Gaussian or not), and
-//!    the (ρ, s) whose `E[γ̂_k]/E[γ̂_0]` is nearest to `r_k` in least squares;
-//!    The drift model is taken only when its squared error is below white noise's by more
-//!    than [`DRIFT_PENALTY`]`/n` (otherwise s = 0);
-//! 3. the variance factor of the fitted model: `f = n·Var(x̄) / E[s²]`, both exact at this n
-//!    (`n·Var(x̄) = s·τ(ρ) + 1 − s`, τ the finite-n integrated autocorrelation time
-//!    [`ar1_tau`]; `E[s²] = (s·A₀ + (1 − s)·B₀)·n/(n − 1)`, the sample variance's own
-//!    downward bias under drift), clamped to `[1, n − 1]`;
-//!    times the small-sample factor `q = min(t_{ν,0.975}/z_{0.975}, 1.3)²` of the estimator's
-//!    degrees of freedom `ν = max(n/f − 1, 1)` ([`small_sample_factor`]);
-//! 4. `sem_covariance = D (Σ/n) D` with `D = diag(√(f_j·q_j))`: the correlations of Σ are kept, the
-//!    matrix stays positive semi-definite. The **effective n** of an axis is `n / f_j`; below
-//!    [`RELIABLE_EFFECTIVE_N`] = 10 the sequence is too short for the drift seen and the axis is
-//!    marked not reliable (its SE stays finite).
+//! 1. fits (ρ, s) to the series' own sample autocorrelations `r_k`, `k = 1..=L`,
+//!    `L = min(20, ⌊n/3⌋)`: for every (ρ, s) of a grid (ρ = 0, 0.01, …, 0.99; s = 0, 0.025,
+//!    …, 1) the **expected** sample autocorrelations of that model at this n, demeaning
+//!    included ([`DriftModel`]: `E[γ̂_k] = s·A_k(ρ) + (1 − s)·B_k`), and the (ρ, s) nearest to
+//!    `r_k` in least squares, taken only when its squared error is below white noise's by
+//!    more than [`DRIFT_PENALTY`]`/n` (otherwise s = 0). Its variance factor
+//!    `f̂ = n·Var(x̄) / E[s²]`, both exact at this n (`n·Var(x̄) = s·τ(ρ) + 1 − s`, τ the
+//!    finite-n integrated autocorrelation time [`ar1_tau`]; `E[s²]` carries the sample
+//!    variance's own downward bias under drift), clamped to `[1, n − 1]`;
+//! 2. where the drift is **significant** — the REML likelihood-ratio statistic of drift
+//!    against white noise ([`crate::likelihood`]) exceeds [`DRIFT_GATE`] = χ²₂(0.95) — widens
+//!    f̂ to the **upper likelihood bound** `f_U`: the largest model factor over the (ρ, s) grid
+//!    points whose REML log-likelihood is within [`BOUND_DROP`] = ½ of the maximum (the upper
+//!    end of the one-σ likelihood interval). So the factor is `F = max(f̂, f_U)` there, `f̂`
+//!    elsewhere: a short sequence cannot tell a ρ = 0.9 drift from a ρ = 0.97 one, and the
+//!    bound covers both;
+//! 3. folds in the small-sample factor `q = min(t_{ν,0.975}/z_{0.975}, 1.3)²` of the
+//!    estimator's degrees of freedom `ν = max(n/F − 1, 1)` ([`small_sample_factor`]);
+//! 4. `sem_covariance = D (Σ/n) D` with `D = diag(√(F_j·q_j))`: the correlations of Σ are kept,
+//!    the matrix stays positive semi-definite. The **effective n** of an axis is `n / F_j`.
 //!
-//! Why a fit of the drift model and not a lag-1 rule or a kernel estimator: the lag-1
-//! autocorrelation of drift mixed with noise is `s·ρ`, so an AR(1) rule from it
-//! (`ar1_effective_n`, the rule before this one) takes a ρ = 0.95 half-and-half mixture for
-//! ρ ≈ 0.47 and covers the truth in half of the sequences; kernel (Newey–West, Andrews),
-//! batch-means and Geyer estimators, even with fixed-b critical values, cannot see a
-//! correlation time longer than their bandwidth. The comparison of eleven estimators on 48
-//! cells (ρ × drift share × n) is the coverage table of `docs/CALIBRATE.md`
-//! (`fixtures/gen/sem_estimators.py`); the slow test `sem_rule_coverage_table_slow`
-//! recomputes this rule's row in Rust.
+//! **Refusal** (`reliable = false`, the contract's `sem_reliable`): an axis whose effective n
+//! is below [`RELIABLE_EFFECTIVE_N`] = 10 **and** whose sequence does not resolve the drift it
+//! shows — the maximum-likelihood drift's correlation time `1/(1 − ρ̂)` is at least the
+//! sequence length n (the sequence sees less than one correlation time, so the drift cannot be
+//! told from a constant offset), or n itself is below 10. There ±2 SE cannot be relied on; the
+//! SE stays finite (the widened number above). An axis with a small effective n whose drift
+//! *is* resolved (for example 140 epochs of a ρ = 0.95 drift, effective n ≈ 3) keeps a
+//! reliable, widened SE: on such sequences the rule's ±2 SE covers the truth in ≥ 95 %.
+//!
+//! Why this rule: the contract's coverage table, counted with refusals as covered and as
+//! misses, on 48 cells (ρ × drift share × n), is `docs/CALIBRATE.md`, recomputed by the slow
+//! test `sem_coverage_contract_grid_slow` (`crates/rig/tests/sem_coverage.rs`); the candidate
+//! estimators compared in numpy are `fixtures/gen/sem_estimators.py`. A fit of the drift model
+//! and not a lag-1 rule or a kernel estimator: the lag-1 autocorrelation of drift mixed with
+//! noise is `s·ρ`, so an AR(1) rule from it (`ar1_effective_n`, two rules back) takes a
+//! ρ = 0.95 half-and-half mixture for ρ ≈ 0.47 and covers the truth in half of the sequences;
+//! kernel (Newey–West, Andrews), batch-means and Geyer estimators cannot see a correlation time
+//! longer than their bandwidth. The bound (not the point fit alone, `ar1_noise_fit`, the rule
+//! before this one) because the point fit's ρ is biased low near 1 on short sequences.
 //!
 //! Fewer than [`MIN_EPOCHS`] epochs (or a spread at numerical zero): `Σ/n`, rule
 //! **`covariance_over_n`** ([`RULE_IID`]).
 
 use crate::drift::autocorrelation;
+pub use crate::likelihood::ar1_tau;
+use crate::likelihood::{DriftLikelihood, LikelihoodSummary};
 use crashrig_geometry::{Mat6, Vec6};
 
-/// Name of the rule (drift model fitted to the autocorrelations).
-pub const RULE: &str = "ar1_noise_fit";
+/// Name of the rule (drift model fitted to the autocorrelations, widened to its upper
+/// likelihood bound where the drift is significant).
+pub const RULE: &str = "ar1_noise_fit_bound";
 /// Name of the rule when no analysis is possible (fewer than [`MIN_EPOCHS`] epochs, or a
 /// spread at numerical zero).
 pub const RULE_IID: &str = "covariance_over_n";
 /// Fewest epochs the drift model is fitted to (three lags for two parameters).
 pub const MIN_EPOCHS: usize = 9;
-/// Below this effective number of epochs an axis's SE is marked not reliable.
+/// Below this effective number of epochs, where the sequence does not resolve its drift, an
+/// axis's SE is marked not reliable.
 pub const RELIABLE_EFFECTIVE_N: f64 = 10.0;
+/// The likelihood-ratio statistic of drift against white noise above which the factor is
+/// widened to its upper bound: χ²₂(0.95) (two drift parameters, ρ and s).
+pub const DRIFT_GATE: f64 = 5.991_464_547_107_979;
+/// Drop of the log-likelihood below its maximum that delimits the upper bound of the factor
+/// (½: the one-σ likelihood interval).
+pub const BOUND_DROP: f64 = 0.5;
 /// Largest lag of the fit (and the fit uses at most a third of the sequence).
 pub const MAX_LAG: usize = 20;
 /// The drift model is taken only when it fits the autocorrelations better than white noise
@@ -74,41 +96,136 @@ const SHARE_STEPS: usize = 41;
 pub struct SemEstimate {
     /// Covariance of the mean link (tangent, mm and rad).
     pub covariance: Mat6,
-    /// Variance factor of each tangent axis over `Σ/n`: the drift model's `f_j` times the
-    /// small-sample factor `q_j` (1 for `covariance_over_n`).
+    /// Variance factor of each tangent axis over `Σ/n`: the rule's factor `F_j` (the drift
+    /// fit's, or its upper likelihood bound) times the small-sample factor `q_j` (1 for
+    /// `covariance_over_n`).
     pub inflation: [f64; 6],
     /// The small-sample factor `q_j` included in [`SemEstimate::inflation`].
     pub small_sample_factor: [f64; 6],
-    /// Effective number of epochs of each axis, `n / f_j`.
+    /// Effective number of epochs of each axis, `n / F_j`.
     pub effective_n: [f64; 6],
-    /// False where the effective n is below [`RELIABLE_EFFECTIVE_N`].
+    /// False where the effective n is below [`RELIABLE_EFFECTIVE_N`] and the sequence does not
+    /// resolve the drift it shows (see the module doc).
     pub reliable: [bool; 6],
     /// Lag-1 autocorrelation of each tangent residual series (0 when not analysed).
     pub lag1: [f64; 6],
-    /// Fitted AR(1) coefficient of the drift of each axis (0 when not analysed).
+    /// AR(1) coefficient of the drift fitted to the autocorrelations (0 when not analysed).
     pub drift_rho: [f64; 6],
-    /// Fitted share of the drift in each axis's variance (0 when not analysed).
+    /// Share of the drift in each axis's variance, fitted to the autocorrelations (0 when not
+    /// analysed).
     pub drift_share: [f64; 6],
-    /// Axes where drift is fitted (`f_j > 1`).
+    /// Axes whose factor `F_j` exceeds 1 (drift fitted or bounded).
     pub autocorrelated: [bool; 6],
+    /// The REML likelihood-ratio statistic of drift against white noise (0 when not analysed).
+    pub drift_statistic: [f64; 6],
+    /// Maximum-likelihood AR(1) coefficient of the drift (0 when not analysed).
+    pub drift_rho_ml: [f64; 6],
+    /// Axes whose factor was widened to the upper likelihood bound.
+    pub bounded: [bool; 6],
     /// [`RULE`] or [`RULE_IID`].
     pub rule: &'static str,
 }
 
-/// Variance factor of the mean of an AR(1) series of length `n` with coefficient `rho`
-/// (finite-n integrated autocorrelation time, `1 + 2 Σ (1 − k/n) ρ^k`).
-pub fn ar1_tau(n: usize, rho: f64) -> f64 {
-    let nf = n as f64;
-    let mut sum = 0.0;
-    let mut p = 1.0;
-    for k in 1..n {
-        p *= rho;
-        if p.abs() < 1e-17 {
-            break;
+/// The rule on one tangent axis (see the module doc).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AxisSem {
+    /// The drift model fitted to the autocorrelations (step 1).
+    pub fit: DriftFit,
+    /// What the REML likelihood says (`None` for a series without spread).
+    pub likelihood: Option<LikelihoodSummary>,
+    /// The factor `F = max(f̂, f_U)` where the drift is significant, else `f̂`.
+    pub factor: f64,
+    /// True where `F` is the upper likelihood bound (above the fit's `f̂`).
+    pub bounded: bool,
+    /// The small-sample factor `q` of `ν = max(n/F − 1, 1)`.
+    pub small_sample_factor: f64,
+    /// `F·q`: the variance factor over `σ²/n`.
+    pub inflation: f64,
+    /// `n / F`.
+    pub effective_n: f64,
+    /// False for a refusal (effective n below 10 and the drift not resolved).
+    pub reliable: bool,
+}
+
+/// The two models of the rule at one sequence length (the drift fit's expected
+/// autocorrelations and the REML filter); build once, apply to many series of that length.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SemModel {
+    n: usize,
+    drift: DriftModel,
+    likelihood: DriftLikelihood,
+}
+
+impl SemModel {
+    /// The models for sequences of `n` ≥ [`MIN_EPOCHS`] epochs.
+    pub fn new(n: usize) -> Self {
+        let n = n.max(MIN_EPOCHS);
+        Self {
+            n,
+            drift: DriftModel::new(n),
+            likelihood: DriftLikelihood::new(n),
         }
-        sum += (1.0 - k as f64 / nf) * p;
     }
-    1.0 + 2.0 * sum
+
+    /// The drift model fitted to the autocorrelations.
+    pub fn drift_model(&self) -> &DriftModel {
+        &self.drift
+    }
+
+    /// The rule on one residual series of length n (steps 1–3 and the refusal).
+    pub fn axis(&self, series: &[f64]) -> AxisSem {
+        let nf = self.n as f64;
+        let fit = self.drift.fit(series);
+        let likelihood = self.likelihood.summary(series, BOUND_DROP);
+        let upper = likelihood
+            .filter(|l| l.ratio_statistic > DRIFT_GATE)
+            .map_or(1.0, |l| l.factor_upper);
+        let bounded = upper > fit.model_factor;
+        let factor = fit.model_factor.max(upper);
+        let q = small_sample_factor((nf / factor - 1.0).max(1.0));
+        let effective_n = nf / factor;
+        let unresolved =
+            nf < RELIABLE_EFFECTIVE_N || likelihood.is_some_and(|l| nf * (1.0 - l.rho) < 1.0);
+        AxisSem {
+            fit,
+            likelihood,
+            factor,
+            bounded,
+            small_sample_factor: q,
+            inflation: factor * q,
+            effective_n,
+            reliable: !(effective_n < RELIABLE_EFFECTIVE_N && unresolved),
+        }
+    }
+
+    /// The uncertainty of the mean from the tangent `residuals` (n epochs, in epoch order) and
+    /// their covariance Σ (n − 1), by the rule of the module doc.
+    pub fn estimate(&self, residuals: &[Vec6], covariance: &Mat6) -> SemEstimate {
+        let n = residuals.len();
+        let mut est = sem_iid(covariance, n);
+        est.rule = RULE;
+        for j in 0..6 {
+            let series: Vec<f64> = residuals.iter().map(|r| r[j]).collect();
+            let a = self.axis(&series);
+            est.lag1[j] = autocorrelation(&series, 1).first().copied().unwrap_or(0.0);
+            est.drift_rho[j] = a.fit.rho;
+            est.drift_share[j] = a.fit.share;
+            est.inflation[j] = a.inflation;
+            est.small_sample_factor[j] = a.small_sample_factor;
+            est.autocorrelated[j] = a.factor > 1.0;
+            est.effective_n[j] = a.effective_n;
+            est.reliable[j] = a.reliable;
+            est.bounded[j] = a.bounded;
+            if let Some(l) = a.likelihood {
+                est.drift_statistic[j] = l.ratio_statistic;
+                est.drift_rho_ml[j] = l.rho;
+            }
+        }
+        let d = Vec6::from_fn(|j, _| est.inflation[j].sqrt());
+        let base = covariance / n as f64;
+        est.covariance = Mat6::from_fn(|i, j| d[i] * base[(i, j)] * d[j]);
+        est
+    }
 }
 
 /// The expected sample autocovariances of the drift model at one sequence length: for a unit
@@ -286,38 +403,21 @@ pub fn sem_iid(covariance: &Mat6, n: usize) -> SemEstimate {
         drift_rho: [0.0; 6],
         drift_share: [0.0; 6],
         autocorrelated: [false; 6],
+        drift_statistic: [0.0; 6],
+        drift_rho_ml: [0.0; 6],
+        bounded: [false; 6],
         rule: RULE_IID,
     }
 }
 
 /// The uncertainty of the mean from the tangent `residuals` of the epochs (in epoch order)
-/// and their covariance Σ (n − 1), by the rule of the module doc.
+/// and their covariance Σ (n − 1), by the rule of the module doc ([`SemModel::estimate`]).
 pub fn sem_covariance(residuals: &[Vec6], covariance: &Mat6) -> SemEstimate {
     let n = residuals.len();
     if n < MIN_EPOCHS {
         return sem_iid(covariance, n);
     }
-    let model = DriftModel::new(n);
-    let nf = n as f64;
-    let mut est = sem_iid(covariance, n);
-    est.rule = RULE;
-    for j in 0..6 {
-        let series: Vec<f64> = residuals.iter().map(|r| r[j]).collect();
-        let r = autocorrelation(&series, model.lags());
-        let fit = model.fit_autocorrelations(&r);
-        est.lag1[j] = r.first().copied().unwrap_or(0.0);
-        est.drift_rho[j] = fit.rho;
-        est.drift_share[j] = fit.share;
-        est.inflation[j] = fit.inflation;
-        est.small_sample_factor[j] = fit.small_sample_factor;
-        est.autocorrelated[j] = fit.model_factor > 1.0;
-        est.effective_n[j] = nf / fit.model_factor;
-        est.reliable[j] = est.effective_n[j] >= RELIABLE_EFFECTIVE_N;
-    }
-    let d = Vec6::from_fn(|j, _| est.inflation[j].sqrt());
-    let base = covariance / nf;
-    est.covariance = Mat6::from_fn(|i, j| d[i] * base[(i, j)] * d[j]);
-    est
+    SemModel::new(n).estimate(residuals, covariance)
 }
 
 #[cfg(test)]
@@ -488,6 +588,37 @@ mod tests {
         assert_abs_diff_eq!(tau, 3.0 - 1.0 / 15.0, epsilon = 1e-12);
         let f = tau * (nf - 1.0) / (nf - tau);
         assert_abs_diff_eq!(f, 3.032_710, epsilon = 1e-6);
+    }
+
+    #[test]
+    fn refusal_needs_an_unresolved_drift() {
+        // 140 epochs of a unit ρ = 0.95 AR(1) (correlation time 20 epochs; true effective n
+        // 3.2): significant drift, widened to the upper likelihood bound, effective n below
+        // 10 — but n(1 − ρ̂) ≥ 1, the drift is resolved: reliable.
+        let m = SemModel::new(140);
+        let a = m.axis(&unit_ar1(40, 0, 140, 0.95));
+        let l = a.likelihood.unwrap();
+        assert!(l.ratio_statistic > DRIFT_GATE && a.bounded, "{a:?}");
+        assert_eq!(a.factor, l.factor_upper.max(a.fit.model_factor));
+        assert!(a.effective_n < RELIABLE_EFFECTIVE_N, "{a:?}");
+        assert!(140.0 * (1.0 - l.rho) >= 1.0 && a.reliable, "{a:?}");
+        // 60 epochs of white noise on a slow ramp (a drift much slower than the sequence): the
+        // likelihood's best drift is the slowest of the grid, 60·(1 − 0.99) < 1 — unresolved,
+        // effective n below 10: refused.
+        let m = SemModel::new(60);
+        let ramp: Vec<f64> = unit_ar1(41, 0, 60, 0.0)
+            .iter()
+            .enumerate()
+            .map(|(t, e)| 0.5 * e + 0.05 * t as f64)
+            .collect();
+        let a = m.axis(&ramp);
+        let l = a.likelihood.unwrap();
+        assert_eq!(l.rho, 0.99, "{a:?}");
+        assert!(a.effective_n < RELIABLE_EFFECTIVE_N && !a.reliable, "{a:?}");
+        // White noise of 60 epochs: no significant drift, not bounded, reliable.
+        let a = m.axis(&unit_ar1(42, 0, 60, 0.0));
+        assert!(a.likelihood.unwrap().ratio_statistic <= DRIFT_GATE, "{a:?}");
+        assert!(a.reliable && !a.bounded && a.effective_n > 10.0, "{a:?}");
     }
 
     #[test]

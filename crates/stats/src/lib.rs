@@ -16,6 +16,9 @@
 //! - [`progress::Monitor`], [`progress::Counter`]: `(done, total)` progress reports and
 //!   cancellation of long calls (no UI).
 //!
+//! # Features
+//! None: the crate has no cargo features.
+//!
 //! # Example
 //! ```
 //! use crashrig_stats::{Moments, stream};
@@ -84,3 +87,8 @@ mod tests {
         assert_ne!(a, c);
     }
 }
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

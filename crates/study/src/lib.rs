@@ -26,6 +26,9 @@
 //!
 //! The grid, propagate and merge commands are `crashrig-grid` and `crashrig-merge`.
 //!
+//! # Features
+//! None: the crate has no cargo features.
+//!
 //! # Example
 //! ```no_run
 //! use crashrig_study::{Options, Study, run_study};
@@ -67,3 +70,8 @@ pub use pipeline::{ChainPose, LayoutResult, Options, Progress, StudyResult, run_
 pub use report::{Provenance, write_outputs};
 pub use study_file::Study;
 pub use study_run::{StepLine, StudyRun, StudyRunConfig, run_to_dir};
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

@@ -36,30 +36,33 @@ pub const DEFAULT_SEED: u64 = 20261121;
 /// An embedded input file: its path below `DIR/inputs/` and its bytes.
 type Embedded = (&'static str, &'static [u8]);
 
+/// The inputs are read from `crates/cli/paper/`, symbolic links into the workspace's
+/// `fixtures/` (one copy in the repository; `cargo package` stores the files themselves, so the
+/// packaged crate builds on its own).
 macro_rules! embed {
-    ($($rel:literal => $src:literal),* $(,)?) => {
-        &[$(($rel, include_bytes!(concat!("../../../../fixtures/", $src)) as &[u8])),*]
+    ($($rel:literal),* $(,)?) => {
+        &[$(($rel, include_bytes!(concat!("../../paper/", $rel)) as &[u8])),*]
     };
 }
 
 const INPUTS: &[Embedded] = embed![
-    "rig_sequence/cameras.bin" => "rig/paper/cameras.bin",
-    "rig_sequence/images.bin" => "rig/paper/images.bin",
-    "rig_sequence/points3D.bin" => "rig/paper/points3D.bin",
-    "rig_sequence/rigs.bin" => "rig/paper/rigs.bin",
-    "rig_sequence/frames.bin" => "rig/paper/frames.bin",
-    "twoview/model/cameras.bin" => "paper/twoview/model/cameras.bin",
-    "twoview/model/images.bin" => "paper/twoview/model/images.bin",
-    "twoview/model/points3D.bin" => "paper/twoview/model/points3D.bin",
-    "twoview/model/rigs.bin" => "paper/twoview/model/rigs.bin",
-    "twoview/model/frames.bin" => "paper/twoview/model/frames.bin",
-    "twoview/database.db" => "paper/twoview/database.db",
-    "scenarios/paper_chain.toml" => "scenarios/paper_chain.toml",
-    "scenarios/four_cameras_z0.toml" => "scenarios/four_cameras_z0.toml",
-    "scenarios/four_cameras_z300.toml" => "scenarios/four_cameras_z300.toml",
-    "scenarios/three_cameras_z0.toml" => "scenarios/three_cameras_z0.toml",
-    "scenarios/three_cameras_z300.toml" => "scenarios/three_cameras_z300.toml",
-    "scenarios/three_cameras_correlated.toml" => "scenarios/three_cameras_correlated.toml",
+    "rig_sequence/cameras.bin",
+    "rig_sequence/images.bin",
+    "rig_sequence/points3D.bin",
+    "rig_sequence/rigs.bin",
+    "rig_sequence/frames.bin",
+    "twoview/model/cameras.bin",
+    "twoview/model/images.bin",
+    "twoview/model/points3D.bin",
+    "twoview/model/rigs.bin",
+    "twoview/model/frames.bin",
+    "twoview/database.db",
+    "scenarios/paper_chain.toml",
+    "scenarios/four_cameras_z0.toml",
+    "scenarios/four_cameras_z300.toml",
+    "scenarios/three_cameras_z0.toml",
+    "scenarios/three_cameras_z300.toml",
+    "scenarios/three_cameras_correlated.toml",
 ];
 
 /// Writes the embedded inputs below `dir`.

@@ -1,7 +1,7 @@
 //! `crashrig calibrate` on the pycolmap-written simulated sequences of `fixtures/rig/sim/`
 //! (issue 12; generator `fixtures/gen/calibrate_evidence.py`): the outlier
 //! rule flags exactly the injected gross errors and nothing on a clean sequence, the
-//! uncertainty of the mean (`sem_covariance_tangent`, rule `ar1_noise_fit`) equals an
+//! uncertainty of the mean (`sem_covariance_tangent`, rule `ar1_noise_fit_bound`) equals an
 //! independent numpy computation and covers the truth on a drifting (AR(1), ρ = 0.9) sequence
 //! where σ/√n does not, and a rig-constrained model is refused.
 //!
@@ -187,7 +187,7 @@ fn sim_clean_sequence_has_no_flag_and_its_sem_is_sigma_over_sqrt_n() {
         num(np, "outlier_threshold"),
         epsilon = 1e-8 * num(np, "outlier_threshold")
     );
-    assert_eq!(string(&v, "sem_rule"), "ar1_noise_fit");
+    assert_eq!(string(&v, "sem_rule"), "ar1_noise_fit_bound");
     assert!(bools(&v, "sem_reliable").iter().all(|r| *r));
     assert!(!r.stderr.contains("not reliable"), "{}", r.stderr);
     assert_z_scores_match_numpy(&v, np);
@@ -247,14 +247,21 @@ fn sim_ar1_sequence_sem_is_widened_and_covers_the_truth() {
     let v = json_of(&r);
     let np = field(&e, "numpy");
     assert_eq!(num(&e, "rho"), 0.9);
-    assert_eq!(string(&v, "sem_rule"), "ar1_noise_fit");
+    assert_eq!(string(&v, "sem_rule"), "ar1_noise_fit_bound");
     assert!(bools(np, "autocorrelated").iter().all(|a| *a));
     assert_z_scores_match_numpy(&v, np);
     assert_sem_matches_numpy(&v, np);
-    // One warning line per axis whose effective n is below 10, naming it (numpy: x, θy, θz).
+    // One warning line per refused axis, naming it. 140 epochs resolve this ρ = 0.9 drift
+    // (the fitted correlation time is below n on every axis), so no axis is refused even where
+    // the effective n is below 10 (numpy: the same; the rule widens those axes to the upper
+    // likelihood bound instead, docs/CALIBRATE.md).
     let order = ["x", "y", "z", "theta_x", "theta_y", "theta_z"];
     let reliable = bools(&v, "sem_reliable");
-    assert_eq!(reliable, vec![false, true, true, true, false, false]);
+    assert_eq!(reliable, vec![true; 6]);
+    assert!(
+        bools(np, "sem_bounded").iter().all(|b| *b),
+        "the drift is significant on every axis"
+    );
     let eff = numbers(field(&v, "effective_n"), "effective_n", 6);
     for (j, axis) in order.iter().enumerate() {
         let lines: Vec<&str> = r
@@ -273,7 +280,8 @@ fn sim_ar1_sequence_sem_is_widened_and_covers_the_truth() {
         }
     }
     // The known ρ = 0.9 gives f = 20.1 at n = 140; at ρ = 0.716 the factor is 6.1. Every
-    // axis must be widened at least that much — and at most to the cap n − 1.
+    // axis must be widened at least that much — and at most to the cap n − 1 times the
+    // small-sample factor's cap 1.69 (reached on x: the bound at the cap, ν = 1).
     let n = 140usize;
     let lo = ar1_factor(n, 0.9 - 5.0 * ((1.0 - 0.81) / n as f64).sqrt());
     assert!((6.0..6.3).contains(&lo), "{lo}");
@@ -283,7 +291,10 @@ fn sim_ar1_sequence_sem_is_widened_and_covers_the_truth() {
         6,
     );
     for (j, fj) in f.iter().enumerate() {
-        assert!(*fj >= lo && *fj <= (n - 1) as f64, "axis {j}: f = {fj}");
+        assert!(
+            *fj >= lo && *fj <= (n - 1) as f64 * 1.69 * (1.0 + 1e-12),
+            "axis {j}: f = {fj}"
+        );
     }
     // The truth: inside ±2 SE of sem_covariance_tangent on all six axes; ±2 σ/√n
     // (covariance_tangent / n) misses it on four (numpy: the same axes).

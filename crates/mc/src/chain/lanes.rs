@@ -47,7 +47,7 @@ fn atan_over_z(t: f64) -> f64 {
     ];
     let mut p = C[0];
     for &k in &C[1..] {
-        p = p * t + k;
+        p = p.mul_add(t, k);
     }
     p
 }
@@ -167,10 +167,13 @@ impl CamLanes {
         }
     }
 
-    /// Adds lanes `0..b` of `v` (6 rows) and `th` (3 rows).
+    /// Adds lanes `0..b` of `v` (6 rows; without `ANGLES` only the centre, rows 0–2, and no
+    /// products) and `th` (3 rows), products by fused multiply-adds. The centre–centre
+    /// products are the same in both sums: with `ANGLES` they are summed once, in `s2`
+    /// ([`Self::reduce`] copies them).
     #[inline(always)]
-    fn add(&mut self, v: &[Lane; 6], th: &[Lane; 3], b: usize) {
-        for i in 0..6 {
+    fn add<const ANGLES: bool>(&mut self, v: &[Lane; 6], th: &[Lane; 3], b: usize) {
+        for i in 0..if ANGLES { 6 } else { 3 } {
             for l in 0..b.min(LANES) {
                 self.s1[i][l] += v[i][l];
             }
@@ -178,8 +181,11 @@ impl CamLanes {
         let mut k = 0;
         for i in 0..6 {
             for j in i..6 {
-                for l in 0..b.min(LANES) {
-                    self.s2[k][l] += v[i][l] * v[j][l];
+                if ANGLES {
+                    let (vi, vj, s) = (&v[i], &v[j], &mut self.s2[k]);
+                    for l in 0..b.min(LANES) {
+                        s[l] = vi[l].mul_add(vj[l], s[l]);
+                    }
                 }
                 k += 1;
             }
@@ -189,26 +195,32 @@ impl CamLanes {
                 self.t1[i][l] += th[i][l];
             }
         }
-        let u = |i: usize, l: usize| if i < 3 { v[i][l] } else { th[i - 3][l] };
+        let u = |i: usize| if i < 3 { &v[i] } else { &th[i - 3] };
         let mut k = 0;
         for i in 0..6 {
             for j in i..6 {
-                for l in 0..b.min(LANES) {
-                    self.u2[k][l] += u(i, l) * u(j, l);
+                if !(ANGLES && j < 3) {
+                    let (ui, uj, s) = (u(i), u(j), &mut self.u2[k]);
+                    for l in 0..b.min(LANES) {
+                        s[l] = ui[l].mul_add(uj[l], s[l]);
+                    }
                 }
                 k += 1;
             }
         }
     }
 
-    fn reduce(&self, n: u64) -> CamSums {
+    fn reduce<const ANGLES: bool>(&self, n: u64) -> CamSums {
         let sum = |r: &Lane| r.iter().sum::<f64>();
+        let s2: [f64; 21] = std::array::from_fn(|k| sum(&self.s2[k]));
+        // The centre–centre entries (k of i ≤ j < 3: 0, 1, 2, 6, 7, 11) of `u2` are `s2`'s.
+        let shared = |k: usize| ANGLES && matches!(k, 0 | 1 | 2 | 6 | 7 | 11);
         CamSums {
             n,
             s1: std::array::from_fn(|k| sum(&self.s1[k])),
-            s2: std::array::from_fn(|k| sum(&self.s2[k])),
+            s2,
             t1: std::array::from_fn(|k| sum(&self.t1[k])),
-            u2: std::array::from_fn(|k| sum(&self.u2[k])),
+            u2: std::array::from_fn(|k| if shared(k) { s2[k] } else { sum(&self.u2[k]) }),
         }
     }
 }
@@ -222,8 +234,12 @@ struct PoseLanes {
 
 /// `m` joint draws (task `task` of the run keyed `key`), returning per-camera sums. Must be
 /// called inside [`crate::kernel::simd::dispatch`].
+/// Without `ANGLES` the ω φ κ offsets are neither extracted nor summed (their sums stay
+/// zero): the tangent covariance alone, which is what a grid's `sigma_from` needs with
+/// tangent noise — and no lane falls back to the scalar formulas for its angles near gimbal
+/// lock.
 #[inline(always)]
-pub(crate) fn run_task(
+pub(crate) fn run_task<const ANGLES: bool>(
     chain: &Chain,
     key: [u32; 2],
     task: u64,
@@ -238,19 +254,21 @@ pub(crate) fn run_task(
     while done < m {
         let b = LANES.min(m - done);
         fill_block(key, task, done as u64, &mut e, width);
-        composer.compose::<true>(chain, &e, b);
+        composer.compose::<ANGLES>(chain, &e, b);
         for i in 0..n {
-            lanes[i].add(&composer.v[i], &composer.th[i], b);
+            lanes[i].add::<ANGLES>(&composer.v[i], &composer.th[i], b);
         }
         done += b;
     }
-    lanes.iter().map(|c| c.reduce(m as u64)).collect()
+    lanes.iter().map(|c| c.reduce::<ANGLES>(m as u64)).collect()
 }
 
 /// The vectorised composition of a chain over a block of joint draws, with its lane arrays
 /// (allocated once per task): per camera the centre error and ω φ κ offsets (`v`) and the
-/// body-axis error `log(R̄ᵀR)` (`th`). Used by the chain propagation ([`run_task`]) and by the
-/// grid kernel for observers drawn jointly from the chain (`block::run_prepared`).
+/// body-axis error `log(R̄ᵀR)` (`th`) for the chain propagation ([`run_task`],
+/// [`Composer::compose`]); or the centre error and the world-frame rotation error `R·R̄ᵀ`
+/// (`world`) for the grid kernel's observers drawn jointly from the chain
+/// ([`Composer::compose_world`], `block::ChainBlock`).
 pub(crate) struct Composer {
     plan: Vec<CamPlan>,
     poses: Vec<PoseLanes>,
@@ -261,6 +279,8 @@ pub(crate) struct Composer {
     pub(crate) v: Vec<[Lane; 6]>,
     /// Per camera: the body-axis error (rad).
     pub(crate) th: Vec<[Lane; 3]>,
+    /// Per camera: the world-frame rotation error `R·R̄ᵀ` (row-major; [`Self::compose_world`]).
+    pub(crate) world: Vec<[Lane; 9]>,
     delta: [Lane; 6],
     ok: [bool; LANES],
 }
@@ -283,6 +303,7 @@ impl Composer {
             },
             v: vec![[[0.0; LANES]; 6]; n],
             th: vec![[[0.0; LANES]; 3]; n],
+            world: vec![[[0.0; LANES]; 9]; n],
             delta: [[0.0; LANES]; 6],
             ok: [true; LANES],
         }
@@ -294,20 +315,68 @@ impl Composer {
     /// skipped (rows 3–5 of `v` are left as they are).
     #[inline(always)]
     pub(crate) fn compose<const ANGLES: bool>(&mut self, chain: &Chain, e: &[Lane], b: usize) {
-        let n = chain.len();
+        self.poses(chain, e);
+        let Composer {
+            plan,
+            poses,
+            v,
+            th,
+            ok,
+            ..
+        } = self;
+        for i in 0..chain.len() {
+            errors::<ANGLES>(&plan[i], &poses[i], &mut v[i], &mut th[i], ok);
+        }
+        for l in 0..b {
+            if !ok[l] {
+                exact_lane(chain, &e[..6 * chain.len()], l, v, th);
+            }
+        }
+    }
+
+    /// Composes the block whose chain normals are the rows `e[..6n]` into each camera's centre
+    /// error (`v`, rows 0–2) and world-frame rotation error `R·R̄ᵀ` (`world`): an observer
+    /// carried by the camera as a rigid body is at `C̄_obs + δC`, turned to `R·R̄ᵀ·R̄_obs`. The
+    /// first `b` lanes are valid; a lane whose link rotation leaves the series' range is
+    /// recomputed by the scalar composition.
+    #[inline(always)]
+    pub(crate) fn compose_world(&mut self, chain: &Chain, e: &[Lane], b: usize) {
+        self.poses(chain, e);
+        let Composer {
+            plan,
+            poses,
+            v,
+            world,
+            ok,
+            ..
+        } = self;
+        for i in 0..chain.len() {
+            world_errors(&plan[i], &poses[i], &mut v[i], &mut world[i]);
+        }
+        for l in 0..b {
+            if !ok[l] {
+                exact_world_lane(chain, &e[..6 * chain.len()], l, v, world);
+            }
+        }
+    }
+
+    /// Every camera's world pose per lane (`poses`), the links by their series; `ok` marks
+    /// the lanes inside the series' range.
+    #[inline(always)]
+    fn poses(&mut self, chain: &Chain, e: &[Lane]) {
         let Composer {
             plan,
             poses,
             link,
-            v,
-            th,
             delta,
             ok,
+            ..
         } = self;
         *ok = [true; LANES];
         for &i in chain.order() {
             let p = &plan[i];
-            p.noise_factor.apply(&e[6 * i..6 * i + 6], delta);
+            let rows: &[Lane; 6] = e[6 * i..6 * i + 6].try_into().expect("six rows");
+            p.noise_factor.apply(rows, delta);
             // The link's perturbed pose, with the noise kind chosen outside the lane loop (a
             // `match` inside it kept the loop from vectorising).
             match p.noise {
@@ -328,13 +397,52 @@ impl Composer {
                 }
             }
         }
-        for i in 0..n {
-            errors::<ANGLES>(&plan[i], &poses[i], &mut v[i], &mut th[i], ok);
+    }
+}
+
+/// Per lane: a camera's centre error and its world-frame rotation error `R·R̄ᵀ`.
+#[inline(always)]
+fn world_errors(p: &CamPlan, pose: &PoseLanes, v: &mut [Lane; 6], world: &mut [Lane; 9]) {
+    for k in 0..3 {
+        for l in 0..LANES {
+            v[k][l] = pose.c[k][l] - p.nominal_c[k];
         }
-        for l in 0..b {
-            if !ok[l] {
-                exact_lane(chain, &e[..6 * n], l, v, th);
-            }
+    }
+    let rn = &p.nominal_r;
+    for k in 0..9 {
+        let (a, b) = (k / 3, k % 3);
+        let (r0, r1, r2) = (&pose.r[3 * a], &pose.r[3 * a + 1], &pose.r[3 * a + 2]);
+        let w = &mut world[k];
+        for l in 0..LANES {
+            // (R·R̄ᵀ)_ab = Σ_m R_am R̄_bm.
+            w[l] = r0[l].mul_add(
+                rn[3 * b],
+                r1[l].mul_add(rn[3 * b + 1], r2[l] * rn[3 * b + 2]),
+            );
+        }
+    }
+}
+
+/// Lane `l` of [`Composer::compose_world`] by the scalar composition.
+#[inline(never)]
+fn exact_world_lane(
+    chain: &Chain,
+    e: &[Lane],
+    l: usize,
+    v: &mut [[Lane; 6]],
+    world: &mut [[Lane; 9]],
+) {
+    let eps: Vec<f64> = e.iter().map(|row| row[l]).collect();
+    let poses = chain.compose(&eps);
+    for (i, pose) in poses.iter().enumerate() {
+        let nom = &chain.nominal()[i];
+        let dc = pose.position_mm - nom.position_mm;
+        let w = pose.rotation * nom.rotation.transpose();
+        for k in 0..3 {
+            v[i][k][l] = dc[k];
+        }
+        for k in 0..9 {
+            world[i][k][l] = w[(k / 3, k % 3)];
         }
     }
 }
@@ -377,7 +485,11 @@ fn compose_lanes(parent: &PoseLanes, link: &PoseLanes, own: &mut PoseLanes) {
         let (a0, a1, a2) = (&rp[3 * k], &rp[3 * k + 1], &rp[3 * k + 2]);
         let (pc, c) = (&parent.c[k], &mut own.c[k]);
         for l in 0..LANES {
-            c[l] = pc[l] + (a0[l] * link.c[0][l] + a1[l] * link.c[1][l] + a2[l] * link.c[2][l]);
+            c[l] = pc[l]
+                + a0[l].mul_add(
+                    link.c[0][l],
+                    a1[l].mul_add(link.c[1][l], a2[l] * link.c[2][l]),
+                );
         }
     }
     for k in 0..9 {
@@ -386,7 +498,7 @@ fn compose_lanes(parent: &PoseLanes, link: &PoseLanes, own: &mut PoseLanes) {
         let (b0, b1, b2) = (&rl[j], &rl[3 + j], &rl[6 + j]);
         let r = &mut own.r[k];
         for l in 0..LANES {
-            r[l] = a0[l] * b0[l] + a1[l] * b1[l] + a2[l] * b2[l];
+            r[l] = a0[l].mul_add(b0[l], a1[l].mul_add(b1[l], a2[l] * b2[l]));
         }
     }
 }
@@ -423,7 +535,8 @@ fn errors<const ANGLES: bool>(
         }
         // Body-axis error: M = R̄ᵀR, v = ½(M − Mᵀ)∨, θ = atan2(|v|, (tr M − 1)/2)·v/|v|.
         let mt = |i: usize, j: usize| {
-            rn[i] * r[j] + rn[3 + i] * r[3 + j] + rn[6 + i] * r[6 + j] // (R̄ᵀR)_ij
+            // (R̄ᵀR)_ij
+            rn[i].mul_add(r[j], rn[3 + i].mul_add(r[3 + j], rn[6 + i] * r[6 + j]))
         };
         let w = [
             0.5 * (mt(2, 1) - mt(1, 2)),
@@ -431,10 +544,12 @@ fn errors<const ANGLES: bool>(
             0.5 * (mt(1, 0) - mt(0, 1)),
         ];
         let cos = 0.5 * (mt(0, 0) + mt(1, 1) + mt(2, 2) - 1.0);
-        let s2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
-        let t = s2 / (cos * cos);
+        let s2 = w[0].mul_add(w[0], w[1].mul_add(w[1], w[2] * w[2]));
+        // One division: t = |v|²/cos², f = atan(√t)/√t / cos.
+        let inv = 1.0 / cos;
+        let t = s2 * (inv * inv);
         lok &= cos > 0.0 && t < ATAN_Z_MAX * ATAN_Z_MAX;
-        let f = atan_over_z(t) / cos;
+        let f = atan_over_z(t) * inv;
         for k in 0..3 {
             th[k][l] = w[k] * f;
         }

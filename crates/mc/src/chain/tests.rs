@@ -308,3 +308,40 @@ fn chain_legacy_and_simd_agree_statistically_including_fallback_lanes() {
         }
     }
 }
+
+/// The tangent-only propagation (a grid's `sigma_from` with tangent noise) gives the same
+/// tangent covariances, centres and counts as the full one: bit for bit where no lane leaves
+/// the angle series (the paper's chain), to ~1e-12 relative where lanes near gimbal lock
+/// (the real-study chain, cam1 at φ = −89.88°) take the scalar formulas in the full one; its
+/// ω φ κ statistics are NaN.
+#[test]
+fn tangent_only_propagation_matches_the_full_one() {
+    let real = Scenario::from_toml_str(
+        &crate::testdata::repo_file("benches/real_map.toml"),
+        Path::new("real_map.toml"),
+    )
+    .unwrap();
+    for (sc, exact) in [(paper_chain("tangent", 1.0), true), (real, false)] {
+        let chain = Chain::new(&sc);
+        let o = crate::ChainOptions::new(3 * CHUNK + 11, 5);
+        let full = chain.monte_carlo(&o, None).unwrap();
+        let tangent = chain.monte_carlo_tangent(&o).unwrap();
+        for (f, t) in full.iter().zip(&tangent) {
+            assert_eq!(f.count, t.count);
+            assert!(t.angles_sigma_rad.iter().all(|s| s.is_nan()));
+            assert!(t.covariance.iter().all(|s| s.is_nan()));
+            if exact {
+                assert_eq!(f.covariance_tangent, t.covariance_tangent);
+                assert_eq!(f.position_mean_mm, t.position_mean_mm);
+            } else {
+                let d = (f.covariance_tangent - t.covariance_tangent).abs().max();
+                assert!(
+                    d <= 1e-12 * f.covariance_tangent.abs().max(),
+                    "{}: {d}",
+                    f.name
+                );
+                assert_ne!(f.covariance_tangent, t.covariance_tangent, "fallback lanes");
+            }
+        }
+    }
+}

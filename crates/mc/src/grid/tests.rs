@@ -4,7 +4,7 @@
 
 use super::*;
 use crate::Scenario;
-use crate::schedule::{ADAPTIVE_MIN_BATCHES, adaptive_stable};
+use crate::schedule::{ADAPTIVE_MIN_BATCHES, adaptive_draws, adaptive_stable};
 use approx::assert_abs_diff_eq;
 use crashrig_stats::Moments;
 use std::path::Path;
@@ -873,8 +873,10 @@ impl crashrig_stats::progress::Monitor for StopAfter {
 }
 
 /// A monitor that cancels makes both entries return the typed `Cancelled` error, and no unit
-/// of work starts after it said so (one thread: the first finished point, or chunk, is the
-/// only report): aimed and fixed observers, fixed and adaptive draws, and the chain.
+/// of work starts after it said so (one thread: the points of the first unit that finishes
+/// any — a group of [`crate::map::GROUP`] points' last chunk, or an adaptive point, or a
+/// chain chunk — are the only reports): aimed and fixed observers, fixed and adaptive draws,
+/// and the chain. The grid has more points than a group, so work is left to skip.
 #[test]
 fn cancelled_runs_return_cancelled_and_stop_working() {
     let one = rayon::ThreadPoolBuilder::new()
@@ -883,24 +885,25 @@ fn cancelled_runs_return_cancelled_and_stop_working() {
         .unwrap();
     let grid = |adaptive: &str, obs: &str| {
         let text = format!(
-            "seed = 5\nsamples = 9000\n[grid]\nx_mm = [900.0, 1500.0, 3]\ny_mm = [-200.0, 200.0, 2]\nz_mm = [0.0, 0.0, 1]\n{adaptive}\n{obs}"
+            "seed = 5\nsamples = 9000\n[grid]\nx_mm = [900.0, 1500.0, 9]\ny_mm = [-200.0, 200.0, 2]\nz_mm = [0.0, 0.0, 1]\n{adaptive}\n{obs}"
         );
         Scenario::from_toml_str(&text, Path::new("p.toml")).unwrap()
     };
     let aimed_obs = TWO_OBS.replace("600.0, 0.0, 0.0", "600.0, 0.0, 300.0");
     let adaptive = "[grid.adaptive]\ntolerance_mm = 0.05\nbatch = 500\nmax_samples = 5000";
-    for sc in [
-        grid("", &aimed_obs),
-        grid(adaptive, &aimed_obs),
-        grid("", FIXED_TWO),
-        grid(adaptive, FIXED_TWO),
+    for (sc, first_unit) in [
+        (grid("", &aimed_obs), crate::map::GROUP),
+        (grid(adaptive, &aimed_obs), 1),
+        (grid("", FIXED_TWO), crate::map::GROUP),
+        (grid(adaptive, FIXED_TWO), 1),
     ] {
         let study = GridStudy::new(&sc, sc.samples, sc.seed).unwrap();
+        assert!(study.grid().points().len() > crate::map::GROUP);
         for after in [0, 1] {
             let stop = StopAfter::new(after);
             let r = one.install(|| study.run(&study.options(), Some(&stop)));
             assert!(matches!(r, Err(Error::Cancelled(_))), "{r:?}");
-            assert_eq!(stop.seen(), after);
+            assert_eq!(stop.seen(), after * first_unit);
         }
     }
     let sc = scenario(
@@ -915,5 +918,78 @@ fn cancelled_runs_return_cancelled_and_stop_working() {
         let r = one.install(|| chain.monte_carlo(&crate::ChainOptions::new(9000, 3), Some(&stop)));
         assert!(matches!(r, Err(Error::Cancelled(_))), "{r:?}");
         assert_eq!(stop.seen(), after);
+    }
+}
+
+/// Every selection of points (the shards of `--shard i/N`: ranges across groups and windows of
+/// the scheduler) and every thread count gives each point the bits of the whole map: in
+/// correlated mode a point's draws are its own stream plus the map's chain draw of each
+/// replicate, whoever else is drawn with it. Aimed and fixed observers, correlated and
+/// independent, a partial last chunk.
+#[test]
+fn every_selection_and_thread_count_gives_the_whole_maps_bits() {
+    let aimed = Scenario::from_toml_str(
+        &crate::testdata::repo_file("fixtures/scenarios/three_cameras_correlated.toml"),
+        Path::new("c.toml"),
+    )
+    .unwrap();
+    let fixed =
+        Scenario::from_toml_str(&crate::testdata::real_map_small(), Path::new("r.toml")).unwrap();
+    let pool = |t: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build()
+            .unwrap()
+    };
+    for sc in [aimed, fixed] {
+        let study = GridStudy::new(&sc, 2000, 1).unwrap();
+        for s in [study.clone(), study.independent()] {
+            let o = crate::RunOptions::samples(crate::CHUNK + 100, 3);
+            let whole = pool(2).install(|| s.run(&o, None).unwrap());
+            assert_eq!(pool(1).install(|| s.run(&o, None).unwrap()), whole);
+            let n = whole.points.len();
+            let g = crate::map::GROUP;
+            for r in [0..1, 0..g + 1, 3..g + 5, g - 1..n.min(2 * g + 3), n - 2..n] {
+                let r = r.start.min(n)..r.end.min(n);
+                let part = pool(2).install(|| s.with_points(r.clone()).unwrap().run(&o, None));
+                assert_eq!(part.unwrap().points, whole.points[r.clone()], "{r:?}");
+            }
+        }
+    }
+}
+
+/// The adaptive rule draws the same replicates as a fixed number of draws: batch b of point p
+/// is task `p·2²⁴ + b` with replicates `b·batch ..` (the map's chain draw of each replicate in
+/// correlated mode), so with batches of one chunk, stopping at `max_samples`, it gives the
+/// fixed run's statistics bit for bit (aimed and fixed observers, correlated).
+#[test]
+fn adaptive_batches_of_a_chunk_are_the_fixed_runs_draws() {
+    let aimed = Scenario::from_toml_str(
+        &crate::testdata::repo_file("fixtures/scenarios/three_cameras_correlated.toml"),
+        Path::new("c.toml"),
+    )
+    .unwrap();
+    let fixed =
+        Scenario::from_toml_str(&crate::testdata::real_map_small(), Path::new("r.toml")).unwrap();
+    let n = ADAPTIVE_MIN_BATCHES * crate::CHUNK;
+    for sc in [aimed, fixed] {
+        let study = GridStudy::new(&sc, 2000, 1)
+            .unwrap()
+            .with_points(3..9)
+            .unwrap();
+        let fixed_run = study.run(&crate::RunOptions::samples(n, 5), None).unwrap();
+        // A tolerance no batch meets: every point stops at max_samples.
+        let ad = adaptive(crate::Tolerance::AbsoluteMm(1e-6), crate::CHUNK, n);
+        let adaptive_run = study
+            .run(&crate::RunOptions::adaptive(ad, 5), None)
+            .unwrap();
+        assert!(adaptive_run.correlated);
+        for (a, f) in adaptive_run.points.iter().zip(&fixed_run.points) {
+            assert_eq!(a.converged, Some(false));
+            assert_eq!(
+                (a.count, a.mean_mm, a.covariance),
+                (f.count, f.mean_mm, f.covariance)
+            );
+        }
     }
 }

@@ -30,6 +30,7 @@ impl Acc3 {
     }
 
     /// The shift.
+    #[cfg(test)]
     pub(crate) fn shift(&self) -> Vector3<f64> {
         self.shift
     }

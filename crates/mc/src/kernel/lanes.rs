@@ -64,28 +64,52 @@ impl NoiseFactor {
         self
     }
 
-    /// `δ = L·ε` of lane `d` (the same operations as [`Self::apply`], so the same bits).
+    /// `δ = L·ε` of lane `d` (the same operations as [`Self::apply`], so the same bits),
+    /// written out: a loop over the triangle (`k ≤ i`) inside the caller's lane loop kept
+    /// LLVM from vectorising the lane loop (a nested loop whose trip count varies).
     #[inline(always)]
-    pub(crate) fn delta_lane<const DIAGONAL: bool>(&self, e: &[Lane], d: usize) -> [f64; 6] {
-        std::array::from_fn(|i| {
-            let li = &self.l[i];
-            if DIAGONAL {
-                li[i] * e[i][d]
-            } else {
-                let mut s = li[0] * e[0][d];
-                for k in 1..=i {
-                    s += li[k] * e[k][d];
-                }
-                s
-            }
-        })
+    pub(crate) fn delta_lane<const DIAGONAL: bool>(&self, e: &[Lane; 6], d: usize) -> [f64; 6] {
+        let l = &self.l;
+        let [e0, e1, e2, e3, e4, e5] = [e[0][d], e[1][d], e[2][d], e[3][d], e[4][d], e[5][d]];
+        if DIAGONAL {
+            return [
+                l[0][0] * e0,
+                l[1][1] * e1,
+                l[2][2] * e2,
+                l[3][3] * e3,
+                l[4][4] * e4,
+                l[5][5] * e5,
+            ];
+        }
+        // Row i: ((l_i0·e0 + l_i1·e1) + …) + l_ii·e_i, each step one fused multiply-add.
+        let f = |k: f64, e: f64, s: f64| k.mul_add(e, s);
+        [
+            l[0][0] * e0,
+            f(l[1][1], e1, l[1][0] * e0),
+            f(l[2][2], e2, f(l[2][1], e1, l[2][0] * e0)),
+            f(l[3][3], e3, f(l[3][2], e2, f(l[3][1], e1, l[3][0] * e0))),
+            f(
+                l[4][4],
+                e4,
+                f(l[4][3], e3, f(l[4][2], e2, f(l[4][1], e1, l[4][0] * e0))),
+            ),
+            f(
+                l[5][5],
+                e5,
+                f(
+                    l[5][4],
+                    e4,
+                    f(l[5][3], e3, f(l[5][2], e2, f(l[5][1], e1, l[5][0] * e0))),
+                ),
+            ),
+        ]
     }
 
     /// `δ = L·ε` per lane; `e` holds the six normal rows. Row `i` is `Σ_{k ≤ i} L_ik ε_k`
-    /// summed in k order (with a diagonal factor the other terms are zeros, so both forms give
-    /// the same bits for non-zero σ).
+    /// summed in k order by fused multiply-adds (with a diagonal factor the other terms are
+    /// zeros, so both forms give the same bits for non-zero σ).
     #[inline(always)]
-    pub(crate) fn apply(&self, e: &[Lane], out: &mut [Lane; 6]) {
+    pub(crate) fn apply(&self, e: &[Lane; 6], out: &mut [Lane; 6]) {
         if self.diagonal {
             for i in 0..6 {
                 let li = self.l[i][i];
@@ -104,7 +128,7 @@ impl NoiseFactor {
                 }
                 for k in 1..=i {
                     for d in 0..LANES {
-                        row[d] += li[k] * e[k][d];
+                        row[d] = li[k].mul_add(e[k][d], row[d]);
                     }
                 }
             }
@@ -151,26 +175,22 @@ impl Normals3 {
         self.r[2][l] += (-dz).mul_add(dc, cz);
     }
 
-    /// Adds to lane `l` the two DLT rows of a view with rotation `rot` (`R_world_from_cam`,
-    /// row-major: `rot[3i + j]` = R_ij), centre `c` and normalized coordinates `(x, y)`:
-    /// `a = x·c₃ − c₁`, `b = y·c₃ − c₂` (cⱼ the columns of R).
+    /// Adds to lane `l` two DLT rows `a`, `b` (`q·(X − c) = 0`) of a view with centre `c`:
+    /// `qqᵀ` to the matrix and `q (q·c)` to the right-hand side, by fused multiply-adds.
     #[inline(always)]
-    pub(crate) fn add_view_lane(&mut self, l: usize, rot: &[f64; 9], c: [f64; 3], x: f64, y: f64) {
+    pub(crate) fn add_rows_lane(&mut self, l: usize, a: [f64; 3], b: [f64; 3], c: [f64; 3]) {
         let [cx, cy, cz] = c;
-        for (obs, col) in [(x, 0), (y, 1)] {
-            let a0 = obs * rot[2] - rot[col];
-            let a1 = obs * rot[5] - rot[3 + col];
-            let a2 = obs * rot[8] - rot[6 + col];
-            let ac = a0 * cx + a1 * cy + a2 * cz;
-            self.n[0][l] += a0 * a0;
-            self.n[1][l] += a0 * a1;
-            self.n[2][l] += a0 * a2;
-            self.n[3][l] += a1 * a1;
-            self.n[4][l] += a1 * a2;
-            self.n[5][l] += a2 * a2;
-            self.r[0][l] += a0 * ac;
-            self.r[1][l] += a1 * ac;
-            self.r[2][l] += a2 * ac;
+        for [q0, q1, q2] in [a, b] {
+            let qc = q0.mul_add(cx, q1.mul_add(cy, q2 * cz));
+            self.n[0][l] = q0.mul_add(q0, self.n[0][l]);
+            self.n[1][l] = q0.mul_add(q1, self.n[1][l]);
+            self.n[2][l] = q0.mul_add(q2, self.n[2][l]);
+            self.n[3][l] = q1.mul_add(q1, self.n[3][l]);
+            self.n[4][l] = q1.mul_add(q2, self.n[4][l]);
+            self.n[5][l] = q2.mul_add(q2, self.n[5][l]);
+            self.r[0][l] = q0.mul_add(qc, self.r[0][l]);
+            self.r[1][l] = q1.mul_add(qc, self.r[1][l]);
+            self.r[2][l] = q2.mul_add(qc, self.r[2][l]);
         }
     }
 
@@ -283,9 +303,44 @@ pub(crate) fn tangent_rot(r: &[f64; 9], w: [f64; 3]) -> ([f64; 9], f64) {
     ];
     let rot = std::array::from_fn(|k| {
         let (i, j) = (k / 3, k % 3);
-        r[3 * i] * e[j] + r[3 * i + 1] * e[3 + j] + r[3 * i + 2] * e[6 + j]
+        r[3 * i].mul_add(
+            e[j],
+            r[3 * i + 1].mul_add(e[3 + j], r[3 * i + 2] * e[6 + j]),
+        )
     });
     (rot, t)
+}
+
+/// The two DLT rows `a = R·(−1, 0, x)`, `b = R·(0, −1, y)` of a view turned to
+/// `R = R̄·Exp(w)` (`r` = R̄ row-major) with normalized coordinates `(x, y)`, and θ² = |w|²,
+/// without forming R: `Exp(w)·q = cos θ·q + sinc θ·(w × q) + cosc θ·(w·q)·w` (Taylor forms of
+/// the coefficients, as [`tangent_rot`]).
+#[inline(always)]
+pub(crate) fn tangent_rows(r: &[f64; 9], w: [f64; 3], x: f64, y: f64) -> ([f64; 3], [f64; 3], f64) {
+    let [wx, wy, wz] = w;
+    let t = wx.mul_add(wx, wy.mul_add(wy, wz * wz));
+    let (s, c) = sinc_cosc_series(t);
+    let k = (-c).mul_add(t, 1.0);
+    // q_a = (−1, 0, x): w × q_a = (wy·x, −wz − wx·x, wy), w·q_a = wz·x − wx.
+    let ca = c * wz.mul_add(x, -wx);
+    let va = [
+        s.mul_add(wy * x, ca.mul_add(wx, -k)),
+        s.mul_add(-(wx.mul_add(x, wz)), ca * wy),
+        s.mul_add(wy, ca.mul_add(wz, k * x)),
+    ];
+    // q_b = (0, −1, y): w × q_b = (wy·y + wz, −wx·y, −wx), w·q_b = wz·y − wy.
+    let cb = c * wz.mul_add(y, -wy);
+    let vb = [
+        s.mul_add(wy.mul_add(y, wz), cb * wx),
+        s.mul_add(-(wx * y), cb.mul_add(wy, -k)),
+        s.mul_add(-wx, cb.mul_add(wz, k * y)),
+    ];
+    let turn = |v: [f64; 3]| {
+        std::array::from_fn(|i| {
+            r[3 * i].mul_add(v[0], r[3 * i + 1].mul_add(v[1], r[3 * i + 2] * v[2]))
+        })
+    };
+    (turn(va), turn(vb), t)
 }
 
 /// Sines and cosines of the nominal ω, φ, κ of an observer (or of a chain link).
@@ -343,10 +398,10 @@ mod tests {
     use super::*;
 
     /// Normal rows with distinct, irregular values (no two products alike).
-    fn rows() -> Vec<Lane> {
-        (0..6)
-            .map(|i| std::array::from_fn(|d| ((i * 64 + d) as f64 * 0.618_033_988_7).sin() * 3.1))
-            .collect()
+    fn rows() -> [Lane; 6] {
+        std::array::from_fn(|i| {
+            std::array::from_fn(|d| ((i * 64 + d) as f64 * 0.618_033_988_7).sin() * 3.1)
+        })
     }
 
     #[test]

@@ -13,7 +13,9 @@
 //! - counter word 1 = slot within the draw (one slot = 128 bits = two normal pairs) in the
 //!   low 16 bits, draw index bits 32–47 in the high 16 bits;
 //! - counter words 2, 3 = task index (low, high): the grid's `p·2²⁴ + k`, the chain's chunk
-//!   `k` — the same task numbering as the former ChaCha8 `stream(seed, task)`.
+//!   `k` — the same task numbering as the former ChaCha8 `stream(seed, task)` — and, for the
+//!   chain draws a correlated map shares between its points, task 2⁶⁴ − 1 with draw index =
+//!   the replicate (`schedule::CHAIN_TASK`).
 //!
 //! So every (seed, task, draw, slot) owns a distinct counter, streams never overlap, and a
 //! task may hold up to 2⁴⁸ draws of up to 2¹⁶ slots (2¹⁸ normals) each.

@@ -1,0 +1,426 @@
+//! The crates as another tool depends on them (issue 35): packaging metadata (a tidy check),
+//! `cargo xtask package` (`cargo package` with its verification build), `cargo xtask features`
+//! (every feature combination a dependent may choose, with `cargo hack`, and the lean builds'
+//! dependency trees) and `cargo xtask consumer` (`examples/consumer/`, a tool outside the
+//! workspace, built against the packaged `.crate` files and run).
+
+use anyhow::{Context, Result, bail};
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The crates.io category slugs a crate may name (crates.io ignores any other, with a warning
+/// only at publish time, so the check is here).
+const CATEGORIES: &[&str] = &[
+    "algorithms",
+    "command-line-utilities",
+    "computer-vision",
+    "data-structures",
+    "filesystem",
+    "mathematics",
+    "multimedia::images",
+    "parser-implementations",
+    "science",
+    "science::geo",
+    "science::robotics",
+    "simulation",
+    "visualization",
+];
+
+/// The cargo-hack release `cargo xtask features` installs when it finds none (`--locked`).
+const CARGO_HACK_VERSION: &str = "0.6.46";
+
+fn cargo_in(root: &Path) -> Command {
+    let mut c = Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()));
+    c.current_dir(root);
+    c
+}
+
+fn target_dir(root: &Path) -> PathBuf {
+    std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| root.join("target"), PathBuf::from)
+}
+
+fn metadata(root: &Path) -> Result<serde_json::Value> {
+    let out = cargo_in(root)
+        .args([
+            "metadata",
+            "--format-version",
+            "1",
+            "--no-deps",
+            "--offline",
+        ])
+        .output()
+        .context("running cargo metadata")?;
+    anyhow::ensure!(
+        out.status.success(),
+        "cargo metadata failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).context("parsing cargo metadata")
+}
+
+/// Workspace packages, split into (publishable, `publish = false`), by name.
+pub fn packages(root: &Path) -> Result<(Vec<String>, Vec<String>)> {
+    let meta = metadata(root)?;
+    let mut split = (Vec::new(), Vec::new());
+    for p in meta["packages"].as_array().context("no packages")? {
+        let name = p["name"].as_str().unwrap_or_default().to_string();
+        match p["publish"].as_array() {
+            Some(registries) if registries.is_empty() => split.1.push(name),
+            _ => split.0.push(name),
+        }
+    }
+    Ok(split)
+}
+
+/// What a publishable crate must carry: description, licence, rust-version, a README that
+/// lists its features and is a doctest of the library, at most 5 keywords, valid categories,
+/// no repository URL (there is none to name), and a version on every normal dependency that
+/// is a path (a dev-dependency without one, the testkit, is dropped by packaging).
+pub fn check_packaging(root: &Path) -> Result<Vec<String>> {
+    let meta = metadata(root)?;
+    let mut problems = Vec::new();
+    let packages = meta["packages"].as_array().context("no packages")?;
+    let unpublished: BTreeSet<&str> = packages
+        .iter()
+        .filter(|p| p["publish"].as_array().is_some_and(Vec::is_empty))
+        .filter_map(|p| p["name"].as_str())
+        .collect();
+    for p in packages {
+        let name = p["name"].as_str().unwrap_or_default();
+        if unpublished.contains(name) {
+            continue;
+        }
+        let mut bad = |what: String| problems.push(format!("{name}: {what} (packaging)"));
+        for key in ["description", "license", "rust_version", "readme"] {
+            if p[key].as_str().is_none_or(str::is_empty) {
+                bad(format!("no `{key}` in Cargo.toml"));
+            }
+        }
+        if !p["repository"].is_null() {
+            bad("names a repository; there is no public one to name".into());
+        }
+        let keywords = p["keywords"].as_array().map_or(0, Vec::len);
+        if keywords == 0 || keywords > 5 {
+            bad(format!("{keywords} keywords (crates.io takes 1 to 5)"));
+        }
+        let categories = p["categories"].as_array().cloned().unwrap_or_default();
+        if categories.is_empty() {
+            bad("no categories".into());
+        }
+        for c in categories.iter().filter_map(|c| c.as_str()) {
+            if !CATEGORIES.contains(&c) {
+                bad(format!("category `{c}` is not a crates.io slug we know"));
+            }
+        }
+        for d in p["dependencies"].as_array().into_iter().flatten() {
+            let dep = d["name"].as_str().unwrap_or_default();
+            let path_only = d["path"].is_string() && d["req"] == "*";
+            if path_only && d["kind"].as_str() != Some("dev") {
+                bad(format!("dependency `{dep}` has a path but no version"));
+            }
+            if d["kind"].as_str() != Some("dev") && unpublished.contains(dep) {
+                bad(format!("normal dependency on the unpublished `{dep}`"));
+            }
+        }
+        let manifest = PathBuf::from(p["manifest_path"].as_str().unwrap_or_default());
+        let dir = manifest.parent().unwrap_or(root);
+        problems.extend(check_readme(name, dir, p)?);
+    }
+    Ok(problems)
+}
+
+/// The README names every feature and, for a library, is included as a doctest; the crate
+/// docs (lib.rs) name every feature too.
+fn check_readme(name: &str, dir: &Path, p: &serde_json::Value) -> Result<Vec<String>> {
+    let mut problems = Vec::new();
+    let readme = std::fs::read_to_string(dir.join("README.md")).unwrap_or_default();
+    if !readme.contains("## Features") {
+        problems.push(format!("{name}: README.md has no `## Features` section"));
+    }
+    let lib = p["targets"].as_array().into_iter().flatten().find(|t| {
+        t["kind"]
+            .as_array()
+            .is_some_and(|k| k.iter().any(|k| k == "lib"))
+    });
+    let lib_rs = match lib.and_then(|t| t["src_path"].as_str()) {
+        Some(path) => std::fs::read_to_string(path).with_context(|| path.to_string())?,
+        None => String::new(),
+    };
+    if lib.is_some() && !lib_rs.contains("#[doc = include_str!(\"../README.md\")]") {
+        problems.push(format!(
+            "{name}: lib.rs does not include README.md as a doctest"
+        ));
+    }
+    let heading = |l: &str| l.starts_with("//! #") && l.to_lowercase().contains("features");
+    if lib.is_some() && !lib_rs.lines().any(heading) {
+        problems.push(format!("{name}: the crate docs do not list its features"));
+    }
+    let features = p["features"].as_object().cloned().unwrap_or_default();
+    for f in features.keys().filter(|f| *f != "default") {
+        let named = format!("`{f}`");
+        if !readme.contains(&named) {
+            problems.push(format!(
+                "{name}: README.md does not name the feature {named}"
+            ));
+        }
+        if lib.is_some() && !lib_rs.contains(&named) {
+            problems.push(format!(
+                "{name}: the crate docs do not name the feature {named}"
+            ));
+        }
+    }
+    Ok(problems)
+}
+
+/// `--exclude` of every `publish = false` package, for cargo and cargo hack.
+fn excludes(root: &Path) -> Result<Vec<String>> {
+    let (_, unpublished) = packages(root)?;
+    Ok(unpublished
+        .into_iter()
+        .flat_map(|n| ["--exclude".to_string(), n])
+        .collect())
+}
+
+/// `cargo package --workspace` of the publishable crates; `verify`: with its verification
+/// build (each `.crate` unpacked and built on its own against the others, as crates.io will).
+pub fn package(root: &Path, verify: bool) -> Result<()> {
+    let mut c = cargo_in(root);
+    c.args(["package", "--workspace", "--allow-dirty"])
+        .args(excludes(root)?);
+    if !verify {
+        c.arg("--no-verify");
+    }
+    crate::run(c)
+}
+
+/// cargo-hack: `target/tools/bin/cargo-hack`, else on `PATH`, else installed into
+/// `target/tools` (pinned, `--locked`; a later run finds it there).
+fn cargo_hack(root: &Path) -> Result<PathBuf> {
+    let tools = target_dir(root).join("tools");
+    let local = tools.join("bin/cargo-hack");
+    if local.is_file() {
+        return Ok(local);
+    }
+    let on_path = Command::new("cargo-hack").arg("--version").output();
+    if on_path.is_ok_and(|o| o.status.success()) {
+        return Ok("cargo-hack".into());
+    }
+    let mut install = cargo_in(root);
+    install
+        .args(["install", "--locked", "cargo-hack", "--version"])
+        .arg(CARGO_HACK_VERSION)
+        .arg("--root")
+        .arg(&tools);
+    crate::run(install)?;
+    Ok(local)
+}
+
+/// `cargo xtask features`: `cargo hack check --each-feature --no-dev-deps` over the publishable
+/// crates (each without default features, with each feature alone, and with its defaults),
+/// then the lean builds' dependency trees (`tidy::LEAN_BUILDS`).
+pub fn features(root: &Path) -> Result<()> {
+    let hack = cargo_hack(root)?;
+    let mut c = Command::new(hack);
+    c.current_dir(root)
+        .args([
+            "hack",
+            "check",
+            "--each-feature",
+            "--no-dev-deps",
+            "--workspace",
+        ])
+        .args(excludes(root)?);
+    crate::run(c)?;
+    let problems = crate::tidy::check_lean_builds(root)?;
+    if !problems.is_empty() {
+        for p in &problems {
+            eprintln!("features: {p}");
+        }
+        bail!("{} lean build(s) hold what they must not", problems.len());
+    }
+    println!("features: every feature combination builds; the lean builds are lean");
+    Ok(())
+}
+
+/// Packages a dependent of `examples/consumer` reaches: its `crashrig-*` dependencies and
+/// their non-optional normal dependencies inside the workspace (the consumer turns no
+/// optional feature on), so that exactly those are patched.
+fn consumer_closure(root: &Path, manifest: &str) -> Result<BTreeSet<String>> {
+    let meta = metadata(root)?;
+    let packages = meta["packages"].as_array().context("no packages")?;
+    let mut todo: Vec<String> = manifest
+        .lines()
+        .filter_map(|l| l.split_once('=').map(|(k, _)| k.trim()))
+        .filter(|k| k.starts_with("crashrig-") && *k != "crashrig-consumer")
+        .map(str::to_string)
+        .collect();
+    let mut seen = BTreeSet::new();
+    while let Some(name) = todo.pop() {
+        if !seen.insert(name.clone()) {
+            continue;
+        }
+        let p = packages
+            .iter()
+            .find(|p| p["name"] == name.as_str())
+            .with_context(|| {
+                format!("examples/consumer depends on `{name}`, not in the workspace")
+            })?;
+        for d in p["dependencies"].as_array().into_iter().flatten() {
+            let dep = d["name"].as_str().unwrap_or_default();
+            if d["path"].is_string() && d["kind"].is_null() && d["optional"] == false {
+                todo.push(dep.to_string());
+            }
+        }
+    }
+    Ok(seen)
+}
+
+/// `cargo xtask consumer`: the publishable crates packaged (`--no-verify`: `cargo xtask
+/// package` verifies them), each `.crate` unpacked into `target/consumer/packaged/`, and
+/// `examples/consumer` (copied with the workspace's Cargo.lock into `target/consumer/app/`,
+/// so it resolves the dependency versions the workspace is tested with) built with a
+/// `[patch.crates-io]` per crate pointing at its unpacked package, then run on `fixtures/`.
+/// Its normal dependency tree must hold no SQLite and no toml.
+pub fn consumer(root: &Path) -> Result<()> {
+    package(root, false)?;
+    let target = target_dir(root);
+    let work = target.join("consumer");
+    if work.exists() {
+        std::fs::remove_dir_all(&work).with_context(|| work.display().to_string())?;
+    }
+    let packaged = work.join("packaged");
+    let app = work.join("app");
+    std::fs::create_dir_all(&packaged)?;
+    std::fs::create_dir_all(app.join("src"))?;
+    let src = root.join("examples/consumer");
+    // Not a workspace member, so `cargo fmt --all` does not see it.
+    let mut fmt = Command::new("rustfmt");
+    fmt.args(["--edition", "2024", "--check"])
+        .arg(src.join("src/main.rs"));
+    crate::run(fmt)?;
+    let manifest = std::fs::read_to_string(src.join("Cargo.toml"))?;
+    std::fs::write(app.join("Cargo.toml"), &manifest)?;
+    std::fs::copy(src.join("src/main.rs"), app.join("src/main.rs"))?;
+    std::fs::copy(root.join("Cargo.lock"), app.join("Cargo.lock"))?;
+
+    let version = env!("CARGO_PKG_VERSION");
+    let mut patches = Vec::new();
+    for name in consumer_closure(root, &manifest)? {
+        let file = target.join(format!("package/{name}-{version}.crate"));
+        let mut tar = Command::new("tar");
+        tar.arg("-xzf").arg(&file).arg("-C").arg(&packaged);
+        crate::run(tar)?;
+        let dir = packaged.join(format!("{name}-{version}"));
+        anyhow::ensure!(
+            dir.join("Cargo.toml").is_file(),
+            "{}: not unpacked",
+            dir.display()
+        );
+        patches.push(format!(
+            "patch.crates-io.{name}.path={:?}",
+            dir.to_string_lossy()
+        ));
+    }
+    let with_patches = |c: &mut Command| {
+        for p in &patches {
+            c.arg("--config").arg(p);
+        }
+    };
+    let app_manifest = app.join("Cargo.toml");
+    let mut tree = cargo_in(&app);
+    tree.args([
+        "tree",
+        "-e",
+        "normal",
+        "--prefix",
+        "none",
+        "--manifest-path",
+    ])
+    .arg(&app_manifest);
+    with_patches(&mut tree);
+    let out = tree.output().context("cargo tree of the consumer")?;
+    anyhow::ensure!(
+        out.status.success(),
+        "cargo tree of the consumer failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let tree = String::from_utf8_lossy(&out.stdout);
+    for line in tree.lines() {
+        let mut words = line.split_whitespace();
+        let (name, source) = (words.next().unwrap_or(""), line);
+        if ["rusqlite", "libsqlite3-sys", "toml"].contains(&name) {
+            bail!("the consumer's dependency tree holds `{name}` (its lean builds must not)");
+        }
+        if name.starts_with("crashrig-")
+            && name != "crashrig-consumer"
+            && !source.contains("target/consumer/packaged")
+        {
+            bail!("the consumer resolved `{line}`, not the packaged crate");
+        }
+    }
+    // The workspace's target directory: the dependencies the verification build of `cargo
+    // package` compiled (the same default dev profile) are reused.
+    let mut run = cargo_in(&app);
+    run.args(["run", "--manifest-path"])
+        .arg(&app_manifest)
+        .arg("--target-dir")
+        .arg(&target);
+    with_patches(&mut run);
+    run.arg("--").arg(root.join("fixtures"));
+    crate::run(run)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tidy_publishable_crates_carry_their_packaging_metadata() {
+        let problems = check_packaging(&crate::project_root()).unwrap();
+        assert!(problems.is_empty(), "{problems:#?}");
+    }
+
+    /// The check sees what it forbids, in a throw-away workspace: a crate without readme,
+    /// keywords or categories, with an invented repository, a path dependency without a
+    /// version and a feature its docs do not name.
+    #[test]
+    fn packaging_check_catches_a_bare_crate() {
+        let dir = std::env::temp_dir().join(format!("xtask-packaging-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        for (krate, deps) in [("a", "b = { path = \"../b\" }"), ("b", "")] {
+            std::fs::create_dir_all(dir.join(krate).join("src")).unwrap();
+            std::fs::write(dir.join(krate).join("src/lib.rs"), "//! A crate.\n").unwrap();
+            std::fs::write(
+                dir.join(krate).join("Cargo.toml"),
+                format!(
+                    "[package]\nname = \"{krate}\"\nversion = \"0.1.0\"\nedition = \"2024\"\n\
+                     repository = \"https://example.invalid/x\"\n\
+                     [features]\nfast = []\n[dependencies]\n{deps}\n"
+                ),
+            )
+            .unwrap();
+        }
+        std::fs::write(
+            dir.join("Cargo.toml"),
+            "[workspace]\nresolver = \"3\"\nmembers = [\"a\", \"b\"]\n",
+        )
+        .unwrap();
+        let problems = check_packaging(&dir).unwrap().join("\n");
+        std::fs::remove_dir_all(&dir).unwrap();
+        for want in [
+            "a: no `description`",
+            "a: no `readme`",
+            "a: names a repository",
+            "a: 0 keywords",
+            "a: no categories",
+            "a: dependency `b` has a path but no version",
+            "a: README.md has no `## Features` section",
+            "a: lib.rs does not include README.md as a doctest",
+            "a: the crate docs do not list its features",
+            "a: README.md does not name the feature `fast`",
+        ] {
+            assert!(problems.contains(want), "missing {want:?} in:\n{problems}");
+        }
+    }
+}
