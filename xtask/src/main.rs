@@ -21,7 +21,7 @@ verbs:
   tidy               dependency DAG, lean builds, packaging metadata, module docs, ARCHITECTURE
                      code map (also run by `cargo test`)
   package            cargo package of every publishable crate, with its verification build
-  features           cargo hack check --each-feature of every publishable crate (installs
+  features           cargo hack check --each-feature of every publishable crate with features (installs
                      cargo-hack into target/tools when missing) and the lean builds' trees
   consumer           examples/consumer, outside the workspace, built against the packaged
                      crates (target/package/*.crate) and run

@@ -182,6 +182,24 @@ fn excludes(root: &Path) -> Result<Vec<String>> {
         .collect())
 }
 
+/// The publishable crates that declare at least one feature.
+fn with_features(root: &Path) -> Result<Vec<String>> {
+    let (published, _) = packages(root)?;
+    let meta = metadata(root)?;
+    let mut out = Vec::new();
+    for p in meta["packages"].as_array().context("no packages")? {
+        let name = p["name"].as_str().unwrap_or_default().to_string();
+        let has = p["features"].as_object().is_some_and(|f| !f.is_empty());
+        if has && published.contains(&name) {
+            out.push(name);
+        }
+    }
+    if out.is_empty() {
+        bail!("no publishable crate declares a feature: nothing for cargo hack to check");
+    }
+    Ok(out)
+}
+
 /// `cargo package --workspace` of the publishable crates; `verify`: with its verification
 /// build (each `.crate` unpacked and built on its own against the others, as crates.io will).
 pub fn package(root: &Path, verify: bool) -> Result<()> {
@@ -217,20 +235,19 @@ fn cargo_hack(root: &Path) -> Result<PathBuf> {
 }
 
 /// `cargo xtask features`: `cargo hack check --each-feature --no-dev-deps` over the publishable
-/// crates (each without default features, with each feature alone, and with its defaults),
-/// then the lean builds' dependency trees (`tidy::LEAN_BUILDS`).
+/// crates that have features (each without default features, with each feature alone, and
+/// with its defaults; a crate without features has one build, which the package verification
+/// already makes on its own), then the lean builds' dependency trees (`tidy::LEAN_BUILDS`).
 pub fn features(root: &Path) -> Result<()> {
     let hack = cargo_hack(root)?;
     let mut c = Command::new(hack);
     c.current_dir(root)
-        .args([
-            "hack",
-            "check",
-            "--each-feature",
-            "--no-dev-deps",
-            "--workspace",
-        ])
-        .args(excludes(root)?);
+        .args(["hack", "check", "--each-feature", "--no-dev-deps"])
+        .args(
+            with_features(root)?
+                .into_iter()
+                .flat_map(|n| ["-p".to_string(), n]),
+        );
     crate::run(c)?;
     let problems = crate::tidy::check_lean_builds(root)?;
     if !problems.is_empty() {

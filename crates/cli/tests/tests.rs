@@ -6,3 +6,4 @@ mod mc_golden;
 mod measure;
 mod robustness;
 mod sigint_race;
+mod swap;

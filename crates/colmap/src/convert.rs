@@ -109,18 +109,23 @@ pub fn convert(config: &ConvertConfig) -> Result<Converted> {
         ModelFormat::Text => model.text_format_warning().into_iter().collect(),
         ModelFormat::Binary => Vec::new(),
     };
-    let staged = crashrig_outdir::Staged::new(output, model_file_name).map_err(|problem| {
+    let files = model.encode(format).map_err(|source| Error::Writing {
+        path: output.clone(),
+        source: Box::new(source),
+    })?;
+    let mut staged = crashrig_outdir::Staged::new(output, model_file_name).map_err(|problem| {
         Error::Staging {
             path: output.clone(),
             problem,
         }
     })?;
-    model
-        .write(staged.dir(), format)
-        .map_err(|source| Error::Writing {
+    // Each file straight into the staging directory; the directory is swapped in as a whole.
+    for (name, bytes) in &files {
+        staged.write(name, bytes).map_err(|source| Error::Commit {
             path: output.clone(),
-            source: Box::new(source),
+            source,
         })?;
+    }
     staged.commit().map_err(|source| Error::Commit {
         path: output.clone(),
         source,

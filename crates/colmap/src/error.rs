@@ -18,6 +18,12 @@ pub enum Error {
         #[source]
         source: std::io::Error,
     },
+    /// The path does not exist (a model directory or a database was expected).
+    #[error("{}: does not exist", path.display())]
+    Missing {
+        /// The path as given.
+        path: PathBuf,
+    },
     /// The directory holds neither the three binary nor the three text model files.
     #[error("{}: not a COLMAP model (needs cameras, images and points3D as .bin or .txt)", path.display())]
     NotAModel {
@@ -234,6 +240,7 @@ impl Error {
     pub fn path(&self) -> &std::path::Path {
         match self {
             Error::Io { path, .. }
+            | Error::Missing { path }
             | Error::NotAModel { path }
             | Error::NotADatabase { path, .. }
             | Error::RigsWithoutFrames { path }

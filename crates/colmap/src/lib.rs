@@ -81,6 +81,7 @@
 #![deny(missing_docs)]
 
 mod binary;
+pub mod bounds;
 #[cfg(feature = "commands")]
 pub mod convert;
 #[cfg(feature = "database")]

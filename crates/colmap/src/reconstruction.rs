@@ -122,9 +122,15 @@ impl Reconstruction {
     /// Then checks the cross-file invariants (see the crate docs).
     ///
     /// # Errors
-    /// [`Error::NotAModel`], [`Error::RigsWithoutFrames`], any parse error of a file, or
+    /// [`Error::Missing`], [`Error::NotAModel`], [`Error::RigsWithoutFrames`], any parse error of a file, or
     /// [`Error::Invariant`] naming the file and record that breaks a rule.
     pub fn read(dir: &Path) -> Result<Reconstruction> {
+        // A path that is not there: said so (the CLI and the Python module say the same).
+        if std::fs::symlink_metadata(dir).is_err() {
+            return Err(Error::Missing {
+                path: dir.to_path_buf(),
+            });
+        }
         let complete =
             |f: &Files| f.cameras.is_file() && f.images.is_file() && f.points3d.is_file();
         let format = if complete(&Files::new(dir, ModelFormat::Binary)) {
@@ -228,6 +234,13 @@ impl Reconstruction {
         points: Vec<Point3D>,
     ) -> Result<Reconstruction> {
         let files = Files::new(dir, format);
+        crate::bounds::check(
+            (&cameras, &files.cameras),
+            (&rigs, &files.rigs),
+            (!legacy).then_some((frames.as_slice(), files.frames.as_path())),
+            (&images, &files.images),
+            (&points, &files.points3d),
+        )?;
         if legacy {
             (rigs, frames) = trivial_rigs_and_frames(&cameras, &images);
         }
@@ -276,16 +289,16 @@ impl Reconstruction {
         })
     }
 
-    /// Writes all five files in COLMAP ≥ 3.12 layout and `format` into `dir` (created if
-    /// missing). Each file goes to a temporary file in `dir` first; the renames happen only
-    /// after all five were written. Stored values are written unchanged, so a read followed by
-    /// a write reproduces binary input byte for byte, and text written from binary reads back
-    /// bit-exactly (`%.17g`).
+    /// The five files of the model in COLMAP ≥ 3.12 layout and `format`: `(file name, bytes)`
+    /// for rigs, cameras, frames, images and points3D. Stored values are written unchanged, so
+    /// a read followed by a write reproduces binary input byte for byte, and text written from
+    /// binary reads back bit-exactly (`%.17g`). `colmap convert` writes them into its staged
+    /// output directory; [`Reconstruction::write`] into a directory.
     ///
     /// # Errors
-    /// [`Error::Io`] naming the directory or file; [`Error::Unwritable`] for an image name
-    /// that text cannot hold (checked before anything is written).
-    pub fn write(&self, dir: &Path, format: ModelFormat) -> Result<()> {
+    /// [`Error::Unwritable`] (naming the file by its name) for an image name that the format
+    /// cannot hold.
+    pub fn encode(&self, format: ModelFormat) -> Result<Vec<(String, Vec<u8>)>> {
         // Binary names end at a NUL byte. Text pairs lines and trims them: a name must be one
         // non-empty line without leading or trailing whitespace to read back unchanged (inner
         // spaces are fine for our reader; COLMAP's keeps only the first word).
@@ -294,17 +307,13 @@ impl Reconstruction {
             let text_ok = !n.is_empty() && !n.contains(['\n', '\r']) && n.trim() == n;
             if n.contains('\0') || (format == ModelFormat::Text && !text_ok) {
                 return Err(Error::Unwritable {
-                    path: dir.join(format!("images.{}", format.extension())),
+                    path: PathBuf::from(format!("images.{}", format.extension())),
                     record: i,
                     what: "image name has a NUL byte, or (text) is empty, has a line break or \
                            leading/trailing whitespace",
                 });
             }
         }
-        std::fs::create_dir_all(dir).map_err(|source| Error::Io {
-            path: dir.to_path_buf(),
-            source,
-        })?;
         let mean_obs = if self.images.is_empty() {
             0.0
         } else {
@@ -332,9 +341,36 @@ impl Reconstruction {
                 text::write_points3d(&self.points, mean_track).into_bytes(),
             ],
         };
+        Ok(STEMS
+            .iter()
+            .zip(contents)
+            .map(|(stem, bytes)| (format!("{stem}.{}", format.extension()), bytes))
+            .collect())
+    }
+
+    /// Writes all five files of [`Reconstruction::encode`] into `dir` (created if missing).
+    /// Each file goes to a temporary file in `dir` first; the renames happen only after all
+    /// five were written.
+    ///
+    /// # Errors
+    /// [`Error::Io`] naming the directory or file; [`Error::Unwritable`] for an image name
+    /// that text cannot hold (checked before anything is written).
+    pub fn write(&self, dir: &Path, format: ModelFormat) -> Result<()> {
+        let contents = self.encode(format).map_err(|e| match e {
+            Error::Unwritable { path, record, what } => Error::Unwritable {
+                path: dir.join(path),
+                record,
+                what,
+            },
+            other => other,
+        })?;
+        std::fs::create_dir_all(dir).map_err(|source| Error::Io {
+            path: dir.to_path_buf(),
+            source,
+        })?;
         let mut temps = Vec::with_capacity(5);
-        for (stem, bytes) in STEMS.iter().zip(&contents) {
-            let target = dir.join(format!("{stem}.{}", format.extension()));
+        for (name, bytes) in &contents {
+            let target = dir.join(name);
             let io = |source| Error::Io {
                 path: target.clone(),
                 source,
@@ -479,6 +515,29 @@ impl Reconstruction {
         let i = *self.image_idx.get(&image_id)?;
         self.cam_from_world.get(i).copied().flatten()
     }
+    /// The 3×4 matrix `[R | t]` of an image's `cam_from_world` exactly as COLMAP and pycolmap
+    /// give it (`Image::CamFromWorld().ToMatrix()`): `sensor_from_rig ∘ rig_from_world` of its
+    /// frame composed with COLMAP's formulas from the quaternions as stored, which COLMAP does
+    /// not normalise on reading ([`crate::RawPose::colmap_matrix`]); the rotation of
+    /// [`Reconstruction::image_cam_from_world`] is the normalised one the commands use. For a
+    /// model written with unit quaternions both agree to rounding. `None` as for
+    /// [`Reconstruction::image_cam_from_world`].
+    pub fn image_cam_from_world_colmap(&self, image_id: u32) -> Option<[[f64; 4]; 3]> {
+        let i = *self.image_idx.get(&image_id)?;
+        self.cam_from_world.get(i).copied().flatten()?;
+        let im = &self.images[i];
+        let frame = self.frames.get(*self.image_frame.get(i)?)?;
+        let rig = self.rig(frame.rig_id)?;
+        let sensor = SensorId::camera(im.camera_id);
+        let pose = if rig.ref_sensor == Some(sensor) {
+            frame.rig_from_world
+        } else {
+            rig.sensor_from_rig(sensor)??
+                .colmap_compose(&frame.rig_from_world)
+        };
+        Some(pose.colmap_matrix())
+    }
+
     /// How far the pose stored in `images.*` is from the pose COLMAP uses (composed from the
     /// frame and rig): `(rotation angle in rad, translation difference in model units)`. COLMAP
     /// ignores the stored pose when rigs and frames exist, and some tools have written

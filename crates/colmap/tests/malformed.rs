@@ -264,3 +264,68 @@ fn malformed_empty_rigs_and_frames_files_mean_legacy() {
     assert_eq!(m.rigs().len(), 2);
     assert_eq!(m.frames().len(), 3);
 }
+
+/// Every number of a model is finite and within ±[`crashrig_colmap::bounds::MAX_MODEL_VALUE`]
+/// (issue 36 §4: a pose translation of 1e308 made `calibrate` print `null` with exit 0): each
+/// file's numbers, text (named by line) and binary (named by record).
+#[test]
+fn malformed_values_beyond_the_bound_name_file_and_record() {
+    // (file, 0-based line, 0-based token, the record's 1-based line, what the error says); a
+    // point2D is named by its image's line.
+    let cases = [
+        ("cameras.txt", 4, 4, 5, "a camera parameter"),
+        ("rigs.txt", 4, 12, 5, "a sensor_from_rig number"),
+        ("frames.txt", 3, 7, 4, "a rig_from_world number"),
+        ("images.txt", 4, 5, 5, "a cam_from_world number"),
+        ("images.txt", 5, 1, 5, "a point2D coordinate"),
+        ("points3D.txt", 4, 2, 5, "a point3D coordinate"),
+        ("points3D.txt", 4, 7, 5, "a point3D coordinate or error"),
+    ];
+    for (file, line, token, record_line, what) in cases {
+        for value in ["1e308", "1.0000001e12", "inf", "nan"] {
+            let tmp = copy_dir(&fixture("rig_opencv/txt"));
+            edit_text(tmp.path(), file, |l| {
+                let mut toks: Vec<String> = l[line].split(' ').map(str::to_owned).collect();
+                toks[token] = value.to_string();
+                l[line] = toks.join(" ");
+            });
+            let err = Reconstruction::read(tmp.path()).expect_err(file);
+            let text = err.to_string();
+            assert!(
+                text.starts_with(&format!(
+                    "{}:{}: {what}",
+                    tmp.path().join(file).display(),
+                    record_line
+                )) && text.contains("beyond ±1e12"),
+                "{file} {value}: {text}"
+            );
+        }
+        // Within the bound (1e11; COLMAP's error -1) the value is no bound error.
+        let tmp = copy_dir(&fixture("rig_opencv/txt"));
+        edit_text(tmp.path(), file, |l| {
+            let mut toks: Vec<String> = l[line].split(' ').map(str::to_owned).collect();
+            toks[token] = if token == 7 && file == "points3D.txt" {
+                "-1".into()
+            } else {
+                "1e11".into()
+            };
+            l[line] = toks.join(" ");
+        });
+        if let Err(e) = Reconstruction::read(tmp.path()) {
+            assert!(!e.to_string().contains("beyond ±1e12"), "{file}: {e}");
+        }
+    }
+    // Binary: the record of frames.bin (the first frame's TY, byte 8 + 8 + 5 × 8).
+    let tmp = copy_dir(&fixture("rig_opencv/bin"));
+    edit_bytes(tmp.path(), "frames.bin", |b| {
+        b[56..64].copy_from_slice(&1e308f64.to_le_bytes());
+    });
+    let err = Reconstruction::read(tmp.path()).expect_err("1e308 in frames.bin");
+    assert_eq!(
+        err.to_string(),
+        format!(
+            "{}: record 0: a rig_from_world number is not finite or beyond ±1e12 model units (docs/LIMITS.md) (id 1)",
+            tmp.path().join("frames.bin").display()
+        )
+    );
+}

@@ -275,7 +275,9 @@ impl Rng {
     fn f64(&mut self) -> f64 {
         match self.below(4) {
             0 => {
-                let v = f64::from_bits(self.next());
+                // Any bit pattern, folded (exactly, by fmod) into the bound a model's numbers
+                // have (`crashrig_colmap::bounds::MAX_MODEL_VALUE`).
+                let v = f64::from_bits(self.next()) % crashrig_colmap::bounds::MAX_MODEL_VALUE;
                 if v.is_finite() { v } else { -0.0 }
             }
             1 => (self.next() as f64 / u64::MAX as f64 - 0.5) * 2000.0,

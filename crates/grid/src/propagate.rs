@@ -135,7 +135,12 @@ pub fn run_propagate(
     let chain = Chain::new(&scenario);
     // Any ω φ κ input is a valid rotation; only the ω φ κ *output* of a camera at φ = ±90° is
     // singular: its angle σ are null, with one warning.
-    let warnings = chain
+    // The scenario's plausibility warnings (units never guessed), then gimbal lock.
+    let warnings = scenario
+        .warnings
+        .iter()
+        .cloned()
+        .chain(chain
         .names()
         .iter()
         .enumerate()
@@ -143,7 +148,7 @@ pub fn run_propagate(
         .map(|(_, name)| format!(
             "{}: camera `{name}`: its world orientation is at φ = ±90° (gimbal lock), where ω and κ are not separable; its ω φ κ σ are null (see covariance_tangent / tangent_sigma_deg)",
             config.scenario.display()
-        ))
+        )))
         .collect();
     let start = std::time::Instant::now();
     let stage = progress.map(|r| progress::Stage::new(r, "chunks of draws"));

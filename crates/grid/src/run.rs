@@ -435,7 +435,8 @@ pub(crate) fn finish(
         }
         None => None,
     };
-    let mut warnings = Vec::new();
+    // The scenario's plausibility warnings (units never guessed) first.
+    let mut warnings = scenario.warnings.clone();
     if result.points.iter().all(|p| !p.is_measurable()) {
         warnings.push(format!(
             "{}: no grid point is seen by two or more observers; every point is not measurable",

@@ -271,6 +271,8 @@ pub use options::{ChainOptions, Draws, RunOptions};
 pub use reference::{ResultKind, link_from_result_json};
 pub use result::{GridResult, PointStats};
 #[cfg(feature = "scenario")]
+pub use scenario::plausible;
+#[cfg(feature = "scenario")]
 pub use scenario::{AimKeys, LensKeys, aim_from_keys, candidates_from_toml_str, read_candidates};
 pub use schedule::ADAPTIVE_MIN_BATCHES;
 pub use view::{UNDISTORT_RESIDUAL_PX, footprint_margin_px};

@@ -264,6 +264,11 @@ pub struct Scenario {
     pub cameras: Vec<Camera>,
     /// The grid study, if any.
     pub grid: Option<Grid>,
+    /// Plausibility warnings found on reading (`docs/LIMITS.md`, "Plausibility warnings": a
+    /// length or σ that looks typed in metres), one line each naming the file, line, key and
+    /// unit, without the `warning: ` prefix. The front ends print them and carry them in their
+    /// results.
+    pub warnings: Vec<String>,
 }
 
 /// How an observer points its camera.

@@ -20,6 +20,7 @@ use std::path::{Path, PathBuf};
 
 mod candidates;
 mod observer;
+pub mod plausible;
 pub use candidates::{candidates_from_toml_str, read_candidates};
 pub use observer::{AimKeys, LensKeys, aim_from_keys};
 
@@ -283,7 +284,8 @@ impl Scenario {
         crate::limits::check_document(text, path)?;
         let raw: RawScenario = toml::from_str(text).map_err(|e| toml_error(&e, text, path))?;
         let base = path.parent().unwrap_or(Path::new(""));
-        Self::validate(raw, base, min_observers).map_err(|e| {
+        let mut notes = raw_plausibility(&raw);
+        let mut scenario = Self::validate(raw, base, min_observers).map_err(|e| {
             match e.key().and_then(|k| key_line(text, k)) {
                 Some(line) => Error::Located {
                     path: PathBuf::from(path),
@@ -292,7 +294,16 @@ impl Scenario {
                 },
                 None => e,
             }
-        })
+        })?;
+        notes.extend(observer_plausibility(&scenario));
+        scenario.warnings = notes
+            .into_iter()
+            .map(|(key, message)| match key_line(text, &key) {
+                Some(line) => format!("{}:{line}: `{key}` {message}", path.display()),
+                None => format!("{}: `{key}` {message}", path.display()),
+            })
+            .collect();
+        Ok(scenario)
     }
 
     fn validate(raw: RawScenario, base: &Path, min_observers: usize) -> Result<Self, Error> {
@@ -366,6 +377,7 @@ impl Scenario {
             rotation_noise,
             cameras,
             grid,
+            warnings: Vec::new(),
         })
     }
 
@@ -649,6 +661,112 @@ fn observer_from_raw(
         position_mm,
         sigma,
     })
+}
+
+/// The 6 × 6 numbers of a `covariance_tangent` value, when it has that shape (the validation
+/// reports any other).
+fn covariance_numbers(v: &toml::Value) -> Option<[[f64; 6]; 6]> {
+    let rows = v.as_array().filter(|r| r.len() == 6)?;
+    let mut m = [[0.0; 6]; 6];
+    for (i, row) in rows.iter().enumerate() {
+        let row = row.as_array().filter(|r| r.len() == 6)?;
+        for (j, x) in row.iter().enumerate() {
+            m[i][j] = match x {
+                toml::Value::Float(f) => *f,
+                toml::Value::Integer(n) => *n as f64,
+                _ => return None,
+            };
+        }
+    }
+    Some(m)
+}
+
+/// The plausibility of a pose's σ keys (`sigma_position_mm` with `sigma_angles_deg`, or
+/// `covariance_tangent`): `(key, warning)`.
+fn pose_sigma_note(
+    prefix: &str,
+    position: Option<[f64; 3]>,
+    angles: Option<[f64; 3]>,
+    covariance: Option<&toml::Value>,
+) -> Option<(String, String)> {
+    if let Some(c) = covariance.and_then(covariance_numbers) {
+        let (p, a) = plausible::sigmas_of_covariance_deg(&c);
+        return plausible::position_sigma(p, a)
+            .map(|w| (format!("{prefix}.covariance_tangent"), w));
+    }
+    let p = position?;
+    plausible::position_sigma(p, angles.unwrap_or([0.0; 3]))
+        .map(|w| (format!("{prefix}.sigma_position_mm"), w))
+}
+
+/// Plausibility warnings that the raw keys show (`docs/LIMITS.md`, "Plausibility warnings"):
+/// grid axes, σ threshold, rig links, pose σ. `(key, sentence)`.
+fn raw_plausibility(raw: &RawScenario) -> Vec<(String, String)> {
+    let mut notes = Vec::new();
+    for (i, c) in raw.camera.iter().enumerate() {
+        let k = format!("camera[{i}]");
+        if c.parent.is_some()
+            && let Some(p) = c.position_mm
+            && let Some(w) = plausible::link_base(&Vector3::from(p))
+        {
+            notes.push((format!("{k}.position_mm"), w));
+        }
+        notes.extend(pose_sigma_note(
+            &k,
+            c.sigma_position_mm,
+            c.sigma_angles_deg,
+            c.covariance_tangent.as_ref(),
+        ));
+    }
+    let Some(g) = &raw.grid else {
+        return notes;
+    };
+    for (name, a) in [("x_mm", &g.x_mm), ("y_mm", &g.y_mm), ("z_mm", &g.z_mm)] {
+        let count = a[2].f();
+        if count.is_finite()
+            && count >= 0.0
+            && let Some(w) = plausible::grid_axis(a[0].f(), a[1].f(), count as usize)
+        {
+            notes.push((format!("grid.{name}"), w));
+        }
+    }
+    if let Some(w) = g.threshold_mm.and_then(plausible::threshold) {
+        notes.push(("grid.threshold_mm".into(), w));
+    }
+    for (i, o) in g.observer.iter().enumerate() {
+        notes.extend(pose_sigma_note(
+            &format!("grid.observer[{i}]"),
+            o.sigma_position_mm,
+            o.sigma_angles_deg,
+            o.covariance_tangent.as_ref(),
+        ));
+    }
+    notes
+}
+
+/// Observers near, but not at, a chain camera, another observer or the origin.
+fn observer_plausibility(s: &Scenario) -> Vec<(String, String)> {
+    let Some(g) = &s.grid else {
+        return Vec::new();
+    };
+    let cameras: Vec<(String, Vector3<f64>)> = s
+        .cameras
+        .iter()
+        .zip(s.nominal_world_poses())
+        .map(|(c, p)| (format!("camera `{}`", c.name), p.translation.vector))
+        .collect();
+    let mut notes = Vec::new();
+    for (i, o) in g.observers.iter().enumerate() {
+        let others: Vec<(String, Vector3<f64>)> = g.observers[..i]
+            .iter()
+            .enumerate()
+            .map(|(j, e)| (format!("grid.observer[{j}] `{}`", e.name), e.position_mm))
+            .collect();
+        if let Some(w) = plausible::observer_position(&o.position_mm, &cameras, &others) {
+            notes.push((format!("grid.observer[{i}].position_mm"), w));
+        }
+    }
+    notes
 }
 
 /// Nominal `world_from_cam` of every camera (file order); the parent links must be acyclic.

@@ -15,19 +15,31 @@
 //!   otherwise [`Staged::new`] fails with [`Error::NotOurs`] before anything is written.
 //! - **Errors and signals clean up.** Dropping an uncommitted [`Staged`] (an error, a panic)
 //!   removes the staging directory; SIGINT, SIGTERM and SIGHUP remove every staging directory of
-//!   the process and exit with status 128 + signal. A process killed with SIGKILL leaves its
-//!   hidden staging directory behind; the next [`Staged::new`] for the same `OUT` removes it
-//!   (Linux: when its process is gone).
+//!   the process (and an old result a finished swap has not removed yet), say on stderr what
+//!   became of `OUT` (`removed the unfinished output; OUT keeps its previous content`, or, for a
+//!   signal that came after the swap, `OUT holds the whole new result`) and exit with status
+//!   128 + signal. Every change this crate makes to a staging directory or `OUT` holds a gate
+//!   that the signal thread takes for good, so a signal is handled between two changes, never
+//!   inside one (a signal during the swap is handled right after it), and nothing is created
+//!   once the clean-up has begun. A writer that fills [`Staged::dir`] without
+//!   [`Staged::write`] does so inside [`gated`]. A process killed with SIGKILL leaves its
+//!   hidden directories behind; the next [`Staged::new`] for the same `OUT` cleans up (Linux:
+//!   when their process is gone): it removes them, and when the kill came between the two
+//!   renames of the fallback swap (`OUT` absent), it first puts the old result back.
 //! - Files are flushed to disk (`fsync`) before the swap.
 //!
 //! # Fault injection (tests only)
 //! The environment variable `CRASHRIG_OUTDIR_FAULT` stops the process at a deterministic point,
-//! so interruption tests need no timing:
-//! - `abort-after-file:K` — abort (SIGABRT, no clean-up, like SIGKILL) right after the K-th
-//!   [`Staged::write`] (1-based);
-//! - `abort-before-swap` — abort right before the swap in [`Staged::commit`];
-//! - `sigint-after-file:K`, `sigint-before-swap` — raise SIGINT at that point instead (the
-//!   signal handler cleans up and exits with 130).
+//! so interruption tests need no timing. It holds `ACTION-POINT`, optionally with
+//! `,no-exchange` (use the two-rename swap, as on a file system without an atomic exchange):
+//! - points: `after-file:K` (right after the K-th [`Staged::write`], 1-based), `before-swap`
+//!   (in [`Staged::commit`], before the swap), `between-renames` (two-rename swap only: the old
+//!   `OUT` moved aside, the new one not yet in place), `after-swap` (the new result is `OUT`,
+//!   the old one not removed yet);
+//! - actions: `abort` (SIGABRT, no clean-up, like SIGKILL), `stop` (SIGSTOP: a test looks at
+//!   `OUT`, sends the signal it wants to the process group, then SIGCONT), `sigint` (raise
+//!   SIGINT: before the swap the process then waits for the signal thread; inside the swap it
+//!   finishes the swap first).
 //!
 //! # Features
 //! None: the crate has no cargo features.
@@ -64,7 +76,7 @@ pub mod shard;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::{Mutex, MutexGuard, Once};
+use std::sync::{Once, RwLock, RwLockReadGuard, RwLockWriteGuard};
 
 /// The environment variable of the fault-injection hook (see the crate docs).
 pub const FAULT_ENV: &str = "CRASHRIG_OUTDIR_FAULT";
@@ -159,12 +171,117 @@ fn io<'a>(path: &'a Path, what: &'static str) -> impl FnOnce(std::io::Error) -> 
 
 // ------------------------------------------------------------ signal clean-up ---
 
-/// Directories to remove when a termination signal arrives (staging and set-aside ones).
-static PENDING: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+/// What a registered directory holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    /// A staging directory: the unfinished new result.
+    Staging,
+    /// The old result, swapped out of `OUT` (or moved aside), to be removed.
+    Old,
+}
+
+/// A directory the signal thread removes, and the output directory it belongs to.
+#[derive(Debug)]
+struct Entry {
+    path: PathBuf,
+    out: PathBuf,
+    kind: Kind,
+}
+
+/// The directories to remove on a termination signal, and the last output swapped in.
+#[derive(Debug)]
+struct Registry {
+    entries: Vec<Entry>,
+    completed: Option<PathBuf>,
+}
+
+impl Registry {
+    fn add(&mut self, path: &Path, out: &Path, kind: Kind) {
+        self.entries.push(Entry {
+            path: path.to_path_buf(),
+            out: out.to_path_buf(),
+            kind,
+        });
+    }
+
+    fn remove(&mut self, path: &Path) {
+        self.entries.retain(|e| e.path != path);
+    }
+
+    fn set_kind(&mut self, path: &Path, kind: Kind) {
+        for e in self.entries.iter_mut().filter(|e| e.path == path) {
+            e.kind = kind;
+        }
+    }
+
+    /// The one line the signal thread prints: what became of the output. An output inside
+    /// another staging directory (`place`'s `OUT/grid/`) is part of that one.
+    fn interrupted_message(&self) -> String {
+        let top = |kind: Kind| -> Vec<String> {
+            let mut outs: Vec<String> = self
+                .entries
+                .iter()
+                .filter(|e| e.kind == kind)
+                .filter(|e| {
+                    !self
+                        .entries
+                        .iter()
+                        .any(|s| s.kind == Kind::Staging && e.out.starts_with(&s.path))
+                })
+                .map(|e| e.out.display().to_string())
+                .collect();
+            outs.dedup();
+            outs
+        };
+        let unfinished = top(Kind::Staging);
+        if !unfinished.is_empty() {
+            return format!(
+                "interrupted: removed the unfinished output; {} keeps its previous content",
+                unfinished.join(", ")
+            );
+        }
+        let swapped = top(Kind::Old);
+        let done = swapped
+            .first()
+            .cloned()
+            .or_else(|| self.completed.as_ref().map(|p| p.display().to_string()));
+        match done {
+            Some(out) => format!(
+                "interrupted after the output was complete: {out} holds the whole new result"
+            ),
+            None => "interrupted".to_string(),
+        }
+    }
+}
+
+/// The **gate**: every file-system change to a staging directory or an output directory made
+/// through this crate (creating a staging directory, [`Staged::write`], [`gated`], the swap,
+/// the clean-up of a dropped [`Staged`]) holds it, shared for writes and exclusive for the rest;
+/// the signal thread takes it exclusively and never gives it back. So a termination signal is
+/// handled between two such changes, never inside one, and once the signal thread has removed
+/// the registered directories nothing of this process can create or fill one again (every
+/// writer then blocks on the gate until the process exits).
+static GATE: RwLock<Registry> = RwLock::new(Registry {
+    entries: Vec::new(),
+    completed: None,
+});
 static HANDLER: Once = Once::new();
 
-fn pending() -> MutexGuard<'static, Vec<PathBuf>> {
-    PENDING.lock().unwrap_or_else(|e| e.into_inner())
+fn shared() -> RwLockReadGuard<'static, Registry> {
+    GATE.read().unwrap_or_else(|e| e.into_inner())
+}
+
+fn exclusive() -> RwLockWriteGuard<'static, Registry> {
+    GATE.write().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Runs `f` — file-system writes into a staging directory that do not go through
+/// [`Staged::write`] (a writer given [`Staged::dir`]) — so that a termination signal is handled
+/// before or after it, never during it, and no write starts once the signal's clean-up has begun
+/// (then `gated` blocks until the process exits). `f` must not call this crate.
+pub fn gated<T>(f: impl FnOnce() -> T) -> T {
+    let _gate = shared();
+    f()
 }
 
 fn remove_tree(p: &Path) {
@@ -177,15 +294,8 @@ fn remove_tree(p: &Path) {
     }
 }
 
-/// Set by the signal thread before it removes the pending directories: [`Staged::write`] then
-/// waits for the exit instead of writing.
-static TERMINATING: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
-
 /// Removes every directory of `dirs` until none has come back for a few milliseconds (at most
-/// about 2 s): a writer that writes straight into a staging directory
-/// ([`Staged::dir`]) may still create a file or recreate a directory (`create_dir_all`) after a
-/// first removal; such a writer either finishes its file or blocks in [`Staged::commit`] /
-/// [`Staged::write`] on the registry lock that the caller holds, so the tree stays gone.
+/// about 2 s): a backstop for a writer that fills a staging directory outside the gate.
 fn remove_until_gone(dirs: &[PathBuf]) {
     let mut quiet = 0;
     for _ in 0..400 {
@@ -204,10 +314,10 @@ fn remove_until_gone(dirs: &[PathBuf]) {
     }
 }
 
-/// Installs (once per process) a thread that, on SIGINT/SIGTERM/SIGHUP, removes every pending
-/// directory ([`remove_until_gone`]) and exits with status 128 + signal. The registry lock is
-/// held during a swap and during the clean-up, so a signal that arrives mid-swap is handled
-/// after it, and no commit or write starts while the staging directories are removed.
+/// Installs (once per process) a thread that, on SIGINT/SIGTERM/SIGHUP, takes the gate for good,
+/// removes every registered directory (unfinished staging directories, and an old result that a
+/// finished swap has not removed yet), says on stderr what became of the output and exits with
+/// status 128 + signal.
 fn install_handler() {
     HANDLER.call_once(|| {
         use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
@@ -218,10 +328,11 @@ fn install_handler() {
             .name("crashrig-outdir-signals".into())
             .spawn(move || {
                 if let Some(sig) = signals.forever().next() {
-                    let dirs = pending();
-                    TERMINATING.store(true, std::sync::atomic::Ordering::SeqCst);
+                    let registry = exclusive();
+                    let dirs: Vec<PathBuf> =
+                        registry.entries.iter().map(|e| e.path.clone()).collect();
                     remove_until_gone(&dirs);
-                    eprintln!("interrupted: removed the unfinished output");
+                    eprintln!("{}", registry.interrupted_message());
                     std::process::exit(128 + sig);
                 }
             });
@@ -241,6 +352,8 @@ pub fn leave_signals_to_host() {
 /// `path`, so a reader never sees a half-written file and a failure leaves the previous file
 /// (for single files a front end writes, such as `--replicates` or `covariance --out`; a set
 /// of files is a [`Staged`] directory). The file gets mode 0644, as `File::create` makes it.
+/// It runs under the gate: a termination signal waits for the rename, so no temporary file is
+/// left behind.
 ///
 /// # Errors
 /// [`Error::Io`] naming `path` (or its directory) and the step that failed.
@@ -249,6 +362,7 @@ pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
+    let _gate = shared();
     let mut tmp =
         tempfile::NamedTempFile::new_in(dir).map_err(io(dir, "cannot create a temporary file"))?;
     tmp.write_all(bytes).map_err(io(path, "write failed"))?;
@@ -264,45 +378,81 @@ pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
     Ok(())
 }
 
-fn register(p: &Path) {
-    pending().push(p.to_path_buf());
-}
-
-fn unregister(list: &mut Vec<PathBuf>, p: &Path) {
-    list.retain(|q| q != p);
-}
-
 // ------------------------------------------------------------- fault hook ---
 
+/// Where the fault hook can stop the process.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Point {
+    /// Right after the K-th [`Staged::write`] (1-based).
     AfterFile(usize),
+    /// In [`Staged::commit`], after the staging tree is flushed, before the gate is taken.
     BeforeSwap,
+    /// Without an atomic exchange: the old `OUT` is moved aside, the new one not yet in place
+    /// (`OUT` is absent). Inside the gate.
+    BetweenRenames,
+    /// The new result is `OUT`; the old one is not removed yet. Inside the gate.
+    AfterSwap,
 }
 
-/// Stops the process at `point` if `CRASHRIG_OUTDIR_FAULT` asks for it (tests only).
-fn fault(point: Point) {
+/// The hook's instructions: the point and what to do there, and whether the atomic exchange is
+/// to be skipped (to test the two-rename fallback).
+fn fault_spec() -> (Option<(&'static str, Point)>, bool) {
     let Ok(spec) = std::env::var(FAULT_ENV) else {
+        return (None, false);
+    };
+    let mut stop = None;
+    let mut no_exchange = false;
+    for item in spec.split(',') {
+        if item == "no-exchange" {
+            no_exchange = true;
+            continue;
+        }
+        let (action, at) = item.split_once('-').unwrap_or(("", ""));
+        let action = match action {
+            "abort" => "abort",
+            "sigint" => "sigint",
+            "stop" => "stop",
+            _ => continue,
+        };
+        let point = match at {
+            "before-swap" => Some(Point::BeforeSwap),
+            "between-renames" => Some(Point::BetweenRenames),
+            "after-swap" => Some(Point::AfterSwap),
+            _ => at
+                .strip_prefix("after-file:")
+                .and_then(|k| k.parse().ok())
+                .map(Point::AfterFile),
+        };
+        if let Some(p) = point {
+            stop = Some((action, p));
+        }
+    }
+    (stop, no_exchange)
+}
+
+/// Acts at `point` if `CRASHRIG_OUTDIR_FAULT` asks for it (tests only): `abort` (SIGABRT, no
+/// clean-up, like SIGKILL), `stop` (SIGSTOP: a test observes `OUT` and sends the signal it
+/// wants, then SIGCONT), `sigint` (raise SIGINT; outside the gate the process then waits for
+/// the signal thread, inside it goes on and the signal is handled once the gate is free).
+fn fault(point: Point, inside_gate: bool) {
+    let (Some((action, at)), _) = fault_spec() else {
         return;
     };
-    let (action, at) = spec.split_once('-').unwrap_or(("", ""));
-    let wanted = match at {
-        "before-swap" => Some(Point::BeforeSwap),
-        _ => at
-            .strip_prefix("after-file:")
-            .and_then(|k| k.parse().ok())
-            .map(Point::AfterFile),
-    };
-    if wanted != Some(point) {
+    if at != point {
         return;
     }
     match action {
         "abort" => std::process::abort(),
+        "stop" => {
+            let _ = signal_hook::low_level::raise(signal_hook::consts::SIGSTOP);
+        }
         "sigint" => {
             let _ = signal_hook::low_level::raise(signal_hook::consts::SIGINT);
-            // The handler thread removes the staging directory and exits the process.
-            loop {
-                std::thread::park();
+            if !inside_gate {
+                // The signal thread removes the staging directory and exits the process.
+                loop {
+                    std::thread::park();
+                }
             }
         }
         _ => {}
@@ -351,12 +501,14 @@ fn alive(pid: u32) -> bool {
     }
 }
 
-/// Removes staging directories of `name` left by killed processes.
-fn remove_stale(parent: &Path, name: &str) {
+/// The hidden directories of `name` in `parent` left by processes that are gone: `(path,
+/// moved-aside old result?)`.
+fn stale(parent: &Path, name: &str) -> Vec<(PathBuf, bool)> {
     let prefix = format!(".{name}{STAGING_MARK}");
     let Ok(entries) = std::fs::read_dir(parent) else {
-        return;
+        return Vec::new();
     };
+    let mut found = Vec::new();
     for e in entries.flatten() {
         let file_name = e.file_name();
         let Some(rest) = file_name.to_str().and_then(|n| n.strip_prefix(&prefix)) else {
@@ -364,8 +516,63 @@ fn remove_stale(parent: &Path, name: &str) {
         };
         let pid = rest.split('.').next().and_then(|p| p.parse::<u32>().ok());
         if pid.is_some_and(|p| p != std::process::id() && !alive(p)) {
-            remove_tree(&e.path());
+            found.push((e.path(), rest.ends_with(".old")));
         }
+    }
+    found.sort();
+    found
+}
+
+/// Cleans up after killed runs into `out`: when `out` is absent and a killed run had moved the
+/// old result aside (the two-rename swap, killed between its renames), that old result is put
+/// back first; every other stale staging directory is removed.
+fn recover_stale(parent: &Path, name: &str, out: &Path) {
+    let found = stale(parent, name);
+    if std::fs::symlink_metadata(out).is_err()
+        && let Some((aside, _)) = found.iter().find(|(_, old)| *old)
+    {
+        let _ = std::fs::rename(aside, out);
+    }
+    for (p, _) in found {
+        if p.exists() {
+            remove_tree(&p);
+        }
+    }
+}
+
+/// Checks an existing `out`: a real directory whose entries all pass `replaceable`.
+fn check_existing(out: &Path, replaceable: &impl Fn(&str) -> bool) -> Result<bool> {
+    match std::fs::symlink_metadata(out) {
+        Ok(m) if m.file_type().is_symlink() => Err(Error::BadOut {
+            path: out.to_path_buf(),
+            why: "it is a symbolic link (give the directory it points to)",
+        }),
+        Ok(m) if !m.is_dir() => Err(Error::BadOut {
+            path: out.to_path_buf(),
+            why: "it exists and is not a directory",
+        }),
+        Ok(_) => {
+            let entries = std::fs::read_dir(out).map_err(io(out, "cannot list"))?;
+            let mut names: Vec<String> = entries
+                .map(|e| {
+                    e.map(|e| {
+                        let name = e.file_name().to_string_lossy().into_owned();
+                        let dir = e.file_type().is_ok_and(|t| t.is_dir());
+                        if dir { format!("{name}/") } else { name }
+                    })
+                    .map_err(io(out, "cannot list"))
+                })
+                .collect::<Result<_>>()?;
+            names.sort();
+            match names.into_iter().find(|n| !replaceable(n)) {
+                Some(foreign) => Err(Error::NotOurs {
+                    out: out.to_path_buf(),
+                    entry: foreign,
+                }),
+                None => Ok(true),
+            }
+        }
+        Err(_) => Ok(false),
     }
 }
 
@@ -380,55 +587,21 @@ impl Staged {
     /// reported before anything is written. The parent directory is created if needed.
     pub fn new(out: &Path, replaceable: impl Fn(&str) -> bool) -> Result<Staged> {
         let (parent, name) = split_out(out)?;
-        match std::fs::symlink_metadata(out) {
-            Ok(m) if m.file_type().is_symlink() => {
-                return Err(Error::BadOut {
-                    path: out.to_path_buf(),
-                    why: "it is a symbolic link (give the directory it points to)",
-                });
-            }
-            Ok(m) if !m.is_dir() => {
-                return Err(Error::BadOut {
-                    path: out.to_path_buf(),
-                    why: "it exists and is not a directory",
-                });
-            }
-            Ok(_) => {
-                let entries = std::fs::read_dir(out).map_err(io(out, "cannot list"))?;
-                let mut names: Vec<String> = entries
-                    .map(|e| {
-                        e.map(|e| {
-                            let name = e.file_name().to_string_lossy().into_owned();
-                            let dir = e.file_type().is_ok_and(|t| t.is_dir());
-                            if dir { format!("{name}/") } else { name }
-                        })
-                        .map_err(io(out, "cannot list"))
-                    })
-                    .collect::<Result<_>>()?;
-                names.sort();
-                if let Some(foreign) = names.into_iter().find(|n| !replaceable(n)) {
-                    return Err(Error::NotOurs {
-                        out: out.to_path_buf(),
-                        entry: foreign,
-                    });
-                }
-            }
-            Err(_) => {
-                std::fs::create_dir_all(&parent)
-                    .map_err(io(&parent, "cannot create the parent directory"))?;
-            }
-        }
-        remove_stale(&parent, &name);
         install_handler();
         static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
         let n = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let staging = parent.join(format!(".{name}{STAGING_MARK}{}.{n}", std::process::id()));
-        // Register before creating, so a signal in between still removes it.
-        register(&staging);
-        if let Err(e) = std::fs::create_dir(&staging) {
-            unregister(&mut pending(), &staging);
-            return Err(io(&staging, "cannot create the staging directory")(e));
+        // Everything below changes the file system: inside the gate, so a signal comes before
+        // (nothing is created) or after (the staging directory is registered and removed).
+        let mut registry = exclusive();
+        recover_stale(&parent, &name, out);
+        if !check_existing(out, &replaceable)? {
+            std::fs::create_dir_all(&parent)
+                .map_err(io(&parent, "cannot create the parent directory"))?;
         }
+        std::fs::create_dir(&staging)
+            .map_err(io(&staging, "cannot create the staging directory"))?;
+        registry.add(&staging, out, Kind::Staging);
         Ok(Staged {
             out: out.to_path_buf(),
             staging,
@@ -437,7 +610,8 @@ impl Staged {
         })
     }
 
-    /// The staging directory: write files here (directly, or with [`Staged::write`]).
+    /// The staging directory. Write files with [`Staged::write`]; a writer that fills it
+    /// otherwise does so inside [`gated`], so that a termination signal cannot interleave.
     pub fn dir(&self) -> &Path {
         &self.staging
     }
@@ -448,15 +622,8 @@ impl Staged {
     }
 
     /// Writes `bytes` to `name` (relative, `/`-separated subdirectories are created) inside the
-    /// staging directory, and flushes it to disk.
+    /// staging directory, and flushes it to disk (inside the gate).
     pub fn write(&mut self, name: &str, bytes: &[u8]) -> Result<()> {
-        // During a signal's clean-up, wait for the exit (the lock is held until then).
-        if TERMINATING.load(std::sync::atomic::Ordering::SeqCst) {
-            drop(pending());
-            loop {
-                std::thread::park();
-            }
-        }
         let rel = Path::new(name);
         let ok = !name.is_empty()
             && rel
@@ -468,70 +635,80 @@ impl Staged {
             });
         }
         let path = self.staging.join(rel);
-        if let Some(dir) = path.parent() {
-            std::fs::create_dir_all(dir).map_err(io(dir, "cannot create directory"))?;
+        {
+            let _gate = shared();
+            if let Some(dir) = path.parent() {
+                std::fs::create_dir_all(dir).map_err(io(dir, "cannot create directory"))?;
+            }
+            let mut f = std::fs::File::create(&path).map_err(io(&path, "cannot create"))?;
+            f.write_all(bytes).map_err(io(&path, "write failed"))?;
+            f.sync_all().map_err(io(&path, "write failed"))?;
         }
-        let mut f = std::fs::File::create(&path).map_err(io(&path, "cannot create"))?;
-        f.write_all(bytes).map_err(io(&path, "write failed"))?;
-        f.sync_all().map_err(io(&path, "write failed"))?;
         self.files += 1;
-        fault(Point::AfterFile(self.files));
+        fault(Point::AfterFile(self.files), false);
         Ok(())
     }
 
     /// Swaps the staging directory in as `OUT` (see the crate docs) and removes the old `OUT`.
     pub fn commit(mut self) -> Result<()> {
         sync_tree(&self.staging);
-        fault(Point::BeforeSwap);
-        let mut list = pending();
+        fault(Point::BeforeSwap, false);
+        let no_exchange = fault_spec().1;
+        let mut registry = exclusive();
         match std::fs::symlink_metadata(&self.out) {
             Err(_) => {
                 std::fs::rename(&self.staging, &self.out).map_err(io(
                     &self.out,
                     "cannot rename the staging directory into place",
                 ))?;
-                unregister(&mut list, &self.staging);
+                registry.remove(&self.staging);
+                self.committed = true;
+                fault(Point::AfterSwap, true);
+            }
+            Ok(_) if !no_exchange && exchange(&self.staging, &self.out) => {
+                // The staging path now holds the old result: removed below.
+                registry.set_kind(&self.staging, Kind::Old);
+                self.committed = true;
+                fault(Point::AfterSwap, true);
             }
             Ok(_) => {
-                if exchange(&self.staging, &self.out) {
-                    // The staging path now holds the old result; it stays registered until
-                    // removed below.
-                } else {
-                    let aside = self.staging.with_extension("old");
-                    register_locked(&mut list, &aside);
-                    std::fs::rename(&self.out, &aside)
-                        .map_err(io(&self.out, "cannot move the old output aside"))?;
-                    if let Err(e) = std::fs::rename(&self.staging, &self.out) {
-                        let _ = std::fs::rename(&aside, &self.out);
-                        return Err(io(
-                            &self.out,
-                            "cannot rename the staging directory into place",
-                        )(e));
-                    }
-                    unregister(&mut list, &self.staging);
-                    self.staging = aside;
+                let aside = self.staging.with_extension("old");
+                registry.add(&aside, &self.out, Kind::Old);
+                if let Err(e) = std::fs::rename(&self.out, &aside) {
+                    registry.remove(&aside);
+                    return Err(io(&self.out, "cannot move the old output aside")(e));
                 }
+                fault(Point::BetweenRenames, true);
+                if let Err(e) = std::fs::rename(&self.staging, &self.out) {
+                    let _ = std::fs::rename(&aside, &self.out);
+                    registry.remove(&aside);
+                    return Err(io(
+                        &self.out,
+                        "cannot rename the staging directory into place",
+                    )(e));
+                }
+                registry.remove(&self.staging);
+                self.staging = aside;
+                self.committed = true;
+                fault(Point::AfterSwap, true);
             }
         }
         sync_dir(self.out.parent().unwrap_or(Path::new(".")));
-        self.committed = true;
-        drop(list);
-        // Remove the old result (now at `self.staging`), then forget it.
+        registry.completed = Some(self.out.clone());
+        drop(registry);
+        // Remove the old result (now at `self.staging`, absent when OUT was new), then forget it.
         remove_tree(&self.staging);
-        unregister(&mut pending(), &self.staging);
+        exclusive().remove(&self.staging);
         Ok(())
     }
-}
-
-fn register_locked(list: &mut Vec<PathBuf>, p: &Path) {
-    list.push(p.to_path_buf());
 }
 
 impl Drop for Staged {
     fn drop(&mut self) {
         if !self.committed {
+            let mut registry = exclusive();
             remove_tree(&self.staging);
-            unregister(&mut pending(), &self.staging);
+            registry.remove(&self.staging);
         }
     }
 }
@@ -670,6 +847,69 @@ mod tests {
                 "{bad}"
             );
         }
+    }
+
+    #[test]
+    fn signal_message_says_what_became_of_the_output() {
+        let mut r = Registry {
+            entries: Vec::new(),
+            completed: None,
+        };
+        assert_eq!(r.interrupted_message(), "interrupted");
+        r.add(
+            Path::new("/p/.out.s.1.0"),
+            Path::new("/p/out"),
+            Kind::Staging,
+        );
+        // `place`: its grid output is staged inside its own staging directory.
+        r.add(
+            Path::new("/p/.out.s.1.0/.grid.s.1.1"),
+            Path::new("/p/.out.s.1.0/grid"),
+            Kind::Staging,
+        );
+        assert_eq!(
+            r.interrupted_message(),
+            "interrupted: removed the unfinished output; /p/out keeps its previous content"
+        );
+        r.remove(Path::new("/p/.out.s.1.0/.grid.s.1.1"));
+        r.set_kind(Path::new("/p/.out.s.1.0"), Kind::Old);
+        assert_eq!(
+            r.interrupted_message(),
+            "interrupted after the output was complete: /p/out holds the whole new result"
+        );
+        r.remove(Path::new("/p/.out.s.1.0"));
+        r.completed = Some(PathBuf::from("/p/out"));
+        assert_eq!(
+            r.interrupted_message(),
+            "interrupted after the output was complete: /p/out holds the whole new result"
+        );
+    }
+
+    #[test]
+    fn old_result_moved_aside_by_a_killed_run_is_put_back() {
+        if !cfg!(target_os = "linux") {
+            return;
+        }
+        let tmp = tempfile::tempdir().unwrap();
+        let out = tmp.path().join("out");
+        // A run killed between the two renames of the fallback swap: OUT absent, the old result
+        // aside, the new one staged.
+        let aside = tmp.path().join(format!(".out{STAGING_MARK}4000000000.old"));
+        let staging = tmp.path().join(format!(".out{STAGING_MARK}4000000000.0"));
+        std::fs::create_dir(&aside).unwrap();
+        std::fs::write(aside.join("a.csv"), b"old").unwrap();
+        std::fs::create_dir(&staging).unwrap();
+        std::fs::write(staging.join("a.csv"), b"new, never committed").unwrap();
+        let s = Staged::new(&out, |n| n == "a.csv").unwrap();
+        assert_eq!(std::fs::read(out.join("a.csv")).unwrap(), b"old");
+        drop(s);
+        assert_eq!(listing(tmp.path()), ["out"]);
+        assert_eq!(std::fs::read(out.join("a.csv")).unwrap(), b"old");
+    }
+
+    #[test]
+    fn gated_runs_its_closure() {
+        assert_eq!(gated(|| 2 + 2), 4);
     }
 
     #[test]

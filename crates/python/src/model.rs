@@ -231,15 +231,19 @@ impl Image {
         self.model.images()[self.index].camera_id
     }
 
-    /// The pose `cam_from_world` as a 3×4 NumPy matrix `[R | t]` (COLMAP's: for a model with
-    /// rigs and frames, `sensor_from_rig ∘ rig_from_world`).
+    /// The pose `cam_from_world` as a 3×4 NumPy matrix `[R | t]`, the numbers of pycolmap's
+    /// `image.cam_from_world().matrix()` (for a model with rigs and frames,
+    /// `sensor_from_rig ∘ rig_from_world`): COLMAP keeps the quaternions as stored on reading
+    /// (it normalises them only where a computation assumes a unit quaternion, as crashrig's
+    /// commands do), so for a model written with rounded quaternions `R` is not exactly a
+    /// rotation, here as in pycolmap.
     ///
     /// Raises `crashrig.Error` when the image has no pose.
     fn cam_from_world<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let im = &self.model.images()[self.index];
-        let pose = self
+        let m = self
             .model
-            .image_cam_from_world(im.image_id)
+            .image_cam_from_world_colmap(im.image_id)
             .ok_or_else(|| {
                 crate::py_error(format!(
                     "{}: image {} ({:?}) has no pose",
@@ -248,11 +252,7 @@ impl Image {
                     im.name
                 ))
             })?;
-        let m = pose.to_matrix();
-        let rows: Vec<f64> = (0..3)
-            .flat_map(|r| (0..4).map(move |c| (r, c)))
-            .map(|(r, c)| m[(r, c)])
-            .collect();
+        let rows: Vec<f64> = m.iter().flatten().copied().collect();
         PyArray1::from_vec(py, rows).reshape([3, 4])
     }
 

@@ -193,9 +193,14 @@ def test_missing_path_has_the_cli_message(cli, tmp_path):
     with pytest.raises(crashrig.Error) as e:
         crashrig.propagate(missing)
     assert str(e.value) == cli.fail("propagate", missing)
+    # A missing model path: the message of the command that reads a model (issue 36 §4: it
+    # differed).
     with pytest.raises(crashrig.Error) as e:
         crashrig.read_model(tmp_path / "no_model")
-    assert str(tmp_path / "no_model") in str(e.value)
+    assert str(e.value) == cli.fail("colmap", "info", tmp_path / "no_model")
+    assert str(e.value) == cli.fail("calibrate", tmp_path / "no_model", "--camera-a", "a/",
+                                    "--camera-b", "b/", "--mm-per-unit", "1")
+    assert str(e.value) == f"{tmp_path / 'no_model'}: does not exist"
 
 
 def test_bad_camera_name(cli):

@@ -638,6 +638,39 @@ fn deg3(v: Vector3<f64>) -> [f64; 3] {
 }
 
 impl StudyResult {
+    /// The warnings on units and plausibility (docs/LIMITS.md, "Plausibility warnings"), each
+    /// naming the file, the key's line, the key and its unit: the study file's own
+    /// ([`Study::warnings`]), observers near but not at their chain camera
+    /// ([`crate::study_file::units::chain_warnings`]) and the calibration's rig baseline
+    /// (located at `scale_length_mm` or `mm_per_unit`). The run's warnings and the report's
+    /// verdicts repeat them.
+    pub fn unit_warnings(&self, study: &Study) -> Vec<String> {
+        let mut out = study.warnings.clone();
+        let chain: Vec<(ChainCamera, Vector3<f64>)> = self
+            .chain
+            .iter()
+            .map(|c| (c.camera, c.mc.nominal.position_mm))
+            .collect();
+        out.extend(crate::study_file::units::chain_warnings(study, &chain));
+        if let Some(w) = self
+            .calibration
+            .baseline_warning("calibration.scale_length_mm", "calibration.mm_per_unit")
+        {
+            let key = match study.calibration.scale {
+                crate::study_file::StudyScale::ScaleBar { .. } => "scale_length_mm",
+                crate::study_file::StudyScale::MmPerUnit(_) => "mm_per_unit",
+            };
+            let line = crate::study_file::key_line(&study.text, "calibration", 0, key)
+                .or_else(|| study.section_line("calibration", 0))
+                .unwrap_or(1);
+            out.push(format!(
+                "{}:{line}: [calibration]: {w}",
+                study.path.display()
+            ));
+        }
+        out
+    }
+
     /// `results.json`: `calibration` and `tie` exactly as `calibrate --json` and
     /// `bootstrap --json` print them, then the propagation and each layout's summary. No
     /// timing, so the same study and seed give the same bytes.

@@ -708,7 +708,7 @@ pub fn report_html(
         ..Default::default()
     };
     rep.push(Block::Raw(meta_html(study, r, prov)));
-    verdicts(&mut rep, r);
+    verdicts(&mut rep, r, &r.unit_warnings(study));
     rep.push(Block::Toc);
     rep.push(Block::Heading("Verdict per layout".into()));
     rep.push(Block::Table(Table {
@@ -793,11 +793,24 @@ fn meta_html(study: &Study, r: &StudyResult, prov: &Provenance) -> String {
     )
 }
 
-/// The verdict boxes: is the threshold reached (in every direction), where not, what
-/// dominates, and can the calibration be trusted.
-fn verdicts(rep: &mut Report, r: &StudyResult) {
+/// The verdict boxes: are the inputs' lengths plausible (only when they are not: the unit
+/// warnings qualify every verdict after it), is the threshold reached (in every direction),
+/// where not, what dominates, and can the calibration be trusted.
+fn verdicts(rep: &mut Report, r: &StudyResult, unit_warnings: &[String]) {
     rep.push(Block::Raw("<div class=\"verdicts\">".into()));
-    rep.push(Block::Verdict(reached_verdict(r)));
+    if let Some(v) = units_verdict(unit_warnings) {
+        rep.push(Block::Verdict(v));
+    }
+    let mut reached = reached_verdict(r);
+    if !unit_warnings.is_empty() {
+        reached.answer = format!(
+            "{} — unless a length is in the wrong unit: see the {} unit warning{} (a length typed in metres changes this answer).",
+            reached.answer.trim_end_matches('.'),
+            unit_warnings.len(),
+            if unit_warnings.len() == 1 { "" } else { "s" }
+        );
+    }
+    rep.push(Block::Verdict(reached));
     rep.push(Block::Verdict(where_verdict(r)));
     rep.push(Block::Verdict(dominant_verdict(r)));
     rep.push(Block::Verdict(crate::quality_report::verdict(
@@ -807,6 +820,23 @@ fn verdicts(rep: &mut Report, r: &StudyResult) {
         rep.push(Block::Verdict(v));
     }
     rep.push(Block::Raw("</div>".into()));
+}
+
+/// The unit warnings as a verdict (`None` without any): the inputs hold a length or σ that
+/// looks typed in another unit, so the verdicts computed from them are qualified.
+fn units_verdict(unit_warnings: &[String]) -> Option<Verdict> {
+    (!unit_warnings.is_empty()).then(|| Verdict {
+        question: "Are the inputs' lengths plausible (millimetres)?".into(),
+        answer: format!(
+            "No: {} length{} or σ look{} typed in another unit (metres?); the verdicts below hold only if {} right.",
+            unit_warnings.len(),
+            if unit_warnings.len() == 1 { "" } else { "s" },
+            if unit_warnings.len() == 1 { "s" } else { "" },
+            if unit_warnings.len() == 1 { "it is" } else { "they are" }
+        ),
+        lines: unit_warnings.iter().map(|w| format!("warning: {w}")).collect(),
+        status: Status::Fail,
+    })
 }
 
 /// The thresholds of the layouts, as text ("5 mm", or "3 / 5 mm" when they differ).

@@ -15,6 +15,8 @@ use serde::Deserialize;
 use std::path::{Path, PathBuf};
 use toml::Spanned;
 
+pub mod units;
+
 /// How the calibration sequence is scaled to mm.
 #[derive(Debug, Clone, PartialEq)]
 pub enum StudyScale {
@@ -282,6 +284,10 @@ pub struct Study {
     pub reference: Option<String>,
     /// `[measure]`: a test sequence to measure with the calibrated link, if any.
     pub measure: Option<MeasureSection>,
+    /// Plausibility warnings found on reading (units are never guessed: a length or σ that
+    /// looks typed in metres; [`units`]), one line each naming the file, line, key and unit,
+    /// without the `warning: ` prefix. The study's warnings and its report repeat them.
+    pub warnings: Vec<String>,
 }
 
 // ---------------------------------------------------------------- raw TOML ---
@@ -497,6 +503,15 @@ fn wrong_length_vector(text: &str) -> Option<(String, usize, usize)> {
     walk(doc.get_ref(), "", text)
 }
 
+/// A number as the user would type it: `1e300`, not three hundred digits.
+fn short(x: f64) -> String {
+    if x.abs() >= 1e15 {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
 struct Ctx<'a> {
     path: &'a Path,
     text: &'a str,
@@ -563,6 +578,8 @@ impl Ctx<'_> {
         Ok(p)
     }
 
+    /// A positive number; a length (a key ending in `_mm`) at most
+    /// [`crashrig_mc::limits::MAX_ABS_LENGTH_MM`] (the scenario's bound, docs/LIMITS.md).
     fn positive(&self, v: &Spanned<f64>, key: &str) -> Result<f64, Error> {
         let x = *v.get_ref();
         if !(x.is_finite() && x > 0.0) {
@@ -570,6 +587,17 @@ impl Ctx<'_> {
                 Some(v.span()),
                 key,
                 format!("must be a positive number, got {x}"),
+            );
+        }
+        let max = crashrig_mc::limits::MAX_ABS_LENGTH_MM;
+        if key.ends_with("_mm") && x > max {
+            return self.err(
+                Some(v.span()),
+                key,
+                format!(
+                    "{} mm exceeds the limit of {max} mm (10 km; docs/LIMITS.md)",
+                    short(x)
+                ),
             );
         }
         Ok(x)
@@ -609,10 +637,32 @@ impl Ctx<'_> {
         Ok(x as usize)
     }
 
+    /// Three finite numbers, each within the scenario's bound of its unit (docs/LIMITS.md):
+    /// |v| ≤ [`crashrig_mc::limits::MAX_ABS_LENGTH_MM`] under a key ending in `_mm`, ≤
+    /// [`crashrig_mc::limits::MAX_ABS_ANGLE_DEG`] under one ending in `_deg`.
     fn finite3(&self, v: &Spanned<[f64; 3]>, key: &str) -> Result<Vec3, Error> {
+        use crashrig_mc::limits::{MAX_ABS_ANGLE_DEG, MAX_ABS_LENGTH_MM};
         let a = v.get_ref();
         if a.iter().any(|x| !x.is_finite()) {
             return self.err(Some(v.span()), key, "values must be finite");
+        }
+        let bound = if key.ends_with("_mm") {
+            Some((MAX_ABS_LENGTH_MM, " mm", " (10 km)"))
+        } else if key.ends_with("_deg") {
+            Some((MAX_ABS_ANGLE_DEG, "°", ""))
+        } else {
+            None
+        };
+        if let Some((max, unit, what)) = bound
+            && let Some(x) = a.iter().find(|x| x.abs() > max)
+        {
+            return self.err(
+                Some(v.span()),
+                key,
+                format!(
+                    "{x}{unit} exceeds the limit of {max}{unit}{what} in size (docs/LIMITS.md)"
+                ),
+            );
         }
         Ok(Vec3::new(a[0], a[1], a[2]))
     }
@@ -691,6 +741,17 @@ impl Ctx<'_> {
                 Some(v.span()),
                 key,
                 "must be [start, stop, count] with finite mm and a whole count ≥ 1",
+            );
+        }
+        let max_mm = crashrig_mc::limits::MAX_ABS_LENGTH_MM;
+        if let Some(x) = a[..2].iter().find(|x| x.abs() > max_mm) {
+            return self.err(
+                Some(v.span()),
+                key,
+                format!(
+                    "{} mm exceeds the limit of {max_mm} mm (10 km) in size (docs/LIMITS.md)",
+                    short(*x)
+                ),
             );
         }
         let max = crashrig_mc::limits::MAX_AXIS_COUNT;
@@ -1548,6 +1609,16 @@ impl Study {
             None => None,
             Some(m) => Some(measure_section(&cx, m, tie.is_some())?),
         };
+        let warnings = units::read_warnings(
+            &cx,
+            &raw,
+            &units::Read {
+                outward: &outward,
+                layouts: &layouts,
+                tie: tie.as_ref(),
+                measure: measure.as_ref(),
+            },
+        );
         Ok(Study {
             path: path.to_path_buf(),
             text: text.to_string(),
@@ -1560,6 +1631,7 @@ impl Study {
             layouts,
             reference: raw.reference.map(Spanned::into_inner),
             measure,
+            warnings,
         })
     }
 

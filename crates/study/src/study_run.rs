@@ -87,14 +87,15 @@ fn copy_tree(from: &Path, to: &Path) -> Result<(), Error> {
         let path = path.to_path_buf();
         move |source| Error::Write { path, source }
     };
-    std::fs::create_dir_all(to).map_err(write(to))?;
+    // Into the staging directory: each step inside the gate (see `crashrig_outdir::gated`).
+    crashrig_outdir::gated(|| std::fs::create_dir_all(to)).map_err(write(to))?;
     for entry in std::fs::read_dir(from).map_err(write(to))? {
         let entry = entry.map_err(write(to))?;
         let (src, dst) = (entry.path(), to.join(entry.file_name()));
         if entry.file_type().map_err(write(&dst))?.is_dir() {
             copy_tree(&src, &dst)?;
         } else {
-            std::fs::copy(&src, &dst).map_err(write(&dst))?;
+            crashrig_outdir::gated(|| std::fs::copy(&src, &dst)).map_err(write(&dst))?;
         }
     }
     Ok(())
@@ -137,7 +138,7 @@ pub fn run_to_dir(
         progress: Some(&report),
     };
     let result = run_study(study, &options)?;
-    let warnings = warnings(&config.study_path, &result);
+    let warnings = warnings(study, &result);
     let prov = Provenance {
         command: config.command.clone(),
         out_dir: out.display().to_string(),
@@ -201,17 +202,12 @@ impl<'a> StepLog<'a> {
     }
 }
 
-/// One warning per layout that nothing can measure (fixed cameras of which no two see a
-/// common point) and per epoch of `[measure]` without a pose of camera A, and the
-/// calibration's baseline warning.
-pub fn warnings(study_path: &Path, r: &StudyResult) -> Vec<String> {
-    let mut out = Vec::new();
-    if let Some(w) = r
-        .calibration
-        .baseline_warning("calibration.scale_length_mm", "calibration.mm_per_unit")
-    {
-        out.push(format!("{}: [calibration]: {w}", study_path.display()));
-    }
+/// The study's warnings: its plausibility warnings ([`StudyResult::unit_warnings`]), then one per layout
+/// that nothing can measure (fixed cameras of which no two see a common point) and per epoch of
+/// `[measure]` without a pose of camera A.
+pub fn warnings(study: &Study, r: &StudyResult) -> Vec<String> {
+    let study_path = &study.path;
+    let mut out = r.unit_warnings(study);
     for l in &r.layouts {
         if l.summary
             .fixed

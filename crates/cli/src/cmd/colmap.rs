@@ -27,7 +27,8 @@ pub enum ColmapCommand {
     ///
     /// Accepts 3.x three-file and >=3.12 five-file models, binary or text (binary wins when
     /// both exist). Doubles survive bin->txt->bin bit-exactly (text uses %.17g, like COLMAP).
-    /// The five files are written to temporary files first and renamed at the end.
+    /// The five files are written into a hidden staging directory beside OUTPUT and swapped in
+    /// as a whole: a reader of OUTPUT sees the old model or the complete new one.
     Convert {
         /// Input model directory.
         input: PathBuf,
@@ -61,7 +62,9 @@ pub enum ColmapCommand {
 /// Runs a COLMAP subcommand.
 pub fn run(cmd: ColmapCommand, g: &Global) -> anyhow::Result<()> {
     match cmd {
-        ColmapCommand::Info { path } if path.is_dir() => {
+        // A directory, or a path that is not there (the model reader says so, as
+        // `crashrig.read_model` does); a file is a database.
+        ColmapCommand::Info { path } if !path.is_file() => {
             let r = info::model_info(&path)?;
             print(g, &r, &r.warnings, &r.text_report())
         }

@@ -453,3 +453,213 @@ fn units_study_values_name_key_and_line() {
         ],
     );
 }
+
+/// Runs `study` (4 draws, no sensitivity) on a copy of the own project whose study file is
+/// `edit` of the bundled one; returns the run, the edited text and `report.html`.
+fn own_study_edited(edit: impl Fn(&str) -> String) -> (Run, String, String) {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let own = crate::contract::study::own_project(tmp.path());
+    let study = own.join("study.toml");
+    let text = edit(&std::fs::read_to_string(&study).expect("study"));
+    std::fs::write(&study, &text).expect("write");
+    let out = tmp.path().join("out");
+    let r = capped(&strings(&[
+        "study",
+        &study.display().to_string(),
+        "--out",
+        &out.display().to_string(),
+        "--samples",
+        "4",
+        "--no-sensitivity",
+    ]));
+    assert!(r.success, "{}", r.stderr);
+    let html = std::fs::read_to_string(out.join("report.html")).expect("report");
+    (r, text, html)
+}
+
+/// Issue 36 §2, on the bundled own-data study, one edit each (every run exited 0 without a
+/// warning): a layout grid in metres, an observer's `position_mm` in metres, the outward
+/// camera's `sigma_position_mm` in metres. Each gives a `warning:` naming the file, the key's
+/// line, the key and the unit, and the report's verdicts repeat it; the unedited study gives
+/// no warning and no such verdict.
+#[test]
+fn units_study_lengths_in_metres_warn_with_key_line_and_unit_and_in_the_verdict() {
+    let (r, _, html) = own_study_edited(|t| t.to_string());
+    assert!(warnings(&r).is_empty(), "{}", r.stderr);
+    assert!(
+        !html.contains("lengths plausible"),
+        "unit verdict without a cause"
+    );
+    let cases: [(&str, &str, &str, &str); 3] = [
+        (
+            "x_mm = [400.0, 1800.0, 8]\ny_mm = [-500.0, 500.0, 6]",
+            "x_mm = [0.4, 1.8, 8]\ny_mm = [-0.5, 0.5, 6]",
+            "x_mm = [0.4, 1.8, 8]",
+            "`layout[0].x_mm` spans 1.4 mm (less than 20 mm) — a car interior is metres across; lengths are in millimetres",
+        ),
+        (
+            "name = \"side (tie)\"\nposition_mm = [1200.0, 650.0, 100.0]",
+            "name = \"side (tie)\"\nposition_mm = [1.2, 0.65, 0.1]",
+            "position_mm = [1.2, 0.65, 0.1]",
+            "`layout[0].observer[1].position_mm` is 1.368 mm from the origin of the frame without being at it",
+        ),
+        (
+            "sigma_position_mm = [0.8, 0.8, 1.2]",
+            "sigma_position_mm = [0.0008, 0.0008, 0.0012]",
+            "sigma_position_mm = [0.0008",
+            "`outward.sigma_position_mm` σ of 0.0008 mm is below a micrometre (0.001 mm) — no camera pose is known that well; lengths are in millimetres",
+        ),
+    ];
+    for (from, to, at, says) in cases {
+        let (r, text, html) = own_study_edited(|t| {
+            assert!(t.contains(from), "{from}");
+            t.replacen(from, to, 1)
+        });
+        let line = study_line(&text, at);
+        let w = warnings(&r);
+        let expected = format!("study.toml:{line}: {says}");
+        let hit: Vec<&&str> = w.iter().filter(|l| l.contains(&expected)).collect();
+        assert_eq!(hit.len(), 1, "{to}: want {expected}\n{}", r.stderr);
+        assert!(hit[0].contains("millimetres"), "{}", hit[0]);
+        assert!(
+            html.contains("Are the inputs&#39; lengths plausible (millimetres)?")
+                && html.contains(&expected)
+                && html.contains("unless a length is in the wrong unit"),
+            "{to}: the report's verdict does not repeat the warning"
+        );
+    }
+}
+
+/// The bundled paper study (`crashrig paper`, tiny counts) gives no unit warning: the
+/// thresholds are far from a real car and lab.
+#[test]
+fn units_paper_study_has_no_unit_warning() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let out = tmp.path().join("paper");
+    let r = capped(&strings(&[
+        "paper",
+        "--out",
+        &out.display().to_string(),
+        "--samples",
+        "2",
+        "--chain-samples",
+        "2",
+        "--iterations",
+        "2",
+    ]));
+    assert!(r.success, "{}", r.stderr);
+    assert!(warnings(&r).is_empty(), "{}", r.stderr);
+    let html = std::fs::read_to_string(out.join("report.html")).expect("report");
+    assert!(!html.contains("lengths plausible"));
+}
+
+/// `scale_length_mm = 1e300` was reported at another line as "a covariance entry is not
+/// finite": the key itself is bounded (lengths ≤ 10⁷ mm) and named at its own line.
+#[test]
+fn units_study_scale_length_beyond_the_bound_names_its_line() {
+    let text = std::fs::read_to_string(fixture("study/own/study.toml")).expect("study");
+    let line = study_line(&text, "scale_length_mm");
+    crate::contract::study::study_error(
+        |t| t.replace("scale_length_mm = 1500.0", "scale_length_mm = 1e300"),
+        &[
+            &format!("study.toml:{line}: `calibration.scale_length_mm`"),
+            "1e300 mm exceeds the limit of 10000000 mm",
+        ],
+    );
+}
+
+/// The scenario's keys get the same checks for `grid` and `propagate` (one implementation, in
+/// the scenario reader): a grid in metres, an observer σ below a micrometre.
+#[test]
+fn units_scenario_lengths_in_metres_warn_for_grid_and_propagate() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let scen = tmp.path().join("s.toml");
+    std::fs::write(
+        &scen,
+        "seed = 1\nsamples = 50\n\n[[camera]]\nname = \"cam1\"\nposition_mm = [0.0, 0.0, 0.0]\n\
+         angles_deg = [0.0, 0.0, 0.0]\nsigma_position_mm = [0.0005, 0.0005, 0.0005]\n\
+         sigma_angles_deg = [0.01, 0.01, 0.01]\n\n[grid]\nx_mm = [0.4, 2.0, 5]\n\
+         y_mm = [-600.0, 600.0, 3]\nz_mm = [0.0, 0.0, 1]\n\n[[grid.observer]]\n\
+         position_mm = [200.0, 0.0, 0.0]\nsigma_position_mm = [1.0, 1.0, 1.0]\n\
+         sigma_angles_deg = [0.01, 0.01, 0.01]\n\n[[grid.observer]]\n\
+         position_mm = [1300.0, -700.0, 0.0]\nsigma_position_mm = [1.0, 1.0, 1.0]\n\
+         sigma_angles_deg = [0.01, 0.01, 0.01]\n",
+    )
+    .expect("scenario");
+    let s = scen.display().to_string();
+    let axis = "s.toml:12: `grid.x_mm` spans 1.6 mm (less than 20 mm)";
+    let sigma = "s.toml:8: `camera[0].sigma_position_mm` σ of 0.0005 mm is below a micrometre";
+    let out = tmp.path().join("out").display().to_string();
+    let g = capped(&strings(&["grid", &s, "--out", &out, "--no-plots"]));
+    assert!(g.success, "{}", g.stderr);
+    let w = warnings(&g);
+    assert!(
+        w.iter().any(|l| l.contains(axis)) && w.iter().any(|l| l.contains(sigma)),
+        "{}",
+        g.stderr
+    );
+    let p = capped(&strings(&["propagate", &s]));
+    assert!(p.success, "{}", p.stderr);
+    assert!(
+        warnings(&p).iter().any(|l| l.contains(sigma)),
+        "{}",
+        p.stderr
+    );
+}
+
+/// A 1.5 m scale bar typed in metres in a study: the calibration's baseline warning names the
+/// line of `scale_length_mm` (it had no line) and the report's verdict repeats it.
+#[test]
+fn units_study_scale_bar_in_metres_warns_at_its_line() {
+    let (r, text, html) =
+        own_study_edited(|t| t.replace("scale_length_mm = 1500.0", "scale_length_mm = 1.5"));
+    let line = study_line(&text, "scale_length_mm");
+    let want = format!("study.toml:{line}: [calibration]: the rig baseline |base_mm| = ");
+    let w = warnings(&r);
+    assert!(
+        w.iter()
+            .any(|l| l.contains(&want) && l.contains("check calibration.scale_length_mm = 1.5")),
+        "{}",
+        r.stderr
+    );
+    assert!(html.contains(&want), "the verdict does not repeat it");
+}
+
+/// `calibrate` on a model with a pose translation of 1e308 printed `null` / NaN with exit 0
+/// (issue 36 §4): every number of a model is bounded on reading (±1e12, docs/LIMITS.md) and
+/// the error names the file and the record.
+#[test]
+fn units_calibrate_model_value_beyond_the_bound_is_an_error() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let model = tmp.path().join("model");
+    crate::contract::common::copy_dir(&fixture("rig/paper"), &model);
+    let frames = model.join("frames.bin");
+    let mut b = std::fs::read(&frames).expect("frames.bin");
+    // The first frame's TY: count (8), frame and rig id (8), then QW QX QY QZ TX.
+    b[56..64].copy_from_slice(&1e308f64.to_le_bytes());
+    std::fs::write(&frames, b).expect("write");
+    let m = model.display().to_string();
+    for json in [false, true] {
+        let mut args = strings(&[
+            "calibrate",
+            &m,
+            "--camera-a",
+            "cam_out/",
+            "--camera-b",
+            "cam_in/",
+            "--mm-per-unit",
+            "1",
+        ]);
+        if json {
+            args.push("--json".into());
+        }
+        let r = capped(&args);
+        assert_clean_error(
+            &r,
+            &[
+                "frames.bin: record 0: a rig_from_world number is not finite or beyond ±1e12 model units",
+                "(id 1)",
+            ],
+        );
+    }
+}

@@ -283,3 +283,111 @@ fn scenario_errors_name_the_line() {
         other => panic!("unexpected {other:?}"),
     }
 }
+
+/// Issue 36 §2: the scenario reader's plausibility warnings (lengths in metres), each naming the
+/// file, the key's line, the key and the unit; the base scenario and every bundled scenario
+/// give none.
+#[test]
+fn plausibility_warnings_name_key_line_and_unit() {
+    let p = Path::new("s.toml");
+    assert!(
+        Scenario::from_toml_str(BASE, p)
+            .unwrap()
+            .warnings
+            .is_empty()
+    );
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures");
+    let mut read = 0;
+    for dir in ["scenarios", "mc", "fixed", "acceptance"] {
+        for e in std::fs::read_dir(fixtures.join(dir)).unwrap().flatten() {
+            let f = e.path();
+            if f.extension().is_some_and(|x| x == "toml") {
+                let s = Scenario::from_path(&f).unwrap();
+                assert!(s.warnings.is_empty(), "{}: {:?}", f.display(), s.warnings);
+                read += 1;
+            }
+        }
+    }
+    assert!(read >= 10, "{read} bundled scenarios");
+    let line = |t: &str, what: &str| t.lines().position(|l| l.contains(what)).unwrap() + 1;
+    for (from, to, key, says) in [
+        // A grid in metres.
+        (
+            "x_mm = [0.0, 2000.0, 21]",
+            "x_mm = [0.0, 2.0, 21]",
+            "grid.x_mm",
+            "spans 2 mm (less than 20 mm) — a car interior is metres across; lengths are in millimetres",
+        ),
+        // A rig link in metres.
+        (
+            "position_mm = [61.98, -1.71, 179.76]",
+            "position_mm = [0.06198, -0.00171, 0.17976]",
+            "camera[1].position_mm",
+            "puts the camera 0.1902 mm from its parent",
+        ),
+        // A link σ in metres (below a micrometre).
+        (
+            "sigma_position_mm = [0.19, 0.26, 0.13]",
+            "sigma_position_mm = [0.00019, 0.00026, 0.00013]",
+            "camera[1].sigma_position_mm",
+            "σ of 0.00013 mm is below a micrometre",
+        ),
+        // An observer σ of 1.52 mm in metres is above a micrometre, but its lever arm gives it
+        // away: 0.00152 mm / 0.013° (2.269e-4 rad) = 6.7 mm.
+        (
+            "sigma_position_mm = [1.52, 1.52, 1.52]",
+            "sigma_position_mm = [0.00152, 0.00152, 0.00152]",
+            "grid.observer[0].sigma_position_mm",
+            "position σ 0.00152 mm over angle σ 0.013° is a lever arm of 6.699 mm (less than 10 mm)",
+        ),
+        // A threshold in metres.
+        (
+            "threshold_mm = 5.0",
+            "threshold_mm = 0.005",
+            "grid.threshold_mm",
+            "0.005 mm is below 0.01 mm",
+        ),
+        // An observer millimetres from its chain camera (cam2 stands at
+        // (61.98, −1.71, 179.76) in the world): 5 mm away, not at it.
+        (
+            "position_mm = [1000.0, 800.0, 0.0]",
+            "position_mm = [61.98, 3.29, 179.76]",
+            "grid.observer[1].position_mm",
+            "is 5 mm from camera `cam2` without being at it",
+        ),
+    ] {
+        let t = BASE.replacen(from, to, 1);
+        assert_ne!(t, BASE, "{from}");
+        let s = Scenario::from_toml_str(&t, p).unwrap();
+        let want = format!("s.toml:{}: `{key}` {says}", line(&t, to));
+        assert!(
+            s.warnings.iter().any(|w| w.starts_with(&want)),
+            "want {want}\ngot {:?}",
+            s.warnings
+        );
+        assert!(
+            s.warnings
+                .iter()
+                .all(|w| w.ends_with("lengths are in millimetres")
+                    || w.ends_with("lengths are in millimetres (0.8 mm, not 0.0008)")),
+            "{:?}",
+            s.warnings
+        );
+    }
+    // A covariance_tangent whose position variance is 1e-8 mm² (σ 0.1 µm).
+    let t = BASE.replacen(
+        "sigma_position_mm = [1.52, 1.52, 1.52]\nsigma_angles_deg = [0.011, 0.011, 0.013]",
+        "covariance_tangent = [[1e-8, 0, 0, 0, 0, 0], [0, 1e-8, 0, 0, 0, 0], [0, 0, 1e-8, 0, 0, 0], [0, 0, 0, 1e-4, 0, 0], [0, 0, 0, 0, 1e-4, 0], [0, 0, 0, 0, 0, 1e-4]]",
+        1,
+    );
+    let s = Scenario::from_toml_str(&t, p).unwrap();
+    let want = format!(
+        "s.toml:{}: `grid.observer[0].covariance_tangent` σ of 0.0001 mm is below a micrometre",
+        line(&t, "covariance_tangent")
+    );
+    assert!(
+        s.warnings.iter().any(|w| w.starts_with(&want)),
+        "{:?}",
+        s.warnings
+    );
+}

@@ -41,7 +41,8 @@ class Image:
     @property
     def camera_id(self) -> int: ...
     def cam_from_world(self) -> npt.NDArray[np.float64]:
-        """The pose as a 3×4 matrix ``[R | t]``; raises :class:`Error` without a pose."""
+        """The pose as a 3×4 matrix ``[R | t]``, pycolmap's ``cam_from_world().matrix()``
+        (quaternions as stored, not normalised); raises :class:`Error` without a pose."""
     @property
     def points2D_xy(self) -> npt.NDArray[np.float64]: ...
     @property
