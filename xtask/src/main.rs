@@ -6,6 +6,7 @@
 mod invariants;
 mod package;
 mod shards;
+mod syntax;
 mod tidy;
 
 use anyhow::{Context, Result, bail};

@@ -65,21 +65,10 @@ enum Command {
     Place(cmd::place::PlaceArgs),
 }
 
-/// The error line of a failed run: the context chain joined with ": ", skipping a cause whose
-/// text the line already holds (library errors often print their source themselves).
+/// The error line of a failed run: the context chain joined with ": " (every library error
+/// shows its own context only, so each part is there once), control characters escaped.
 fn error_line(e: &anyhow::Error) -> String {
-    let mut line = String::new();
-    for cause in e.chain() {
-        let text = cause.to_string();
-        if text.is_empty() || line.contains(&text) {
-            continue;
-        }
-        if !line.is_empty() {
-            line.push_str(": ");
-        }
-        line.push_str(&text);
-    }
-    output::escape_controls(&line.replace('\n', " "))
+    output::escape_controls(&crashrig_input::message::error_line(e.as_ref()))
 }
 
 /// One `error: …` line for a usage error (clap's message is several lines long).
@@ -159,12 +148,12 @@ mod tests {
     use super::*;
 
     #[test]
-    fn error_line_skips_repeated_causes() {
+    fn error_line_joins_the_chain_in_one_line() {
         let io = std::io::Error::new(std::io::ErrorKind::NotFound, "No such file");
-        let e = anyhow::Error::new(io).context("x.toml: cannot read: No such file");
+        let e = anyhow::Error::new(io).context("x.toml: cannot read");
         assert_eq!(error_line(&e), "x.toml: cannot read: No such file");
-        let e = anyhow::anyhow!("inner").context("outer");
-        assert_eq!(error_line(&e), "outer: inner");
+        let e = anyhow::anyhow!("inner\u{1b}").context("outer");
+        assert_eq!(error_line(&e), "outer: inner\\u{1b}");
     }
 
     #[test]

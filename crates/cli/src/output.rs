@@ -113,6 +113,38 @@ pub fn warn_all(warnings: &[String]) {
     }
 }
 
+/// Prints a measure run (`crashrig measure`, and `crashrig merge` of measure shards).
+pub fn print_measure(
+    r: &crashrig_measure::MeasureRun,
+    warnings: &[String],
+    out: &std::path::Path,
+    g: &crate::Global,
+) -> anyhow::Result<()> {
+    warn_all(warnings);
+    let s = &r.summary;
+    if g.json {
+        return print_json(s);
+    }
+    println!(
+        "measured {} rows ({} epochs × {} markers seen), {} draws each; {:.1} % below {} mm; {} flagged; written to {}",
+        s.numbers.rows,
+        s.numbers.epochs,
+        s.numbers.markers,
+        s.numbers.samples_per_point,
+        100.0 * s.numbers.fraction_below_threshold,
+        s.numbers.threshold_mm,
+        s.numbers.rows_flagged,
+        out.display()
+    );
+    if let Some(sync) = &s.numbers.sync_offset {
+        println!("{}", sync.line());
+    }
+    for bar in s.numbers.length_check.iter().flatten() {
+        println!("{}", bar.line());
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

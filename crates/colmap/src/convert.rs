@@ -113,11 +113,12 @@ pub fn convert(config: &ConvertConfig) -> Result<Converted> {
         path: output.clone(),
         source: Box::new(source),
     })?;
-    let mut staged =
-        crashrig_outdir::Staged::new(output, model_file_name).map_err(|source| Error::Staging {
+    let mut staged = crashrig_outdir::Staged::new(output, model_file_name).map_err(|problem| {
+        Error::Staging {
             path: output.clone(),
-            source,
-        })?;
+            problem,
+        }
+    })?;
     // Each file straight into the staging directory; the directory is swapped in as a whole.
     for (name, bytes) in &files {
         staged.write(name, bytes).map_err(|source| Error::Commit {

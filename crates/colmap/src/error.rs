@@ -176,13 +176,13 @@ pub enum Error {
     },
     /// The output directory of `colmap convert` cannot be staged (it holds other files, ...).
     #[cfg(feature = "commands")]
-    #[error("{source}")]
+    #[error("{problem}")]
     Staging {
         /// The output directory.
         path: PathBuf,
-        /// The underlying error.
-        #[source]
-        source: crashrig_outdir::Error,
+        /// What is wrong: the message of the output-directory writer, which names the
+        /// directory (shown as this error's message, not returned as its source).
+        problem: crashrig_outdir::Error,
     },
     /// Writing the converted model failed.
     #[error("writing {}", path.display())]

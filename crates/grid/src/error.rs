@@ -11,7 +11,7 @@ use std::path::PathBuf;
 #[non_exhaustive]
 pub enum Error {
     /// A file could not be read.
-    #[error("{}: cannot read: {source}", path.display())]
+    #[error("{}: cannot read", path.display())]
     Read {
         /// The file.
         path: PathBuf,
@@ -20,7 +20,7 @@ pub enum Error {
         source: std::io::Error,
     },
     /// A figure could not be drawn.
-    #[error("{what}: {source}")]
+    #[error("{what}")]
     Plot {
         /// Which figure.
         what: String,
@@ -28,16 +28,20 @@ pub enum Error {
         #[source]
         source: crashrig_plot::Error,
     },
-    /// A scenario file (of `grid` or `propagate`) cannot be used: the Monte Carlo library's
-    /// error, which names the file and line itself unless `path` is given.
-    #[error("{}{source}", path.as_ref().map(|p| format!("{}: ", p.display())).unwrap_or_default())]
+    /// A scenario (of `grid` or `propagate`) cannot be used: the Monte Carlo library's error
+    /// about the file `path`.
+    #[error("{}", path.display())]
     Scenario {
-        /// The file, when the error does not name it.
-        path: Option<PathBuf>,
+        /// The scenario file.
+        path: PathBuf,
         /// The error.
         #[source]
         source: crashrig_mc::Error,
     },
+    /// A scenario file cannot be read: the Monte Carlo library's error, which names the file
+    /// (and the line) itself.
+    #[error(transparent)]
+    ScenarioFile(crashrig_mc::Error),
     /// A setting of a command out of its range.
     #[error("{name} {problem}")]
     Setting {
@@ -55,7 +59,7 @@ pub enum Error {
         problem: String,
     },
     /// A CSV document could not be formatted.
-    #[error("formatting {what}: {source}")]
+    #[error("formatting {what}")]
     Csv {
         /// Which document.
         what: &'static str,

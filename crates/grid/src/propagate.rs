@@ -157,7 +157,7 @@ pub fn run_propagate(
             &ChainOptions::new(samples, seed),
             stage.as_ref().map(|s| s as &dyn progress::Monitor),
         )
-        .map_err(|source| Error::Scenario { path: None, source })?;
+        .map_err(Error::ScenarioFile)?;
     let elapsed_s = start.elapsed().as_secs_f64();
     let lin = chain.linear();
     let cameras: Vec<CameraJson> = mc

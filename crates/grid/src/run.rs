@@ -193,12 +193,9 @@ pub(crate) fn load_scenario(path: &Path) -> Result<Scenario, Error> {
     Scenario::from_path(path).map_err(|e| match e {
         crashrig_mc::Error::Io { .. }
         | crashrig_mc::Error::Toml { .. }
-        | crashrig_mc::Error::Located { .. } => Error::Scenario {
-            path: None,
-            source: e,
-        },
+        | crashrig_mc::Error::Located { .. } => Error::ScenarioFile(e),
         other => Error::Scenario {
-            path: Some(path.to_path_buf()),
+            path: path.to_path_buf(),
             source: other,
         },
     })
@@ -315,10 +312,7 @@ pub(crate) fn prepare_scenario(
 }
 
 fn locate(e: crashrig_mc::Error, path: &Path) -> Error {
-    Error::Scenario {
-        path: None,
-        source: crashrig_mc::limits::locate(e, path),
-    }
+    Error::ScenarioFile(crashrig_mc::limits::locate(e, path))
 }
 
 /// The Monte Carlo statistics of a grid run before they are reported: the points of `study`

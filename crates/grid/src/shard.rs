@@ -157,7 +157,7 @@ fn shard_rows(
         .study
         .with_points(range.clone())
         .map_err(|e| Error::Scenario {
-            path: Some(path.to_path_buf()),
+            path: path.to_path_buf(),
             source: e,
         })?;
     let c = compute(p, &study, path, progress)?;
@@ -286,7 +286,7 @@ fn read_prepared_rows(
         s.with_points(0..0)
             .and_then(|s| s.run(&crashrig_mc::RunOptions::samples(p.samples, p.seed), None))
             .map_err(|e| Error::Scenario {
-                path: Some(path.to_path_buf()),
+                path: path.to_path_buf(),
                 source: e,
             })
     };

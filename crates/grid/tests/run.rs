@@ -127,7 +127,7 @@ fn grid_compute_bad_scenario_names_file_and_key() {
     )
     .unwrap();
     let err = compute(&args(&tmp.path().join("o"), &scen, true)).unwrap_err();
-    let msg = format!("{err:#}");
+    let msg = crashrig_input::message::error_line(&err);
     assert!(msg.contains("bad.toml"), "{msg}");
     assert!(msg.contains("grid.observer[1].sigma_position_mm"), "{msg}");
     assert!(!tmp.path().join("o").join("grid.csv").exists());
@@ -237,7 +237,7 @@ fn grid_fixed_nothing_measurable_still_writes_maps() {
 fn grid_fixed_bad_camera_names_file_key_and_line() {
     let tmp = tempfile::tempdir().unwrap();
     let text = FIXED.replace("\"PINHOLE\"", "\"PINHOL\"");
-    let msg = format!("{:#}", run(tmp.path(), &text).unwrap_err());
+    let msg = crashrig_input::message::error_line(&run(tmp.path(), &text).unwrap_err());
     assert!(msg.contains("fixed.toml:22:"), "{msg}");
     assert!(msg.contains("grid.observer[1].camera"), "{msg}");
     assert!(msg.contains("PINHOL"), "{msg}");

@@ -14,6 +14,8 @@
 //!   Python), the model-scale range and [`options::ScaleOptions`] (a factor or a scale bar).
 //! - [`location`]: [`location::line_of`] and [`location::toml_value_key`], the line and key an
 //!   error names.
+//! - [`message`]: [`message::error_line`], the one line a front end prints for an error and
+//!   its sources.
 //! - `result_json` (feature `json`): `link_from_result_value`, the uncertain link `A_from_B`
 //!   of a `calibrate --json` / `bootstrap --json` result, the one reader of those documents.
 //!
@@ -48,6 +50,7 @@
 mod error;
 pub mod file;
 pub mod location;
+pub mod message;
 pub mod options;
 #[cfg(feature = "json")]
 pub mod result_json;

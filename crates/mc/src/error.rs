@@ -10,7 +10,7 @@ use std::path::PathBuf;
 #[non_exhaustive]
 pub enum Error {
     /// The scenario file could not be read.
-    #[error("{}: cannot read: {source}", path.display())]
+    #[error("{}: cannot read", path.display())]
     Io {
         /// The file.
         path: PathBuf,
@@ -153,7 +153,7 @@ pub enum Error {
     },
     /// A fixed observer's camera model is invalid (unknown model name, wrong parameter
     /// count, invalid parameter).
-    #[error("`{key}`: {source}")]
+    #[error("`{key}`")]
     Camera {
         /// Key of the camera, e.g. `grid.observer[0].camera`.
         key: String,
@@ -163,7 +163,7 @@ pub enum Error {
     },
     /// `camera_from` names a COLMAP model that cannot be read.
     #[cfg(feature = "scenario")]
-    #[error("`{key}`: {source}")]
+    #[error("`{key}`")]
     ColmapModel {
         /// Key, e.g. `grid.observer[0].camera_from`.
         key: String,
@@ -188,7 +188,7 @@ pub enum Error {
     #[error(transparent)]
     Cancelled(#[from] crashrig_stats::progress::Cancelled),
     /// A scenario error located in its file: the line of the offending key.
-    #[error("{}:{line}: {source}", path.display())]
+    #[error("{}:{line}", path.display())]
     Located {
         /// The scenario file.
         path: PathBuf,

@@ -499,7 +499,7 @@ mod tests {
     fn check(text: &str) -> String {
         match check_document(text, Path::new("s.toml")) {
             Ok(()) => "ok".into(),
-            Err(e) => e.to_string(),
+            Err(e) => crashrig_input::message::error_line(&e),
         }
     }
 
@@ -610,7 +610,7 @@ mod tests {
         .unwrap();
         let e = locate(Error::GimbalLock { name: "b".into() }, &path);
         assert_eq!(
-            e.to_string(),
+            crashrig_input::message::error_line(&e),
             format!(
                 "{}:4: camera `b`: world orientation at gimbal lock (φ = ±90°)",
                 path.display()
@@ -618,8 +618,7 @@ mod tests {
         );
         let e = locate(Error::NoGrid, &path);
         assert!(
-            e.to_string()
-                .starts_with(&format!("{}:5: ", path.display())),
+            crashrig_input::message::error_line(&e).starts_with(&format!("{}:5: ", path.display())),
             "{e}"
         );
         std::fs::remove_dir_all(&dir).unwrap();

@@ -252,7 +252,7 @@ sigma_position_mm = [1.0, 1.0, 1.0]
 sigma_angles_deg = [0.01, 0.01, 0.01]
 "#;
     let err = Scenario::from_toml_str(text, Path::new("c.toml")).unwrap_err();
-    let msg = err.to_string();
+    let msg = crashrig_input::message::error_line(&err);
     assert!(
         msg.starts_with("c.toml:14: `grid.observer[0].position_mm`:"),
         "{msg}"

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 #[non_exhaustive]
 pub enum Error {
     /// A file could not be read.
-    #[error("{}: cannot read: {source}", path.display())]
+    #[error("{}: cannot read", path.display())]
     Io {
         /// The file.
         path: PathBuf,
@@ -88,7 +88,7 @@ pub enum Error {
     #[error(transparent)]
     Write(#[from] crashrig_outdir::Error),
     /// An error of the engine placed in the file it is about ([`Error::in_files`]).
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Located {
         /// The observations file or the model directory.
         path: PathBuf,

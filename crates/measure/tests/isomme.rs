@@ -130,7 +130,7 @@ fn channel_map_codes_and_bad_maps() {
         ("name,code\n", ":1: header"),
     ] {
         std::fs::write(&map, text).unwrap();
-        let msg = export(&cfg).unwrap_err().to_string();
+        let msg = crashrig_input::message::error_line(&export(&cfg).unwrap_err());
         assert!(msg.contains("codes.csv") && msg.contains(needle), "{msg}");
     }
 }
@@ -144,16 +144,16 @@ fn refuses_a_measure_output_without_a_frame_rate() {
         r#"{"frame_rate_hz": null}"#,
     )
     .unwrap();
-    let msg = export(&ExportConfig::new(dir.path(), "T3"))
-        .unwrap_err()
-        .to_string();
+    let msg = crashrig_input::message::error_line(
+        &export(&ExportConfig::new(dir.path(), "T3")).unwrap_err(),
+    );
     assert!(
         msg.contains("summary.json") && msg.contains("frame_rate_hz"),
         "{msg}"
     );
-    let msg = export(&ExportConfig::new(dir.path(), "../x"))
-        .unwrap_err()
-        .to_string();
+    let msg = crashrig_input::message::error_line(
+        &export(&ExportConfig::new(dir.path(), "../x")).unwrap_err(),
+    );
     assert!(msg.contains("--test-number"), "{msg}");
 }
 
@@ -172,9 +172,9 @@ fn refuses_fifos_and_oversize_inputs() {
             .unwrap()
             .set_len(limit + 1)
             .unwrap();
-        let msg = export(&ExportConfig::new(dir.path(), "T4"))
-            .unwrap_err()
-            .to_string();
+        let msg = crashrig_input::message::error_line(
+            &export(&ExportConfig::new(dir.path(), "T4")).unwrap_err(),
+        );
         assert!(
             msg.contains(name) && msg.contains("larger than the limit"),
             "{msg}"
@@ -195,9 +195,9 @@ fn refuses_fifos_and_oversize_inputs() {
         };
         measure_dir(dir.path());
         fifo(&dir.path().join("kinematics.csv"));
-        let msg = export(&ExportConfig::new(dir.path(), "T5"))
-            .unwrap_err()
-            .to_string();
+        let msg = crashrig_input::message::error_line(
+            &export(&ExportConfig::new(dir.path(), "T5")).unwrap_err(),
+        );
         assert!(
             msg.contains("kinematics.csv") && msg.contains("not a regular file"),
             "{msg}"
@@ -207,7 +207,7 @@ fn refuses_fifos_and_oversize_inputs() {
         fifo(&map);
         let mut cfg = ExportConfig::new(dir.path(), "T6");
         cfg.channel_map = Some(map);
-        let msg = export(&cfg).unwrap_err().to_string();
+        let msg = crashrig_input::message::error_line(&export(&cfg).unwrap_err());
         assert!(
             msg.contains("codes.csv") && msg.contains("not a regular file"),
             "{msg}"

@@ -232,10 +232,10 @@ fn three_shards(o: &MeasureOptions, tmp: &Path) -> Vec<PathBuf> {
 
 fn refusal(dirs: &[PathBuf], out: &Path) -> String {
     let e = match read_set(dirs) {
-        Err(e) => e.to_string(),
-        Ok(set) => shard::merge(&set, out, false, None)
-            .unwrap_err()
-            .to_string(),
+        Err(e) => crashrig_input::message::error_line(&e),
+        Ok(set) => {
+            crashrig_input::message::error_line(&shard::merge(&set, out, false, None).unwrap_err())
+        }
     };
     assert!(!out.exists(), "{e}: wrote {}", out.display());
     e

@@ -89,7 +89,7 @@ const STAGING_MARK: &str = ".crashrig-staging.";
 #[non_exhaustive]
 pub enum Error {
     /// A file-system operation failed.
-    #[error("{}: {what}: {source}", path.display())]
+    #[error("{}: {what}", path.display())]
     Io {
         /// The path concerned.
         path: PathBuf,

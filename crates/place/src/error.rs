@@ -7,16 +7,20 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
-    /// The scenario or the candidates file is invalid; the message names the file and, where
-    /// known, the line.
-    #[error("{}", located(path, source))]
+    /// The scenario or the candidates file `path` is invalid (the reader's error does not name
+    /// the file).
+    #[error("{}", path.display())]
     Input {
-        /// The file, when the source error does not name it already.
-        path: Option<PathBuf>,
+        /// The file.
+        path: PathBuf,
         /// The reader's error.
         #[source]
         source: crashrig_mc::Error,
     },
+    /// The scenario or the candidates file cannot be read: the reader's error, which names the
+    /// file (and the line) itself.
+    #[error(transparent)]
+    InputFile(crashrig_mc::Error),
     /// An option is out of range (`--choose`, `--samples`).
     #[error("`{name}`: {problem}")]
     Setting {
@@ -53,13 +57,6 @@ pub enum Error {
     Cancelled(#[from] crashrig_stats::progress::Cancelled),
 }
 
-fn located(path: &Option<PathBuf>, source: &crashrig_mc::Error) -> String {
-    match path {
-        Some(p) => format!("{}: {source}", p.display()),
-        None => source.to_string(),
-    }
-}
-
 impl Error {
     /// An input error of `path`: the file is named once (the reader's located errors name it
     /// already).
@@ -67,12 +64,9 @@ impl Error {
         match e {
             crashrig_mc::Error::Io { .. }
             | crashrig_mc::Error::Toml { .. }
-            | crashrig_mc::Error::Located { .. } => Error::Input {
-                path: None,
-                source: e,
-            },
+            | crashrig_mc::Error::Located { .. } => Error::InputFile(e),
             other => Error::Input {
-                path: Some(path.to_path_buf()),
+                path: path.to_path_buf(),
                 source: other,
             },
         }

@@ -26,7 +26,7 @@ pub enum Error {
         message: String,
     },
     /// PNG encoding failed.
-    #[error("{figure}: PNG encoding failed: {source}")]
+    #[error("{figure}: PNG encoding failed")]
     Png {
         /// Which figure kind.
         figure: &'static str,

@@ -33,21 +33,9 @@ pyo3::create_exception!(
 );
 
 /// The text of a library error as the command prints it after `error: `: the error and its
-/// causes joined with ": ", skipping a cause whose text is already there.
+/// causes joined with ": " ([`crashrig_input::message::error_line`]).
 pub(crate) fn error_text(e: &(dyn std::error::Error + 'static)) -> String {
-    let mut line = String::new();
-    let mut cause = Some(e);
-    while let Some(c) = cause {
-        let text = c.to_string();
-        if !text.is_empty() && !line.contains(&text) {
-            if !line.is_empty() {
-                line.push_str(": ");
-            }
-            line.push_str(&text);
-        }
-        cause = c.source();
-    }
-    line.replace('\n', " ")
+    crashrig_input::message::error_line(e)
 }
 
 /// `crashrig.Error` with the command's text of `e`.

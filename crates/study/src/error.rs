@@ -14,7 +14,7 @@ use std::path::PathBuf;
 #[non_exhaustive]
 pub enum Error {
     /// A file could not be read.
-    #[error("{}: cannot read: {source}", path.display())]
+    #[error("{}: cannot read", path.display())]
     Read {
         /// The file.
         path: PathBuf,
@@ -49,7 +49,7 @@ pub enum Error {
     },
     /// A step of the study failed on its inputs; `key` is the study-file section that
     /// configured it (its inputs are named by `source`).
-    #[error("{}{}: [{key}]: {source}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
+    #[error("{}{}: [{key}]", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
     Step {
         /// The study file.
         path: PathBuf,
@@ -62,7 +62,7 @@ pub enum Error {
         source: Box<StepError>,
     },
     /// The Monte Carlo library refused the chain or a layout built from the study.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Mc {
         /// The study file.
         path: PathBuf,
@@ -71,7 +71,7 @@ pub enum Error {
         source: crashrig_mc::Error,
     },
     /// Writing an output file failed.
-    #[error("{}: cannot write: {source}", path.display())]
+    #[error("{}: cannot write", path.display())]
     Write {
         /// The file.
         path: PathBuf,
@@ -80,7 +80,7 @@ pub enum Error {
         source: std::io::Error,
     },
     /// A figure could not be drawn.
-    #[error("{what}: {source}")]
+    #[error("{what}")]
     Plot {
         /// Which figure.
         what: String,
@@ -89,13 +89,10 @@ pub enum Error {
         source: crashrig_plot::Error,
     },
     /// A bundled scenario of `crashrig paper` cannot be used: the Monte Carlo library's
-    /// error, which names the file and line itself unless `path` is given.
-    #[error("{}{source}", path.as_ref().map(|p| format!("{}: ", p.display())).unwrap_or_default())]
+    /// error, which names the file and line itself.
+    #[error(transparent)]
     Scenario {
-        /// The file, when the error does not name it.
-        path: Option<PathBuf>,
         /// The error.
-        #[source]
         source: crashrig_mc::Error,
     },
     /// A layout's grid summary or maps (`crashrig_grid`'s error, which names the file).
@@ -105,7 +102,7 @@ pub enum Error {
     #[error(transparent)]
     OutDir(#[from] crashrig_outdir::Error),
     /// A bundled input of `crashrig paper` is missing or unusable (a bug of the program).
-    #[error("internal: {problem}")]
+    #[error("internal")]
     Bundled {
         /// What is wrong.
         #[source]
@@ -318,7 +315,7 @@ pub enum CalibrationError {
         spread_deg: f64,
     },
     /// The calibration of the epochs failed (scale, too few epochs, degenerate rotations).
-    #[error("{}: calibration failed: {source}", model.display())]
+    #[error("{}: calibration failed", model.display())]
     Rig {
         /// The model directory.
         model: PathBuf,
@@ -326,7 +323,7 @@ pub enum CalibrationError {
         source: RigError,
     },
     /// A plot could not be drawn.
-    #[error("{}: plotting {what}: {source}", dir.display())]
+    #[error("{}: plotting {what}", dir.display())]
     Plot {
         /// The plot directory.
         dir: PathBuf,
@@ -336,7 +333,7 @@ pub enum CalibrationError {
         source: crashrig_plot::Error,
     },
     /// A plot file could not be written.
-    #[error("{}: {what}: {source}", path.display())]
+    #[error("{}: {what}", path.display())]
     Io {
         /// The file or directory.
         path: PathBuf,
@@ -412,7 +409,7 @@ pub(crate) fn measure_plot_error(e: crashrig_measure::Error, figure: &'static st
             what: format!("{figure} plots"),
             source: crashrig_plot::Error::Draw {
                 figure,
-                message: other.to_string(),
+                message: crashrig_input::message::error_line(&other),
             },
         },
     }
@@ -423,7 +420,7 @@ pub(crate) fn measure_plot_error(e: crashrig_measure::Error, figure: &'static st
 #[non_exhaustive]
 pub enum BundledError {
     /// The generated study file does not serialise as TOML.
-    #[error("the study file does not serialise: {0}")]
+    #[error("the study file does not serialise")]
     Toml(#[source] toml::ser::Error),
     /// `scenarios/{stem}.toml` is not bundled.
     #[error("no bundled scenario {stem}")]
@@ -455,17 +452,15 @@ mod tests {
 
     #[test]
     fn bundled_messages_are_the_former_strings_and_keep_their_source() {
+        let line = |e: &Error| crashrig_input::message::error_line(e);
         let e = Error::Bundled {
             problem: BundledError::NoScenario { stem: "s1".into() },
         };
-        assert_eq!(e.to_string(), "internal: no bundled scenario s1");
+        assert_eq!(line(&e), "internal: no bundled scenario s1");
         let e = Error::Bundled {
             problem: BundledError::NoGrid { stem: "s1".into() },
         };
-        assert_eq!(
-            e.to_string(),
-            "internal: bundled scenario s1 without a grid"
-        );
+        assert_eq!(line(&e), "internal: bundled scenario s1 without a grid");
         let e = Error::Bundled {
             problem: BundledError::Observers {
                 stem: "s1".into(),
@@ -474,7 +469,7 @@ mod tests {
             },
         };
         assert_eq!(
-            e.to_string(),
+            line(&e),
             "internal: scenario s1 has 3 observers, the paper's layout table 2"
         );
         // A bare number is no TOML document: a real serialiser error as the source.
@@ -484,9 +479,11 @@ mod tests {
             problem: BundledError::Toml(toml_error),
         };
         assert_eq!(
-            e.to_string(),
+            line(&e),
             format!("internal: the study file does not serialise: {text}")
         );
+        // Each error shows its own context only; the chain holds the rest.
+        assert_eq!(e.to_string(), "internal");
         let problem = std::error::Error::source(&e).expect("the typed problem");
         let toml = problem.source().expect("the serialiser's error");
         assert!(toml.downcast_ref::<toml::ser::Error>().is_some());

@@ -71,7 +71,7 @@ pub(crate) fn fixed_from_raw(
             // The library names the key `{prefix}.{name}` and says what is wrong after it.
             let key = e.key().unwrap_or(&site.prefix).to_string();
             let name = key.rsplit('.').next().unwrap_or_default();
-            let text = e.to_string();
+            let text = crashrig_input::message::error_line(&e);
             let message = text
                 .strip_prefix(&format!("`{key}`: "))
                 .unwrap_or(&text)

@@ -184,7 +184,7 @@ fn bundled_grid(stem: &str, inputs: &Inputs<'_>) -> Result<crashrig_mc::Grid, Er
         })
     })?;
     crashrig_mc::Scenario::from_toml_str(text, Path::new(stem))
-        .map_err(|source| Error::Scenario { path: None, source })?
+        .map_err(|source| Error::Scenario { source })?
         .grid
         .ok_or_else(|| {
             bundled(BundledError::NoGrid {

@@ -1040,7 +1040,7 @@ fn kinematics_keys(
     use crashrig_measure::filter::{Cfc, CfcSpec, Standard};
     let problem = |e: crashrig_measure::Error| match e {
         crashrig_measure::Error::Setting { problem, .. } => problem,
-        other => other.to_string(),
+        other => crashrig_input::message::error_line(&other),
     };
     let standard = match &m.cfc_standard {
         None => Standard::J211,

@@ -307,10 +307,10 @@ pub struct LinkBootstrapOptions {
 #[non_exhaustive]
 pub enum LinkError {
     /// The full-sample resection of B failed.
-    #[error("resection of image B failed: {0}")]
+    #[error("resection of image B failed")]
     Resection(#[source] crashrig_pose::Error),
     /// The matched keypoints of image `image` (`'A'` or `'B'`) cannot be undistorted.
-    #[error("undistorting the matched keypoints of image {image}: {source}")]
+    #[error("undistorting the matched keypoints of image {image}")]
     Undistort {
         /// `'A'` or `'B'`.
         image: char,
@@ -319,7 +319,7 @@ pub enum LinkError {
         source: crashrig_pose::Error,
     },
     /// The full-sample relative orientation failed.
-    #[error("relative orientation A-B failed: {0}")]
+    #[error("relative orientation A-B failed")]
     RelativeOrientation(#[source] crashrig_pose::Error),
     /// The bootstrap engine refused the run (no items, no replicates, too few for the
     /// jackknife).

@@ -284,6 +284,6 @@ fn a_bundle_without_datum_fails_the_step_naming_the_file() {
         no_sensitivity: true,
         ..Options::default()
     };
-    let e = run_study(&study, &options).unwrap_err().to_string();
+    let e = crashrig_input::message::error_line(&run_study(&study, &options).unwrap_err());
     assert!(e.contains("[measure]") && e.contains("two.csv"), "{e}");
 }

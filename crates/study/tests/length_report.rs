@@ -155,7 +155,7 @@ fn bad_length_check_keys_name_the_key_and_line() {
         no_sensitivity: true,
         ..Options::default()
     };
-    let e = run_study(&study, &options).unwrap_err().to_string();
+    let e = crashrig_input::message::error_line(&run_study(&study, &options).unwrap_err());
     assert!(
         e.contains(&format!("{}:2:", bad.display())) && e.contains("to itself"),
         "{e}"

@@ -79,11 +79,19 @@ fn study_step_error_has_a_typed_source() {
         ),
         "{source:?}"
     );
-    let prefix = format!("{}:8: [calibration]: ", path.display());
-    assert_eq!(e.to_string(), format!("{prefix}{source}"));
+    // The step's own context, then its source's message (the chain the CLI prints).
+    let prefix = format!("{}:8: [calibration]", path.display());
+    assert_eq!(e.to_string(), prefix);
+    let line = crashrig_input::message::error_line(&e);
+    assert_eq!(
+        line,
+        format!(
+            "{prefix}: {}",
+            crashrig_input::message::error_line(&**source)
+        )
+    );
     assert!(
-        e.to_string()
-            .contains("camera A `nowhere/` matches no image"),
-        "{e}"
+        line.contains("camera A `nowhere/` matches no image"),
+        "{line}"
     );
 }

@@ -269,9 +269,9 @@ fn relative_degenerate_pure_rotation() {
         base_mm: 100.0,
     };
     let input = LinkInput::Relative(input);
-    let msg = bootstrap_link(&input, &options(10, 1, 1, Resample::Inliers, false), None)
-        .unwrap_err()
-        .to_string();
+    let msg = crashrig_input::message::error_line(
+        &bootstrap_link(&input, &options(10, 1, 1, Resample::Inliers, false), None).unwrap_err(),
+    );
     assert!(
         msg.contains("degenerate") || msg.contains("RANSAC found no pose"),
         "{msg}"
@@ -282,13 +282,14 @@ fn relative_degenerate_pure_rotation() {
 fn absolute_too_few_correspondences() {
     let s = scene(10);
     let input = LinkInput::Absolute(absolute_input(&s, 0));
-    let msg = bootstrap_link(
-        &input,
-        &options(10, 1, 1, Resample::AllMatches, false),
-        None,
-    )
-    .unwrap_err()
-    .to_string();
+    let msg = crashrig_input::message::error_line(
+        &bootstrap_link(
+            &input,
+            &options(10, 1, 1, Resample::AllMatches, false),
+            None,
+        )
+        .unwrap_err(),
+    );
     assert!(msg.contains("too few correspondences"), "{msg}");
 }
 

@@ -2,6 +2,7 @@
 
 use crate::Global;
 use crashrig_input::options::Spelling;
+use crashrig_measure::{MeasureOptions, OutputDir};
 use std::path::PathBuf;
 
 /// Arguments of `crashrig measure`.
@@ -70,9 +71,9 @@ pub struct MeasureArgs {
     pub shard: Option<crashrig_outdir::shard::Shard>,
 }
 
-/// Runs the command: arguments → [`crashrig_measure::MeasureOptions`] → [`crashrig_measure::run`] → print.
+/// Runs the command: arguments → [`MeasureOptions`] → [`crashrig_measure::run`] → print.
 pub fn run(a: MeasureArgs, g: &Global) -> anyhow::Result<()> {
-    let options = super::measure_options::options(&a, g.seed);
+    let options = options(&a, g.seed);
     let bar = crate::progress::Bar::new("crashrig measure");
     let replicates = bar.stage("replicates");
     if let Some(shard) = a.shard {
@@ -84,37 +85,36 @@ pub fn run(a: MeasureArgs, g: &Global) -> anyhow::Result<()> {
     let r = crashrig_measure::run(&options.config(Spelling::Flag)?, bar.monitor(&replicates))?;
     bar.finish();
     // Warnings after a successful run: a failed run prints its one `error:` line only.
-    print(&r, &options.warnings(&r, Spelling::Flag), &a.out, g)
+    crate::output::print_measure(&r, &options.warnings(&r, Spelling::Flag), &a.out, g)
 }
 
-/// Prints a measure run (`crashrig measure`, and `crashrig merge` of measure shards).
-pub fn print(
-    r: &crashrig_measure::MeasureRun,
-    warnings: &[String],
-    out: &std::path::Path,
-    g: &Global,
-) -> anyhow::Result<()> {
-    crate::output::warn_all(warnings);
-    let s = &r.summary;
-    if g.json {
-        return crate::output::print_json(s);
-    }
-    println!(
-        "measured {} rows ({} epochs × {} markers seen), {} draws each; {:.1} % below {} mm; {} flagged; written to {}",
-        s.numbers.rows,
-        s.numbers.epochs,
-        s.numbers.markers,
-        s.numbers.samples_per_point,
-        100.0 * s.numbers.fraction_below_threshold,
-        s.numbers.threshold_mm,
-        s.numbers.rows_flagged,
-        out.display()
-    );
-    if let Some(sync) = &s.numbers.sync_offset {
-        println!("{}", sync.line());
-    }
-    for bar in s.numbers.length_check.iter().flatten() {
-        println!("{}", bar.line());
-    }
-    Ok(())
+/// The library's options these arguments stand for.
+fn options(a: &MeasureArgs, seed: Option<u64>) -> MeasureOptions {
+    let mut o = MeasureOptions {
+        camera_c: a.camera_c.clone(),
+        tie: a.tie.clone(),
+        out: Some(OutputDir {
+            dir: a.out.clone(),
+            plots: !a.no_plots,
+        }),
+        mm_per_unit: a.mm_per_unit,
+        pixel_sigma_px: a.pixel_sigma_px,
+        samples: a.samples,
+        seed,
+        reference_epoch: a.reference_epoch.clone(),
+        frame_rate_hz: a.frame_rate_hz,
+        threshold_mm: a.threshold_mm,
+        max_reprojection_px: a.max_reprojection_px,
+        ..MeasureOptions::new(
+            a.model.clone(),
+            a.camera_a.clone(),
+            a.camera_b.clone(),
+            a.link.clone(),
+            a.observations.clone(),
+        )
+    };
+    a.a_noise.apply(&mut o);
+    a.kinematics.apply(&mut o);
+    a.length.apply(&mut o);
+    o
 }

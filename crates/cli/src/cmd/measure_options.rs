@@ -1,9 +1,9 @@
 //! Option groups of `crashrig measure`: camera A's pose uncertainty (`--sigma-a-*`,
 //! `--a-covariance`), the kinematics (`--cfc`, `--cfc-standard`, `--sync-sigma-ms`;
 //! `docs/KINEMATICS.md`) and the length check (`--scale-bars`, `--mpe-mm`; `docs/MEASURE.md`);
-//! and the arguments → the library's [`MeasureOptions`].
+//! each group sets its part of the library's [`MeasureOptions`].
 
-use crashrig_measure::{MeasureOptions, OutputDir};
+use crashrig_measure::MeasureOptions;
 use std::path::PathBuf;
 
 /// Camera A's pose uncertainty per epoch: σ values or a covariance file.
@@ -64,37 +64,28 @@ pub struct LengthCheckArgs {
     pub mpe_mm: Option<f64>,
 }
 
-/// The library's options these arguments stand for.
-pub fn options(a: &super::measure::MeasureArgs, seed: Option<u64>) -> MeasureOptions {
-    MeasureOptions {
-        camera_c: a.camera_c.clone(),
-        tie: a.tie.clone(),
-        out: Some(OutputDir {
-            dir: a.out.clone(),
-            plots: !a.no_plots,
-        }),
-        mm_per_unit: a.mm_per_unit,
-        sigma_a_position_mm: three(&a.a_noise.sigma_a_position_mm),
-        sigma_a_angles_deg: three(&a.a_noise.sigma_a_angles_deg),
-        a_covariance: a.a_noise.a_covariance.clone(),
-        pixel_sigma_px: a.pixel_sigma_px,
-        samples: a.samples,
-        seed,
-        reference_epoch: a.reference_epoch.clone(),
-        frame_rate_hz: a.frame_rate_hz,
-        threshold_mm: a.threshold_mm,
-        max_reprojection_px: a.max_reprojection_px,
-        cfc: a.kinematics.cfc,
-        cfc_standard: a.kinematics.cfc_standard.clone(),
-        sync_sigma_ms: a.kinematics.sync_sigma_ms,
-        scale_bars: a.length.scale_bars.clone(),
-        mpe_mm: a.length.mpe_mm,
-        ..MeasureOptions::new(
-            a.model.clone(),
-            a.camera_a.clone(),
-            a.camera_b.clone(),
-            a.link.clone(),
-            a.observations.clone(),
-        )
+impl ANoiseArgs {
+    /// Sets camera A's pose uncertainty of `o`.
+    pub fn apply(&self, o: &mut MeasureOptions) {
+        o.sigma_a_position_mm = three(&self.sigma_a_position_mm);
+        o.sigma_a_angles_deg = three(&self.sigma_a_angles_deg);
+        o.a_covariance = self.a_covariance.clone();
+    }
+}
+
+impl KinematicsArgs {
+    /// Sets the kinematics of `o`.
+    pub fn apply(&self, o: &mut MeasureOptions) {
+        o.cfc = self.cfc;
+        o.cfc_standard = self.cfc_standard.clone();
+        o.sync_sigma_ms = self.sync_sigma_ms;
+    }
+}
+
+impl LengthCheckArgs {
+    /// Sets the length check of `o`.
+    pub fn apply(&self, o: &mut MeasureOptions) {
+        o.scale_bars = self.scale_bars.clone();
+        o.mpe_mm = self.mpe_mm;
     }
 }

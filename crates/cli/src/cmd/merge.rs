@@ -29,7 +29,7 @@ pub fn run(a: MergeArgs, g: &Global) -> anyhow::Result<()> {
     bar.finish();
     match merged {
         Merged::Place(r) => super::place::print(&r, &a.out, g),
-        Merged::Measure(r) => super::measure::print(&r, &r.warnings, &a.out, g),
+        Merged::Measure(r) => crate::output::print_measure(&r, &r.warnings, &a.out, g),
         Merged::Grid(r) => super::grid::print(&r, &a.out, g),
     }
 }

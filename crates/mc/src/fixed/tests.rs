@@ -434,7 +434,7 @@ fn fixed_scenario_errors_name_key_and_line() {
         let text = MIXED.replacen(from, to, 1);
         assert_ne!(text, MIXED, "{from}");
         let err = parse(&text).unwrap_err();
-        let shown = err.to_string();
+        let shown = crashrig_input::message::error_line(&err);
         assert!(shown.starts_with("s.toml:"), "{shown}");
         assert!(shown.contains("grid.observer[0]"), "{shown}");
         assert!(shown.contains(msg), "{shown} lacks {msg}");
@@ -449,7 +449,7 @@ fn fixed_scenario_errors_name_key_and_line() {
         "name = \"aimed\"\n",
         "name = \"aimed\"\npixel_sigma_px = 1.0\n",
     );
-    let shown = parse(&text).unwrap_err().to_string();
+    let shown = crashrig_input::message::error_line(&parse(&text).unwrap_err());
     assert!(shown.contains("grid.observer[2].pixel_sigma_px"), "{shown}");
     // camera_from: a model directory that does not exist, and a missing camera id.
     let text = MIXED.replacen(
@@ -457,7 +457,7 @@ fn fixed_scenario_errors_name_key_and_line() {
         "camera_from = \"no/such/model:1\"",
         1,
     );
-    let shown = parse(&text).unwrap_err().to_string();
+    let shown = crashrig_input::message::error_line(&parse(&text).unwrap_err());
     assert!(shown.contains("grid.observer[0].camera_from"), "{shown}");
 }
 
@@ -491,9 +491,9 @@ fn fixed_camera_from_colmap_model() {
         &format!("{name}:{}", rec.camera_id),
         &format!("{name}:{}", 999_999),
     );
-    let shown = Scenario::from_toml_str(&text, &fixtures.join("scenario.toml"))
-        .unwrap_err()
-        .to_string();
+    let shown = crashrig_input::message::error_line(
+        &Scenario::from_toml_str(&text, &fixtures.join("scenario.toml")).unwrap_err(),
+    );
     assert!(shown.contains("has no camera 999999"), "{shown}");
 }
 

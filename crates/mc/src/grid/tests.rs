@@ -747,7 +747,7 @@ fn adaptive_keys_exactly_one_tolerance() {
         ("ndig = 16", "`grid.adaptive.ndig`"),
         ("ndig = 2.5", "g.toml:6"),
     ] {
-        let e = parse(body).unwrap_err().to_string();
+        let e = crashrig_input::message::error_line(&parse(body).unwrap_err());
         assert!(e.contains("g.toml") && e.contains(key), "{body}: {e}");
     }
 }

@@ -270,7 +270,7 @@ fn scenario_errors_name_the_line() {
         }
         other => panic!("unexpected {other:?}"),
     }
-    let shown = err.to_string();
+    let shown = crashrig_input::message::error_line(&err);
     assert!(
         shown.starts_with(&format!("s.toml:{expected}: `camera[1].position_mm`")),
         "{shown}"
