@@ -2059,7 +2059,11 @@ mod tests {
             ..Default::default()
         };
         let e = crate::run_study(&study, &options).expect_err("the study fails");
-        (e.to_string(), steps.into_inner().unwrap())
+        // The one line the CLI prints: the error's own context, then its sources.
+        (
+            crashrig_input::message::error_line(&e),
+            steps.into_inner().unwrap(),
+        )
     }
 
     /// A calibration camera that matches no image is reported at the key's line, not at
