@@ -40,7 +40,8 @@ fn target_dir(root: &Path) -> PathBuf {
     std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| root.join("target"), PathBuf::from)
 }
 
-fn metadata(root: &Path) -> Result<serde_json::Value> {
+/// `cargo metadata --no-deps` of the workspace (the one reader of it in xtask).
+pub(crate) fn metadata(root: &Path) -> Result<serde_json::Value> {
     let out = cargo_in(root)
         .args([
             "metadata",

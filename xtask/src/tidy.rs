@@ -223,25 +223,7 @@ pub fn check(root: &Path) -> Result<Vec<String>> {
 type Edges = BTreeMap<String, (BTreeSet<String>, BTreeSet<String>)>;
 
 fn workspace_edges(root: &Path) -> Result<Edges> {
-    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let out = Command::new(cargo)
-        .current_dir(root)
-        .args([
-            "metadata",
-            "--format-version",
-            "1",
-            "--no-deps",
-            "--offline",
-        ])
-        .output()
-        .context("running cargo metadata")?;
-    anyhow::ensure!(
-        out.status.success(),
-        "cargo metadata failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let meta: serde_json::Value =
-        serde_json::from_slice(&out.stdout).context("parsing cargo metadata")?;
+    let meta = crate::package::metadata(root)?;
     let packages = meta["packages"]
         .as_array()
         .context("metadata without packages")?;
