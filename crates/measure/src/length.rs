@@ -426,7 +426,7 @@ pub fn scatter_band(dof: f64) -> (f64, f64) {
 }
 
 /// The numbers a bar's statistics are computed from: the measured distances and the moments
-/// of the replicates (what [`BarAcc`] holds, reduced to σ and variances).
+/// of the replicates (what the per-bar accumulator holds, reduced to σ and variances).
 #[derive(Debug, Clone, PartialEq)]
 pub struct BarNumbers {
     /// The certificate's length (mm).

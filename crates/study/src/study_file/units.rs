@@ -5,12 +5,12 @@
 //!
 //! - a `[[layout]]` grid axis spanning less than 20 mm (`x_mm = [0.4, 1.8, 8]`);
 //! - an observer near, but not at, another observer of its layout or the origin of the vehicle
-//!   frame ([`read_warnings`]), or its chain camera once the chain's nominal positions are known
-//!   ([`chain_warnings`]);
+//!   frame (when the file is read), or its chain camera once the chain's nominal positions are
+//!   known ([`chain_warnings`]);
 //! - a pose σ below a micrometre or with a lever arm below 10 mm (`[outward]`, given observer
 //!   σ, `[measure] sigma_a_position_mm`);
-//! - a σ threshold below 0.01 mm; a `[measure] mpe_mm` below 0.01 mm; a `[tie] base_mm` outside the 20 mm – 5 m of two cameras in
-//!   one car.
+//! - a σ threshold below 0.01 mm; a `[measure] mpe_mm` below 0.01 mm; a `[tie] base_mm`
+//!   outside the 20 mm – 5 m of two cameras in one car.
 //!
 //! The study's run repeats them as `warning:` lines and its report's verdicts, so that a
 //! verdict computed from a length in the wrong unit never stands unqualified.
