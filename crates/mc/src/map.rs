@@ -28,7 +28,7 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 /// Points drawn together by one task (sharing each block's chain draw in correlated mode).
-pub(crate) const GROUP: usize = 16;
+pub(crate) const GROUP: usize = 64;
 
 /// Points prepared at a time.
 pub(crate) const WINDOW: usize = 1024;

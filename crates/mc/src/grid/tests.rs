@@ -885,7 +885,7 @@ fn cancelled_runs_return_cancelled_and_stop_working() {
         .unwrap();
     let grid = |adaptive: &str, obs: &str| {
         let text = format!(
-            "seed = 5\nsamples = 9000\n[grid]\nx_mm = [900.0, 1500.0, 9]\ny_mm = [-200.0, 200.0, 2]\nz_mm = [0.0, 0.0, 1]\n{adaptive}\n{obs}"
+            "seed = 5\nsamples = 9000\n[grid]\nx_mm = [900.0, 1500.0, 9]\ny_mm = [-200.0, 200.0, 8]\nz_mm = [0.0, 0.0, 1]\n{adaptive}\n{obs}"
         );
         Scenario::from_toml_str(&text, Path::new("p.toml")).unwrap()
     };
