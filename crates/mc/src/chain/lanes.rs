@@ -294,6 +294,9 @@ struct PoseLanes {
 /// are then read and written once per `BATCH` blocks instead of once per block.
 const BATCH: usize = 4;
 
+/// One composed block of a batch: each camera's `v` and `th` ([`Composer::compose`]).
+type Composed = (Vec<[Lane; 6]>, Vec<[Lane; 3]>);
+
 /// `m` joint draws (task `task` of the run keyed `key`), returning per-camera sums. Must be
 /// called inside [`crate::kernel::simd::dispatch`].
 /// Without `ANGLES` the ω φ κ offsets are neither extracted nor summed (their sums stay
@@ -313,7 +316,7 @@ pub(crate) fn run_task<const ANGLES: bool>(
     let mut composer = Composer::new(chain);
     let mut lanes = vec![CamLanes::new(); n];
     // The composed blocks of a batch (each camera's `v` and `th`, swapped out of the composer).
-    let mut held: Vec<(Vec<[Lane; 6]>, Vec<[Lane; 3]>)> = (0..BATCH)
+    let mut held: Vec<Composed> = (0..BATCH)
         .map(|_| (vec![[[0.0; LANES]; 6]; n], vec![[[0.0; LANES]; 3]; n]))
         .collect();
     let mut done = 0;

@@ -102,7 +102,7 @@ pub(crate) fn fill_block_ziggurat(
                 // The top 24 bits of the word as a signed integer.
                 let hz = (((u << 32) as i64) >> 40) as f64;
                 row[d] = hz * t.w[layer];
-                slow[d] = u64::from(!(hz.abs() < t.k[layer])) << d;
+                slow[d] = u64::from(hz.abs() >= t.k[layer]) << d;
             }
             // The lanes off the fast path, as a bit mask (one vectorised reduction).
             let mut mask = slow.iter().fold(0, |m, &b| m | b);
