@@ -2,6 +2,7 @@
 //! outward camera's pose covariance (JSON).
 
 use crate::Error;
+use crate::csv_table::{csv_error, for_each_row};
 use crashrig_geometry::uncertain::COVARIANCE_RELATIVE_TOLERANCE;
 use crashrig_geometry::{Mat6, Rigid3, UncertainPose};
 use crashrig_input::file as input_file;
@@ -101,80 +102,29 @@ pub const OBSERVATION_COLUMNS: [&str; 5] = ["epoch", "camera", "marker", "u_px",
 /// [`Error::Io`], and [`Error::Csv`] naming the line for every problem above (an empty file is
 /// line 1).
 pub fn read_observations(path: &Path, names: &CameraNames) -> Result<Vec<Observation>, Error> {
-    let bytes =
-        input_file::read_limited(path, input_file::MAX_CSV_BYTES).map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-    let bad = |line: u64, problem: String| Error::Csv {
-        path: path.to_path_buf(),
-        line,
-        problem,
-    };
-    let mut reader = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .flexible(false)
-        .from_reader(bytes.as_slice());
-    let headers = reader
-        .headers()
-        .map_err(|e| bad(1, format!("cannot read the header: {e}")))?
-        .clone();
-    let mut index = [usize::MAX; 5];
-    for (i, h) in headers.iter().enumerate() {
-        match OBSERVATION_COLUMNS.iter().position(|c| *c == h) {
-            Some(k) if index[k] == usize::MAX => index[k] = i,
-            Some(_) => return Err(bad(1, format!("column `{h}` appears twice"))),
-            None => {
-                return Err(bad(
-                    1,
-                    format!(
-                        "unknown column `{h}` (the columns are {})",
-                        OBSERVATION_COLUMNS.join(",")
-                    ),
-                ));
-            }
-        }
-    }
-    if let Some(k) = index.iter().position(|&i| i == usize::MAX) {
-        return Err(bad(
-            1,
-            format!(
-                "missing column `{}` (the columns are {})",
-                OBSERVATION_COLUMNS[k],
-                OBSERVATION_COLUMNS.join(",")
-            ),
-        ));
-    }
+    let bad = |line: u64, problem: String| csv_error(path, line, problem);
     let mut out = Vec::new();
     let mut seen: HashMap<(String, Inward, String), u64> = HashMap::new();
-    for record in reader.records() {
-        let record = record.map_err(|e| {
-            let line = e.position().map_or(0, |p| p.line());
-            bad(line, format!("malformed CSV: {e}"))
-        })?;
-        let line = record.position().map_or(0, |p| p.line());
-        let field = |k: usize| record.get(index[k]).unwrap_or("");
-        let epoch = field(0);
+    for_each_row(path, &OBSERVATION_COLUMNS, |line, fields| {
+        let [epoch, camera, marker, _, _] = fields;
         if epoch.is_empty() {
             return Err(bad(line, "empty epoch".into()));
         }
-        let camera = names.parse(field(1)).ok_or_else(|| {
+        let camera = names.parse(camera).ok_or_else(|| {
             bad(
                 line,
                 format!(
-                    "unknown camera `{}` (expected one of {})",
-                    field(1),
+                    "unknown camera `{camera}` (expected one of {})",
                     names.expected()
                 ),
             )
         })?;
-        let marker = field(2);
         if marker.is_empty() {
             return Err(bad(line, "empty marker name".into()));
         }
         let mut px = [0.0; 2];
         for (j, k) in [3, 4].into_iter().enumerate() {
-            let text = field(k);
+            let text = fields[k];
             let v: f64 = text.parse().map_err(|_| {
                 bad(
                     line,
@@ -209,7 +159,8 @@ pub fn read_observations(path: &Path, names: &CameraNames) -> Result<Vec<Observa
             pixel: Vector2::new(px[0], px[1]),
             line,
         });
-    }
+        Ok(())
+    })?;
     if out.is_empty() {
         return Err(bad(1, "no observations".into()));
     }

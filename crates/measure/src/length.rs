@@ -79,9 +79,9 @@
 //! ```
 
 use crate::Error;
+use crate::csv_table::{csv_error, for_each_row};
 use crate::input::Observation;
 use crashrig_geometry::Vec3;
-use crashrig_input::file as input_file;
 use crashrig_stats::Moments;
 use nalgebra::Vector1;
 use statrs::distribution::{ChiSquared, ContinuousCDF};
@@ -141,71 +141,32 @@ pub struct ScaleBars {
 /// are the same, a length that is not a finite number > 0, a σ that is not a finite number
 /// ≥ 0, no bar at all, more than [`MAX_SCALE_BARS`] bars.
 pub fn read_scale_bars(path: &Path, observations: &[Observation]) -> Result<Vec<ScaleBar>, Error> {
-    let bytes =
-        input_file::read_limited(path, input_file::MAX_CSV_BYTES).map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-    let bad = |line: u64, problem: String| Error::Csv {
-        path: path.to_path_buf(),
-        line,
-        problem,
-    };
-    let mut reader = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .flexible(false)
-        .from_reader(bytes.as_slice());
-    let headers = reader
-        .headers()
-        .map_err(|e| bad(1, format!("cannot read the header: {e}")))?
-        .clone();
-    let index = column_index(&headers).map_err(|p| bad(1, p))?;
     let known: BTreeSet<&str> = observations.iter().map(|o| o.marker.as_str()).collect();
     let mut bars: Vec<ScaleBar> = Vec::new();
     let mut names: HashMap<String, u64> = HashMap::new();
-    for record in reader.records() {
-        let record = record.map_err(|e| {
-            let line = e.position().map_or(0, |p| p.line());
-            bad(line, format!("malformed CSV: {e}"))
-        })?;
-        let line = record.position().map_or(0, |p| p.line());
+    for_each_row(path, &SCALE_BAR_COLUMNS, |line, fields| {
         if bars.len() == MAX_SCALE_BARS {
-            return Err(bad(line, format!("more than {MAX_SCALE_BARS} scale bars")));
+            return Err(csv_error(
+                path,
+                line,
+                format!("more than {MAX_SCALE_BARS} scale bars"),
+            ));
         }
-        let field = |k: usize| record.get(index[k]).unwrap_or("");
-        let bar = parse_bar(field, line, &known).map_err(|p| bad(line, p))?;
+        let bar = parse_bar(|k| fields[k], line, &known).map_err(|p| csv_error(path, line, p))?;
         if let Some(first) = names.insert(bar.name.clone(), line) {
-            return Err(bad(
+            return Err(csv_error(
+                path,
                 line,
                 format!("scale bar `{}` again (first on line {first})", bar.name),
             ));
         }
         bars.push(bar);
-    }
+        Ok(())
+    })?;
     if bars.is_empty() {
-        return Err(bad(1, "no scale bars".into()));
+        return Err(csv_error(path, 1, "no scale bars"));
     }
     Ok(bars)
-}
-
-/// The position of each of [`SCALE_BAR_COLUMNS`] in the header.
-fn column_index(headers: &csv::StringRecord) -> Result<[usize; 5], String> {
-    let mut index = [usize::MAX; 5];
-    let columns = SCALE_BAR_COLUMNS.join(",");
-    for (i, h) in headers.iter().enumerate() {
-        match SCALE_BAR_COLUMNS.iter().position(|c| *c == h) {
-            Some(k) if index[k] == usize::MAX => index[k] = i,
-            Some(_) => return Err(format!("column `{h}` appears twice")),
-            None => return Err(format!("unknown column `{h}` (the columns are {columns})")),
-        }
-    }
-    match index.iter().position(|&i| i == usize::MAX) {
-        Some(k) => Err(format!(
-            "missing column `{}` (the columns are {columns})",
-            SCALE_BAR_COLUMNS[k]
-        )),
-        None => Ok(index),
-    }
 }
 
 /// One line of the scale-bar CSV (`field(k)`: the text of column k of [`SCALE_BAR_COLUMNS`]).

@@ -105,6 +105,7 @@
 //! ```
 #![deny(missing_docs)]
 
+mod csv_table;
 pub mod engine;
 mod error;
 pub mod filter;

@@ -1,0 +1,130 @@
+//! The CSV inputs of `measure` (the observations, the scale bars): a bounded read of the file,
+//! a header of named columns in any order, and every record with its line number. Each reader
+//! checks its own fields; a problem anywhere is one [`Error::Csv`] naming the file and line.
+
+use crate::Error;
+use crashrig_input::file as input_file;
+use std::path::Path;
+
+/// An [`Error::Csv`] naming `path` and `line` (1 for the header or the file as a whole).
+pub(crate) fn csv_error(path: &Path, line: u64, problem: impl Into<String>) -> Error {
+    Error::Csv {
+        path: path.to_path_buf(),
+        line,
+        problem: problem.into(),
+    }
+}
+
+/// Reads the CSV file `path` (at most [`input_file::MAX_CSV_BYTES`]; a FIFO, device or
+/// directory is refused before anything is read) whose header names exactly `columns`, in any
+/// order, fields trimmed, and calls `row(line, fields)` for each record with its fields in the
+/// order of `columns`. The first error — of the header, of a malformed record, or returned by
+/// `row` — ends the read.
+pub(crate) fn for_each_row<const N: usize>(
+    path: &Path,
+    columns: &[&str; N],
+    mut row: impl FnMut(u64, [&str; N]) -> Result<(), Error>,
+) -> Result<(), Error> {
+    let bytes =
+        input_file::read_limited(path, input_file::MAX_CSV_BYTES).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    let mut reader = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .flexible(false)
+        .from_reader(bytes.as_slice());
+    let headers = reader
+        .headers()
+        .map_err(|e| csv_error(path, 1, format!("cannot read the header: {e}")))?;
+    let index = column_index(headers, columns).map_err(|p| csv_error(path, 1, p))?;
+    for record in reader.records() {
+        let record = record.map_err(|e| {
+            let line = e.position().map_or(0, |p| p.line());
+            csv_error(path, line, format!("malformed CSV: {e}"))
+        })?;
+        let line = record.position().map_or(0, |p| p.line());
+        row(line, index.map(|i| record.get(i).unwrap_or("")))?;
+    }
+    Ok(())
+}
+
+/// The position in `headers` of each of `columns`: each exactly once, nothing else.
+fn column_index<const N: usize>(
+    headers: &csv::StringRecord,
+    columns: &[&str; N],
+) -> Result<[usize; N], String> {
+    let mut index = [usize::MAX; N];
+    let all = columns.join(",");
+    for (i, h) in headers.iter().enumerate() {
+        match columns.iter().position(|c| *c == h) {
+            Some(k) if index[k] == usize::MAX => index[k] = i,
+            Some(_) => return Err(format!("column `{h}` appears twice")),
+            None => return Err(format!("unknown column `{h}` (the columns are {all})")),
+        }
+    }
+    match index.iter().position(|&i| i == usize::MAX) {
+        Some(k) => Err(format!(
+            "missing column `{}` (the columns are {all})",
+            columns[k]
+        )),
+        None => Ok(index),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rows(text: &str) -> Result<Vec<(u64, [String; 2])>, String> {
+        static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let dir =
+            std::env::temp_dir().join(format!("crashrig-csv-table-{}-{k}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("table.csv");
+        std::fs::write(&path, text).unwrap();
+        let mut out = Vec::new();
+        let r = for_each_row(&path, &["a", "b"], |line, [a, b]| {
+            out.push((line, [a.to_string(), b.to_string()]));
+            Ok(())
+        });
+        std::fs::remove_file(&path).unwrap();
+        std::fs::remove_dir(&dir).unwrap();
+        r.map(|()| out).map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn fields_come_in_the_order_of_the_columns_with_their_lines() {
+        let got = rows("b,a\n 2 ,1\n4,3\n").unwrap();
+        assert_eq!(
+            got,
+            vec![
+                (2, ["1".to_string(), "2".to_string()]),
+                (3, ["3".to_string(), "4".to_string()])
+            ]
+        );
+    }
+
+    #[test]
+    fn header_problems_name_line_1_and_the_column() {
+        let e = rows("a,a\n1,2\n").unwrap_err();
+        assert!(e.ends_with(":1: column `a` appears twice"), "{e}");
+        let e = rows("a,c\n1,2\n").unwrap_err();
+        assert!(
+            e.ends_with(":1: unknown column `c` (the columns are a,b)"),
+            "{e}"
+        );
+        let e = rows("a\n1\n").unwrap_err();
+        assert!(
+            e.ends_with(":1: missing column `b` (the columns are a,b)"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_record_with_the_wrong_field_count_names_its_line() {
+        let e = rows("a,b\n1,2\n3\n").unwrap_err();
+        assert!(e.contains(":3: malformed CSV"), "{e}");
+    }
+}
