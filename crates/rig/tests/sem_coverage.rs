@@ -296,20 +296,22 @@ fn sem_coverage_key_cells_fast() {
     // intervals: 1.0 point near 90 %, 0.6 near 96 %.
     //
     // (ρ 0.95, s ¼, n 140), the issue's case: the former rule `ar1_noise_fit` covered 86.7 %
-    // and refused 39 %, so B was 49 %. This rule: B ≈ 92 % (slow grid); ≥ 88 % is 4 SE below.
+    // and refused 39 %, so B was 49 %. This rule: B ≈ 90 % (slow grid: 90.1 %, the lowest B
+    // of the grid; the pooled step refuses 6 % there); ≥ 86 % is 4 SE below.
     let t = cell(36, 150, 140, 0.95, 0.25);
-    assert!(t.b() >= 0.88, "(0.95, ¼, 140): {t:?}");
+    assert!(t.b() >= 0.86, "(0.95, ¼, 140): {t:?}");
     // (ρ 0.95, s 1, n 140), true effective n 3.2: the former rule refused 88 % (B 7.5 %); this
-    // one resolves the drift and covers: B ≈ 96 %, ≥ 93 % is 4 SE below.
+    // one resolves the drift and covers: B ≈ 98 % (slow grid), ≥ 93 % is more than 4 SE
+    // (0.5 points each) below.
     let t = cell(37, 150, 140, 0.95, 1.0);
     assert!(t.b() >= 0.93, "(0.95, 1, 140): {t:?}");
     // (ρ 0.95, s ½, n 140), issue 25's case (the lag-1 rule covered 49.5 %, `ar1_noise_fit`
-    // 86.5 %): ±2 SE covers ≈ 96 %; ≥ 93 % is 4 SE below.
+    // 86.5 %): ±2 SE covers ≈ 98 % (slow grid); ≥ 93 % is more than 4 SE below.
     let t = cell(39, 150, 140, 0.95, 0.5);
     assert!(t.plain() >= 0.93, "(0.95, ½, 140): {t:?}");
-    // White noise, n = 60: honest and rarely refused. SE/true ≈ 1.40 (slow grid; its standard
+    // White noise, n = 60: honest and rarely refused. SE/true ≈ 1.42 (slow grid; its standard
     // deviation over intervals is about 1, so the mean of 900 is within ±0.07 at 2 SE);
-    // refusals ≈ 2 % (≤ 6 % is 4 SE above); coverage 93–99.5 %.
+    // refusals ≈ 2.5 % (≤ 6 % is 4 SE above); coverage 93–99.5 %.
     let t = cell(38, 150, 60, 0.0, 0.0);
     assert!(t.ratio() <= 1.5, "white noise 60: {t:?}");
     assert!(t.refused_share() <= 0.06, "white noise 60: {t:?}");
