@@ -29,16 +29,15 @@
 //! 4. `sem_covariance = D (Σ/n) D` with `D = diag(√(F_j·q_j))`: the correlations of Σ are kept,
 //!    the matrix stays positive semi-definite. The **effective n** of an axis is `n / F_j`.
 //!
-//! **Per-axis refusal** (`reliable = false`, the contract's `sem_reliable`): an axis whose
-//! effective n is below [`RELIABLE_EFFECTIVE_N`] = 10 **and** whose sequence does not resolve
-//! the drift it shows — the maximum-likelihood drift's correlation time `1/(1 − ρ̂)` is at
-//! least the sequence length n (the sequence sees less than one correlation time, so the drift
-//! cannot be told from a constant offset), or n itself is below 10. There ±2 SE cannot be
-//! relied on; the SE stays finite (the widened number above). An axis with a small effective
-//! n whose drift *is* resolved (for example 140 epochs of a ρ = 0.95 drift, effective n ≈ 3)
-//! keeps a reliable, widened SE.
-//!
-//! 5. **The pooled step** ([`SemModel::common_drift`], [`SemModel::under_common_drift`]): the
+//! 5. **per-axis refusal** (`reliable = false`, the contract's `sem_reliable`): an axis whose
+//!    effective n is below [`RELIABLE_EFFECTIVE_N`] = 10 **and** whose sequence does not
+//!    resolve the drift it shows — the maximum-likelihood drift's correlation time
+//!    `1/(1 − ρ̂)` is at least the sequence length n (the sequence sees less than one
+//!    correlation time, so the drift cannot be told from a constant offset), or n itself is
+//!    below 10. There ±2 SE cannot be relied on; the SE stays finite (the widened number
+//!    above). An axis with a small effective n whose drift *is* resolved (for example 140
+//!    epochs of a ρ = 0.95 drift, effective n ≈ 3) keeps a reliable, widened SE;
+//! 6. **the pooled step** ([`SemModel::common_drift`], [`SemModel::under_common_drift`]): the
 //!    six axes are one rig over one test, so a drift (temperature, a settling mount) is taken
 //!    to share one time scale across them. The six axes' REML log-likelihoods `ℓ_j(ρ, s)` give
 //!    the summed profile `P(ρ) = Σ_j max_s ℓ_j(ρ, s)` (each axis its own share), its maximum
@@ -56,7 +55,7 @@
 //!      axes' common ρ̂); steps 3–4 are then applied to the new factor.
 //!
 //!    Below the gate the per-axis result stands unchanged. The step only raises factors, so
-//!    no axis is covered less often than by steps 1–4 alone.
+//!    no axis is covered less often than by steps 1–5 alone.
 //!
 //! Why this rule: the contract's coverage table, counted with refusals as covered and as
 //! misses, on 48 cells (ρ × drift share × n), is `docs/CALIBRATE.md`, recomputed by the slow
@@ -87,7 +86,7 @@ use crashrig_geometry::{Mat6, Vec6};
 
 /// Name of the rule (drift model fitted to the autocorrelations, widened to its upper
 /// likelihood bound where the drift is significant, then widened or refused by the drift
-/// common to the six axes where that is significant: steps 1–5 of the module doc).
+/// common to the six axes where that is significant: steps 1–6 of the module doc).
 pub const RULE: &str = "ar1_noise_fit_bound_pooled";
 /// Name of the rule when no analysis is possible (fewer than [`MIN_EPOCHS`] epochs, or a
 /// spread at numerical zero).
@@ -110,12 +109,12 @@ pub const MAX_LAG: usize = 20;
 /// white noise is about `1/n`).
 pub const DRIFT_PENALTY: f64 = 1.0;
 /// The likelihood-ratio statistic of a drift common to the six axes against white noise above
-/// which the common drift widens and may refuse axes (step 5). White noise (six white axes)
+/// which the common drift widens and may refuse axes (step 6). White noise (six white axes)
 /// exceeds it in about 5 % of sequences at n = 60 (numpy, 1000 sequences: 95 % quantile 9.6),
 /// so the step rarely touches a white sequence (the contract's white-noise limits hold).
 pub const COMMON_GATE: f64 = 10.0;
 /// Drop of an axis's log-likelihood, at the common ρ̂, that delimits the upper bound of its
-/// share used to widen its factor under a significant common drift (step 5). ¼, not the
+/// share used to widen its factor under a significant common drift (step 6). ¼, not the
 /// per-axis ½: ρ̂ already carries the six axes' evidence. In numpy (200 sequences per cell,
 /// `fixtures/gen/sem_estimators.py --pooled`) ¼ gives a lowest A of 91.7 %, 0.1 only 90.4 %,
 /// and ½ widens the white axes of drifting 60-epoch sequences to 2.3–2.8 times their true SE
@@ -126,7 +125,7 @@ pub const COMMON_WIDEN_DROP: f64 = 0.25;
 /// [`BOUND_DROP`]).
 pub const COMMON_REFUSAL_DROP: f64 = 0.5;
 /// A sequence resolves the common drift when it spans at least this many correlation times
-/// `1/(1 − ρ̂)` of the common ρ̂: `n·(1 − ρ̂) ≥ 2` (step 5). With 2 (and [`COMMON_WIDEN_DROP`]
+/// `1/(1 − ρ̂)` of the common ρ̂: `n·(1 − ρ̂) ≥ 2` (step 6). With 2 (and [`COMMON_WIDEN_DROP`]
 /// ¼) every cell of the contract's grid is met; 6 would refuse 140 epochs of a ρ = 0.95 drift
 /// too (7 correlation times, ρ̂ too noisy to tell them from the 3 of 60 epochs) and break
 /// the contract's 85 % (refusals as misses) at n = 140 (numpy, `--pooled`: 51 %).
@@ -157,7 +156,7 @@ pub struct SemEstimate {
     pub effective_n: [f64; 6],
     /// False where the effective n is below [`RELIABLE_EFFECTIVE_N`] and the sequence does not
     /// resolve the drift it shows: per axis, or, under a significant common drift, the six
-    /// axes' common one (steps 4–5 of the module doc).
+    /// axes' common one (steps 5–6 of the module doc).
     pub reliable: [bool; 6],
     /// Lag-1 autocorrelation of each tangent residual series (0 when not analysed).
     pub lag1: [f64; 6],
@@ -174,7 +173,7 @@ pub struct SemEstimate {
     pub drift_rho_ml: [f64; 6],
     /// Axes whose factor was widened to the upper likelihood bound.
     pub bounded: [bool; 6],
-    /// Axes whose factor the six axes' common drift raised, or that it refused (step 5).
+    /// Axes whose factor the six axes' common drift raised, or that it refused (step 6).
     pub pooled: [bool; 6],
     /// The likelihood-ratio statistic of a drift common to the six axes against white noise
     /// (0 when not analysed).
@@ -202,10 +201,10 @@ pub struct AxisSem {
     pub inflation: f64,
     /// `n / F`.
     pub effective_n: f64,
-    /// True where the six axes' common drift raised the factor or refused the axis (step 5).
+    /// True where the six axes' common drift raised the factor or refused the axis (step 6).
     pub pooled: bool,
     /// False for a refusal (effective n below 10 and the drift not resolved; under a
-    /// significant common drift, the common ρ̂ not resolved, step 5).
+    /// significant common drift, the common ρ̂ not resolved, step 6).
     pub reliable: bool,
 }
 
@@ -234,8 +233,8 @@ impl SemModel {
         &self.drift
     }
 
-    /// The per-axis rule on one residual series of length n (steps 1–3 and the per-axis
-    /// refusal; without the six axes' common drift of [`SemModel::estimate`]).
+    /// The per-axis rule on one residual series of length n (steps 1–5; without the six axes'
+    /// common drift of [`SemModel::estimate`]).
     pub fn axis(&self, series: &[f64]) -> AxisSem {
         self.axis_with_likelihood(series).0
     }
@@ -264,7 +263,7 @@ impl SemModel {
     }
 
     /// The small-sample factor, inflation, effective n and the per-axis refusal of `a` from
-    /// its factor `a.factor` (step 3).
+    /// its factor `a.factor` (steps 3–5).
     fn finish(&self, mut a: AxisSem) -> AxisSem {
         let nf = self.n as f64;
         a.small_sample_factor = small_sample_factor((nf / a.factor - 1.0).max(1.0));
@@ -276,7 +275,7 @@ impl SemModel {
         a
     }
 
-    /// The drift common to the axes whose log-likelihoods are `lls` (step 5): the sum over
+    /// The drift common to the axes whose log-likelihoods are `lls` (step 6): the sum over
     /// the axes of each axis's profile over its share, its maximum over ρ and the statistic
     /// against white noise on every axis. `None` without any axis.
     pub fn common_drift(&self, lls: &[Vec<f64>]) -> Option<CommonDrift> {
@@ -299,7 +298,7 @@ impl SemModel {
     }
 
     /// The per-axis result `a` (log-likelihood `ll`) under a significant common drift `c`
-    /// (step 5): the factor raised to the share's upper bound at the common ρ̂ (drop
+    /// (step 6): the factor raised to the share's upper bound at the common ρ̂ (drop
     /// [`COMMON_WIDEN_DROP`]); where the sequence does not resolve ρ̂ and the bound at
     /// [`COMMON_REFUSAL_DROP`] leaves fewer than 10 effective epochs, refused, the factor
     /// raised to that bound.
@@ -380,7 +379,7 @@ impl SemModel {
     }
 }
 
-/// The drift common to the six axes of one sequence (step 5 of the module doc).
+/// The drift common to the six axes of one sequence (step 6 of the module doc).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CommonDrift {
     /// `2(max_ρ Σ_j max_s ℓ_j(ρ, s) − Σ_j ℓ_j(0, 0))`: the likelihood-ratio statistic of a
@@ -823,7 +822,7 @@ mod tests {
         let mut cov = Mat6::identity();
         cov[(0, 1)] = 0.3;
         cov[(1, 0)] = 0.3;
-        // Axis by axis (steps 1–4): the ramp is widened and refused, the alternation gets only
+        // Axis by axis (steps 1–5): the ramp is widened and refused, the alternation gets only
         // the small-sample factor of ν = 39.
         let m = SemModel::new(n);
         let ramp = m.axis(&axis_of(&residuals, 0));
@@ -831,7 +830,7 @@ mod tests {
         assert!(ramp.factor > 5.0 && !ramp.reliable, "{ramp:?}");
         assert!(alt.factor == 1.0 && alt.reliable, "{alt:?}");
         assert_abs_diff_eq!(alt.inflation, small_sample_factor(39.0), epsilon = 0.0);
-        // The six axes (step 5): the ramp's drift is the common one (the other axes add
+        // The six axes (step 6): the ramp's drift is the common one (the other axes add
         // nothing to the statistic), ρ̂ = 0.99 is far from resolved by 40 epochs (0.4
         // correlation times), so no axis can show it is free of that drift: every axis is
         // refused, the alternation included — the pooled step's stated cost.
