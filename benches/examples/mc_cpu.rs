@@ -4,7 +4,7 @@
 //! wall-clock numbers absorb other jobs' load.
 //!
 //! `cargo run --release -p crashrig-benches --example mc_cpu -- WHAT ENGINE MILLIONS`
-//! with WHAT = `normals` | `kernel` | `chain` | a kernel path of
+//! with WHAT = `normals` | `ziggurat` (a vectorised ziggurat's fast path, timing only) | `kernel` | `chain` | a kernel path of
 //! [`crashrig_benches::kernel_paths`] (`study`, `full_covariance`, `correlated`, …) |
 //! `real_map` (the whole map of [`crashrig_benches::real_map`], correlated) |
 //! `real_map_independent` (its independent companion) | `real_map_both` (both, as
@@ -34,7 +34,7 @@ fn main() {
         .expect("pool");
     // Grid paths: the study (and, in correlated mode, its chain propagation) is set up before
     // the clock starts, as in the criterion benches.
-    let study = (!matches!(what, "normals" | "chain")).then(|| {
+    let study = (!matches!(what, "normals" | "ziggurat" | "chain")).then(|| {
         let toml = if what.starts_with("real_map") {
             real_map()
         } else {
@@ -49,13 +49,24 @@ fn main() {
     let mut exact = String::new();
     let (t, cpu0) = (Instant::now(), process_cpu_ns());
     match (what, study) {
-        ("normals", _) => {
+        ("normals" | "ziggurat", _) => {
+            // 28 rows: the independent real map's normals per point-draw.
             let mut s = 0.0;
             let b = crashrig_mc::bench::BLOCK;
-            let mut rows = vec![[0.0; crashrig_mc::bench::BLOCK]; 12];
-            for k in 0..n / (12 * b) {
-                crashrig_mc::bench::philox_normals(isa, 1, 0, (k * b) as u64, &mut rows);
-                s += rows[0][0] + rows[11][b - 1];
+            let mut rows = vec![[0.0; crashrig_mc::bench::BLOCK]; 28];
+            for k in 0..n / (28 * b) {
+                if what == "normals" {
+                    crashrig_mc::bench::philox_normals(isa, 1, 0, (k * b) as u64, &mut rows);
+                } else {
+                    crashrig_mc::bench::philox_ziggurat_normals(
+                        isa,
+                        1,
+                        0,
+                        (k * b) as u64,
+                        &mut rows,
+                    );
+                }
+                s += rows[0][0] + rows[27][b - 1];
             }
             black_box(s);
         }

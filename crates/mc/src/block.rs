@@ -591,7 +591,9 @@ pub(crate) fn draw_block(
     for (j, o) in kernel.observers.iter().enumerate() {
         observer_pass(o, j, s, shared, b, width);
     }
-    s.tmax.iter().fold(true, |ok, &t| ok & (t < SMALL_ANGLE_SQ))
+    s.tmax.iter().fold(0u64, |n, &t| {
+        n | u64::from(t >= SMALL_ANGLE_SQ || t.is_nan())
+    }) == 0
 }
 
 /// Observer `j` (`o`) of a block into the normal equations, in the loop shape of `width`: its

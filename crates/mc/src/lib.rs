@@ -302,6 +302,25 @@ pub mod bench {
             |width| fill_block(key, task, draw0, rows, width),
         );
     }
+
+    /// As [`philox_normals`], by a 256-layer ziggurat's fast path in lanes instead of the
+    /// Box–Muller transform: **timing only** (its rare slow-path lanes take a stand-in, so
+    /// its output is not a sample of N(0, 1); no engine uses it). `docs/performance.md`,
+    /// issue 39, weighs it.
+    pub fn philox_ziggurat_normals(
+        isa: Isa,
+        seed: u64,
+        task: u64,
+        draw0: u64,
+        rows: &mut [[f64; BLOCK]],
+    ) {
+        let key = key_of_seed(seed);
+        dispatch(
+            isa,
+            #[inline(always)]
+            |width| crate::kernel::zig_lanes::fill_block_ziggurat(key, task, draw0, rows, width),
+        );
+    }
 }
 
 /// The crate's README (its crates.io page), compiled and run as a doctest.

@@ -5,7 +5,8 @@
 //! # Tasks, and the chain shared by the points
 //! The selected points are taken in windows of [`WINDOW`] points (each point is prepared once
 //! per window, so memory does not grow with the map beyond the results), the points a window
-//! draws in groups of up to [`GROUP`], and the draws in chunks of [`CHUNK`] replicates: a task
+//! draws in groups of up to [`GROUP`] ([`CHAIN_GROUP`] in correlated mode), and the draws in
+//! chunks of [`CHUNK`] replicates: a task
 //! is (group, chunk). In correlated mode a task draws the chain once per block of 64
 //! replicates and shares it between the points of its group (`block::run_group`): replicate
 //! `j` of every point takes draw `j` of the chain stream (`schedule::CHAIN_TASK`) — one rig
@@ -27,8 +28,15 @@ use crate::schedule::{CHUNK, Engine, PointTicks, adaptive_draws, task_index};
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-/// Points drawn together by one task (sharing each block's chain draw in correlated mode).
+/// Points drawn together by one task without a chain.
 pub(crate) const GROUP: usize = 16;
+
+/// Points drawn together by one task in correlated mode, sharing each block's chain draw: the
+/// chain's normals and composition (≈ 15 cycles per point-draw of the real-study map in groups
+/// of 16) are spread over four times as many points. Without a chain a larger group only
+/// enlarges each task's per-lane sums, and was measured slower (`docs/performance.md`,
+/// issue 39).
+pub(crate) const CHAIN_GROUP: usize = 64;
 
 /// Points prepared at a time.
 pub(crate) const WINDOW: usize = 1024;
@@ -132,7 +140,12 @@ pub(crate) fn run_samples<'a, P: MapPath<'a>>(
             .map(|p| path.plan(p))
             .collect::<Result<_, _>>()?;
         let drawn: Vec<usize> = (0..plans.len()).filter(|&i| plans[i].drawn()).collect();
-        let groups: Vec<&[usize]> = drawn.chunks(GROUP).collect();
+        let group = if run.chain.is_some() {
+            CHAIN_GROUP
+        } else {
+            GROUP
+        };
+        let groups: Vec<&[usize]> = drawn.chunks(group).collect();
         let mut sums: Vec<Acc3> = points[start..end].iter().map(|p| Acc3::new(*p)).collect();
         crate::kernel::ordered::map_fold_in_order(
             groups.len() * chunks,

@@ -306,10 +306,16 @@ pub(crate) fn undistort_lanes(
     } else {
         refine::<false>(v, &fast, j, ex, ey, x, y)
     };
+    // The last step's residual (before its update) bounds the result's from above. Whether
+    // any lane needs the fix-up (r2 ≥ tol² or NaN) is one vectorised reduction, so the usual
+    // block, where none does, takes no branch per lane.
+    let tol2 = UNDISTORT_RESIDUAL_PX * UNDISTORT_RESIDUAL_PX;
+    let far = |r2: f64| r2 >= tol2 || r2.is_nan();
+    if res2.iter().fold(0u64, |n, &r2| n | u64::from(far(r2))) == 0 {
+        return;
+    }
     for l in 0..b {
-        // The last step's residual (before its update) bounds the result's from above.
-        let r2 = res2[l];
-        if r2 >= UNDISTORT_RESIDUAL_PX * UNDISTORT_RESIDUAL_PX || r2.is_nan() {
+        if far(res2[l]) {
             scalar(l, x, y);
         }
     }

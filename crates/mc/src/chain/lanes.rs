@@ -210,6 +210,63 @@ impl CamLanes {
         }
     }
 
+    /// [`Self::add`] of `K` full blocks in order (`v[q]`, `th[q]` block q): per lane and
+    /// sum the same operations in the same order as `K` calls of [`Self::add`], so the same
+    /// bits, with each sum's lane row loaded and stored once.
+    #[inline(always)]
+    fn add_batch<const ANGLES: bool, const K: usize>(
+        &mut self,
+        v: [&[Lane; 6]; K],
+        th: [&[Lane; 3]; K],
+    ) {
+        #[inline(always)]
+        fn sum<const K: usize>(s: &mut Lane, x: impl Fn(usize, usize) -> f64) {
+            for l in 0..LANES {
+                let mut a = s[l];
+                for q in 0..K {
+                    a += x(q, l);
+                }
+                s[l] = a;
+            }
+        }
+        #[inline(always)]
+        fn fma<const K: usize>(s: &mut Lane, x: impl Fn(usize, usize) -> (f64, f64)) {
+            for l in 0..LANES {
+                let mut a = s[l];
+                for q in 0..K {
+                    let (p, r) = x(q, l);
+                    a = p.mul_add(r, a);
+                }
+                s[l] = a;
+            }
+        }
+        for i in 0..if ANGLES { 6 } else { 3 } {
+            sum::<K>(&mut self.s1[i], |q, l| v[q][i][l]);
+        }
+        let mut k = 0;
+        for i in 0..6 {
+            for j in i..6 {
+                if ANGLES {
+                    fma::<K>(&mut self.s2[k], |q, l| (v[q][i][l], v[q][j][l]));
+                }
+                k += 1;
+            }
+        }
+        for i in 0..3 {
+            sum::<K>(&mut self.t1[i], |q, l| th[q][i][l]);
+        }
+        let u = |q: usize, i: usize, l: usize| if i < 3 { v[q][i][l] } else { th[q][i - 3][l] };
+        let mut k = 0;
+        for i in 0..6 {
+            for j in i..6 {
+                if !(ANGLES && j < 3) {
+                    fma::<K>(&mut self.u2[k], |q, l| (u(q, i, l), u(q, j, l)));
+                }
+                k += 1;
+            }
+        }
+    }
+
     fn reduce<const ANGLES: bool>(&self, n: u64) -> CamSums {
         let sum = |r: &Lane| r.iter().sum::<f64>();
         let s2: [f64; 21] = std::array::from_fn(|k| sum(&self.s2[k]));
@@ -232,6 +289,14 @@ struct PoseLanes {
     r: [Lane; 9],
 }
 
+/// Blocks of joint draws composed before their sums are added ([`CamLanes::add_batch`]): a
+/// camera's per-lane sums (45 lane rows, 23 KB; three cameras overflow the first-level cache)
+/// are then read and written once per `BATCH` blocks instead of once per block.
+const BATCH: usize = 4;
+
+/// One composed block of a batch: each camera's `v` and `th` ([`Composer::compose`]).
+type Composed = (Vec<[Lane; 6]>, Vec<[Lane; 3]>);
+
 /// `m` joint draws (task `task` of the run keyed `key`), returning per-camera sums. Must be
 /// called inside [`crate::kernel::simd::dispatch`].
 /// Without `ANGLES` the ω φ κ offsets are neither extracted nor summed (their sums stay
@@ -250,15 +315,36 @@ pub(crate) fn run_task<const ANGLES: bool>(
     let mut e = vec![[0.0; LANES]; 6 * n];
     let mut composer = Composer::new(chain);
     let mut lanes = vec![CamLanes::new(); n];
+    // The composed blocks of a batch (each camera's `v` and `th`, swapped out of the composer).
+    let mut held: Vec<Composed> = (0..BATCH)
+        .map(|_| (vec![[[0.0; LANES]; 6]; n], vec![[[0.0; LANES]; 3]; n]))
+        .collect();
     let mut done = 0;
     while done < m {
-        let b = LANES.min(m - done);
-        fill_block(key, task, done as u64, &mut e, width);
-        composer.compose::<ANGLES>(chain, &e, b);
-        for i in 0..n {
-            lanes[i].add::<ANGLES>(&composer.v[i], &composer.th[i], b);
+        let (mut k, mut b) = (0, LANES);
+        while k < BATCH && done < m {
+            b = LANES.min(m - done);
+            fill_block(key, task, done as u64, &mut e, width);
+            composer.compose::<ANGLES>(chain, &e, b);
+            std::mem::swap(&mut composer.v, &mut held[k].0);
+            std::mem::swap(&mut composer.th, &mut held[k].1);
+            k += 1;
+            done += b;
         }
-        done += b;
+        for i in 0..n {
+            if k == BATCH && b == LANES {
+                lanes[i].add_batch::<ANGLES, BATCH>(
+                    std::array::from_fn(|q| &held[q].0[i]),
+                    std::array::from_fn(|q| &held[q].1[i]),
+                );
+            } else {
+                // The task's last blocks (the last one possibly partial), one at a time.
+                for q in 0..k {
+                    let bq = if q + 1 == k { b } else { LANES };
+                    lanes[i].add::<ANGLES>(&held[q].0[i], &held[q].1[i], bq);
+                }
+            }
+        }
     }
     lanes.iter().map(|c| c.reduce::<ANGLES>(m as u64)).collect()
 }

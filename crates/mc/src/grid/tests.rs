@@ -948,11 +948,12 @@ fn every_selection_and_thread_count_gives_the_whole_maps_bits() {
             let whole = pool(2).install(|| s.run(&o, None).unwrap());
             assert_eq!(pool(1).install(|| s.run(&o, None).unwrap()), whole);
             let n = whole.points.len();
-            let g = crate::map::GROUP;
-            for r in [0..1, 0..g + 1, 3..g + 5, g - 1..n.min(2 * g + 3), n - 2..n] {
-                let r = r.start.min(n)..r.end.min(n);
-                let part = pool(2).install(|| s.with_points(r.clone()).unwrap().run(&o, None));
-                assert_eq!(part.unwrap().points, whole.points[r.clone()], "{r:?}");
+            for g in [crate::map::GROUP, crate::map::CHAIN_GROUP] {
+                for r in [0..1, 0..g + 1, 3..g + 5, g - 1..n.min(2 * g + 3), n - 2..n] {
+                    let r = r.start.min(n)..r.end.min(n);
+                    let part = pool(2).install(|| s.with_points(r.clone()).unwrap().run(&o, None));
+                    assert_eq!(part.unwrap().points, whole.points[r.clone()], "{r:?}");
+                }
             }
         }
     }

@@ -19,6 +19,7 @@ pub(crate) mod ordered;
 pub(crate) mod philox;
 pub(crate) mod scalar;
 pub(crate) mod simd;
+pub(crate) mod zig_lanes;
 #[cfg(test)]
 pub(crate) mod ziggurat;
 
