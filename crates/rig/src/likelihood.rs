@@ -174,11 +174,39 @@ impl DriftLikelihood {
             .collect()
     }
 
+    /// The profile of `ll` (a [`DriftLikelihood::log_likelihood`]) over the drift share: for
+    /// each ρ of the grid, the largest log-likelihood over the shares. Its value at ρ = 0 is
+    /// white noise's (a drift with ρ = 0 is white noise).
+    pub fn share_profile(ll: &[f64]) -> Vec<f64> {
+        ll.chunks(SHARE_STEPS)
+            .map(|row| row.iter().copied().fold(f64::NEG_INFINITY, f64::max))
+            .collect()
+    }
+
+    /// At the grid's ρ number `rho_index`, the largest model factor `f(ρ, s)` over the shares
+    /// whose log-likelihood in `ll` is within `drop` of the largest at that ρ (the upper end
+    /// of the share's likelihood interval, the drift's time scale held fixed).
+    pub fn factor_upper_at(&self, ll: &[f64], rho_index: usize, drop: f64) -> f64 {
+        let row = rho_index * SHARE_STEPS..(rho_index + 1) * SHARE_STEPS;
+        let (l, f) = (&ll[row.clone()], &self.factor[row]);
+        let top = l.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        l.iter()
+            .zip(f)
+            .filter(|(v, _)| **v >= top - drop)
+            .map(|(_, f)| *f)
+            .fold(1.0, f64::max)
+    }
+
     /// The statistic, the maximum-likelihood drift and the upper bound of the variance factor
     /// over the grid points within `drop` of the maximum log-likelihood. `None` when the
     /// likelihood is not finite everywhere (a series without spread).
     pub fn summary(&self, x: &[f64], drop: f64) -> Option<LikelihoodSummary> {
-        let ll = self.log_likelihood(x);
+        self.summary_of(&self.log_likelihood(x), drop)
+    }
+
+    /// [`DriftLikelihood::summary`] from a log-likelihood already computed
+    /// ([`DriftLikelihood::log_likelihood`]).
+    pub fn summary_of(&self, ll: &[f64], drop: f64) -> Option<LikelihoodSummary> {
         if !ll.iter().all(|v| v.is_finite()) {
             return None;
         }
@@ -276,5 +304,45 @@ mod tests {
         assert!(s.factor_upper >= 10.0, "{s:?}");
         // No spread left after the mean: no summary.
         assert!(m.summary(&[2.0; 60], 0.5).is_none());
+    }
+
+    #[test]
+    fn share_profile_and_factor_upper_at() {
+        let n = 60;
+        let m = DriftLikelihood::new(n);
+        let x: Vec<f64> = (0..n)
+            .map(|t| 0.05 * t as f64 + (1.3 * t as f64).sin())
+            .collect();
+        let ll = m.log_likelihood(&x);
+        let p = DriftLikelihood::share_profile(&ll);
+        assert_eq!(p.len(), RHO_STEPS);
+        // At ρ = 0 every share is white noise: the profile is white noise's log-likelihood.
+        assert_abs_diff_eq!(p[0], ll[0], epsilon = 1e-9 * ll[0].abs());
+        for (i, pi) in p.iter().enumerate() {
+            let row = &ll[i * SHARE_STEPS..(i + 1) * SHARE_STEPS];
+            assert!(row.iter().all(|v| v <= pi) && row.contains(pi));
+        }
+        let tau = ar1_tau(n, 0.9);
+        let pure = tau * (n as f64 - 1.0) / (n as f64 - tau);
+        // Any drop: the bound is the factor of the shares within it. Unbounded drop: every
+        // share counts, so the bound is pure AR(1)'s (the factor grows with the share);
+        // zero drop: the factor of the best share alone.
+        assert_abs_diff_eq!(
+            m.factor_upper_at(&ll, 90, f64::INFINITY),
+            pure,
+            epsilon = 1e-12
+        );
+        let row = &ll[90 * SHARE_STEPS..91 * SHARE_STEPS];
+        let best = (0..SHARE_STEPS).fold(0, |b, j| if row[j] > row[b] { j } else { b });
+        assert_eq!(
+            m.factor_upper_at(&ll, 90, 0.0),
+            m.factor[90 * SHARE_STEPS + best]
+        );
+        // At ρ = 0 every factor is 1.
+        assert_abs_diff_eq!(
+            m.factor_upper_at(&ll, 0, f64::INFINITY),
+            1.0,
+            epsilon = 1e-12
+        );
     }
 }

@@ -37,17 +37,6 @@ const RHOS: [f64; 4] = [0.0, 0.5, 0.9, 0.95];
 const SHARES: [f64; 4] = [0.0, 0.25, 0.5, 1.0];
 const NS: [usize; 3] = [60, 140, 300];
 
-/// Cells where the contract's "refusals counted as covered ≥ 90 %" is **not** met by this rule
-/// (nor, by the evidence of docs/CALIBRATE.md "Below the contract", by any rule that keeps
-/// white noise within its limits), with the floor each is held at so that a regression still
-/// fails: the measured value (86.9 %, 78.8 %, 86.2 % on 24 000 intervals) less 4 binomial SE
-/// (0.9–1.1 points).
-const BELOW_CONTRACT: [((f64, f64, usize), f64); 3] = [
-    ((0.9, 0.25, 60), 0.86),
-    ((0.95, 0.25, 60), 0.775),
-    ((0.95, 0.5, 60), 0.85),
-];
-
 /// One sequence's six axes: residuals `√s·a_t + √(1 − s)·e_t` (stream `rep` of `seed`).
 fn mixture(seed: u64, rep: u64, n: usize, rho: f64, share: f64) -> Vec<Vec6> {
     use rand::RngExt;
@@ -151,21 +140,16 @@ fn cell(seed: u64, sequences: u64, n: usize, rho: f64, share: f64) -> Tally {
 }
 
 /// The contract's bounds that `t` breaks in cell (ρ, s, n), as text (empty: all hold).
-/// `a_floor` replaces the 90 % of A on the cells of [`BELOW_CONTRACT`].
 fn violations(rho: f64, share: f64, n: usize, t: &Tally) -> Vec<String> {
     let white = rho == 0.0 || share == 0.0;
     let eff_n = truth(n, rho, share).1;
-    let a_floor = BELOW_CONTRACT
-        .iter()
-        .find(|(c, _)| *c == (rho, share, n))
-        .map_or(0.90, |(_, f)| *f);
     let mut v = Vec::new();
     let mut check = |ok: bool, what: String| {
         if !ok {
             v.push(format!("ρ {rho} s {share} n {n}: {what}"));
         }
     };
-    check(t.a() >= a_floor, format!("A {:.4} < {a_floor}", t.a()));
+    check(t.a() >= 0.90, format!("A {:.4} < 0.90", t.a()));
     if eff_n >= 10.0 {
         let cap = if white { 0.10 } else { 0.50 };
         check(
@@ -199,11 +183,7 @@ fn markdown(cells: &[((f64, f64, usize), u64, Tally)]) -> String {
     );
     for &((rho, share, n), seqs, t) in cells {
         let mark = if violations(rho, share, n, &t).is_empty() {
-            if BELOW_CONTRACT.iter().any(|(c, _)| *c == (rho, share, n)) {
-                "**A < 90 %** (see below)"
-            } else {
-                "met"
-            }
+            "met"
         } else {
             "**FAILS**"
         };
@@ -316,20 +296,22 @@ fn sem_coverage_key_cells_fast() {
     // intervals: 1.0 point near 90 %, 0.6 near 96 %.
     //
     // (ρ 0.95, s ¼, n 140), the issue's case: the former rule `ar1_noise_fit` covered 86.7 %
-    // and refused 39 %, so B was 49 %. This rule: B ≈ 92 % (slow grid); ≥ 88 % is 4 SE below.
+    // and refused 39 %, so B was 49 %. This rule: B ≈ 90 % (slow grid: 90.1 %, the lowest B
+    // of the grid; the pooled step refuses 6 % there); ≥ 86 % is 4 SE below.
     let t = cell(36, 150, 140, 0.95, 0.25);
-    assert!(t.b() >= 0.88, "(0.95, ¼, 140): {t:?}");
+    assert!(t.b() >= 0.86, "(0.95, ¼, 140): {t:?}");
     // (ρ 0.95, s 1, n 140), true effective n 3.2: the former rule refused 88 % (B 7.5 %); this
-    // one resolves the drift and covers: B ≈ 96 %, ≥ 93 % is 4 SE below.
+    // one resolves the drift and covers: B ≈ 98 % (slow grid), ≥ 93 % is more than 4 SE
+    // (0.5 points each) below.
     let t = cell(37, 150, 140, 0.95, 1.0);
     assert!(t.b() >= 0.93, "(0.95, 1, 140): {t:?}");
     // (ρ 0.95, s ½, n 140), issue 25's case (the lag-1 rule covered 49.5 %, `ar1_noise_fit`
-    // 86.5 %): ±2 SE covers ≈ 96 %; ≥ 93 % is 4 SE below.
+    // 86.5 %): ±2 SE covers ≈ 98 % (slow grid); ≥ 93 % is more than 4 SE below.
     let t = cell(39, 150, 140, 0.95, 0.5);
     assert!(t.plain() >= 0.93, "(0.95, ½, 140): {t:?}");
-    // White noise, n = 60: honest and rarely refused. SE/true ≈ 1.40 (slow grid; its standard
+    // White noise, n = 60: honest and rarely refused. SE/true ≈ 1.42 (slow grid; its standard
     // deviation over intervals is about 1, so the mean of 900 is within ±0.07 at 2 SE);
-    // refusals ≈ 2 % (≤ 6 % is 4 SE above); coverage 93–99.5 %.
+    // refusals ≈ 2.5 % (≤ 6 % is 4 SE above); coverage 93–99.5 %.
     let t = cell(38, 150, 60, 0.0, 0.0);
     assert!(t.ratio() <= 1.5, "white noise 60: {t:?}");
     assert!(t.refused_share() <= 0.06, "white noise 60: {t:?}");

@@ -290,7 +290,7 @@ fn calibrate_covariance_tangent_recomputed_from_epochs() {
     }
     // The uncertainty of the mean is covariance_tangent / n scaled by √(f_i f_j), f the
     // rule's variance factors (1e-12 relative: a few roundings).
-    assert_eq!(string(&v, "sem_rule"), "ar1_noise_fit_bound");
+    assert_eq!(string(&v, "sem_rule"), "ar1_noise_fit_bound_pooled");
     let f = numbers(
         field(field(&v, "sem_detail"), "variance_inflation"),
         "variance_inflation",

@@ -1,7 +1,7 @@
 //! `crashrig calibrate` on the pycolmap-written simulated sequences of `fixtures/rig/sim/`
 //! (issue 12; generator `fixtures/gen/calibrate_evidence.py`): the outlier
 //! rule flags exactly the injected gross errors and nothing on a clean sequence, the
-//! uncertainty of the mean (`sem_covariance_tangent`, rule `ar1_noise_fit_bound`) equals an
+//! uncertainty of the mean (`sem_covariance_tangent`, rule `ar1_noise_fit_bound_pooled`) equals an
 //! independent numpy computation and covers the truth on a drifting (AR(1), ρ = 0.9) sequence
 //! where σ/√n does not, and a rig-constrained model is refused.
 //!
@@ -187,7 +187,8 @@ fn sim_clean_sequence_has_no_flag_and_its_sem_is_sigma_over_sqrt_n() {
         num(np, "outlier_threshold"),
         epsilon = 1e-8 * num(np, "outlier_threshold")
     );
-    assert_eq!(string(&v, "sem_rule"), "ar1_noise_fit_bound");
+    assert_eq!(string(&v, "sem_rule"), "ar1_noise_fit_bound_pooled");
+    assert_eq!(string(np, "sem_rule"), "ar1_noise_fit_bound_pooled");
     assert!(bools(&v, "sem_reliable").iter().all(|r| *r));
     assert!(!r.stderr.contains("not reliable"), "{}", r.stderr);
     assert_z_scores_match_numpy(&v, np);
@@ -247,7 +248,8 @@ fn sim_ar1_sequence_sem_is_widened_and_covers_the_truth() {
     let v = json_of(&r);
     let np = field(&e, "numpy");
     assert_eq!(num(&e, "rho"), 0.9);
-    assert_eq!(string(&v, "sem_rule"), "ar1_noise_fit_bound");
+    assert_eq!(string(&v, "sem_rule"), "ar1_noise_fit_bound_pooled");
+    assert_eq!(string(np, "sem_rule"), "ar1_noise_fit_bound_pooled");
     assert!(bools(np, "autocorrelated").iter().all(|a| *a));
     assert_z_scores_match_numpy(&v, np);
     assert_sem_matches_numpy(&v, np);
