@@ -32,6 +32,14 @@ pub fn verdict(c: &CalibrationResult) -> Verdict {
                 .join(", "),
             c.sem_rule
         ),
+        // The lag-1 band test and the σ-of-the-mean rule look at the series differently (the
+        // rule fits slow drift mixed with noise, pooled over the six axes): never say "no drift"
+        // beside a σ of the mean that the rule widened for drift.
+        Some(_) if cal.sem.autocorrelated.iter().any(|&a| a) => {
+            "drift: the lag-1 autocorrelations are within white noise's band, but the drift \
+             model widens the σ of the mean (warning below)"
+                .into()
+        }
         Some(_) => "drift: no autocorrelation beyond white noise".into(),
         None => "drift: not assessed (fewer than three epochs)".into(),
     });
@@ -329,6 +337,27 @@ mod tests {
         for w in &r.warnings {
             assert!(v.lines.contains(&format!("warning: {w}")), "{w}: {v:?}");
         }
+        // The paper's sequence: no lag-1 autocorrelation beyond the band, but the σ-of-the-mean
+        // rule widens some axes — the drift line must not say "no autocorrelation" then.
+        let drift_line = |v: &Verdict| {
+            v.lines
+                .iter()
+                .find(|l| l.starts_with("drift:"))
+                .cloned()
+                .unwrap()
+        };
+        assert!(!r.calibration.drift.as_ref().unwrap().any_optimistic());
+        assert!(r.calibration.sem.autocorrelated.iter().any(|&a| a));
+        assert!(
+            drift_line(&v).contains("the drift model widens the σ of the mean"),
+            "{v:?}"
+        );
+        let mut white = r.clone();
+        white.calibration.sem.autocorrelated = [false; 6];
+        assert_eq!(
+            drift_line(&verdict(&white)),
+            "drift: no autocorrelation beyond white noise"
+        );
         let mut with = r.clone();
         with.warnings.push("a test warning".into());
         let v = verdict(&with);
