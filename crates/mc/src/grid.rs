@@ -13,7 +13,7 @@ use crate::kernel::lanes::NoiseFactor;
 #[cfg(test)]
 use crate::kernel::{exp_matrix, rot_opk};
 use crate::map::{MapPath, MapRun, Planned};
-use crate::model::{Adaptive, Grid, ObserverSigma, PoseSigma, RotationNoise, Scenario};
+use crate::model::{Grid, ObserverSigma, PoseSigma, RotationNoise, Scenario};
 use crate::options::{ChainOptions, Draws, RunOptions};
 use crate::result::{GridResult, PointStats};
 use crate::schedule::{CHUNK, Engine, PointTicks};
@@ -342,21 +342,24 @@ impl GridStudy {
         monitor: Option<&dyn Monitor>,
     ) -> Result<GridResult, Error> {
         let engine = Engine::Simd(options.isa);
-        match &options.draws {
-            Draws::Samples(samples) => self.run_engine(*samples, options.seed, engine, monitor),
-            Draws::Adaptive(a) => self.run_adaptive(a, options.seed, engine, monitor),
-        }
+        self.run_draws(&options.draws, options.seed, engine, monitor)
     }
 
-    pub(crate) fn run_engine(
+    /// The draws of `draws` on the selected points with `engine` (see [`GridStudy::run`]): a
+    /// fixed number per point, or the adaptive rule per point.
+    pub(crate) fn run_draws(
         &self,
-        samples: usize,
+        draws: &Draws,
         seed: u64,
         engine: Engine,
         monitor: Option<&dyn Monitor>,
     ) -> Result<GridResult, Error> {
         let (first, points) = self.selected_points();
-        let ticks = PointTicks::new(monitor, points.len(), samples.div_ceil(CHUNK));
+        let ticks_per_point = match draws {
+            Draws::Samples(samples) => samples.div_ceil(CHUNK),
+            Draws::Adaptive(_) => 1,
+        };
+        let ticks = PointTicks::new(monitor, points.len(), ticks_per_point);
         let run = MapRun {
             chain: self.ctx.chain.as_ref(),
             seed,
@@ -368,40 +371,9 @@ impl GridStudy {
             let (covariance, kinds) = self.resolved();
             let setup = self.setup(&covariance, &kinds, self.ctx.chain.as_ref());
             let path = crate::fixed::FixedPath::new(&setup, &points);
-            crate::map::run_samples(&path, &run, &points, samples)
+            crate::map::run_draws(&path, &run, &points, draws)
         } else {
-            crate::map::run_samples(&AimedPath::new(self, &points), &run, &points, samples)
-        };
-        ticks.cancelled()?;
-        let stats = stats?;
-        ticks.finish();
-        Ok(self.result(stats))
-    }
-
-    /// The adaptive rule per point (see [`GridStudy::run`]).
-    fn run_adaptive(
-        &self,
-        adaptive: &Adaptive,
-        seed: u64,
-        engine: Engine,
-        monitor: Option<&dyn Monitor>,
-    ) -> Result<GridResult, Error> {
-        let (first, points) = self.selected_points();
-        let ticks = PointTicks::new(monitor, points.len(), 1);
-        let run = MapRun {
-            chain: self.ctx.chain.as_ref(),
-            seed,
-            engine,
-            ticks: &ticks,
-            first,
-        };
-        let stats = if self.has_fixed() {
-            let (covariance, kinds) = self.resolved();
-            let setup = self.setup(&covariance, &kinds, self.ctx.chain.as_ref());
-            let path = crate::fixed::FixedPath::new(&setup, &points);
-            crate::map::run_adaptive(&path, &run, &points, adaptive)
-        } else {
-            crate::map::run_adaptive(&AimedPath::new(self, &points), &run, &points, adaptive)
+            crate::map::run_draws(&AimedPath::new(self, &points), &run, &points, draws)
         };
         ticks.cancelled()?;
         let stats = stats?;

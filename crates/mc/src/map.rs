@@ -23,6 +23,7 @@ use crate::chain::Chain;
 use crate::error::Error;
 use crate::kernel::accumulate::Acc3;
 use crate::model::Adaptive;
+use crate::options::Draws;
 use crate::result::PointStats;
 use crate::schedule::{CHUNK, Engine, PointTicks, adaptive_draws, task_index};
 use nalgebra::Vector3;
@@ -122,6 +123,19 @@ pub(crate) fn draw_points(
     let mut sink = LaneSink::new(shifts.iter().copied());
     draw_into(run, kernels, replicate0, m, &mut sink);
     sink.finish()
+}
+
+/// [`run_samples`] or [`run_adaptive`], as `draws` says.
+pub(crate) fn run_draws<'a, P: MapPath<'a>>(
+    path: &P,
+    run: &MapRun<'_>,
+    points: &[Vector3<f64>],
+    draws: &Draws,
+) -> Result<Vec<PointStats>, Error> {
+    match draws {
+        Draws::Samples(samples) => run_samples(path, run, points, *samples),
+        Draws::Adaptive(adaptive) => run_adaptive(path, run, points, adaptive),
+    }
 }
 
 /// The run's `points` with `samples` draws each (see the module docs).

@@ -781,7 +781,12 @@ fn fixed_block_and_legacy_engines_agree_statistically() {
     let se = (2.0f64).sqrt() / (2.0 * (n as f64 - 1.0)).sqrt();
     for (name, study) in fixed_kernel_paths() {
         let a = study
-            .run_engine(n, 5, crate::schedule::Engine::Legacy, None)
+            .run_draws(
+                &crate::options::Draws::Samples(n),
+                5,
+                crate::schedule::Engine::Legacy,
+                None,
+            )
             .unwrap();
         let b = study.run(&crate::RunOptions::samples(n, 5), None).unwrap();
         for (pa, pb) in a.points.iter().zip(&b.points) {
