@@ -4,7 +4,7 @@
 The speed and accuracy reference of docs/performance.md ("Chain propagation"): the draws
 `crashrig propagate SCENARIO --samples N` makes, vectorised over the draws, written from the
 contract (shared/interface.md: cameras, links, `sigma_*` / `covariance_tangent`, tangent
-noise) with the helpers of fixtures/gen/mc_chain_reference.py (rot_opk, exp_so3, log_so3),
+noise) with the helpers of fixtures/gen/mc_chain_reference.py (scenario_world_draws, log_so3),
 not from the Rust code:
 
 - per draw each pose or link takes delta = L·eps, L the Cholesky factor of its covariance
@@ -34,7 +34,7 @@ import numpy as np
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "fixtures" / "gen"))
-from mc_chain_reference import exp_so3, log_so3, rot_opk  # noqa: E402
+from mc_chain_reference import log_so3, scenario_world_draws  # noqa: E402
 
 
 def cov_rad(cam):
@@ -59,20 +59,6 @@ def opk(r):
     )
 
 
-def draw(cams, factors, n, rng):
-    world = {}
-    for cam, factor in zip(cams, factors):
-        d = rng.standard_normal((n, 6)) @ factor.T
-        c_own = np.asarray(cam["position_mm"], float)[None, :] + d[:, :3]
-        r_own = rot_opk(cam["angles_deg"])[None] @ exp_so3(d[:, 3:])
-        if "parent" not in cam:
-            world[cam["name"]] = (c_own, r_own)
-        else:
-            cp, rp = world[cam["parent"]]
-            world[cam["name"]] = (cp + np.einsum("nij,nj->ni", rp, c_own), rp @ r_own)
-    return world
-
-
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("scenario", type=pathlib.Path)
@@ -83,12 +69,12 @@ def main():
     cams = tomllib.loads(args.scenario.read_text())["camera"]
     t0, c0 = time.perf_counter(), time.process_time()
     factors = [np.linalg.cholesky(cov_rad(c)) for c in cams]
-    nominal = draw(cams, [np.zeros((6, 6))] * len(cams), 1, np.random.default_rng(0))
+    nominal = scenario_world_draws(cams, [np.zeros((6, 6))] * len(cams), 1, np.random.default_rng(0))
     rng = np.random.default_rng(args.seed)
     sums = {c["name"]: [] for c in cams}
     block = 200_000
     for s in range(0, args.samples, block):
-        world = draw(cams, factors, min(block, args.samples - s), rng)
+        world = scenario_world_draws(cams, factors, min(block, args.samples - s), rng)
         for name, (c, r) in world.items():
             c0_, r0 = nominal[name]
             a = opk(r) - opk(r0)

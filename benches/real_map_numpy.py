@@ -6,7 +6,7 @@ The speed and accuracy reference of docs/performance.md, "The real-study path": 
 done point by point, vectorised over the draws of a point, written from the contract
 (shared/interface.md: chain, `covariance_tangent`, `sigma_from`, `correlated = true`, fixed
 cameras) with the helpers of the independent references fixtures/gen/mc_chain_reference.py
-(rot_opk, exp_so3, log_so3) and fixtures/gen/fixed_reference.py (look_at, project,
+(scenario_world_draws, scenario_nominal, exp_so3, log_so3) and fixtures/gen/fixed_reference.py (look_at, project,
 undistort), not from the Rust code:
 
 - the chain: per draw each pose or link takes delta = L·eps, L the Cholesky factor of its
@@ -50,7 +50,8 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "fixtures" / "gen"))
 from fixed_reference import look_at, project, undistort  # noqa: E402
-from mc_chain_reference import exp_so3, log_so3, rot_opk  # noqa: E402
+from mc_chain_reference import (  # noqa: E402
+    exp_so3, log_so3, scenario_nominal, scenario_world_draws)
 
 SCENARIO = pathlib.Path(__file__).resolve().parent / "real_map.toml"
 
@@ -70,38 +71,12 @@ def cov_rad(cam):
     return s * np.outer(d, d)
 
 
-def chain_draw(sc, factors, n, rng):
-    """World (C, R) of every camera for n joint draws."""
-    world = {}
-    for cam, factor in zip(sc["camera"], factors):
-        d = rng.standard_normal((n, 6)) @ factor.T
-        c_own = np.asarray(cam["position_mm"], float)[None, :] + d[:, :3]
-        r_own = rot_opk(cam["angles_deg"])[None] @ exp_so3(d[:, 3:])
-        if "parent" not in cam:
-            world[cam["name"]] = (c_own, r_own)
-        else:
-            cp, rp = world[cam["parent"]]
-            world[cam["name"]] = (cp + np.einsum("nij,nj->ni", rp, c_own), rp @ r_own)
-    return world
-
-
-def chain_nominal(sc):
-    nominal = {}
-    for cam in sc["camera"]:
-        c, r = np.asarray(cam["position_mm"], float), rot_opk(cam["angles_deg"])
-        if "parent" in cam:
-            cp, rp = nominal[cam["parent"]]
-            c, r = cp + rp @ c, rp @ r
-        nominal[cam["name"]] = (c, r)
-    return nominal
-
-
 def tangent_covariances(sc, factors, nominal, draws, rng):
     """Each chain camera's Monte Carlo tangent covariance (mm, rad), n − 1."""
     sums = {}
     block = 100_000
     for s in range(0, draws, block):
-        world = chain_draw(sc, factors, min(block, draws - s), rng)
+        world = scenario_world_draws(sc["camera"], factors, min(block, draws - s), rng)
         for name, (c, r) in world.items():
             c0, r0 = nominal[name]
             t = np.concatenate([c - c0, log_so3(np.swapaxes(r0, 0, 1)[None] @ r)], axis=1)
@@ -172,7 +147,7 @@ def observed(o, u, n, rng):
 
 def point_sigmas(sc, factors, nominal, tcov_factor, vs, n, rng):
     """σ (x, y, z) of the correlated map and of the independent map at one point."""
-    world = chain_draw(sc, factors, n, rng)
+    world = scenario_world_draws(sc["camera"], factors, n, rng)
     rows = []
     for o, r_bar, u in vs:
         (ci, ri), (c0, r0) = world[o["source"]], nominal[o["source"]]
@@ -198,7 +173,7 @@ def main():
     g = sc["grid"]
     t0, c0 = time.perf_counter(), time.process_time()
     factors = [np.linalg.cholesky(cov_rad(cam)) for cam in sc["camera"]]
-    nominal = chain_nominal(sc)
+    nominal = scenario_nominal(sc["camera"])
     rng = np.random.default_rng(args.seed)
     tcov = tangent_covariances(sc, factors, nominal, args.chain_draws, rng)
     tcov_factor = {k: np.linalg.cholesky(v) for k, v in tcov.items()}

@@ -5,7 +5,7 @@ The speed reference of docs/performance.md, "The real-study path": the same work
 crashrig's kernel path `study` (criterion group `paths_1thread`, `mc_cpu study`), vectorised
 over the draws, written from the contract (shared/interface.md: chain, `covariance_tangent`,
 `correlated = true`, fixed cameras) with the helpers of the independent references
-fixtures/gen/mc_chain_reference.py (rot_opk, exp_so3) and fixtures/gen/fixed_reference.py
+fixtures/gen/mc_chain_reference.py (scenario_world_draws, scenario_nominal) and fixtures/gen/fixed_reference.py
 (look_at, project, undistort), not from the Rust code:
 
 - per draw, each chain pose or link takes delta = L·eps, L the Cholesky factor of its
@@ -36,7 +36,7 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "fixtures" / "gen"))
 from fixed_reference import look_at, project, undistort  # noqa: E402
-from mc_chain_reference import exp_so3, rot_opk  # noqa: E402
+from mc_chain_reference import scenario_nominal, scenario_world_draws  # noqa: E402
 
 SCENARIO = pathlib.Path(__file__).resolve().parent / "study_path.toml"
 
@@ -65,24 +65,9 @@ def fixed_camera(obs):
 
 
 def draw(sc, cams, chain, point, n, rng):
-    # The chain, composed per draw.
-    world = {}
-    for cam, factor in zip(sc["camera"], chain):
-        d = rng.standard_normal((n, 6)) @ factor.T
-        c_own = np.asarray(cam["position_mm"], float)[None, :] + d[:, :3]
-        r_own = rot_opk(cam["angles_deg"])[None] @ exp_so3(d[:, 3:])
-        if "parent" not in cam:
-            world[cam["name"]] = (c_own, r_own)
-        else:
-            cp, rp = world[cam["parent"]]
-            world[cam["name"]] = (cp + np.einsum("nij,nj->ni", rp, c_own), rp @ r_own)
-    nominal = {}
-    for cam in sc["camera"]:
-        c, r = np.asarray(cam["position_mm"], float), rot_opk(cam["angles_deg"])
-        if "parent" in cam:
-            cp, rp = nominal[cam["parent"]]
-            c, r = cp + rp @ c, rp @ r
-        nominal[cam["name"]] = (c, r)
+    # The chain, composed per draw, and its nominal poses.
+    world = scenario_world_draws(sc["camera"], chain, n, rng)
+    nominal = scenario_nominal(sc["camera"])
     a_sum = np.zeros((n, 3, 3))
     b_sum = np.zeros((n, 3))
     for c in cams:
