@@ -3,7 +3,7 @@
 
 The speed and accuracy reference of docs/performance.md ("Chain propagation"): the draws
 `crashrig propagate SCENARIO --samples N` makes, vectorised over the draws, written from the
-contract (shared/interface.md: cameras, links, `sigma_*` / `covariance_tangent`, tangent
+contract (docs/REFERENCE.md and the scenario file it links, docs/SCENARIO.md: cameras, links, `sigma_*` / `covariance_tangent`, tangent
 noise) with the helpers of fixtures/gen/mc_chain_reference.py (scenario_world_draws, log_so3),
 not from the Rust code:
 

@@ -4,7 +4,7 @@
 The speed and accuracy reference of docs/performance.md, "The real-study path": the work of
 `crashrig grid benches/real_map.toml` — the correlated map and its independent companion map —
 done point by point, vectorised over the draws of a point, written from the contract
-(shared/interface.md: chain, `covariance_tangent`, `sigma_from`, `correlated = true`, fixed
+(docs/REFERENCE.md and the scenario file it links, docs/SCENARIO.md: chain, `covariance_tangent`, `sigma_from`, `correlated = true`, fixed
 cameras) with the helpers of the independent references fixtures/gen/mc_chain_reference.py
 (scenario_world_draws, scenario_nominal, exp_so3, log_so3) and fixtures/gen/fixed_reference.py (look_at, project,
 undistort), not from the Rust code:

@@ -3,7 +3,7 @@
 
 The speed reference of docs/performance.md, "The real-study path": the same work per draw as
 crashrig's kernel path `study` (criterion group `paths_1thread`, `mc_cpu study`), vectorised
-over the draws, written from the contract (shared/interface.md: chain, `covariance_tangent`,
+over the draws, written from the contract (docs/REFERENCE.md and the scenario file it links, docs/SCENARIO.md: chain, `covariance_tangent`,
 `correlated = true`, fixed cameras) with the helpers of the independent references
 fixtures/gen/mc_chain_reference.py (scenario_world_draws, scenario_nominal) and fixtures/gen/fixed_reference.py
 (look_at, project, undistort), not from the Rust code:

@@ -1,11 +1,11 @@
 //! The code-shape invariants of docs/ARCHITECTURE.md ("Invariants"), checked by `cargo xtask
-//! tidy` and its tests, over every line of `crates/*/src/**.rs` outside tests: no function over
-//! [`MAX_FN_LINES`] lines (library and CLI), no environment variable read in a library crate, no
-//! library printing to the terminal, every CLI command module under [`MAX_CMD_LINES`] lines, no
-//! `json!` literal in a library crate (a JSON document is a serde struct of the crate's
-//! `contract` module), no import cycle between the modules of a crate at any level of its
-//! module tree (the CLI included), and no library error that shows its source in its own
-//! message while also returning it from `source()`.
+//! tidy` and its tests, over every line of `crates/*/src/**.rs` and `xtask/src/**.rs` outside
+//! tests: no function over [`MAX_FN_LINES`] lines (libraries, the CLI and xtask), no environment
+//! variable read in a library crate, no library printing to the terminal, every CLI command
+//! module under [`MAX_CMD_LINES`] lines, no `json!` literal in a library crate (a JSON document
+//! is a serde struct of the crate's `contract` module), no import cycle between the modules of
+//! a crate at any level of its module tree (the CLI and xtask included), and no library error
+//! that shows its source in its own message while also returning it from `source()`.
 //!
 //! Each file is parsed with `syn` ([`crate::syntax`]): test code (an item under `#[cfg(test)]`
 //! or `#[test]`, the file of an out-of-line `#[cfg(test)] mod x;`) is skipped by its span and
@@ -51,8 +51,16 @@ pub const CYCLE_ALLOWED: &[&str] = &[];
 /// Error types that still show their source in their own message: `(file, Type::Variant)`.
 pub const ERROR_SOURCE_ALLOWED: &[(&str, &str)] = &[];
 
-/// Binary crates (may read the environment: they are the user interface).
-const BINARIES: &[&str] = &["cli"];
+/// Library crates' error enums besides their one `Error`: `(file, enum, why)`.
+pub const ERROR_ENUM_ALLOWED: &[(&str, &str, &str)] = &[(
+    "crates/camera/src/error.rs",
+    "UndistortError",
+    "the reject kind of a partial map (cam_from_img), as ProjectionReject is for img_from_cam",
+)];
+
+/// Binary crates (may read the environment and print: they are the user interface, and xtask
+/// the contributors').
+const BINARIES: &[&str] = &["cli", "xtask"];
 
 /// Every check of this module, over the sources read once.
 pub fn check(root: &Path) -> Result<Vec<String>> {
@@ -65,6 +73,7 @@ pub fn check(root: &Path) -> Result<Vec<String>> {
     p.extend(check_json_literals(root, &sources));
     p.extend(check_module_cycles(root, &sources));
     p.extend(check_error_sources(root, &sources));
+    p.extend(check_error_enums(root, &sources));
     Ok(p)
 }
 
@@ -97,7 +106,8 @@ impl Source {
     }
 }
 
-/// Every `crates/<name>/src/**.rs`, read and parsed, by crate name then path.
+/// Every `crates/<name>/src/**.rs`, then every `xtask/src/**.rs` (crate `xtask`), read and
+/// parsed, by crate name then path.
 pub fn crate_sources(root: &Path) -> Result<Vec<Source>> {
     let mut out = Vec::new();
     let mut crates: Vec<PathBuf> = std::fs::read_dir(root.join("crates"))
@@ -105,6 +115,8 @@ pub fn crate_sources(root: &Path) -> Result<Vec<Source>> {
         .map(|e| e.map(|e| e.path()))
         .collect::<std::io::Result<_>>()?;
     crates.sort();
+    // xtask is checked as the crates are (it is a binary: it may read the environment and print).
+    crates.push(root.join("xtask"));
     for dir in crates.into_iter().filter(|d| d.join("Cargo.toml").exists()) {
         let krate = dir.file_name().and_then(|n| n.to_str()).unwrap_or("");
         let src = dir.join("src");
@@ -371,20 +383,72 @@ pub fn check_module_cycles(root: &Path, sources: &[Source]) -> Vec<String> {
                 continue;
             }
             problems.push(format!(
-                "crates/{krate}: modules import each other in a cycle: {}",
+                "{}: modules import each other in a cycle: {}",
+                crate_dir(krate),
                 cycle.join(" → ")
             ));
         }
     }
     for a in CYCLE_ALLOWED {
         let krate = a.split("::").next().unwrap_or(a);
-        if !used.contains(*a) && root.join("crates").join(krate).exists() {
+        if !used.contains(*a) && root.join(crate_dir(krate)).exists() {
             problems.push(format!(
                 "{a} is in CYCLE_ALLOWED but has no module cycle: remove the entry"
             ));
         }
     }
     problems
+}
+
+/// One error enum per library crate (thiserror's `derive(Error)` outside tests), except
+/// [`ERROR_ENUM_ALLOWED`]: a caller matches one type, and a step's failure is one of its variants.
+pub fn check_error_enums(root: &Path, sources: &[Source]) -> Vec<String> {
+    let mut by_crate: BTreeMap<&str, Vec<String>> = BTreeMap::new();
+    let mut used = BTreeSet::new();
+    for (s, f) in library_code(sources) {
+        for (name, line) in &f.error_enums {
+            if let Some(a) = ERROR_ENUM_ALLOWED
+                .iter()
+                .find(|(p, n, _)| *p == s.rel && n == name)
+            {
+                used.insert(a.1);
+                continue;
+            }
+            by_crate
+                .entry(&s.krate)
+                .or_default()
+                .push(format!("{}:{line}: {name}", s.rel));
+        }
+    }
+    let mut problems: Vec<String> = by_crate
+        .into_iter()
+        .filter(|(_, enums)| enums.len() > 1)
+        .map(|(krate, enums)| {
+            format!(
+                "{}: {} error enums ({}); a library crate has one (fold them into its `Error`)",
+                crate_dir(krate),
+                enums.len(),
+                enums.join(", ")
+            )
+        })
+        .collect();
+    for (file, name, _) in ERROR_ENUM_ALLOWED {
+        if !used.contains(name) && root.join(file).exists() {
+            problems.push(format!(
+                "{file}: {name} is in ERROR_ENUM_ALLOWED but is no error enum there: remove the entry"
+            ));
+        }
+    }
+    problems
+}
+
+/// The directory of crate `krate` relative to the root: `crates/<krate>`, or `xtask`.
+fn crate_dir(krate: &str) -> String {
+    if krate == "xtask" {
+        krate.to_string()
+    } else {
+        format!("crates/{krate}")
+    }
 }
 
 /// A library error type shows its own context only: no `#[error(...)]` message that also
@@ -478,9 +542,9 @@ mod tests {
                 let path = root.join(path);
                 std::fs::create_dir_all(path.parent().unwrap()).unwrap();
                 std::fs::write(&path, text).unwrap();
-                let krate = path
-                    .ancestors()
-                    .find(|a| a.parent().is_some_and(|p| p.ends_with("crates")));
+                let krate = path.ancestors().find(|a| {
+                    a.parent().is_some_and(|p| p.ends_with("crates")) || a.ends_with("xtask")
+                });
                 std::fs::write(krate.unwrap().join("Cargo.toml"), "").unwrap();
             }
             Tree(root)
@@ -604,6 +668,53 @@ mod tests {
             [
                 "crates/k/src/lib.rs:4: a library builds JSON with `json!` (a serde struct in the crate's `contract` module)"
             ]
+        );
+    }
+
+    #[test]
+    fn a_second_error_enum_is_caught_in_a_library_not_in_tests_or_the_cli() {
+        let two = "//! k\n#[derive(Debug, thiserror::Error)]\npub enum Error {}\n#[derive(Debug, Error)]\npub enum StepError {}\n#[cfg(test)]\nmod tests {\n    #[derive(Debug, thiserror::Error)]\n    enum T {}\n}\n";
+        let t = Tree::new(
+            "enums",
+            &[
+                ("crates/k/src/lib.rs", two),
+                (
+                    "crates/j/src/lib.rs",
+                    "//! j\n#[derive(thiserror::Error)]\npub enum Error {}\n",
+                ),
+                ("crates/cli/src/main.rs", two),
+            ],
+        );
+        assert_eq!(
+            t.problems(),
+            [
+                "crates/k: 2 error enums (crates/k/src/lib.rs:3: Error, crates/k/src/lib.rs:5: StepError); a library crate has one (fold them into its `Error`)"
+            ]
+        );
+    }
+
+    #[test]
+    fn xtask_is_read_and_its_import_cycle_is_caught_as_a_binary() {
+        // The circle `package.rs ↔ tidy.rs` issue 45 removed, in a tree of its own; xtask may
+        // read the environment and print (it is a binary), but its modules form a DAG too.
+        let t = Tree::new(
+            "xtask",
+            &[
+                ("crates/k/src/lib.rs", "//! k\n"),
+                (
+                    "xtask/src/main.rs",
+                    "//! x\nmod package;\nmod tidy;\nfn main() {\n    println!(\"{:?}\", std::env::var(\"X\"));\n}\n",
+                ),
+                ("xtask/src/package.rs", "//! p\nuse crate::tidy::LEAN;\n"),
+                (
+                    "xtask/src/tidy.rs",
+                    "//! t\nfn f() { crate::package::metadata(); }\n",
+                ),
+            ],
+        );
+        assert_eq!(
+            t.problems(),
+            ["xtask: modules import each other in a cycle: package → tidy → package"]
         );
     }
 

@@ -60,6 +60,82 @@ pub(crate) fn metadata(root: &Path) -> Result<serde_json::Value> {
     serde_json::from_slice(&out.stdout).context("parsing cargo metadata")
 }
 
+/// Builds a dependent may choose and the packages their normal dependency tree must not hold
+/// (`cargo tree -e normal`): (package, cargo arguments, forbidden packages, the invariant of
+/// docs/ARCHITECTURE.md it keeps).
+pub const LEAN_BUILDS: &[(&str, &[&str], &[&str], &str)] = &[
+    (
+        "crashrig-mc",
+        &["--no-default-features"],
+        &[
+            "toml",
+            "serde_json",
+            "crashrig-colmap",
+            "crashrig-input",
+            "rusqlite",
+            "libsqlite3-sys",
+        ],
+        "the engine alone builds without its scenario reader",
+    ),
+    (
+        "crashrig-colmap",
+        &["--no-default-features"],
+        &["rusqlite", "libsqlite3-sys"],
+        "the model reader builds without SQLite",
+    ),
+    (
+        "crashrig-geometry",
+        &[],
+        &["serde_json", "toml", "csv", "rusqlite", "crashrig-input"],
+        "geometry knows no file format",
+    ),
+    (
+        "crashrig-input",
+        &["--no-default-features"],
+        &["serde_json", "crashrig-geometry"],
+        "the edge helpers without `json` are std and thiserror alone",
+    ),
+];
+
+/// Every build of [`LEAN_BUILDS`] leaves its forbidden packages out of its normal dependency
+/// tree (the tree cargo resolves for that package and those features, Cargo.lock offline).
+pub fn check_lean_builds(root: &Path) -> Result<Vec<String>> {
+    let mut problems = Vec::new();
+    for (package, args, forbidden, invariant) in LEAN_BUILDS {
+        let out = cargo_in(root)
+            .args([
+                "tree",
+                "--offline",
+                "-e",
+                "normal",
+                "--prefix",
+                "none",
+                "-p",
+                package,
+            ])
+            .args(*args)
+            .output()
+            .with_context(|| format!("running cargo tree -p {package}"))?;
+        anyhow::ensure!(
+            out.status.success(),
+            "cargo tree -p {package} failed: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let tree = String::from_utf8_lossy(&out.stdout);
+        let names: BTreeSet<&str> = tree
+            .lines()
+            .filter_map(|l| l.split_whitespace().next())
+            .collect();
+        for f in forbidden.iter().filter(|f| names.contains(*f)) {
+            problems.push(format!(
+                "`cargo tree -p {package} {}` holds `{f}`: {invariant} (docs/ARCHITECTURE.md)",
+                args.join(" ")
+            ));
+        }
+    }
+    Ok(problems)
+}
+
 /// Workspace packages, split into (publishable, `publish = false`), by name.
 pub fn packages(root: &Path) -> Result<(Vec<String>, Vec<String>)> {
     let meta = metadata(root)?;
@@ -238,7 +314,7 @@ fn cargo_hack(root: &Path) -> Result<PathBuf> {
 /// `cargo xtask features`: `cargo hack check --each-feature --no-dev-deps` over the publishable
 /// crates that have features (each without default features, with each feature alone, and
 /// with its defaults; a crate without features has one build, which the package verification
-/// already makes on its own), then the lean builds' dependency trees (`tidy::LEAN_BUILDS`).
+/// already makes on its own), then the lean builds' dependency trees ([`LEAN_BUILDS`]).
 pub fn features(root: &Path) -> Result<()> {
     let hack = cargo_hack(root)?;
     let mut c = Command::new(hack);
@@ -250,7 +326,7 @@ pub fn features(root: &Path) -> Result<()> {
                 .flat_map(|n| ["-p".to_string(), n]),
         );
     crate::run(c)?;
-    let problems = crate::tidy::check_lean_builds(root)?;
+    let problems = check_lean_builds(root)?;
     if !problems.is_empty() {
         for p in &problems {
             eprintln!("features: {p}");

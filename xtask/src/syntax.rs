@@ -52,6 +52,8 @@ pub struct Facts {
     /// Error types (`#[derive(Error)]`) whose message shows the field they return from
     /// `source()`: (`Type` or `Type::Variant`, the field, line).
     pub errors_showing_source: Vec<(String, String, usize)>,
+    /// Enums that derive `Error` (outside tests): (name, line).
+    pub error_enums: Vec<(String, usize)>,
 }
 
 /// The facts of `text`, the source of the module `module`.
@@ -422,6 +424,9 @@ impl<'ast> Visit<'ast> for Reader {
 
     fn visit_item_enum(&mut self, i: &'ast syn::ItemEnum) {
         if derives_error(&i.attrs) {
+            self.facts
+                .error_enums
+                .push((i.ident.to_string(), line(i.ident.span())));
             for v in &i.variants {
                 let name = format!("{}::{}", i.ident, v.ident);
                 self.error_type(name, &v.attrs, &v.fields, v.ident.span());

@@ -1,5 +1,6 @@
-//! Checks that must always hold: the dependency DAG, the lean builds a dependent may choose,
-//! module docs, the ARCHITECTURE code map.
+//! Checks that must always hold: the dependency DAG, the lean builds a dependent may choose
+//! (`crate::package`), packaging, module docs, one test binary per crate, and what
+//! docs/ARCHITECTURE.md states that a program can check (its code map, its DAG block, its size).
 //!
 //! Run by `cargo xtask tidy` and, through the tests at the bottom, by plain `cargo test`.
 
@@ -8,49 +9,50 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 use std::process::Command;
 
-/// Allowed normal-dependency edges between workspace packages (from → to). This table is the
-/// DAG of docs/ARCHITECTURE.md; adding an edge is a reviewed change to both.
+/// The normal-dependency edges between workspace packages (from → to), exactly: an edge not in
+/// the table and an entry that is no edge are both errors. docs/ARCHITECTURE.md's DAG block
+/// lists the same edges (checked); adding an edge is a reviewed change to both.
 pub const ALLOWED: &[(&str, &[&str])] = &[
     ("crashrig-geometry", &[]),
+    ("crashrig-camera", &[]),
     ("crashrig-stats", &[]),
     ("crashrig-plot", &[]),
-    ("crashrig-camera", &[]),
     ("crashrig-outdir", &[]),
     ("crashrig-input", &["crashrig-geometry"]),
-    (
-        "crashrig-colmap",
-        &[
-            "crashrig-geometry",
-            "crashrig-camera",
-            "crashrig-input",
-            "crashrig-outdir",
-        ],
-    ),
     ("crashrig-rig", &["crashrig-geometry", "crashrig-stats"]),
     (
         "crashrig-pose",
         &["crashrig-geometry", "crashrig-camera", "crashrig-stats"],
     ),
     ("crashrig-bootstrap", &["crashrig-stats"]),
+    ("crashrig-testkit", &["crashrig-geometry"]),
+    (
+        "crashrig-colmap",
+        &[
+            "crashrig-geometry",
+            "crashrig-camera",
+            "crashrig-outdir",
+            "crashrig-input",
+        ],
+    ),
     (
         "crashrig-mc",
         &[
             "crashrig-geometry",
             "crashrig-camera",
-            "crashrig-colmap",
-            "crashrig-input",
             "crashrig-stats",
+            "crashrig-input",
+            "crashrig-colmap",
         ],
     ),
-    ("crashrig-testkit", &["crashrig-geometry"]),
     (
         "crashrig-covariance",
         &[
             "crashrig-geometry",
             "crashrig-camera",
-            "crashrig-colmap",
-            "crashrig-input",
             "crashrig-stats",
+            "crashrig-input",
+            "crashrig-colmap",
         ],
     ),
     (
@@ -58,159 +60,138 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
         &[
             "crashrig-geometry",
             "crashrig-camera",
-            "crashrig-colmap",
-            "crashrig-input",
             "crashrig-stats",
             "crashrig-plot",
             "crashrig-outdir",
+            "crashrig-input",
+            "crashrig-colmap",
+        ],
+    ),
+    (
+        "crashrig-calibrate",
+        &[
+            "crashrig-geometry",
+            "crashrig-stats",
+            "crashrig-plot",
+            "crashrig-input",
+            "crashrig-rig",
+            "crashrig-colmap",
+        ],
+    ),
+    (
+        "crashrig-tie",
+        &[
+            "crashrig-geometry",
+            "crashrig-camera",
+            "crashrig-stats",
+            "crashrig-plot",
+            "crashrig-outdir",
+            "crashrig-pose",
+            "crashrig-bootstrap",
+            "crashrig-colmap",
         ],
     ),
     (
         "crashrig-grid",
         &[
             "crashrig-geometry",
-            "crashrig-input",
-            "crashrig-mc",
             "crashrig-stats",
             "crashrig-plot",
             "crashrig-outdir",
+            "crashrig-input",
+            "crashrig-mc",
         ],
     ),
     (
         "crashrig-study",
         &[
             "crashrig-geometry",
-            "crashrig-grid",
-            "crashrig-input",
             "crashrig-camera",
-            "crashrig-colmap",
-            "crashrig-rig",
-            "crashrig-pose",
-            "crashrig-bootstrap",
-            "crashrig-mc",
-            "crashrig-measure",
             "crashrig-stats",
             "crashrig-plot",
             "crashrig-outdir",
+            "crashrig-input",
+            "crashrig-rig",
+            "crashrig-bootstrap",
+            "crashrig-colmap",
+            "crashrig-mc",
             "crashrig-covariance",
+            "crashrig-measure",
+            "crashrig-calibrate",
+            "crashrig-tie",
+            "crashrig-grid",
         ],
     ),
     (
         "crashrig-place",
         &[
-            "crashrig-mc",
             "crashrig-stats",
-            "crashrig-grid",
             "crashrig-outdir",
+            "crashrig-mc",
+            "crashrig-grid",
         ],
     ),
     (
         "crashrig-merge",
         &[
-            "crashrig-grid",
-            "crashrig-measure",
-            "crashrig-place",
-            "crashrig-outdir",
             "crashrig-stats",
+            "crashrig-outdir",
+            "crashrig-measure",
+            "crashrig-grid",
+            "crashrig-place",
         ],
     ),
     (
         "crashrig-cli",
         &[
-            "crashrig-merge",
-            "crashrig-place",
             "crashrig-geometry",
-            "crashrig-grid",
-            "crashrig-input",
             "crashrig-stats",
-            "crashrig-camera",
-            "crashrig-colmap",
-            "crashrig-rig",
-            "crashrig-pose",
-            "crashrig-bootstrap",
-            "crashrig-mc",
-            "crashrig-plot",
-            "crashrig-study",
-            "crashrig-measure",
             "crashrig-outdir",
+            "crashrig-input",
+            "crashrig-bootstrap",
+            "crashrig-colmap",
+            "crashrig-mc",
             "crashrig-covariance",
+            "crashrig-measure",
+            "crashrig-calibrate",
+            "crashrig-tie",
+            "crashrig-grid",
+            "crashrig-study",
+            "crashrig-place",
+            "crashrig-merge",
         ],
     ),
     (
         "crashrig-python",
         &[
             "crashrig-geometry",
-            "crashrig-grid",
-            "crashrig-input",
             "crashrig-stats",
-            "crashrig-camera",
-            "crashrig-colmap",
-            "crashrig-bootstrap",
-            "crashrig-mc",
-            "crashrig-study",
-            "crashrig-measure",
-            "crashrig-covariance",
             "crashrig-outdir",
+            "crashrig-input",
+            "crashrig-bootstrap",
+            "crashrig-colmap",
+            "crashrig-mc",
+            "crashrig-covariance",
+            "crashrig-measure",
+            "crashrig-calibrate",
+            "crashrig-tie",
+            "crashrig-grid",
+            "crashrig-study",
             "crashrig-place",
             "crashrig-merge",
         ],
     ),
     (
         "crashrig-benches",
-        &[
-            "crashrig-geometry",
-            "crashrig-stats",
-            "crashrig-camera",
-            "crashrig-colmap",
-            "crashrig-pose",
-            "crashrig-bootstrap",
-            "crashrig-mc",
-        ],
+        &["crashrig-geometry", "crashrig-stats", "crashrig-mc"],
     ),
     ("xtask", &[]),
-];
-
-/// Builds a dependent may choose and the packages their normal dependency tree must not hold
-/// (`cargo tree -e normal`): (package, cargo arguments, forbidden packages, the invariant of
-/// docs/ARCHITECTURE.md it keeps).
-pub const LEAN_BUILDS: &[(&str, &[&str], &[&str], &str)] = &[
-    (
-        "crashrig-mc",
-        &["--no-default-features"],
-        &[
-            "toml",
-            "serde_json",
-            "crashrig-colmap",
-            "crashrig-input",
-            "rusqlite",
-            "libsqlite3-sys",
-        ],
-        "the engine alone builds without its scenario reader",
-    ),
-    (
-        "crashrig-colmap",
-        &["--no-default-features"],
-        &["rusqlite", "libsqlite3-sys"],
-        "the model reader builds without SQLite",
-    ),
-    (
-        "crashrig-geometry",
-        &[],
-        &["serde_json", "toml", "csv", "rusqlite", "crashrig-input"],
-        "geometry knows no file format",
-    ),
-    (
-        "crashrig-input",
-        &["--no-default-features"],
-        &["serde_json", "crashrig-geometry"],
-        "the edge helpers without `json` are std and thiserror alone",
-    ),
 ];
 
 /// Runs every check and returns the problems found (empty = tidy).
 pub fn check(root: &Path) -> Result<Vec<String>> {
     let mut problems = check_dag(root)?;
-    problems.extend(check_lean_builds(root)?);
+    problems.extend(crate::package::check_lean_builds(root)?);
     problems.extend(crate::package::check_packaging(root)?);
     problems.extend(check_module_docs(root)?);
     problems.extend(check_code_map(root)?);
@@ -249,8 +230,10 @@ fn workspace_edges(root: &Path) -> Result<Edges> {
     Ok(edges)
 }
 
-/// Normal edges must be in [`ALLOWED`]; `crashrig-testkit` only as a dev-dependency; dev edges
-/// must not create a cycle through normal edges (a dev-dependency on a crate that depends on you).
+/// Normal edges must be in [`ALLOWED`] and every edge of [`ALLOWED`] must be one (so the table,
+/// and the DAG of docs/ARCHITECTURE.md that repeats it, is the graph); `crashrig-testkit` only as
+/// a dev-dependency; dev edges must not create a cycle through normal edges (a dev-dependency on
+/// a crate that depends on you).
 pub fn check_dag(root: &Path) -> Result<Vec<String>> {
     let allowed: BTreeMap<&str, BTreeSet<&str>> = ALLOWED
         .iter()
@@ -272,6 +255,11 @@ pub fn check_dag(root: &Path) -> Result<Vec<String>> {
                 ));
             }
         }
+        for to in ok.iter().filter(|to| !normal.contains(**to)) {
+            problems.push(format!(
+                "`{from}` -> `{to}` is in the DAG table but not a dependency: remove it (xtask/src/tidy.rs, docs/ARCHITECTURE.md)"
+            ));
+        }
         if normal.contains("crashrig-testkit") {
             problems.push(format!(
                 "`{from}` has crashrig-testkit as a normal dependency (dev-only)"
@@ -282,47 +270,6 @@ pub fn check_dag(root: &Path) -> Result<Vec<String>> {
             if to != "crashrig-testkit" && reaches(&edges, to, from) {
                 problems.push(format!("dev-dependency `{from}` -> `{to}` closes a cycle"));
             }
-        }
-    }
-    Ok(problems)
-}
-
-/// Every build of [`LEAN_BUILDS`] leaves its forbidden packages out of its normal dependency
-/// tree (the tree cargo resolves for that package and those features, Cargo.lock offline).
-pub fn check_lean_builds(root: &Path) -> Result<Vec<String>> {
-    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let mut problems = Vec::new();
-    for (package, args, forbidden, invariant) in LEAN_BUILDS {
-        let out = Command::new(&cargo)
-            .current_dir(root)
-            .args([
-                "tree",
-                "--offline",
-                "-e",
-                "normal",
-                "--prefix",
-                "none",
-                "-p",
-                package,
-            ])
-            .args(*args)
-            .output()
-            .with_context(|| format!("running cargo tree -p {package}"))?;
-        anyhow::ensure!(
-            out.status.success(),
-            "cargo tree -p {package} failed: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let tree = String::from_utf8_lossy(&out.stdout);
-        let names: BTreeSet<&str> = tree
-            .lines()
-            .filter_map(|l| l.split_whitespace().next())
-            .collect();
-        for f in forbidden.iter().filter(|f| names.contains(*f)) {
-            problems.push(format!(
-                "`cargo tree -p {package} {}` holds `{f}`: {invariant} (docs/ARCHITECTURE.md)",
-                args.join(" ")
-            ));
         }
     }
     Ok(problems)
@@ -435,24 +382,139 @@ fn one_test_binary_problems(
     Ok(problems)
 }
 
-/// Every crate under crates/ has a section in docs/ARCHITECTURE.md's code map.
+/// Largest size of docs/ARCHITECTURE.md (bytes): a map, not an API index (issue 45).
+pub const ARCHITECTURE_MAX_BYTES: usize = 30_000;
+/// Longest line of docs/ARCHITECTURE.md (characters; one sentence per line).
+pub const ARCHITECTURE_MAX_LINE: usize = 400;
+
+/// docs/ARCHITECTURE.md says what a program can check, and tidy checks it
+/// ([`architecture_problems`] on the page, the crates under `crates/` and [`ALLOWED`]).
 pub fn check_code_map(root: &Path) -> Result<Vec<String>> {
     let arch = std::fs::read_to_string(root.join("docs/ARCHITECTURE.md"))
         .context("reading docs/ARCHITECTURE.md")?;
-    let mut problems = Vec::new();
+    let mut crates = BTreeSet::new();
     for e in std::fs::read_dir(root.join("crates"))? {
         let p = e?.path();
         if p.join("Cargo.toml").exists() {
-            let dir = p.file_name().and_then(|n| n.to_str()).unwrap_or_default();
-            let needle = format!("### `crates/{dir}`");
-            if !arch.contains(&needle) {
+            crates.insert(
+                p.file_name()
+                    .and_then(|n| n.to_str())
+                    .unwrap_or_default()
+                    .to_string(),
+            );
+        }
+    }
+    Ok(architecture_problems(&arch, &crates, ALLOWED))
+}
+
+/// What is wrong with the architecture page `arch`: every crate of `crates` has a code-map
+/// section (`` ### `crates/<dir>` ``) and every section names a crate of `crates` or is a slot
+/// marked `(slot)`; the fenced block after `## The dependency DAG` lists exactly the edges of
+/// `allowed` (one line per package, `name -> dep, dep` with the `crashrig-` prefix left out,
+/// an optional layer label in front); the page is at most [`ARCHITECTURE_MAX_BYTES`] with no
+/// line over [`ARCHITECTURE_MAX_LINE`] characters; it cites no file outside the repository.
+pub fn architecture_problems(
+    arch: &str,
+    crates: &BTreeSet<String>,
+    allowed: &[(&str, &[&str])],
+) -> Vec<String> {
+    let page = "docs/ARCHITECTURE.md";
+    let mut problems = Vec::new();
+    for dir in crates {
+        let needle = format!("### `crates/{dir}`");
+        if !arch.lines().any(|l| l.starts_with(&needle)) {
+            problems.push(format!("{page} has no code-map section `{needle}`"));
+        }
+    }
+    for l in arch.lines().filter(|l| l.starts_with("### `crates/")) {
+        let dir = l["### `crates/".len()..]
+            .split('`')
+            .next()
+            .unwrap_or_default();
+        if !crates.contains(dir) && !l.contains("(slot)") {
+            problems.push(format!(
+                "{page}: code-map section `{l}` names no crate under crates/ (mark a placeholder `(slot)`)"
+            ));
+        }
+    }
+    if arch.len() > ARCHITECTURE_MAX_BYTES {
+        problems.push(format!(
+            "{page} is {} bytes (at most {ARCHITECTURE_MAX_BYTES}: API detail belongs in the crate docs)",
+            arch.len()
+        ));
+    }
+    for (i, l) in arch.lines().enumerate() {
+        let n = l.chars().count();
+        if n > ARCHITECTURE_MAX_LINE {
+            problems.push(format!(
+                "{page}:{}: {n} characters (at most {ARCHITECTURE_MAX_LINE})",
+                i + 1
+            ));
+        }
+        if l.contains("shared/") {
+            problems.push(format!(
+                "{page}:{}: cites `shared/`, which the repository does not hold",
+                i + 1
+            ));
+        }
+    }
+    let full = |n: &str| match n {
+        "xtask" => n.to_string(),
+        _ => format!("crashrig-{n}"),
+    };
+    let mut listed: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for l in dag_block(arch) {
+        let Some((name, deps)) = l.split_once("->") else {
+            problems.push(format!("{page}: DAG line `{l}` is not `name -> deps`"));
+            continue;
+        };
+        let name = name.split_whitespace().last().unwrap_or_default();
+        let deps = deps
+            .split(',')
+            .map(str::trim)
+            .filter(|d| !d.is_empty())
+            .map(full);
+        listed.entry(full(name)).or_default().extend(deps);
+    }
+    let table: BTreeMap<String, BTreeSet<String>> = allowed
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.iter().map(|d| d.to_string()).collect()))
+        .collect();
+    if listed != table {
+        for (k, v) in &table {
+            if listed.get(k) != Some(v) {
                 problems.push(format!(
-                    "docs/ARCHITECTURE.md has no code-map section `{needle}`"
+                    "{page}: the DAG block's line of `{k}` is not its ALLOWED edges {v:?} (it lists {:?})",
+                    listed.get(k)
                 ));
             }
         }
+        for k in listed.keys().filter(|k| !table.contains_key(*k)) {
+            problems.push(format!(
+                "{page}: the DAG block lists `{k}`, which ALLOWED has not"
+            ));
+        }
     }
-    Ok(problems)
+    problems
+}
+
+/// The non-empty lines of the first fenced block after the heading `## The dependency DAG`.
+fn dag_block(arch: &str) -> Vec<&str> {
+    let mut lines = arch
+        .lines()
+        .skip_while(|l| l.trim() != "## The dependency DAG")
+        .skip_while(|l| !l.starts_with("```"))
+        .skip(1);
+    let mut out = Vec::new();
+    for l in lines.by_ref() {
+        if l.starts_with("```") {
+            break;
+        }
+        if !l.trim().is_empty() {
+            out.push(l);
+        }
+    }
+    out
 }
 
 #[cfg(test)]
@@ -491,7 +553,7 @@ mod tests {
 
     #[test]
     fn tidy_lean_builds_leave_out_their_forbidden_packages() {
-        let problems = check_lean_builds(&crate::project_root()).unwrap();
+        let problems = crate::package::check_lean_builds(&crate::project_root()).unwrap();
         assert!(problems.is_empty(), "{problems:#?}");
         // The check sees what it forbids: the default build of mc holds toml.
         let out = Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()))
@@ -525,6 +587,35 @@ mod tests {
     fn tidy_architecture_code_map_lists_every_crate() {
         let problems = check_code_map(&crate::project_root()).unwrap();
         assert!(problems.is_empty(), "{problems:#?}");
+    }
+
+    #[test]
+    fn tidy_architecture_page_that_goes_false_is_caught() {
+        let crates: BTreeSet<String> = ["a", "b"].iter().map(|s| s.to_string()).collect();
+        let allowed: &[(&str, &[&str])] = &[("crashrig-a", &[]), ("crashrig-b", &["crashrig-a"])];
+        let good = "# A\n## The dependency DAG\n```\nL0  a ->\nL1  b -> a\n```\n### `crates/a`\n### `crates/b`\n### `crates/f` (slot)\n";
+        assert_eq!(
+            architecture_problems(good, &crates, allowed),
+            Vec::<String>::new()
+        );
+        // An edge the table does not have, a crate without a section, a section without a
+        // crate, a long line, a citation outside the repository.
+        let bad = format!(
+            "# A\n## The dependency DAG\n```\nL0  a -> b\nL1  b -> a\n```\n### `crates/a`\n### `crates/g`\nsee shared/x.md\n{}\n",
+            "x".repeat(ARCHITECTURE_MAX_LINE + 1)
+        );
+        let found = architecture_problems(&bad, &crates, allowed);
+        assert_eq!(found.len(), 5, "{found:#?}");
+        assert!(
+            found[0].contains("no code-map section `### `crates/b``"),
+            "{found:#?}"
+        );
+        assert!(found[1].contains("`### `crates/g``"), "{found:#?}");
+        assert!(found[2].contains("cites `shared/`"), "{found:#?}");
+        assert!(found[3].contains(&format!("{} characters", ARCHITECTURE_MAX_LINE + 1)));
+        assert!(found[4].contains("line of `crashrig-a`"), "{found:#?}");
+        let big = format!("{good}{}", "y\n".repeat(ARCHITECTURE_MAX_BYTES / 2));
+        assert_eq!(architecture_problems(&big, &crates, allowed).len(), 1);
     }
 
     #[test]

@@ -18,7 +18,7 @@
 //! silently dropped. Epochs are ordered by their key (the name without the prefix), which is
 //! the sequence order for COLMAP's zero-padded frame names.
 
-use crate::error::CalibrationError as Error;
+use crate::error::Error;
 use crashrig_colmap::{Image, Reconstruction};
 use crashrig_rig::Epoch;
 use std::collections::{BTreeMap, HashMap};

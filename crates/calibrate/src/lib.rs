@@ -1,4 +1,5 @@
-//! Rig calibration from a COLMAP model: epochs → link `A_from_B` with its tangent covariance.
+//! Rig calibration from a COLMAP model, the library of `crashrig calibrate`: epochs → link
+//! `A_from_B` with its tangent covariance.
 //!
 //! One call, [`calibrate`], reads the model, pairs the images of cameras A and B into epochs
 //! ([`epochs_from_model`]), converts model units to mm (scale bar or a factor), and calibrates the
@@ -11,9 +12,21 @@
 //! radians; the JSON and the report use degrees. Every field is documented in
 //! `docs/CALIBRATE.md`.
 //!
+//! # Entry points
+//! - [`calibrate`]`(&`[`CalibrationConfig`]`, monitor)` → [`CalibrationResult`]: the library
+//!   entry of `crashrig calibrate` and of a study's `[calibration]`.
+//! - [`epochs_from_model`] ([`EpochSet`]) and [`scale_from_points`] ([`ScaleBar`]): the pairing
+//!   of A and B images into epochs and the scale bar, on a model already read.
+//! - [`CalibrationResult::document`] ([`contract::CalibrationDocument`]): the `calibrate --json`
+//!   document; [`Reprojection`] and [`SplitHalf`]: the calibration's quality values.
+//! - [`Error`]: the one error type; every message names the model directory or option.
+//!
+//! # Features
+//! None: the crate has no cargo features.
+//!
 //! # Example
 //! ```no_run
-//! use crashrig_study::calibration::{CalibrationConfig, Scale, calibrate};
+//! use crashrig_calibrate::{CalibrationConfig, Scale, calibrate};
 //!
 //! let config = CalibrationConfig {
 //!     model: "calibration/sparse/0".into(),
@@ -26,16 +39,24 @@
 //! // The mean link A_from_B with the uncertainty of the mean (mm, rad): what a chain uses.
 //! let link = result.link;
 //! println!("{}", result.to_json());
-//! # Ok::<(), crashrig_study::calibration::CalibrationError>(())
+//! # Ok::<(), crashrig_calibrate::Error>(())
 //! ```
+
+#![deny(missing_docs)]
+#![warn(unnameable_types)]
+
+pub mod contract;
+mod epochs;
+mod error;
+mod quality;
 
 use crate::contract::{
     CalibrationDocument, DriftDocument, EpochDocument, LinkDocument, LinkStatisticsDocument,
     PairingDocument, RefinedDocument, ScaleDocument, SemDetailDocument,
 };
 pub use crate::epochs::{CameraSelector, EpochSet, ScaleBar, epochs_from_model, scale_from_points};
-pub use crate::error::CalibrationError;
-pub use crate::quality::{Reprojection, SplitHalf};
+pub use crate::error::Error;
+pub use crate::quality::{Reprojection, SPLIT_HALF_Z, SplitHalf};
 use crashrig_colmap::Reconstruction;
 use crashrig_geometry::{Mat6, UncertainPose, Vec3, opk};
 use crashrig_rig::refine::RefineOptions;
@@ -82,12 +103,12 @@ impl Scale {
     /// The scale the options give: a factor, a scale bar or neither ([`Scale::Default`]).
     ///
     /// # Errors
-    /// [`crate::Error::Usage`] (names in `spelling`): both given, a bar without its length or
+    /// [`Error::Usage`] (names in `spelling`): both given, a bar without its length or
     /// points, a factor out of range.
     pub fn from_options(
         options: &crashrig_input::options::ScaleOptions,
         spelling: crashrig_input::options::Spelling,
-    ) -> Result<Scale, crate::Error> {
+    ) -> Result<Scale, Error> {
         use crashrig_input::options::GivenScale;
         match options.given(spelling) {
             Ok(Some(GivenScale::MmPerUnit(f))) => Ok(Scale::MmPerUnit(f)),
@@ -95,7 +116,7 @@ impl Scale {
                 Ok(Scale::ScaleBar { points, length_mm })
             }
             Ok(None) => Ok(Scale::Default),
-            Err(e) => Err(crate::Error::Usage(e.to_string())),
+            Err(e) => Err(Error::Usage(e.to_string())),
         }
     }
 }
@@ -231,19 +252,19 @@ pub struct CalibrationResult {
 /// and may cancel it; the result is the same with and without it.
 ///
 /// # Errors
-/// Every [`CalibrationError`]: an unreadable model, a bad selector or scale, no epochs, a
-/// rig-constrained model (unless accepted), too few epochs; [`CalibrationError::Cancelled`].
+/// Every [`Error`]: an unreadable model, a bad selector or scale, no epochs, a
+/// rig-constrained model (unless accepted), too few epochs; [`Error::Cancelled`].
 pub fn calibrate(
     config: &CalibrationConfig,
     monitor: Option<&dyn Monitor>,
-) -> Result<CalibrationResult, CalibrationError> {
+) -> Result<CalibrationResult, Error> {
     let model = Reconstruction::read(&config.model)?;
     let sel_a = CameraSelector::parse(&config.camera_a);
     let sel_b = CameraSelector::parse(&config.camera_b);
     let set = epochs_from_model(&model, &sel_a, &sel_b)?;
     let rig_err = |source: RigError| match source {
-        RigError::Cancelled(c) => CalibrationError::Cancelled(c),
-        source => CalibrationError::Rig {
+        RigError::Cancelled(c) => Error::Cancelled(c),
+        source => Error::Rig {
             model: config.model.clone(),
             source,
         },
@@ -282,7 +303,7 @@ pub fn calibrate(
             spread_mm,
             spread_rad,
         }) => {
-            return Err(CalibrationError::RigConstrained {
+            return Err(Error::RigConstrained {
                 model: config.model.clone(),
                 n_epochs,
                 spread_mm,
@@ -824,23 +845,22 @@ impl CalibrationResult {
     /// `p` in x y z omega phi kappa (`acf_*` only when there is a drift report).
     ///
     /// # Errors
-    /// [`CalibrationError::Plot`] (with `dir` empty) when a figure cannot be drawn.
-    pub fn plots(&self) -> Result<Vec<(String, Vec<u8>)>, CalibrationError> {
+    /// [`Error::Plot`] (with `dir` empty) when a figure cannot be drawn.
+    pub fn plots(&self) -> Result<Vec<(String, Vec<u8>)>, Error> {
         use crashrig_plot::{Format, histogram, series};
         let c = &self.calibration;
         let plot_err = |what: String| {
-            move |source| CalibrationError::Plot {
+            move |source| Error::Plot {
                 dir: PathBuf::new(),
                 what,
                 source,
             }
         };
-        let series_rad = crashrig_rig::stats::parameter_series(&c.links).map_err(|source| {
-            CalibrationError::Rig {
+        let series_rad =
+            crashrig_rig::stats::parameter_series(&c.links).map_err(|source| Error::Rig {
                 model: self.config.model.clone(),
                 source,
-            }
-        })?;
+            })?;
         let xs: Vec<f64> = (1..=c.links.len()).map(|i| i as f64).collect();
         let mut out = Vec::new();
         for j in 0..6 {
@@ -903,17 +923,17 @@ impl CalibrationResult {
     /// written to a temporary name first and renamed into place.
     ///
     /// # Errors
-    /// [`CalibrationError::Plot`] or [`CalibrationError::Io`].
-    pub fn write_plots(&self, dir: &Path) -> Result<(), CalibrationError> {
+    /// [`Error::Plot`] or [`Error::Io`].
+    pub fn write_plots(&self, dir: &Path) -> Result<(), Error> {
         let plots = self.plots().map_err(|e| match e {
-            CalibrationError::Plot { what, source, .. } => CalibrationError::Plot {
+            Error::Plot { what, source, .. } => Error::Plot {
                 dir: dir.to_path_buf(),
                 what,
                 source,
             },
             e => e,
         })?;
-        std::fs::create_dir_all(dir).map_err(|source| CalibrationError::Io {
+        std::fs::create_dir_all(dir).map_err(|source| Error::Io {
             path: dir.to_path_buf(),
             what: "cannot create the plot directory",
             source,
@@ -921,12 +941,12 @@ impl CalibrationResult {
         for (name, bytes) in plots {
             let path = dir.join(&name);
             let tmp = dir.join(format!(".{name}.tmp"));
-            std::fs::write(&tmp, &bytes).map_err(|source| CalibrationError::Io {
+            std::fs::write(&tmp, &bytes).map_err(|source| Error::Io {
                 path: tmp.clone(),
                 what: "write failed",
                 source,
             })?;
-            std::fs::rename(&tmp, &path).map_err(|source| CalibrationError::Io {
+            std::fs::rename(&tmp, &path).map_err(|source| Error::Io {
                 path: path.clone(),
                 what: "cannot rename into place",
                 source,
@@ -966,3 +986,8 @@ fn stats_rows(o: &mut String, s: &LinkStatistics, base: bool) {
         row(o, "σ/√n", deg3(&s.angles_sem), 4);
     }
 }
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

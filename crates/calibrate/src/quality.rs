@@ -1,6 +1,6 @@
 //! Calibration quality: what lets a lab judge its calibration, as typed values computed with
-//! the calibration ([`crate::calibration::CalibrationResult::reprojection`] and
-//! [`crate::calibration::CalibrationResult::split_half`]).
+//! the calibration ([`crate::CalibrationResult::reprojection`] and
+//! [`crate::CalibrationResult::split_half`]).
 //!
 //! - [`reprojection`]: the reprojection residuals of camera A's and camera B's observations in
 //!   the calibration model (COLMAP's camera models, the model's own poses and points): the
@@ -10,11 +10,11 @@
 //!   halves agree when their difference is within 2 σ of the difference on every axis (a drift,
 //!   a bumped rig or an underestimated σ shows up here).
 //!
-//! The report renders them in [`crate::quality_report`].
+//! A study's report renders them (`crashrig_study`'s calibration-quality section).
 //!
 //! # Example
 //! ```
-//! use crashrig_study::calibration::SplitHalf;
+//! use crashrig_calibrate::SplitHalf;
 //! // A difference of 0.3 mm with σ 0.2 mm on each half: σ of the difference √0.08 ≈ 0.28 mm.
 //! let s = SplitHalf::from_difference(10, 10, [0.3, 0.0, 0.0, 0.0, 0.0, 0.0], [0.04; 6], [0.04; 6]);
 //! assert!((s.z[0] - 0.3 / 0.08f64.sqrt()).abs() < 1e-12);

@@ -1,10 +1,8 @@
-//! `crashrig_study::calibration`: the typed result, its JSON, text report and plots, on the
+//! `crashrig_calibrate`: the typed result, its JSON, text report and plots, on the
 //! pycolmap-written fixtures in `fixtures/rig/` (numpy statistics in `expected.json`).
 
 use approx::assert_abs_diff_eq;
-use crashrig_study::calibration::{
-    CalibrationConfig, CalibrationError, ResolvedScale, Scale, calibrate,
-};
+use crashrig_calibrate::{CalibrationConfig, Error, ResolvedScale, Scale, calibrate};
 use serde_json::Value;
 use std::path::PathBuf;
 
@@ -24,7 +22,7 @@ fn config(name: &str, scale: Scale) -> CalibrationConfig {
     }
 }
 
-fn paper() -> crashrig_study::calibration::CalibrationResult {
+fn paper() -> crashrig_calibrate::CalibrationResult {
     calibrate(
         &config(
             "paper",
@@ -178,10 +176,7 @@ fn calibration_rig_constrained_is_refused_with_advice() {
     c.camera_a = "1".into();
     c.camera_b = "2".into();
     let e = calibrate(&c, None).unwrap_err();
-    assert!(matches!(
-        e,
-        CalibrationError::RigConstrained { n_epochs: 6, .. }
-    ));
+    assert!(matches!(e, Error::RigConstrained { n_epochs: 6, .. }));
     let msg = e.to_string();
     for needle in [
         "shared_frame",
@@ -227,7 +222,7 @@ impl crashrig_stats::progress::Monitor for Stop {
     }
 }
 
-/// A cancelled calibration is `CalibrationError::Cancelled`, not a skipped refinement.
+/// A cancelled calibration is `Error::Cancelled`, not a skipped refinement.
 #[test]
 fn calibration_cancelled_returns_cancelled() {
     let c = config(
@@ -238,5 +233,5 @@ fn calibration_cancelled_returns_cancelled() {
         },
     );
     let e = calibrate(&c, Some(&Stop)).unwrap_err();
-    assert!(matches!(e, CalibrationError::Cancelled(_)), "{e}");
+    assert!(matches!(e, Error::Cancelled(_)), "{e}");
 }

@@ -1,15 +1,15 @@
-//! Integration tests of the calibration (`crashrig_study::calibration::epochs_from_model` + `crashrig-rig`) on the
+//! Integration tests of the calibration (`crashrig_calibrate::epochs_from_model` + `crashrig-rig`) on the
 //! pycolmap-written fixtures in `fixtures/rig/`.
 //!
 //! Each fixture directory holds a COLMAP model and `expected.json`, the injected per-epoch links
 //! and the statistics computed from them directly with numpy (see `fixtures/rig/README.md`).
 
 use approx::assert_abs_diff_eq;
+use crashrig_calibrate::Error;
+use crashrig_calibrate::{CameraSelector, epochs_from_model, scale_from_points};
 use crashrig_colmap::Reconstruction;
 use crashrig_geometry::angles::wrap_pi;
 use crashrig_rig::{CalibrateOptions, Calibration, calibrate};
-use crashrig_study::calibration::CalibrationError as Error;
-use crashrig_study::calibration::{CameraSelector, epochs_from_model, scale_from_points};
 use serde_json::Value;
 use std::path::PathBuf;
 

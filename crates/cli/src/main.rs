@@ -2,7 +2,7 @@
 //!
 //! The CLI is thin: it parses arguments into plain structs, calls the library crates, and is
 //! the only place that formats output (JSON, CSV, tables, plots). The contract it implements is
-//! documented in `docs/REFERENCE.md` (origin: the external contract `shared/interface.md`); `docs/ARCHITECTURE.md` maps commands to crates.
+//! documented in `docs/REFERENCE.md`; `docs/ARCHITECTURE.md` maps commands to crates.
 
 mod cmd;
 mod limits;

@@ -1,5 +1,5 @@
 //! End-to-end contract tests of the `crashrig` binary against its reference (`docs/REFERENCE.md`,
-//! which follows the external contract `shared/interface.md`).
+//! the contract users and scripts read).
 //!
 //! Every test runs the built binary (`CARGO_BIN_EXE_crashrig`) on committed fixtures and checks
 //! what the contract promises: `--help`, the exact JSON fields and shapes under `--json`,

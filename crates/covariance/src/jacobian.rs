@@ -1,7 +1,7 @@
 //! One reprojection residual and its exact Jacobians.
 //!
 //! An image belongs to a frame; the frame's pose is the unknown. Its tangent is the contract's
-//! (`shared/interface.md`, "Uncertain poses") for `world_from_rig`: the rig centre moves in
+//! (`docs/REFERENCE.md`, the tangent covariance of `docs/CONVENTIONS.md`) for `world_from_rig`: the rig centre moves in
 //! world axes, the rotation is `R̄_world_from_rig · Exp(δθ)` about the rig's own axes. For a
 //! legacy model (one frame per image, trivial rig) this is exactly `world_from_cam`'s tangent.
 //! The image's `sensor_from_rig` is held at its model value.

@@ -1,6 +1,6 @@
 //! The scenario file (TOML): cameras, links, noise model and the grid study.
 //!
-//! The format is the external contract of `shared/interface.md`; every key (extensions
+//! The format is the contract of `docs/REFERENCE.md`; every key (extensions
 //! included: `covariance_tangent`, `from = "…"`, `correlated`, …) is documented in
 //! `docs/SCENARIO.md`. Degrees in the file become radians here; every camera and link becomes
 //! an [`UncertainPose`]. The reader is one front end of [`crate::ChainBuilder`] /

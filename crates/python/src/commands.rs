@@ -68,7 +68,7 @@ fn calibrate<'py>(
     plots: Option<&Bound<'py, PyAny>>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    use crashrig_study::calibration::{CalibrationConfig, Scale, calibrate};
+    use crashrig_calibrate::{CalibrationConfig, Scale, calibrate};
     let options = ScaleOptions {
         scale_points,
         scale_length_mm,
@@ -133,7 +133,7 @@ fn bootstrap<'py>(
     replicates: Option<&Bound<'py, PyAny>>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    use crashrig_study::tie::{self, Method, Resample, TieConfig};
+    use crashrig_tie::{self as tie, Method, Resample, TieConfig};
     let plots = args::opt_path(plots, "plots")?;
     let replicates_csv = args::opt_path(replicates, "replicates")?;
     let method = Method::from_name(method).ok_or_else(|| {

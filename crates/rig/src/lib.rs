@@ -34,7 +34,7 @@
 //! - [`calibrate`] → [`Calibration`]: all of the above in one call.
 //!
 //! Epochs from a COLMAP model (camera selectors, pairing, scale bar) are read by
-//! `crashrig_study::calibration::epochs_from_model`; this crate works on poses only.
+//! `crashrig_calibrate::epochs_from_model`; this crate works on poses only.
 //!
 //! # Features
 //! None: the crate has no cargo features.

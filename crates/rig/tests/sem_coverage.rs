@@ -1,5 +1,5 @@
-//! The contract's coverage of the σ of the mean (`shared/interface.md`, Extensions 2026-11-28,
-//! "The σ of the mean: what 'covers' means on short drifting sequences"), cell by cell.
+//! The contract's coverage of the σ of the mean (`docs/REFERENCE.md` → `docs/CALIBRATE.md`,
+//! "The contract's coverage table": what 'covers' means on short drifting sequences), cell by cell.
 //!
 //! Model of one tangent axis: `x_t = √s·a_t + √(1 − s)·e_t`, `a` a stationary unit AR(1) with
 //! coefficient ρ, `e` unit white noise, s the drift share; true mean 0, true

@@ -15,16 +15,14 @@
 //! - [`write_outputs`]: `results.json`, every step's files and `report.html` below a directory;
 //!   [`run_to_dir`] ([`StudyRunConfig`] → [`StudyRun`]) is the library entry of
 //!   `crashrig study`: run + every output file, staged and swapped in as a whole.
-//! - [`calibration::calibrate`] ([`calibration::CalibrationConfig`] →
-//!   [`calibration::CalibrationResult`]): COLMAP model → epochs → the rig link `A_from_B` with
-//!   its covariance, the entry of `crashrig calibrate`.
-//! - [`tie::bootstrap`] ([`tie::TieConfig`] → [`tie::TieResult`]): database + model →
-//!   correspondences → bootstrap → the tie link with its covariance, the entry of
-//!   `crashrig bootstrap`.
-//! - [`contract`]: the JSON documents (`calibrate --json`, `results.json`) as serde structs.
+//! - [`contract`]: the JSON document `results.json` as serde structs.
 //! - [`study_toml`] ([`PaperStudy`]): the study file of `crashrig paper`.
 //!
-//! The grid, propagate and merge commands are `crashrig-grid` and `crashrig-merge`.
+//! The steps it orchestrates are the libraries of their commands: `crashrig-calibrate`
+//! (`crashrig calibrate`: COLMAP model → epochs → the rig link with its covariance),
+//! `crashrig-tie` (`crashrig bootstrap`: database + model → correspondences → bootstrap → the
+//! tie link), `crashrig-grid` (grid, propagate), `crashrig-measure` (measure); the study reads
+//! their typed results. `crashrig-merge` is the merge command.
 //!
 //! # Features
 //! None: the crate has no cargo features.
@@ -43,10 +41,7 @@
 #![deny(missing_docs)]
 #![warn(unnameable_types)]
 
-pub mod calibration;
 pub mod contract;
-mod correspondences;
-mod epochs;
 mod error;
 mod files;
 mod first_screen;
@@ -57,15 +52,13 @@ mod length_report;
 mod measure_step;
 mod paper_study;
 mod pipeline;
-mod quality;
 mod quality_report;
 mod report;
 pub mod study_file;
 mod study_run;
-pub mod tie;
 mod verdict;
 
-pub use error::{BundledError, Error, StepError};
+pub use error::Error;
 pub use measure_step::{MeasureResult, MeasureSummary};
 pub use paper_study::{Inputs, PaperStudy, study_toml};
 pub use pipeline::{ChainPose, LayoutResult, Options, Progress, StudyResult, run_study};

@@ -15,8 +15,8 @@
 //! handed to the measurement as [`ANoise::Covariance`] (per-epoch blocks and the joint
 //! covariance, so A's epochs of one replicate are drawn jointly) — no JSON in between.
 
+use crate::Error;
 use crate::study_file::{ABundle, MeasureANoise, MeasureSection, Study};
-use crate::{Error, StepError};
 use crashrig_covariance::{CovarianceConfig, CovarianceResult, Scale};
 use crashrig_geometry::UncertainPose;
 use crashrig_measure::engine::{Measurement, Settings};
@@ -108,9 +108,9 @@ pub fn run_measure(
     samples: usize,
     seed: u64,
 ) -> Result<MeasureResult, Error> {
-    let step = |e: StepError| study.step_error("measure", 0, e);
+    let step = |e: Error| study.step_error("measure", 0, e);
     if s.camera_c.is_some() && b_from_c.is_none() {
-        return Err(step(StepError::CameraCWithoutTie));
+        return Err(step(Error::CameraCWithoutTie));
     }
     // Units are never guessed: the key, or the units the A covariance file states.
     let a_cov = match &s.a_noise {

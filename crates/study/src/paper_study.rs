@@ -5,8 +5,8 @@
 //! The command embeds the inputs and writes them next to this file; the layouts' grids are
 //! read from the bundled scenarios, so the study file and the scenarios cannot disagree.
 
+use crate::Error;
 use crate::study_file::ChainCamera;
-use crate::{BundledError, Error};
 use serde::Serialize;
 use std::path::Path;
 
@@ -164,12 +164,14 @@ struct Layouts<'a> {
 }
 
 fn toml_text<T: Serialize>(value: &T) -> Result<String, Error> {
-    toml::to_string(value).map_err(|e| bundled(BundledError::Toml(e)))
+    toml::to_string(value).map_err(|e| bundled(Error::BundledToml(e)))
 }
 
 /// An error of the bundled inputs (a bug of the program, not of the user's input).
-fn bundled(problem: BundledError) -> Error {
-    Error::Bundled { problem }
+fn bundled(problem: Error) -> Error {
+    Error::Bundled {
+        problem: Box::new(problem),
+    }
 }
 
 fn grid_axis(a: crashrig_mc::Axis) -> (f64, f64, usize) {
@@ -179,7 +181,7 @@ fn grid_axis(a: crashrig_mc::Axis) -> (f64, f64, usize) {
 /// The grid of the bundled scenario `stem` (`scenarios/{stem}.toml` of `inputs`).
 fn bundled_grid(stem: &str, inputs: &Inputs<'_>) -> Result<crashrig_mc::Grid, Error> {
     let text = inputs(&format!("scenarios/{stem}.toml")).ok_or_else(|| {
-        bundled(BundledError::NoScenario {
+        bundled(Error::NoScenario {
             stem: stem.to_string(),
         })
     })?;
@@ -187,7 +189,7 @@ fn bundled_grid(stem: &str, inputs: &Inputs<'_>) -> Result<crashrig_mc::Grid, Er
         .map_err(|source| Error::Scenario { source })?
         .grid
         .ok_or_else(|| {
-            bundled(BundledError::NoGrid {
+            bundled(Error::NoGrid {
                 stem: stem.to_string(),
             })
         })
@@ -206,7 +208,7 @@ fn paper_layout(
 ) -> Result<LayoutKeys, Error> {
     let g = bundled_grid(stem, inputs)?;
     if g.observers.len() != feeds.len() {
-        return Err(bundled(BundledError::Observers {
+        return Err(bundled(Error::BundledObservers {
             stem: stem.to_string(),
             observers: g.observers.len(),
             expected: feeds.len(),

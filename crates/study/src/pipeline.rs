@@ -8,8 +8,6 @@
 //! parsed back or rewritten as text.
 
 use crate::Error;
-use crate::StepError;
-use crate::calibration::{self, CalibrationConfig, CalibrationResult};
 use crate::contract::{
     ACovarianceSummary, ChainCameraDocument, LayoutDocument, LinearDocument, MeasureDocument,
     ObserverDocument, PropagationDocument, StudyDocument,
@@ -17,13 +15,14 @@ use crate::contract::{
 use crate::study_file::{
     ChainCamera, Layout, ObserverNoise, Study, StudyScale, TieMethod, TieResample,
 };
-use crate::tie::{self, TieConfig, TieResult};
+use crashrig_calibrate::{self as calibration, CalibrationConfig, CalibrationResult};
 use crashrig_geometry::{Mat6, UncertainPose};
 use crashrig_grid::summary::GridSummary;
 use crashrig_mc::{
     CameraId, Chain, ChainBuilder, GridBuilder, GridResult, GridStudy, PoseLinear, PoseMc,
 };
 use crashrig_stats::progress::Monitor;
+use crashrig_tie::{self as tie, TieConfig, TieResult};
 use nalgebra::Vector3;
 use serde_json::Value;
 
@@ -438,7 +437,7 @@ fn check_sizes(study: &Study, samples: usize) -> Result<(), Error> {
     }
     for (i, layout) in study.layouts.iter().enumerate() {
         crate::study_file::check_layout_size(layout, samples)
-            .map_err(|problem| study.step_error("layout", i, StepError::LayoutSize { problem }))?;
+            .map_err(|problem| study.step_error("layout", i, Error::LayoutSize { problem }))?;
     }
     Ok(())
 }
@@ -756,7 +755,7 @@ fn quality_document(c: &CalibrationResult) -> crate::contract::CalibrationQualit
             .collect(),
         split_half: c.split_half.as_ref().map(|s| SplitHalfDocument {
             agree: s.agree,
-            bound_z: crate::quality::SPLIT_HALF_Z,
+            bound_z: calibration::SPLIT_HALF_Z,
             difference: std::array::from_fn(|i| s.difference[i] * deg(i)),
             max_z: s.z.iter().copied().fold(0.0, f64::max),
             n_first: s.n_first,

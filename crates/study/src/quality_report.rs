@@ -1,12 +1,12 @@
-//! The report of the calibration quality ([`crate::quality`]'s values, carried by
+//! The report of the calibration quality ([`crashrig_calibrate`]'s quality values, carried by
 //! [`CalibrationResult`]): the calibration's verdict box ([`verdict`]) and the report section
 //! "Calibration quality" (per-epoch link plots with the outliers marked, the drift statistics,
 //! the split-half check, the reprojection residuals per camera and the pixel σ the study uses).
 
 use crate::Study;
-use crate::calibration::CalibrationResult;
 use crate::html::{Block, Report, Status, Table, Verdict};
-use crate::quality::SPLIT_HALF_Z;
+use crashrig_calibrate::CalibrationResult;
+use crashrig_calibrate::SPLIT_HALF_Z;
 
 /// The axes of the link, in the tangent order of the split-half check.
 const AXES: [&str; 6] = ["x [mm]", "y [mm]", "z [mm]", "θx [°]", "θy [°]", "θz [°]"];
@@ -315,7 +315,7 @@ fn pixel_sigma_sources(study: &Study, c: &CalibrationResult) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibration::{CalibrationConfig, Scale, calibrate};
+    use crashrig_calibrate::{CalibrationConfig, Scale, calibrate};
 
     /// The report's calibration verdict names every warning it refers to ("Usable, with the
     /// warnings below" used to stand over a list without them, issue 29).

@@ -598,7 +598,7 @@ fn verdict_rows(r: &StudyResult) -> Vec<Vec<String>> {
 }
 
 /// " SEM NOT RELIABLE on …" for the tangent axes whose effective n is below 10, else "".
-fn unreliable_sem_note(c: &crate::calibration::CalibrationResult) -> String {
+fn unreliable_sem_note(c: &crashrig_calibrate::CalibrationResult) -> String {
     const AXES: [&str; 6] = ["x", "y", "z", "θx", "θy", "θz"];
     let bad: Vec<String> = (0..6)
         .filter(|&j| !c.sem_reliable[j])

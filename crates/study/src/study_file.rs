@@ -9,7 +9,7 @@
 //!   propagated world covariance of that chain camera unchanged: the vehicle axes are taken as
 //!   parallel to the world axes (the covariance is not rotated).
 
-use crate::{Error, StepError};
+use crate::Error;
 use crashrig_geometry::{Mat6, Rigid3, UncertainPose, Vec3};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -1711,12 +1711,12 @@ impl Study {
     }
 
     /// An [`Error::Step`] for a failure of the step configured by section `key`, located at
-    /// the line of the key the failure is about ([`StepError::key`]), else at the section's.
-    pub(crate) fn step_error(&self, key: &str, n: usize, source: impl Into<StepError>) -> Error {
+    /// the line of the key the failure is about ([`Error::step_key`]), else at the section's.
+    pub(crate) fn step_error(&self, key: &str, n: usize, source: impl Into<Error>) -> Error {
         let section = key.split('[').next().unwrap_or(key);
         let source = source.into();
         let line = source
-            .key()
+            .step_key()
             .and_then(|k| key_line(&self.text, section, n, k))
             .or_else(|| self.section_line(section, n))
             .or(Some(1));

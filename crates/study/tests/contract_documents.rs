@@ -6,18 +6,16 @@
 //! here verbatim: the pinned manifest does not hash these documents. Serialising the
 //! calibration struct directly gives the same bytes too (its fields are in key order).
 
+use crashrig_calibrate::{CalibrationConfig, CalibrationResult, ResolvedScale, Scale, calibrate};
 use crashrig_geometry::{Mat6, UncertainPose, Vec3, opk};
 use crashrig_rig::robust::outlier_rule_description;
 use crashrig_rig::stats::LinkStatistics;
 use crashrig_rig::{DriftReport, Refinement};
 use crashrig_study::Study;
-use crashrig_study::calibration::{
-    CalibrationConfig, CalibrationResult, ResolvedScale, Scale, calibrate,
-};
 use crashrig_study::contract::covariance_deg_rows;
 use crashrig_study::study_file::ObserverNoise;
-use crashrig_study::tie::TieResult;
 use crashrig_study::{Options, StudyResult, run_study};
+use crashrig_tie::TieResult;
 use nalgebra::Vector3;
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};

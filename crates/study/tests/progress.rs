@@ -52,8 +52,8 @@ fn study_progress_stays_within_totals_and_changes_nothing() {
 /// the one-line message is the study file's line and section, then the library's message.
 #[test]
 fn study_step_error_has_a_typed_source() {
-    use crashrig_study::calibration::CalibrationError;
-    use crashrig_study::{Error, StepError};
+    use crashrig_calibrate::Error as CalibrationError;
+    use crashrig_study::Error;
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/study/own/study.toml");
     let text = std::fs::read_to_string(&path).unwrap();
     // `camera_a` of [calibration] (line 8) matches no image of the model.
@@ -75,7 +75,7 @@ fn study_step_error_has_a_typed_source() {
     assert!(
         matches!(
             **source,
-            StepError::Calibration(CalibrationError::NoImagesForCamera { role: 'A', .. })
+            Error::Calibration(CalibrationError::NoImagesForCamera { role: 'A', .. })
         ),
         "{source:?}"
     );

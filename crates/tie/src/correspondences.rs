@@ -8,7 +8,7 @@
 //!
 //! Lengths are converted to mm with `mm_per_unit` here; nothing downstream sees model units.
 
-use crate::error::TieError;
+use crate::error::Error;
 use crashrig_camera::Camera;
 use crashrig_colmap::Reconstruction;
 use crashrig_colmap::database::Database;
@@ -75,15 +75,15 @@ pub struct TieSource {
     ids: (u32, u32, u32, u32),
 }
 
-fn model_error(dir: &Path, message: String) -> TieError {
-    TieError::Model {
+fn model_error(dir: &Path, message: String) -> Error {
+    Error::Model {
         path: dir.to_path_buf(),
         message,
     }
 }
 
-fn db_error(path: &Path, message: String) -> TieError {
-    TieError::Database {
+fn db_error(path: &Path, message: String) -> Error {
+    Error::Database {
         path: path.to_path_buf(),
         message,
     }
@@ -98,7 +98,7 @@ fn model_image(
     dir: &Path,
     name: &str,
     mm_per_unit: f64,
-) -> Result<(u32, ModelImage), TieError> {
+) -> Result<(u32, ModelImage), Error> {
     let image = model.image_by_name(name).ok_or_else(|| {
         let nearest: Vec<String> = model
             .nearest_image_names(name, 3)
@@ -164,7 +164,7 @@ impl TieSource {
         image_a: &str,
         image_b: &str,
         mm_per_unit: f64,
-    ) -> Result<Self, TieError> {
+    ) -> Result<Self, Error> {
         let model = Reconstruction::read(model_dir)
             .map_err(|e| model_error(model_dir, format!("cannot read the COLMAP model: {e}")))?;
         let db = Database::open(database)
@@ -172,12 +172,12 @@ impl TieSource {
         let (ma, a) = model_image(&model, model_dir, image_a, mm_per_unit)?;
         let (mb, b) = model_image(&model, model_dir, image_b, mm_per_unit)?;
         if ma == mb {
-            return Err(TieError::Option {
+            return Err(Error::Option {
                 option: "--image-a/--image-b",
                 message: format!("--image-a and --image-b name the same image {image_a:?}"),
             });
         }
-        let db_id = |name: &str| -> Result<u32, TieError> {
+        let db_id = |name: &str| -> Result<u32, Error> {
             db.image_id_by_name(name)
                 .map_err(|e| db_error(database, format!("reading the images table: {e}")))?
                 .ok_or_else(|| db_error(database, format!("image {name:?} is not in the database")))
@@ -195,7 +195,7 @@ impl TieSource {
     }
 
     /// B's observations of the model's 3-D points (mm), with A's pose.
-    pub fn absolute(&self, mm_per_unit: f64) -> Result<AbsoluteCorrespondences, TieError> {
+    pub fn absolute(&self, mm_per_unit: f64) -> Result<AbsoluteCorrespondences, Error> {
         let image_b = self.model.image(self.ids.1).ok_or_else(|| {
             model_error(&self.model_dir, format!("image {:?} vanished", self.b.name))
         })?;
@@ -216,7 +216,7 @@ impl TieSource {
     }
 
     /// The A–B matches of the database (`set`), as pixel pairs.
-    pub fn matches(&self, set: MatchSet) -> Result<MatchedPixels, TieError> {
+    pub fn matches(&self, set: MatchSet) -> Result<MatchedPixels, Error> {
         let path = &self.database_path;
         let (da, dbb) = (self.ids.2, self.ids.3);
         let (ia, ib) = (&self.a.name, &self.b.name);
@@ -247,7 +247,7 @@ impl TieSource {
                 m
             }
         };
-        let kp = |id: u32, name: &str| -> Result<Vec<Vector2<f64>>, TieError> {
+        let kp = |id: u32, name: &str| -> Result<Vec<Vector2<f64>>, Error> {
             Ok(self
                 .db
                 .keypoints(id)

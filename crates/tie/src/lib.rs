@@ -1,4 +1,5 @@
-//! The tie link of a third camera: correspondences from a COLMAP database and model, bootstrapped.
+//! The tie link of a third camera, the library of `crashrig bootstrap`: correspondences from a
+//! COLMAP database and model, bootstrapped (the resampling engine is `crashrig_bootstrap`).
 //!
 //! The pose of image B relative to image A (`A_from_B`) and its uncertainty by resampling
 //! correspondences with replacement (the paper's §2.3.1, §3.2):
@@ -28,7 +29,7 @@
 //!
 //! # Example
 //! ```no_run
-//! use crashrig_study::tie::{self, Method, Resample, TieConfig};
+//! use crashrig_tie::{self as tie, Method, Resample, TieConfig};
 //!
 //! let config = TieConfig {
 //!     database: "tie/database.db".into(),
@@ -44,11 +45,17 @@
 //! // The link A_from_B with its 6×6 covariance (mm, rad) for the Monte Carlo chain:
 //! let link = result.link;
 //! println!("{}", result.text_report());
-//! # Ok::<(), tie::TieError>(())
+//! # Ok::<(), crashrig_tie::Error>(())
 //! ```
 
+#![deny(missing_docs)]
+#![warn(unnameable_types)]
+
+mod correspondences;
+mod error;
+
 use crate::correspondences::{MatchSet, ModelImage, TieSource};
-pub use crate::error::TieError;
+pub use crate::error::Error;
 use crashrig_bootstrap as boot;
 use crashrig_geometry::angles::{unwrap_about, wrapped_stats};
 use crashrig_geometry::{Mat6, Rigid3, UncertainPose, Vec3};
@@ -57,7 +64,7 @@ use crashrig_pose::{
     link_covariance_absolute, link_covariance_relative, link_parameters, normalize_pixels,
     refine_absolute_pose, refine_relative_pose, scaled_a_from_b,
 };
-use crashrig_stats::progress::{Cancelled, Monitor, Offset};
+use crashrig_stats::progress::{Monitor, Offset};
 use nalgebra::Vector2;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -79,12 +86,12 @@ const LABELS: [&str; 6] = [
 pub const REPLICATES_CSV_HEADER: &str =
     "replicate,x_mm,y_mm,z_mm,omega_deg,phi_deg,kappa_deg,tx_deg,ty_deg,tz_deg";
 
-impl TieError {
+impl Error {
     /// The error of a failed [`bootstrap_link`] on the correspondences of `path`, described by
-    /// `what` (a cancellation stays [`TieError::Cancelled`]).
-    fn estimation(e: LinkError, path: &std::path::Path, what: impl FnOnce() -> String) -> Self {
+    /// `what` (a cancellation stays [`Error::Cancelled`]).
+    fn estimation(e: Error, path: &std::path::Path, what: impl FnOnce() -> String) -> Self {
         match e {
-            LinkError::Cancelled(c) => Self::Cancelled(c),
+            Error::Cancelled(c) => Self::Cancelled(c),
             e => Self::Estimation {
                 path: path.to_path_buf(),
                 message: format!("{}: {e}", what()),
@@ -302,43 +309,6 @@ pub struct LinkBootstrapOptions {
     pub jackknife: bool,
 }
 
-/// Why [`bootstrap_link`] failed; the messages are those of the step that failed.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum LinkError {
-    /// The full-sample resection of B failed.
-    #[error("resection of image B failed")]
-    Resection(#[source] crashrig_pose::Error),
-    /// The matched keypoints of image `image` (`'A'` or `'B'`) cannot be undistorted.
-    #[error("undistorting the matched keypoints of image {image}")]
-    Undistort {
-        /// `'A'` or `'B'`.
-        image: char,
-        /// What failed.
-        #[source]
-        source: crashrig_pose::Error,
-    },
-    /// The full-sample relative orientation failed.
-    #[error("relative orientation A-B failed")]
-    RelativeOrientation(#[source] crashrig_pose::Error),
-    /// The bootstrap engine refused the run (no items, no replicates, too few for the
-    /// jackknife).
-    #[error(transparent)]
-    Bootstrap(boot::Error),
-    /// The caller's monitor cancelled the run.
-    #[error(transparent)]
-    Cancelled(#[from] Cancelled),
-}
-
-impl From<boot::Error> for LinkError {
-    fn from(e: boot::Error) -> Self {
-        match e {
-            boot::Error::Cancelled(c) => Self::Cancelled(c),
-            e => Self::Bootstrap(e),
-        }
-    }
-}
-
 /// The full-sample estimate of the link `A_from_B`, then `options.iterations` bootstrap
 /// replicates of it and, if asked, the leave-one-out values (the paper's §2.3.1).
 ///
@@ -347,13 +317,13 @@ impl From<boot::Error> for LinkError {
 /// same with and without it.
 ///
 /// # Errors
-/// [`LinkError`]: the full-sample estimation failed, the engine refused the run, or the call
+/// [`Error`]: the full-sample estimation failed, the engine refused the run, or the call
 /// was cancelled.
 pub fn bootstrap_link<C: Projector + Sync>(
     input: &LinkInput<C>,
     options: &LinkBootstrapOptions,
     monitor: Option<&dyn Monitor>,
-) -> Result<LinkBootstrap, LinkError> {
+) -> Result<LinkBootstrap, Error> {
     match input {
         LinkInput::Absolute(a) => bootstrap_absolute(a, options, monitor),
         LinkInput::Relative(r) => bootstrap_relative(r, options, monitor),
@@ -365,10 +335,10 @@ fn bootstrap_absolute<C: Projector + Sync>(
     input: &AbsoluteInput<C>,
     options: &LinkBootstrapOptions,
     monitor: Option<&dyn Monitor>,
-) -> Result<LinkBootstrap, LinkError> {
+) -> Result<LinkBootstrap, Error> {
     let ransac = &options.ransac;
     let est = estimate_absolute_pose(&input.camera_b, &input.pixels_b, &input.points_mm, ransac)
-        .map_err(LinkError::Resection)?;
+        .map_err(Error::Resection)?;
     let inliers = est.inliers;
     let full = est.refinement;
     let a_from_world = input.a_from_world;
@@ -432,7 +402,7 @@ fn resample_both(
         boot::Replicates<Rigid3, String>,
         Vec<Result<Rigid3, String>>,
     ),
-    LinkError,
+    Error,
 > {
     let (iterations, seed) = (options.iterations, options.seed);
     // Progress over the replicates, then the leave-one-out values: (done, iterations + n).
@@ -461,15 +431,15 @@ fn bootstrap_relative<C: Projector + Sync>(
     input: &RelativeInput<C>,
     options: &LinkBootstrapOptions,
     monitor: Option<&dyn Monitor>,
-) -> Result<LinkBootstrap, LinkError> {
+) -> Result<LinkBootstrap, Error> {
     let ransac = &options.ransac;
     let xa = normalize_pixels(&input.camera_a, &input.pixels_a)
-        .map_err(|source| LinkError::Undistort { image: 'A', source })?;
+        .map_err(|source| Error::Undistort { image: 'A', source })?;
     let xb = normalize_pixels(&input.camera_b, &input.pixels_b)
-        .map_err(|source| LinkError::Undistort { image: 'B', source })?;
+        .map_err(|source| Error::Undistort { image: 'B', source })?;
     let focal = 0.5 * (input.camera_a.focal_px() + input.camera_b.focal_px());
     let est =
-        estimate_relative_pose(&xa, &xb, focal, ransac).map_err(LinkError::RelativeOrientation)?;
+        estimate_relative_pose(&xa, &xb, focal, ransac).map_err(Error::RelativeOrientation)?;
     let inliers = est.inliers;
     let full = est.refinement;
     let base = input.base_mm;
@@ -527,10 +497,10 @@ pub struct ParamSummary {
 }
 
 /// Summaries of the six link parameters `[x, y, z, ω, φ, κ]`.
-pub fn summarize(lb: &LinkBootstrap) -> Result<Vec<ParamSummary>, TieError> {
+pub fn summarize(lb: &LinkBootstrap) -> Result<Vec<ParamSummary>, Error> {
     let n_ok = lb.replicates.values.len();
     if n_ok < 2 {
-        return Err(TieError::Replicates {
+        return Err(Error::Replicates {
             message: format!(
                 "only {n_ok} of {} bootstrap replicates succeeded; first failure: {}",
                 lb.replicates.replicates,
@@ -551,7 +521,7 @@ pub fn summarize(lb: &LinkBootstrap) -> Result<Vec<ParamSummary>, TieError> {
             .collect()
     };
     let estimate = link_parameters(&lb.estimate);
-    let rerr = |e: boot::Error| TieError::Replicates {
+    let rerr = |e: boot::Error| Error::Replicates {
         message: format!("summarising the replicates: {e}"),
     };
     let mut out = Vec::with_capacity(6);
@@ -567,7 +537,7 @@ pub fn summarize(lb: &LinkBootstrap) -> Result<Vec<ParamSummary>, TieError> {
         };
         let sigma = if angle {
             wrapped_stats(&raw)
-                .map_err(|e| TieError::Replicates {
+                .map_err(|e| Error::Replicates {
                     message: format!("summarising the replicates: {e}"),
                 })?
                 .sigma
@@ -687,17 +657,15 @@ impl TieResult {
         config: &TieConfig,
         lb: &LinkBootstrap,
         params: Vec<ParamSummary>,
-    ) -> Result<Self, TieError> {
+    ) -> Result<Self, Error> {
         let replicates: Vec<Rigid3> = lb.replicates.values_only().copied().collect();
-        let spread =
-            UncertainPose::from_samples(&replicates).map_err(|e| TieError::Replicates {
+        let spread = UncertainPose::from_samples(&replicates).map_err(|e| Error::Replicates {
+            message: format!("covariance of the replicates: {e}"),
+        })?;
+        let link =
+            UncertainPose::new(lb.estimate, spread.covariance).map_err(|e| Error::Replicates {
                 message: format!("covariance of the replicates: {e}"),
             })?;
-        let link = UncertainPose::new(lb.estimate, spread.covariance).map_err(|e| {
-            TieError::Replicates {
-                message: format!("covariance of the replicates: {e}"),
-            }
-        })?;
         Ok(TieResult {
             method: config.method,
             resample: lb.resample,
@@ -887,12 +855,12 @@ impl TieResult {
     /// ([`crashrig_outdir::write_file`]). The command and the Python module both call it.
     ///
     /// # Errors
-    /// [`TieError::Write`] naming the file or folder, and [`TieResult::plots`]'s errors.
+    /// [`Error::Write`] naming the file or folder, and [`TieResult::plots`]'s errors.
     pub fn write_files(
         &self,
         plots: Option<&std::path::Path>,
         replicates: Option<&std::path::Path>,
-    ) -> Result<(), TieError> {
+    ) -> Result<(), Error> {
         if let Some(dir) = plots {
             std::fs::create_dir_all(dir).map_err(|source| crashrig_outdir::Error::Io {
                 path: dir.to_path_buf(),
@@ -911,7 +879,7 @@ impl TieResult {
 
     /// The histograms of the six parameters (Figures 8–9): `(file name, bytes)` for
     /// `bootstrap_{x,y,z,omega,phi,kappa}.{png,svg}`.
-    pub fn plots(&self) -> Result<Vec<(String, Vec<u8>)>, TieError> {
+    pub fn plots(&self) -> Result<Vec<(String, Vec<u8>)>, Error> {
         use crashrig_plot::{Format, histogram};
         let mut out = Vec::with_capacity(12);
         for (j, p) in self.params.iter().enumerate() {
@@ -927,7 +895,7 @@ impl TieResult {
                     LABELS[j],
                     fmt,
                 )
-                .map_err(|e| TieError::Replicates {
+                .map_err(|e| Error::Replicates {
                     message: format!("plotting the {} histogram: {e}", PARAMS[j]),
                 })?;
                 out.push((format!("bootstrap_{}.{ext}", PARAMS[j]), bytes));
@@ -937,10 +905,10 @@ impl TieResult {
     }
 }
 
-fn check_config(c: &TieConfig) -> Result<(), TieError> {
+fn check_config(c: &TieConfig) -> Result<(), Error> {
     let positive = |v: f64| v.is_finite() && v > 0.0;
     if !positive(c.mm_per_unit) {
-        return Err(TieError::Option {
+        return Err(Error::Option {
             option: "--mm-per-unit",
             message: format!(
                 "--mm-per-unit must be a positive number, got {}",
@@ -949,13 +917,13 @@ fn check_config(c: &TieConfig) -> Result<(), TieError> {
         });
     }
     if c.iterations < 2 {
-        return Err(TieError::Option {
+        return Err(Error::Option {
             option: "--iterations",
             message: format!("--iterations must be at least 2, got {}", c.iterations),
         });
     }
     if !positive(c.max_error_px) {
-        return Err(TieError::Option {
+        return Err(Error::Option {
             option: "--max-error-px",
             message: format!(
                 "--max-error-px must be a positive number, got {}",
@@ -966,7 +934,7 @@ fn check_config(c: &TieConfig) -> Result<(), TieError> {
     if let Some(b) = c.base_mm
         && !positive(b)
     {
-        return Err(TieError::Option {
+        return Err(Error::Option {
             option: "--base-mm",
             message: format!("--base-mm must be a positive number, got {b}"),
         });
@@ -983,8 +951,8 @@ fn check_config(c: &TieConfig) -> Result<(), TieError> {
 /// and without it.
 ///
 /// # Errors
-/// Every [`TieError`]; [`TieError::Cancelled`] when `monitor` cancelled the run.
-pub fn bootstrap(config: &TieConfig, monitor: Option<&dyn Monitor>) -> Result<TieResult, TieError> {
+/// Every [`Error`]; [`Error::Cancelled`] when `monitor` cancelled the run.
+pub fn bootstrap(config: &TieConfig, monitor: Option<&dyn Monitor>) -> Result<TieResult, Error> {
     check_config(config)?;
     let src = TieSource::open(
         &config.model,
@@ -1013,7 +981,7 @@ pub fn bootstrap(config: &TieConfig, monitor: Option<&dyn Monitor>) -> Result<Ti
                 a_from_world: c.a.cam_from_world,
             });
             bootstrap_link(&input, &options, monitor).map_err(|e| {
-                TieError::estimation(e, &config.model, || {
+                Error::estimation(e, &config.model, || {
                     format!(
                         "image {:?} ({n} observations of 3-D points)",
                         config.image_b
@@ -1032,7 +1000,7 @@ pub fn bootstrap(config: &TieConfig, monitor: Option<&dyn Monitor>) -> Result<Ti
                 None => {
                     let d = m.model_base_mm;
                     if d.is_nan() || d <= 0.0 {
-                        return Err(TieError::Model {
+                        return Err(Error::Model {
                             path: config.model.clone(),
                             message: format!(
                                 "images {:?} and {:?} have the same projection centre; give --base-mm",
@@ -1057,7 +1025,7 @@ pub fn bootstrap(config: &TieConfig, monitor: Option<&dyn Monitor>) -> Result<Ti
                 base_mm,
             });
             bootstrap_link(&input, &options, monitor).map_err(|e| {
-                TieError::estimation(e, &config.database, || {
+                Error::estimation(e, &config.database, || {
                     format!("{n} {what} {:?}-{:?}", config.image_a, config.image_b)
                 })
             })?
@@ -1066,3 +1034,8 @@ pub fn bootstrap(config: &TieConfig, monitor: Option<&dyn Monitor>) -> Result<Ti
     let params = summarize(&lb)?;
     TieResult::from_bootstrap(config, &lb, params)
 }
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

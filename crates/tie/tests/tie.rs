@@ -1,12 +1,12 @@
-//! `crashrig_study::tie`: bootstrap validity against the true sampling spread (simulated and
+//! `crashrig_tie`: bootstrap validity against the true sampling spread (simulated and
 //! pycolmap-referenced), both resampling modes, determinism, the replicates CSV, errors.
 
 use crashrig_geometry::angles::wrapped_stats;
 use crashrig_geometry::{Mat6, Rigid3, UncertainPose, Vec3, opk};
 use crashrig_pose::{Pinhole, Projector, RansacOptions, link_parameters};
-use crashrig_study::tie::{
-    self, AbsoluteInput, LinkBootstrap, LinkBootstrapOptions, LinkInput, Method, PARAMS,
-    REPLICATES_CSV_HEADER, RelativeInput, Resample, TieConfig, TieError, bootstrap_link, summarize,
+use crashrig_tie::{
+    self as tie, AbsoluteInput, LinkBootstrap, LinkBootstrapOptions, LinkInput, Method, PARAMS,
+    REPLICATES_CSV_HEADER, RelativeInput, Resample, TieConfig, bootstrap_link, summarize,
 };
 use nalgebra::{Translation3, Vector2};
 use serde_json::Value;
@@ -465,7 +465,7 @@ fn errors_name_the_file_or_option() {
     assert!(
         matches!(
             e,
-            TieError::Option {
+            tie::Error::Option {
                 option: "--mm-per-unit",
                 ..
             }
@@ -553,12 +553,12 @@ fn bootstrap_link_cancelled_returns_cancelled() {
     // 5: in the replicates; 20: the first leave-one-out value (after the 20 replicates).
     for after in [5, 20] {
         let e = bootstrap_link(&input, &o, Some(&StopAt(after, 0.into()))).unwrap_err();
-        assert!(matches!(e, tie::LinkError::Cancelled(_)), "{after}: {e}");
+        assert!(matches!(e, tie::Error::Cancelled(_)), "{after}: {e}");
     }
     let e = tie::bootstrap(
         &config(Method::Absolute, Resample::Inliers, 40),
         Some(&StopAt(0, 0.into())),
     )
     .unwrap_err();
-    assert!(matches!(e, TieError::Cancelled(_)), "{e}");
+    assert!(matches!(e, tie::Error::Cancelled(_)), "{e}");
 }

@@ -1,12 +1,12 @@
 //! `crashrig bootstrap`: pose uncertainty of image B relative to A by resampling correspondences.
 //!
-//! A thin front end of [`crashrig_study::tie`] (which documents the method, the two resampling
+//! A thin front end of [`crashrig_tie`] (which documents the method, the two resampling
 //! modes and every JSON field): arguments → [`TieConfig`] → [`tie::bootstrap`] → print the JSON
 //! or the text report, write the histograms (`--plots DIR`) and the replicates
 //! (`--replicates FILE.csv`).
 
 use crate::Global;
-use crashrig_study::tie::{self, Method, Resample, TieConfig};
+use crashrig_tie::{self as tie, Method, Resample, TieConfig};
 use std::path::PathBuf;
 
 /// Arguments of `crashrig bootstrap`.

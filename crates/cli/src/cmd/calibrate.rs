@@ -1,12 +1,12 @@
 //! `crashrig calibrate`: rig calibration from an epoch sequence.
 //!
-//! Arguments → [`CalibrationConfig`] → [`crashrig_study::calibration::calibrate`] → the JSON
+//! Arguments → [`CalibrationConfig`] → [`crashrig_calibrate::calibrate`] → the JSON
 //! document or the text report (and plots). The pipeline itself (pairing, scale, statistics,
-//! retry policy, JSON, report, plots) lives in `crashrig_study::calibration`.
+//! retry policy, JSON, report, plots) lives in `crashrig_calibrate`.
 
 use crate::Global;
+use crashrig_calibrate::{CalibrationConfig, Scale, calibrate};
 use crashrig_input::options::{ScaleOptions, Spelling};
-use crashrig_study::calibration::{CalibrationConfig, Scale, calibrate};
 use std::path::PathBuf;
 
 /// Arguments of `crashrig calibrate`.
@@ -52,7 +52,7 @@ pub struct CalibrateArgs {
 
 impl CalibrateArgs {
     /// The library configuration these arguments stand for.
-    pub fn config(&self) -> Result<CalibrationConfig, crashrig_study::Error> {
+    pub fn config(&self) -> Result<CalibrationConfig, crashrig_calibrate::Error> {
         let options = ScaleOptions {
             scale_points: self.scale_points.clone(),
             scale_length_mm: self.scale_length_mm,

@@ -10,7 +10,6 @@
 use crate::Global;
 use anyhow::Context;
 use crashrig_study::{PaperStudy, study_toml};
-use serde_json::Value;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `crashrig paper`.
@@ -80,21 +79,21 @@ fn write_inputs(dir: &Path) -> anyhow::Result<()> {
 
 /// Runs `crashrig paper`.
 pub fn run(a: PaperArgs, g: &Global) -> anyhow::Result<()> {
-    let results = compute(&a, g)?;
+    let run = compute(&a, g)?;
     if g.json {
-        crate::output::print_json(&results)?;
+        crate::output::print_json(&run.json)?;
     } else {
         println!(
             "crashrig paper: {}",
-            super::study::summary_line(&a.out, &results)
+            super::study::summary_line(&a.out, &run.result)
         );
     }
     Ok(())
 }
 
-/// Writes the inputs and the study file below `a.out`, runs the study there and returns
-/// `results.json`'s content.
-pub fn compute(a: &PaperArgs, g: &Global) -> anyhow::Result<Value> {
+/// Writes the inputs and the study file below `a.out`, runs the study there and returns the
+/// typed result with `results.json`'s content.
+pub fn compute(a: &PaperArgs, g: &Global) -> anyhow::Result<crashrig_study::StudyRun> {
     let seed = g.seed.unwrap_or(DEFAULT_SEED);
     super::study::at_least_two("--samples", a.samples)?;
     super::study::at_least_two("--chain-samples", a.chain_samples)?;

@@ -4,7 +4,7 @@
 
 use crate::Global;
 use crashrig_study::Study;
-use crashrig_study::{StudyRunConfig, run_to_dir};
+use crashrig_study::{StudyResult, StudyRun, StudyRunConfig, run_to_dir};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `crashrig study`.
@@ -37,7 +37,7 @@ pub fn run(a: StudyArgs, g: &Global) -> anyhow::Result<()> {
         at_least_two("--samples", n)?;
         command.push_str(&format!(" --samples {n}"));
     }
-    let results = execute(
+    let run = execute(
         &a.study,
         &a.out,
         g.seed,
@@ -46,9 +46,9 @@ pub fn run(a: StudyArgs, g: &Global) -> anyhow::Result<()> {
         &command,
     )?;
     if g.json {
-        return crate::output::print_json(&results);
+        return crate::output::print_json(&run.json);
     }
-    println!("{}", summary_line(&a.out, &results));
+    println!("{}", summary_line(&a.out, &run.result));
     Ok(())
 }
 
@@ -61,21 +61,18 @@ pub fn at_least_two(flag: &str, n: usize) -> anyhow::Result<()> {
 
 /// One line per run: where the report and `results.json` are, and per layout the share of the
 /// grid that is measurable (seen by two or more cameras) and, of that, the share whose
-/// worst-direction σ is below the threshold (`results.json` → `layouts[].verdict`, the numbers
-/// of the report's first screen).
-pub fn summary_line(out: &Path, results: &serde_json::Value) -> String {
-    let pct = |v: &serde_json::Value| 100.0 * v.as_f64().unwrap_or(f64::NAN);
-    let layouts: Vec<String> = results["layouts"]
-        .as_array()
-        .into_iter()
-        .flatten()
+/// worst-direction σ is below the threshold (the typed [`StudyResult`]'s layout verdicts, which
+/// `results.json` holds as `layouts[].verdict`: the numbers of the report's first screen).
+pub fn summary_line(out: &Path, result: &StudyResult) -> String {
+    let layouts: Vec<String> = result
+        .layouts
+        .iter()
         .map(|l| {
-            let v = &l["verdict"];
             format!(
                 "{} {:.1} % / {:.1} %",
-                l["name"].as_str().unwrap_or(""),
-                pct(&v["fraction_measurable"]),
-                pct(&v["fraction_below_threshold_of_measurable"]),
+                l.layout.name,
+                100.0 * l.verdict.fraction_measurable,
+                100.0 * l.verdict.fraction_below_threshold_of_measurable,
             )
         })
         .collect();
@@ -87,7 +84,8 @@ pub fn summary_line(out: &Path, results: &serde_json::Value) -> String {
     )
 }
 
-/// Reads the study, runs it and writes every output below `out`; returns `results.json`.
+/// Reads the study, runs it and writes every output below `out`; returns the typed result with
+/// `results.json`.
 /// (The work is [`crashrig_study::run_to_dir`]; this adds the progress bar, the
 /// step lines on stderr when there is no bar, and the warnings.)
 pub fn execute(
@@ -97,7 +95,7 @@ pub fn execute(
     samples: Option<usize>,
     no_sensitivity: bool,
     command: &str,
-) -> anyhow::Result<serde_json::Value> {
+) -> anyhow::Result<StudyRun> {
     let study = Study::from_path(study_path)?;
     let config = StudyRunConfig {
         study_path: study_path.to_path_buf(),
@@ -115,5 +113,5 @@ pub fn execute(
     bar.finish();
     let run = run?;
     crate::output::warn_all(&run.warnings);
-    Ok(run.json)
+    Ok(run)
 }

@@ -1,4 +1,4 @@
-//! Independent acceptance review of the external contract (`shared/interface.md`) on fresh
+//! Independent acceptance review of the contract (`docs/REFERENCE.md`) on fresh
 //! inputs that no other test shares: a TEXT model of a rig sequence named
 //! `left/frame_NNNN.jpg` / `right/frame_NNNN.jpg` with OPENCV_FISHEYE and FULL_OPENCV lenses and a
 //! link at φ ≈ 89°, ω ≈ 178° (`fixtures/acceptance/`, generator `fixtures/gen/acceptance.py`,

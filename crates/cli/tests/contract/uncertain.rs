@@ -1,5 +1,5 @@
-//! Uncertain poses through `propagate` and the scenario file (`shared/interface.md`,
-//! "Uncertain poses: the tangent covariance"): `covariance_tangent` in and out, `from = "…"`
+//! Uncertain poses through `propagate` and the scenario file (`docs/REFERENCE.md` →
+//! `docs/SCENARIO.md`, the tangent covariance of `docs/CONVENTIONS.md`): `covariance_tangent` in and out, `from = "…"`
 //! references to command results, φ = ±90° inputs, and bad matrices / references as one
 //! `error:` line naming the file, the key and the line.
 

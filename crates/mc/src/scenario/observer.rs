@@ -2,8 +2,8 @@
 //!
 //! Parsed from the keys `aim`, `angles_deg` / `look_at_mm`, `camera = { model, width, height,
 //! params }` / `camera_from = "<model dir>:<camera id>"` and `pixel_sigma_px` of a
-//! `[[grid.observer]]` (contract: "Fixed cameras with real lenses", `shared/interface.md`;
-//! users' reference: `docs/FIXED_CAMERAS.md`).
+//! `[[grid.observer]]` (contract: `docs/REFERENCE.md` → `docs/FIXED_CAMERAS.md`, "Fixed cameras with
+//! real lenses").
 
 use super::{RawObserver, finite3};
 use crate::error::Error;

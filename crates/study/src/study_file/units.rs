@@ -121,7 +121,7 @@ pub(super) fn read_warnings(cx: &Ctx<'_>, raw: &Raw, read: &Read<'_>) -> Vec<Str
     if let (Some(t), Some(tie)) = (&raw.tie, read.tie)
         && let (Some(v), Some(base)) = (&t.get_ref().base_mm, tie.base_mm)
     {
-        let (lo, hi) = crate::calibration::BASELINE_RANGE_MM;
+        let (lo, hi) = crashrig_calibrate::BASELINE_RANGE_MM;
         if !(lo..=hi).contains(&base) {
             out.push(located(
                 cx,
