@@ -7,7 +7,6 @@
 use anyhow::{Context, Result};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
-use std::process::Command;
 
 /// The normal-dependency edges between workspace packages (from → to), exactly: an edge not in
 /// the table and an entry that is no edge are both errors. docs/ARCHITECTURE.md's DAG block
@@ -556,20 +555,21 @@ mod tests {
         let problems = crate::package::check_lean_builds(&crate::project_root()).unwrap();
         assert!(problems.is_empty(), "{problems:#?}");
         // The check sees what it forbids: the default build of mc holds toml.
-        let out = Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()))
-            .current_dir(crate::project_root())
-            .args([
-                "tree",
-                "--offline",
-                "-e",
-                "normal",
-                "--prefix",
-                "none",
-                "-p",
-                "crashrig-mc",
-            ])
-            .output()
-            .unwrap();
+        let out =
+            std::process::Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()))
+                .current_dir(crate::project_root())
+                .args([
+                    "tree",
+                    "--offline",
+                    "-e",
+                    "normal",
+                    "--prefix",
+                    "none",
+                    "-p",
+                    "crashrig-mc",
+                ])
+                .output()
+                .unwrap();
         assert!(
             String::from_utf8_lossy(&out.stdout)
                 .lines()
