@@ -27,6 +27,9 @@
 //! covariance of the replicates in the tangent of [`crashrig_geometry::UncertainPose`] (centre
 //! in A's axes, rotation `log(R̄ᵀ·R)` about B's axes, about the replicates' mean).
 //!
+//! # Features
+//! None: the crate has no cargo features.
+//!
 //! # Example
 //! ```no_run
 //! use crashrig_tie::{self as tie, Method, Resample, TieConfig};
