@@ -40,6 +40,9 @@ mod paper;
 #[path = "contract/regressions.rs"]
 mod regressions;
 
+#[path = "contract/defects.rs"]
+mod defects;
+
 #[path = "contract/study.rs"]
 mod study;
 

@@ -103,20 +103,54 @@ pub fn read_limited(path: &Path, limit: u64) -> std::io::Result<Vec<u8>> {
     Ok(bytes)
 }
 
+/// The first byte of a text file that is not UTF-8, by its 1-based line and column (the
+/// column counts bytes from the start of the line, as the TOML and CSV errors of every reader
+/// do). Readers report it as `FILE:LINE:COLUMN: not valid UTF-8 text`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("line {line}, column {column}: not valid UTF-8 text")]
+pub struct NotUtf8 {
+    /// 1-based line of the first invalid byte.
+    pub line: usize,
+    /// 1-based column (in bytes) of the first invalid byte.
+    pub column: usize,
+}
+
+impl NotUtf8 {
+    /// The position of `e`, the error of decoding `bytes`.
+    pub fn of(bytes: &[u8], e: &std::str::Utf8Error) -> NotUtf8 {
+        let (line, column) = crate::location::line_col_of(bytes, e.valid_up_to());
+        NotUtf8 { line, column }
+    }
+
+    /// The [`NotUtf8`] inside an error of [`read_text_limited`], if that is what it is.
+    pub fn in_io(e: &std::io::Error) -> Option<NotUtf8> {
+        e.get_ref()?.downcast_ref::<NotUtf8>().copied()
+    }
+}
+
+/// `bytes` as UTF-8 text, or the line and column of the first byte that is not.
+///
+/// ```
+/// use crashrig_input::file::{NotUtf8, text_from_bytes};
+/// assert_eq!(text_from_bytes(b"a = 1\n".to_vec()).unwrap(), "a = 1\n");
+/// let e = text_from_bytes(b"a = 1\nb = \"\xff\"\n".to_vec()).unwrap_err();
+/// assert_eq!(e, NotUtf8 { line: 2, column: 6 });
+/// ```
+///
+/// # Errors
+/// [`NotUtf8`] for bytes that are not UTF-8.
+pub fn text_from_bytes(bytes: Vec<u8>) -> Result<String, NotUtf8> {
+    String::from_utf8(bytes).map_err(|e| NotUtf8::of(e.as_bytes(), &e.utf8_error()))
+}
+
 /// [`read_limited`], then UTF-8.
 ///
 /// # Errors
-/// As [`read_limited`], and [`std::io::ErrorKind::InvalidData`] for text that is not UTF-8.
+/// As [`read_limited`], and [`std::io::ErrorKind::InvalidData`] holding a [`NotUtf8`] (the
+/// line and column of the first invalid byte; [`NotUtf8::in_io`]) for text that is not UTF-8.
 pub fn read_text_limited(path: &Path, limit: u64) -> std::io::Result<String> {
-    String::from_utf8(read_limited(path, limit)?).map_err(|e| {
-        std::io::Error::new(
-            std::io::ErrorKind::InvalidData,
-            format!(
-                "not valid UTF-8 text (byte {})",
-                e.utf8_error().valid_up_to()
-            ),
-        )
-    })
+    text_from_bytes(read_limited(path, limit)?)
+        .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
 }
 
 #[cfg(test)]
@@ -145,13 +179,12 @@ mod tests {
                 .to_string();
             assert!(e.contains("not a regular file"), "{e}");
         }
-        std::fs::write(&f, [0xff, 0xfe]).unwrap();
-        assert!(
-            read_text_limited(&f, 10)
-                .unwrap_err()
-                .to_string()
-                .contains("UTF-8")
-        );
+        std::fs::write(&f, b"ab\ncd\xff\xfe").unwrap();
+        let e = read_text_limited(&f, 10).unwrap_err();
+        assert_eq!(e.kind(), std::io::ErrorKind::InvalidData);
+        assert_eq!(e.to_string(), "line 2, column 3: not valid UTF-8 text");
+        assert_eq!(NotUtf8::in_io(&e), Some(NotUtf8 { line: 2, column: 3 }));
+        assert_eq!(NotUtf8::in_io(&std::io::Error::other("x")), None);
         std::fs::remove_dir_all(&dir).unwrap();
         assert_eq!(human_bytes(16 << 20), "16 MiB");
         assert_eq!(human_bytes(4 << 30), "4 GiB");

@@ -9,11 +9,12 @@
 //! # Modules
 //! - [`mod@file`]: [`file::read_limited`] / [`file::read_text_limited`], a regular file within a
 //!   size limit (`/dev/zero`, FIFOs and directories are refused before they are opened), and
-//!   the limits of each kind of file (`docs/LIMITS.md`).
+//!   the limits of each kind of file (`docs/LIMITS.md`); text that is not UTF-8 is a
+//!   [`file::NotUtf8`] naming the line and column of its first bad byte.
 //! - [`options`]: [`options::Spelling`] (`--mm-per-unit` for the CLI, `mm_per_unit` for
 //!   Python), the model-scale range and [`options::ScaleOptions`] (a factor or a scale bar).
-//! - [`location`]: [`location::line_of`] and [`location::toml_value_key`], the line and key an
-//!   error names.
+//! - [`location`]: [`location::line_of`], [`location::line_col_of`] and
+//!   [`location::toml_value_key`], the line, column and key an error names.
 //! - [`message`]: [`message::error_line`], the one line a front end prints for an error and
 //!   its sources.
 //! - `result_json` (feature `json`): `link_from_result_value`, the uncertain link `A_from_B`

@@ -18,6 +18,24 @@ pub fn line_of(text: &str, offset: usize) -> usize {
         + 1
 }
 
+/// 1-based (line, column) of byte `offset` of `bytes` (text that may not be valid UTF-8); the
+/// column counts bytes from the start of the line. An offset past the end is taken as the end.
+///
+/// ```
+/// use crashrig_input::location::line_col_of;
+/// assert_eq!(line_col_of(b"ab\ncd", 4), (2, 2));
+/// assert_eq!(line_col_of(b"\xff", 0), (1, 1));
+/// ```
+pub fn line_col_of(bytes: &[u8], offset: usize) -> (usize, usize) {
+    let before = &bytes[..offset.min(bytes.len())];
+    let line = before.iter().filter(|b| **b == b'\n').count() + 1;
+    let start = before
+        .iter()
+        .rposition(|b| *b == b'\n')
+        .map_or(0, |p| p + 1);
+    (line, before.len() - start + 1)
+}
+
 /// The key whose value starts at byte `offset` of a TOML text (`threshold_mm = "5"` → the
 /// offset of `"5"` gives `threshold_mm`), so a parser's type error ("invalid type: string,
 /// expected f64", located at the value) can name the key. Looks left on the value's line for
@@ -59,6 +77,17 @@ mod tests {
         assert_eq!(line_of(text, text.find('c').unwrap()), 4);
         assert_eq!(line_of(text, 10_000), 4);
         assert_eq!(line_of("", 3), 1);
+    }
+
+    #[test]
+    fn line_and_column_of_bytes_count_from_one() {
+        let bytes = b"a = 1\n\nb = \"\xc3\xa9\xff\"";
+        assert_eq!(line_col_of(bytes, 0), (1, 1));
+        assert_eq!(line_col_of(bytes, 5), (1, 6)); // the newline ends line 1
+        assert_eq!(line_col_of(bytes, 6), (2, 1));
+        // The invalid byte after a two-byte character: columns count bytes.
+        assert_eq!(line_col_of(bytes, 7 + 7), (3, 8));
+        assert_eq!(line_col_of(bytes, 999), (3, 10));
     }
 
     #[test]

@@ -83,22 +83,11 @@ pub(crate) fn read_text(path: &Path) -> Result<String, Error> {
             path: path.to_path_buf(),
             source,
         })?;
-    String::from_utf8(bytes).map_err(|e| {
-        let valid = e.utf8_error().valid_up_to();
-        let bytes = e.as_bytes();
-        let line = bytes[..valid].iter().filter(|b| **b == b'\n').count() + 1;
-        let column = valid
-            - bytes[..valid]
-                .iter()
-                .rposition(|b| *b == b'\n')
-                .map_or(0, |p| p + 1)
-            + 1;
-        Error::Toml {
-            path: path.to_path_buf(),
-            line,
-            column,
-            message: "not valid UTF-8 text".into(),
-        }
+    crashrig_input::file::text_from_bytes(bytes).map_err(|e| Error::Toml {
+        path: path.to_path_buf(),
+        line: e.line,
+        column: e.column,
+        message: "not valid UTF-8 text".into(),
     })
 }
 

@@ -15,6 +15,15 @@ pub(crate) fn csv_error(path: &Path, line: u64, problem: impl Into<String>) -> E
     }
 }
 
+/// [`Error::NotUtf8`] of `path` at `at` (every text input of this crate reports it so).
+pub(crate) fn not_utf8(path: &Path, at: input_file::NotUtf8) -> Error {
+    Error::NotUtf8 {
+        path: path.to_path_buf(),
+        line: at.line,
+        column: at.column,
+    }
+}
+
 /// Reads the CSV file `path` (at most [`input_file::MAX_CSV_BYTES`]; a FIFO, device or
 /// directory is refused before anything is read) whose header names exactly `columns`, in any
 /// order, fields trimmed, and calls `row(line, fields)` for each record with its fields in the
@@ -30,6 +39,10 @@ pub(crate) fn for_each_row<const N: usize>(
             path: path.to_path_buf(),
             source,
         })?;
+    // Located as every text input's: the line and column of the first byte that is not UTF-8.
+    if let Err(e) = std::str::from_utf8(&bytes) {
+        return Err(not_utf8(path, input_file::NotUtf8::of(&bytes, &e)));
+    }
     let mut reader = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .flexible(false)

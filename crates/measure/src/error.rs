@@ -27,6 +27,16 @@ pub enum Error {
         /// What is wrong.
         problem: String,
     },
+    /// A text input (CSV) that is not UTF-8: the line and column (bytes) of its first bad byte.
+    #[error("{}:{line}:{column}: not valid UTF-8 text", path.display())]
+    NotUtf8 {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column (bytes from the start of the line).
+        column: usize,
+    },
     /// A bad or missing key in a JSON file.
     #[error("{}: {key}: {problem}", path.display())]
     Json {

@@ -2,7 +2,7 @@
 //! outward camera's pose covariance (JSON).
 
 use crate::Error;
-use crate::csv_table::{csv_error, for_each_row};
+use crate::csv_table::{csv_error, for_each_row, not_utf8};
 use crashrig_geometry::uncertain::COVARIANCE_RELATIVE_TOLERANCE;
 use crashrig_geometry::{Mat6, Rigid3, UncertainPose};
 use crashrig_input::file as input_file;
@@ -168,12 +168,18 @@ pub fn read_observations(path: &Path, names: &CameraNames) -> Result<Vec<Observa
 }
 
 /// Reads the text file `path` through [`input_file::read_text_limited`]: a FIFO, device or
-/// directory, a file larger than `limit` bytes or text that is not UTF-8 is an
-/// [`Error::Io`] naming the file, before anything is allocated for it.
+/// directory or a file larger than `limit` bytes is an [`Error::Io`] naming the file, before
+/// anything is allocated for it; text that is not UTF-8 an [`Error::NotUtf8`] naming its line
+/// and column.
 pub(crate) fn read_text(path: &Path, limit: u64) -> Result<String, Error> {
-    input_file::read_text_limited(path, limit).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
+    input_file::read_text_limited(path, limit).map_err(|source| {
+        match input_file::NotUtf8::in_io(&source) {
+            Some(at) => not_utf8(path, at),
+            None => Error::Io {
+                path: path.to_path_buf(),
+                source,
+            },
+        }
     })
 }
 

@@ -28,9 +28,12 @@
 //!   renames of the fallback swap (`OUT` absent), it first puts the old result back.
 //! - Files are flushed to disk (`fsync`) before the swap.
 //!
-//! # Fault injection (tests only)
-//! The environment variable `CRASHRIG_OUTDIR_FAULT` stops the process at a deterministic point,
-//! so interruption tests need no timing. It holds `ACTION-POINT`, optionally with
+//! # Fault injection (tests only, feature `fault-injection`)
+//! With the cargo feature `fault-injection` (off by default; only tests turn it on, as
+//! failpoint crates do), the environment variable `CRASHRIG_OUTDIR_FAULT` stops the process at
+//! a deterministic point, so interruption tests need no timing. A build without the feature
+//! (every shipping build: `cargo build --release`) reads no environment variable and holds no
+//! hook. The variable holds `ACTION-POINT`, optionally with
 //! `,no-exchange` (use the two-rename swap, as on a file system without an atomic exchange):
 //! - points: `after-file:K` (right after the K-th [`Staged::write`], 1-based), `before-swap`
 //!   (in [`Staged::commit`], before the swap), `between-renames` (two-rename swap only: the old
@@ -41,8 +44,13 @@
 //!   SIGINT: before the swap the process then waits for the signal thread; inside the swap it
 //!   finishes the swap first).
 //!
+//! The CLI's integration tests get a binary with the hook through a dev-dependency on this
+//! crate with the feature (`crates/cli/Cargo.toml`): cargo unifies it into the `crashrig`
+//! binary it builds for `cargo test`, never into `cargo build`.
+//!
 //! # Features
-//! None: the crate has no cargo features.
+//! - `fault-injection` (off by default): the test hook above. Without it the crate has no
+//!   fault points at all.
 //!
 //! # Example
 //! ```
@@ -78,7 +86,9 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::{Once, RwLock, RwLockReadGuard, RwLockWriteGuard};
 
-/// The environment variable of the fault-injection hook (see the crate docs).
+/// The environment variable of the fault-injection hook (feature `fault-injection`; see the
+/// crate docs).
+#[cfg(feature = "fault-injection")]
 pub const FAULT_ENV: &str = "CRASHRIG_OUTDIR_FAULT";
 
 /// Marker in the names of staging and set-aside directories: `.<OUT name>.crashrig-staging.<pid>.<n>`.
@@ -394,8 +404,15 @@ enum Point {
     AfterSwap,
 }
 
+/// Without the feature `fault-injection`: no fault point, the atomic exchange always tried.
+#[cfg(not(feature = "fault-injection"))]
+fn fault_spec() -> (Option<(&'static str, Point)>, bool) {
+    (None, false)
+}
+
 /// The hook's instructions: the point and what to do there, and whether the atomic exchange is
 /// to be skipped (to test the two-rename fallback).
+#[cfg(feature = "fault-injection")]
 fn fault_spec() -> (Option<(&'static str, Point)>, bool) {
     let Ok(spec) = std::env::var(FAULT_ENV) else {
         return (None, false);
@@ -430,7 +447,7 @@ fn fault_spec() -> (Option<(&'static str, Point)>, bool) {
     (stop, no_exchange)
 }
 
-/// Acts at `point` if `CRASHRIG_OUTDIR_FAULT` asks for it (tests only): `abort` (SIGABRT, no
+/// Acts at `point` if `CRASHRIG_OUTDIR_FAULT` asks for it (feature `fault-injection`): `abort` (SIGABRT, no
 /// clean-up, like SIGKILL), `stop` (SIGSTOP: a test observes `OUT` and sends the signal it
 /// wants, then SIGCONT), `sigint` (raise SIGINT; outside the gate the process then waits for
 /// the signal thread, inside it goes on and the signal is handled once the gate is free).
