@@ -170,7 +170,16 @@ pub(crate) fn build(
     let mut rejected = 0;
     let mut points_left_out = 0;
     let mut control_used = Vec::new();
-    for p in model.points3d() {
+    // A canonical order (points by id, each track by image and 2-D point, images by id), so
+    // that the sums of the information matrix, and so the covariance to its last bit, do not
+    // depend on the order of the model's files (issue 47).
+    let mut by_id: Vec<&crashrig_colmap::Point3D> = model.points3d().iter().collect();
+    by_id.sort_by_key(|p| p.point3d_id);
+    let mut track: Vec<crashrig_colmap::TrackElement> = Vec::new();
+    for p in by_id {
+        track.clear();
+        track.extend(p.track.iter().cloned());
+        track.sort_by_key(|t| (t.image_id, t.point2d_idx));
         let xyz = Vec3::from(p.xyz);
         let kind = control_kind
             .get(&p.point3d_id)
@@ -190,7 +199,7 @@ pub(crate) fn build(
         }
         let start = obs.len();
         let mut sq = 0.0;
-        for t in &p.track {
+        for t in &track {
             let Some(&i) = image_idx.get(&t.image_id) else {
                 continue;
             };
@@ -436,7 +445,9 @@ fn registered(model: &Reconstruction, mode: Intrinsics) -> Registered {
     let mut camera_idx: HashMap<u32, usize> = HashMap::new();
     let mut images: Vec<ImageEntry> = Vec::new();
     let mut image_idx: HashMap<u32, usize> = HashMap::new();
-    for img in model.images() {
+    let mut by_id: Vec<&crashrig_colmap::Image> = model.images().iter().collect();
+    by_id.sort_by_key(|i| i.image_id);
+    for img in by_id {
         let (Some(cam_from_world), Some(frame)) = (
             model.image_cam_from_world(img.image_id),
             model.image_frame(img.image_id),

@@ -4,10 +4,8 @@
 use crate::Error;
 use crate::jacobian::project;
 use crate::problem::{PointKind, Problem};
-use crashrig_geometry::Vec3;
 use faer::Mat;
 use faer::linalg::solvers::Solve;
-use nalgebra::{Matrix3, SymmetricEigen};
 use std::path::Path;
 
 /// The rank test's relative tolerance: the reduced system, Jacobi-scaled (unit diagonal), is
@@ -36,54 +34,68 @@ const DIRECTION_NAMED: usize = 6;
 /// (a point at infinity along that direction: it is absorbed, not inverted).
 const POINT_EIGEN_FLOOR: f64 = 1e-12;
 
-/// One block of a point's cross information: `offset` of the first parameter in the reduced
-/// system, and `W` (rows × 3).
-struct Cross {
-    offset: usize,
-    w: Vec<[f64; 3]>,
+/// Scratch of one eliminated point: its weighted Jacobian rows (`rows` of them), the point's
+/// three columns and, per column block it touches (a frame's pose, a camera's free intrinsics;
+/// `blocks[k] = (offset in the reduced system, width, first local column)`), its columns.
+#[derive(Default)]
+struct PointRows {
+    rows: usize,
+    /// `rows × 3`, row-major.
+    jp: Vec<f64>,
+    /// `rows × cols`, row-major.
+    jc: Vec<f64>,
+    cols: usize,
+    blocks: Vec<(usize, usize, usize)>,
 }
 
-impl Cross {
-    fn add(
-        crosses: &mut Vec<Cross>,
-        offset: usize,
-        rows: &[[f64; 2]],
-        jp: &[[f64; 3]; 2],
-        wgt: f64,
-    ) {
-        let idx = match crosses.iter().position(|c| c.offset == offset) {
-            Some(i) => i,
-            None => {
-                crosses.push(Cross {
-                    offset,
-                    w: vec![[0.0; 3]; rows.len()],
-                });
-                crosses.len() - 1
-            }
-        };
-        let c = &mut crosses[idx];
-        for (a, col) in rows.iter().enumerate() {
-            for (k, w) in c.w[a].iter_mut().enumerate().take(3) {
-                *w += wgt * (col[0] * jp[0][k] + col[1] * jp[1][k]);
-            }
+impl PointRows {
+    fn clear(&mut self) {
+        self.rows = 0;
+        self.cols = 0;
+        self.jp.clear();
+        self.jc.clear();
+        self.blocks.clear();
+    }
+
+    /// The first local column of the block at `offset` (`width` wide), added when new.
+    fn block(&mut self, offset: usize, width: usize) -> usize {
+        if let Some(b) = self.blocks.iter().find(|b| b.0 == offset) {
+            return b.2;
         }
+        let first = self.cols;
+        self.blocks.push((offset, width, first));
+        self.cols += width;
+        first
     }
 }
 
 /// The reduced information matrix `S = U − W V⁻¹ Wᵀ` over frames (6 each) and free
 /// intrinsics, for pixel weight `1/σ²`.
+///
+/// Each eliminated point's share is formed as `YᵀY`, `Y = (I − Q Qᵀ)·J_c`, with `J_c` its
+/// weighted Jacobian rows over the frames and intrinsics and `Q` an orthonormal basis of the
+/// range of its point columns (from their SVD; directions below 10⁻⁶ of the largest singular
+/// value — eigenvalues of `V` below 10⁻¹² of the largest — are not eliminated, as a point near
+/// infinity). In exact arithmetic `YᵀY = U − W V⁻¹ Wᵀ`; in floating point the difference of
+/// the two large terms loses what the point absorbs (issue 47: a point close to a camera centre,
+/// a weak depth), while `Y` is formed from the Jacobian itself, never squaring its
+/// conditioning.
 pub(crate) fn reduced_information(p: &Problem, pixel_sigma: f64) -> Mat<f64> {
     let n = p.n_reduced;
-    let wgt = 1.0 / (pixel_sigma * pixel_sigma);
+    let w = 1.0 / pixel_sigma;
     // Row-major n×n; only the upper triangle (row ≤ column) is accumulated, then mirrored.
     let mut s = vec![0.0; n * n];
-    let mut crosses: Vec<Cross> = Vec::new();
+    let mut pt_rows = PointRows::default();
     // Per observation: the columns of J restricted to the active parameters (index, [du, dv]),
     // in increasing index order (pose block first, then the camera's intrinsics).
     let mut active: Vec<(usize, [f64; 2])> = Vec::with_capacity(32);
+    let mut y: Vec<f64> = Vec::new();
+    let mut z: Vec<f64> = Vec::new();
+    let mut global: Vec<usize> = Vec::new();
     for pt in &p.points {
-        crosses.clear();
-        let mut v = Matrix3::<f64>::zeros();
+        pt_rows.clear();
+        // First pass: the column blocks of this point (frames, then cameras, in order seen).
+        let mut obs_rows: Vec<(usize, usize, usize, Vec<[f64; 2]>, [[f64; 3]; 2])> = Vec::new();
         for o in &p.obs[pt.start..pt.end] {
             let im = &p.images[o.image];
             let cam = &p.cameras[im.camera];
@@ -105,49 +117,119 @@ pub(crate) fn reduced_information(p: &Problem, pixel_sigma: f64) -> Mat<f64> {
             for (j, &k) in cam.free.iter().enumerate() {
                 active.push((cam.offset + j, [pr.d_params[(0, k)], pr.d_params[(1, k)]]));
             }
-            // U: direct information of this observation (upper triangle).
-            for &(a, ja) in &active {
-                let row = &mut s[a * n..(a + 1) * n];
-                for &(b, jb) in &active {
-                    if b >= a {
-                        row[b] += wgt * (ja[0] * jb[0] + ja[1] * jb[1]);
+            if pt.kind == PointKind::Fixed {
+                // U: direct information of this observation (upper triangle).
+                let wgt = w * w;
+                for &(a, ja) in &active {
+                    let row = &mut s[a * n..(a + 1) * n];
+                    for &(b, jb) in &active {
+                        if b >= a {
+                            row[b] += wgt * (ja[0] * jb[0] + ja[1] * jb[1]);
+                        }
                     }
                 }
-            }
-            if pt.kind == PointKind::Fixed {
                 continue;
             }
+            let pose = pt_rows.block(f0, 6);
+            let intr = if cam.free.is_empty() {
+                usize::MAX
+            } else {
+                pt_rows.block(cam.offset, cam.free.len())
+            };
             let jp = [
                 [pr.d_point[(0, 0)], pr.d_point[(0, 1)], pr.d_point[(0, 2)]],
                 [pr.d_point[(1, 0)], pr.d_point[(1, 1)], pr.d_point[(1, 2)]],
             ];
-            v += wgt * pr.d_point.transpose() * pr.d_point;
-            let pose_cols: Vec<[f64; 2]> = active[..6].iter().map(|x| x.1).collect();
-            Cross::add(&mut crosses, f0, &pose_cols, &jp, wgt);
-            if !cam.free.is_empty() {
-                let cols: Vec<[f64; 2]> = active[6..].iter().map(|x| x.1).collect();
-                Cross::add(&mut crosses, cam.offset, &cols, &jp, wgt);
-            }
+            obs_rows.push((
+                pose,
+                intr,
+                cam.free.len(),
+                active.iter().map(|x| x.1).collect(),
+                jp,
+            ));
         }
         if pt.kind == PointKind::Fixed {
             continue;
         }
-        if let PointKind::Prior(sigma) = pt.kind {
-            v += Matrix3::identity() / (sigma * sigma);
-        }
-        let v_inv = pseudo_inverse(&v);
-        // S −= W_c V⁻¹ W_dᵀ over every pair of blocks of this point (upper triangle: blocks
-        // never overlap, so c.offset ≤ d.offset puts every entry on or above the diagonal).
-        for c in &crosses {
-            for (a, wa) in c.w.iter().enumerate() {
-                let t = v_inv * Vec3::from(*wa);
-                let row = &mut s[(c.offset + a) * n..(c.offset + a + 1) * n];
-                for d in crosses.iter().filter(|d| d.offset >= c.offset) {
-                    let start = if d.offset == c.offset { a } else { 0 };
-                    for (b, wb) in d.w.iter().enumerate().skip(start) {
-                        row[d.offset + b] -= t.x * wb[0] + t.y * wb[1] + t.z * wb[2];
-                    }
+        // Second pass: the weighted rows (two per observation, three for a prior).
+        let cols = pt_rows.cols;
+        let prior = matches!(pt.kind, PointKind::Prior(_));
+        let rows = 2 * obs_rows.len() + if prior { 3 } else { 0 };
+        pt_rows.rows = rows;
+        pt_rows.jp.resize(rows * 3, 0.0);
+        pt_rows.jc.resize(rows * cols, 0.0);
+        for (k, (pose, intr, nf, jc, jp)) in obs_rows.iter().enumerate() {
+            for r in 0..2 {
+                let row = 2 * k + r;
+                for c in 0..3 {
+                    pt_rows.jp[row * 3 + c] = w * jp[r][c];
                 }
+                let out = &mut pt_rows.jc[row * cols..(row + 1) * cols];
+                for c in 0..6 {
+                    out[pose + c] = w * jc[c][r];
+                }
+                for c in 0..*nf {
+                    out[intr + c] = w * jc[6 + c][r];
+                }
+            }
+        }
+        if let PointKind::Prior(sigma) = pt.kind {
+            for c in 0..3 {
+                pt_rows.jp[(rows - 3 + c) * 3 + c] = 1.0 / sigma;
+            }
+        }
+        // Q: the left singular vectors of the point columns above the floor.
+        let jp = nalgebra::DMatrix::from_row_slice(rows, 3, &pt_rows.jp);
+        let svd = jp.svd(true, false);
+        let Some(u) = svd.u else { continue };
+        let top = svd.singular_values.max();
+        let keep: Vec<usize> = (0..svd.singular_values.len())
+            .filter(|&k| {
+                let sv = svd.singular_values[k];
+                top > 0.0 && sv * sv > POINT_EIGEN_FLOOR * top * top
+            })
+            .collect();
+        // Z = Qᵀ J_c (keep × cols), Y = J_c − Q Z (rows × cols).
+        z.clear();
+        z.resize(keep.len() * cols, 0.0);
+        for (q, &k) in keep.iter().enumerate() {
+            let zq = &mut z[q * cols..(q + 1) * cols];
+            for r in 0..rows {
+                let uq = u[(r, k)];
+                let jr = &pt_rows.jc[r * cols..(r + 1) * cols];
+                for (zc, jc) in zq.iter_mut().zip(jr) {
+                    *zc += uq * jc;
+                }
+            }
+        }
+        // Yᵀ (cols × rows), so that each entry of YᵀY is a contiguous dot product.
+        y.clear();
+        y.resize(cols * rows, 0.0);
+        for r in 0..rows {
+            for c in 0..cols {
+                let mut v = pt_rows.jc[r * cols + c];
+                for (q, &k) in keep.iter().enumerate() {
+                    v -= u[(r, k)] * z[q * cols + c];
+                }
+                y[c * rows + r] = v;
+            }
+        }
+        // S += YᵀY (upper triangle of the reduced system).
+        global.clear();
+        global.resize(cols, 0);
+        for &(offset, width, first) in &pt_rows.blocks {
+            for c in 0..width {
+                global[first + c] = offset + c;
+            }
+        }
+        for a in 0..cols {
+            for b in 0..cols {
+                let (ga, gb) = (global[a], global[b]);
+                if gb < ga || (ga == gb && b != a) {
+                    continue;
+                }
+                let (ya, yb) = (&y[a * rows..(a + 1) * rows], &y[b * rows..(b + 1) * rows]);
+                s[ga * n + gb] += ya.iter().zip(yb).map(|(p, q)| p * q).sum::<f64>();
             }
         }
     }
@@ -156,24 +238,6 @@ pub(crate) fn reduced_information(p: &Problem, pixel_sigma: f64) -> Mat<f64> {
         n,
         |i, j| if i <= j { s[i * n + j] } else { s[j * n + i] },
     )
-}
-
-/// The inverse on the range of a symmetric positive semi-definite 3×3 block.
-fn pseudo_inverse(v: &Matrix3<f64>) -> Matrix3<f64> {
-    let e = SymmetricEigen::new(*v);
-    let top = e.eigenvalues.max();
-    let mut out = Matrix3::zeros();
-    if top <= 0.0 {
-        return out;
-    }
-    for k in 0..3 {
-        let l = e.eigenvalues[k];
-        if l > POINT_EIGEN_FLOOR * top {
-            let u = e.eigenvectors.column(k);
-            out += u * u.transpose() / l;
-        }
-    }
-    out
 }
 
 /// The relative tolerance of the rank test for `n` unknowns ([`RANK_TOLERANCE`]).

@@ -224,7 +224,8 @@ fn covariance_runs_on_every_bundled_model_with_enough_points() {
     }
     std::fs::remove_dir_all(&tmp).ok();
     eprintln!("ran on {} models: {ran:?}", ran.len());
-    // The 14 models that the rule admits today (a new fixture with enough points adds to it;
-    // a model dropping out is a failure, not a silent skip).
-    assert_eq!(ran.len(), 14, "models run: {ran:?}");
+    // The 15 models that the rule admits today (a new fixture with enough points adds to it;
+    // a model dropping out is a failure, not a silent skip; the 15th is issue 47's
+    // ill-conditioned pan, `covariance/ill_conditioned`).
+    assert_eq!(ran.len(), 15, "models run: {ran:?}");
 }

@@ -3,6 +3,7 @@
 mod bundled_models;
 mod common;
 mod degenerate;
+mod ill_conditioned;
 mod mc;
 mod progress;
 mod rule;
