@@ -383,3 +383,45 @@ fn a_wrong_measure_camera_is_reported_before_any_work() {
     assert!(m.contains("camera B (27)"), "{m}");
     assert!(steps.is_empty(), "no step ran before the error: {steps:?}");
 }
+
+/// `[measure]`'s defaults and rules are `crashrig measure`'s ([`crashrig_measure::MeasureOptions`]),
+/// and their errors keep the study file's words, line and key.
+#[test]
+fn measure_defaults_and_rules_are_the_commands() {
+    use crashrig_measure::MeasureOptions;
+    let t = text()
+        .replace("pixel_sigma_px = 0.3\n", "")
+        .replace("threshold_mm = 3.0\n", "");
+    let m = parse(&t).unwrap().measure.unwrap();
+    assert_eq!((m.pixel_sigma_px, m.threshold_mm), (0.5, 5.0));
+    let defaults = MeasureOptions::new("m", "a/", "b", "link.json", "obs.csv");
+    assert_eq!(
+        (m.pixel_sigma_px, m.threshold_mm),
+        (defaults.pixel_sigma_px, defaults.threshold_mm)
+    );
+    let ends = |t: &str, start: &str, tail: &str| {
+        let m = message(t);
+        let line = line_starting(t, start);
+        assert!(m.ends_with(&format!("study.toml:{line}: {tail}")), "{m}");
+    };
+    for bad in ["-0.1", "nan", "inf"] {
+        let t = text().replace(
+            "pixel_sigma_px = 0.3\n",
+            &format!("pixel_sigma_px = {bad}\n"),
+        );
+        ends(
+            &t,
+            &format!("pixel_sigma_px = {bad}"),
+            "`measure.pixel_sigma_px`: must be finite and not negative",
+        );
+    }
+    let t = text().replace(
+        "pixel_sigma_px = 0.3\n",
+        "pixel_sigma_px = 0.3\na_covariance = \"no/such.json\"\n",
+    );
+    ends(
+        &t,
+        "a_covariance = ",
+        "`measure.a_covariance`: give either a_covariance or sigma_a_position_mm / sigma_a_angles_deg, not both",
+    );
+}
