@@ -107,6 +107,50 @@ pub struct Axis {
 }
 
 impl Axis {
+    /// What is wrong with the axis as a grid axis, if anything: the values must be finite and
+    /// strictly increasing (a reversed axis, or start = stop with a count above 1, is refused;
+    /// a count of 1 uses `start` alone). The one check of the scenario and study readers, made
+    /// where the key is read, before any work.
+    ///
+    /// ```
+    /// use crashrig_mc::Axis;
+    /// let axis = |start, stop, count| Axis { start, stop, count };
+    /// assert_eq!(axis(0.0, 2000.0, 11).problem(), None);
+    /// assert_eq!(axis(500.0, 500.0, 1).problem(), None);
+    /// assert!(axis(2000.0, 0.0, 11).problem().is_some());
+    /// assert!(axis(500.0, 500.0, 3).problem().is_some());
+    /// ```
+    pub fn problem(&self) -> Option<&'static str> {
+        if !(self.start.is_finite() && self.stop.is_finite()) {
+            return Some("start and stop must be finite");
+        }
+        if self.count == 0 {
+            return Some("the count must be at least 1");
+        }
+        if self.count == 1 {
+            return None;
+        }
+        if self.stop < self.start {
+            return Some("stop must not be below start");
+        }
+        if self.stop == self.start {
+            return Some(
+                "start = stop needs a count of 1 (the values must be strictly increasing)",
+            );
+        }
+        // Each value `start + step·i` is within one ulp of the largest magnitude M of its exact
+        // value, so a step above 4·ε·M (two ulps) keeps them strictly increasing; checked
+        // without building the values (the count is not bounded yet).
+        let magnitude = self.start.abs().max(self.stop.abs());
+        let step = (self.stop - self.start) / (self.count - 1) as f64;
+        if step <= 4.0 * f64::EPSILON * magnitude {
+            return Some(
+                "the values are not strictly increasing (the step is below the rounding of the numbers)",
+            );
+        }
+        None
+    }
+
     /// The `count` values.
     pub fn values(&self) -> Vec<f64> {
         if self.count == 1 {

@@ -216,13 +216,14 @@ fn axis(key: &str, raw: &[Num; 3]) -> Result<Axis, Error> {
         }
     };
     let count = count(key, n, 1)?;
-    if count > 1 && stop < start {
-        return Err(Error::Invalid {
+    let axis = Axis { start, stop, count };
+    match axis.problem() {
+        Some(problem) => Err(Error::Invalid {
             key: key.to_string(),
-            problem: "stop must not be below start",
-        });
+            problem,
+        }),
+        None => Ok(axis),
     }
-    Ok(Axis { start, stop, count })
 }
 
 /// A TOML syntax or type error of `text` (read from `path`), located at its line and column

@@ -66,10 +66,21 @@ impl Study {
     pub fn from_path(path: &Path) -> Result<Study, Error> {
         let text =
             crashrig_input::file::read_text_limited(path, crashrig_input::file::MAX_TOML_BYTES)
-                .map_err(|source| Error::Read {
-                    path: path.to_path_buf(),
-                    source,
-                })?;
+                .map_err(
+                    |source| match crashrig_input::file::NotUtf8::in_io(&source) {
+                        // Located as every other error of the file: FILE:LINE:COLUMN.
+                        Some(at) => Error::Toml {
+                            path: path.to_path_buf(),
+                            line: at.line,
+                            column: at.column,
+                            message: "not valid UTF-8 text".into(),
+                        },
+                        None => Error::Read {
+                            path: path.to_path_buf(),
+                            source,
+                        },
+                    },
+                )?;
         Study::from_toml_str(&text, path)
     }
 

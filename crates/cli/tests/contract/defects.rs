@@ -1,9 +1,21 @@
-//! Issue 47 item 3, end to end: a text input that is not UTF-8 (scenario, candidates, study,
-//! CSV) is refused naming `FILE:LINE:COLUMN` of its first bad byte. Each: exit ≠ 0, one
-//! `error:` line, nothing written.
+//! Issue 47 items 2 and 3, end to end: a grid axis that is reversed or has start = stop with a
+//! count above 1 is refused at its key's line before any work (scenario and study), and a text
+//! input that is not UTF-8 (scenario, candidates, study, CSV) is refused naming
+//! `FILE:LINE:COLUMN` of its first bad byte. Each: exit ≠ 0, one `error:` line, nothing written.
 
 use super::common::{assert_clean_error, fixture, root, run};
 use std::path::{Path, PathBuf};
+
+/// `text` with the line holding `from` replaced by `to`; the 1-based line number.
+fn edit_line(text: &str, from: &str, to: &str) -> (String, usize) {
+    let line = text
+        .lines()
+        .position(|l| l.contains(from))
+        .unwrap_or_else(|| panic!("{from:?} not in the file"));
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    lines[line] = lines[line].replace(from, to);
+    (lines.join("\n") + "\n", line + 1)
+}
 
 /// `bytes` with the byte 0xff inserted at `at`; the 1-based (line, column) of that byte.
 fn insert_bad_byte(bytes: &[u8], at: usize) -> (Vec<u8>, usize, usize) {
@@ -32,6 +44,59 @@ fn nothing_written(out: &Path) {
     assert!(hidden.is_empty(), "a staging directory was left");
 }
 
+const BAD_AXES: [(&str, &str); 3] = [
+    ("[2000.0, 400.0, 17]", "stop must not be below start"),
+    ("[400.0, 400.0, 17]", "start = stop needs a count of 1"),
+    // A step below the rounding of the numbers: the values would repeat.
+    ("[1e6, 1.000000000000001e6, 17]", "not strictly increasing"),
+];
+
+#[test]
+fn scenario_grid_axis_reversed_or_without_span_is_refused_at_its_line() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let text =
+        std::fs::read_to_string(fixture("scenarios/three_cameras_z0.toml")).expect("scenario");
+    for (value, needle) in BAD_AXES {
+        let (edited, line) = edit_line(
+            &text,
+            "x_mm = [400.0, 2000.0, 17]",
+            &format!("x_mm = {value}"),
+        );
+        let path = tmp.path().join("s.toml");
+        std::fs::write(&path, edited).expect("write");
+        let out = tmp.path().join("out");
+        let r = run([
+            "grid".as_ref(),
+            path.as_os_str(),
+            "--samples".as_ref(),
+            "20".as_ref(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ]);
+        assert_clean_error(&r, &[&format!("s.toml:{line}: `grid.x_mm`: "), needle]);
+        nothing_written(&out);
+    }
+    // A count of 1 with start = stop is one value: fine.
+    let (edited, _) = edit_line(
+        &text,
+        "x_mm = [400.0, 2000.0, 17]",
+        "x_mm = [400.0, 400.0, 1]",
+    );
+    let path = tmp.path().join("one.toml");
+    std::fs::write(&path, edited).expect("write");
+    let out = tmp.path().join("one");
+    let r = run([
+        "grid".as_ref(),
+        path.as_os_str(),
+        "--samples".as_ref(),
+        "20".as_ref(),
+        "--no-plots".as_ref(),
+        "--out".as_ref(),
+        out.as_os_str(),
+    ]);
+    assert!(r.success, "{}", r.stderr);
+}
+
 /// The bundled own-data study copied into `dir` (its relative paths stay valid).
 fn own_study(dir: &Path) -> PathBuf {
     fn copy_tree(from: &Path, to: &Path) {
@@ -47,6 +112,41 @@ fn own_study(dir: &Path) -> PathBuf {
     }
     copy_tree(&fixture("study/own"), dir);
     dir.join("study.toml")
+}
+
+fn study(path: &Path, out: &Path) -> super::common::Run {
+    run([
+        "study".as_ref(),
+        path.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+        "--samples".as_ref(),
+        "4".as_ref(),
+        "--no-sensitivity".as_ref(),
+    ])
+}
+
+#[test]
+fn study_layout_axis_reversed_or_without_span_is_refused_at_its_line() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let path = own_study(&tmp.path().join("own"));
+    let text = std::fs::read_to_string(&path).expect("study");
+    for (value, needle) in BAD_AXES {
+        let (edited, line) = edit_line(
+            &text,
+            "x_mm = [400.0, 1800.0, 8]",
+            &format!("x_mm = {value}"),
+        );
+        let bad = tmp.path().join("own/bad.toml");
+        std::fs::write(&bad, edited).expect("write");
+        let out = tmp.path().join("out");
+        let r = study(&bad, &out);
+        assert_clean_error(
+            &r,
+            &[&format!("bad.toml:{line}: `layout[0].x_mm`: "), needle],
+        );
+        nothing_written(&out);
+    }
 }
 
 /// Runs `args(path)` on `bytes` with a bad byte at several places of `file`'s text and checks

@@ -272,6 +272,14 @@ impl Ctx<'_> {
                 format!("count {c} exceeds the limit of {max} values per axis"),
             );
         }
+        let axis = crashrig_mc::Axis {
+            start: a[0],
+            stop: a[1],
+            count: c as usize,
+        };
+        if let Some(problem) = axis.problem() {
+            return self.err(Some(v.span()), key, problem);
+        }
         Ok((a[0], a[1], c as usize))
     }
 }
