@@ -317,3 +317,70 @@ fn sem_coverage_key_cells_fast() {
     assert!(t.refused_share() <= 0.06, "white noise 60: {t:?}");
     assert!((0.93..=0.995).contains(&t.plain()), "white noise 60: {t:?}");
 }
+
+/// Issue 47 §5, the acceptance statistic: 200 sequences of white epoch noise, and per axis the
+/// mean over the sequences of SE / true SE (not pooled over the six axes, as the grid's cells
+/// are), at n = 60 and 140; each must be ≤ 1.5. `mix` maps six independent unit normals to
+/// one epoch's six residuals (the rows' norms are the axes' σ), so correlated axes of
+/// different σ — as a link's tangent axes are — can be tested as well as independent ones.
+fn white_per_axis(seed: u64, n: usize, mix: &Mat6) -> [f64; 6] {
+    use rand::RngExt;
+    let model = SemModel::new(n);
+    let true_se = Vec6::from_fn(|j, _| mix.row(j).norm() / (n as f64).sqrt());
+    let per: Vec<Vec6> = (0..200u64)
+        .into_par_iter()
+        .map(|rep| {
+            let mut rng = crashrig_stats::stream(seed, rep);
+            let x: Vec<Vec6> = (0..n)
+                .map(|_| mix * Vec6::from_fn(|_, _| rng.sample(StandardNormal)))
+                .collect();
+            let mean = x.iter().sum::<Vec6>() / n as f64;
+            let r: Vec<Vec6> = x.iter().map(|v| v - mean).collect();
+            let cov = r.iter().map(|v| v * v.transpose()).sum::<Mat6>() / (n as f64 - 1.0);
+            let s = model.estimate(&r, &cov);
+            Vec6::from_fn(|j, _| s.covariance[(j, j)].sqrt() / true_se[j])
+        })
+        .collect();
+    let sum = per.into_iter().fold(Vec6::zeros(), |a, b| a + b) / 200.0;
+    [sum[0], sum[1], sum[2], sum[3], sum[4], sum[5]]
+}
+
+/// A link's six tangent axes under independent epoch errors of A and B: correlated (the
+/// centre moves with the rotation through the lever arm) and of different σ (mm and rad).
+fn link_like_mix() -> Mat6 {
+    let mut m = Mat6::zeros();
+    let sig = [0.8, 1.5, 0.5, 0.002, 0.001, 0.003];
+    for i in 0..6 {
+        m[(i, i)] = sig[i];
+    }
+    // Centre x, y, z pick up the rotation errors through a 1.2 m / 0.4 m lever arm.
+    m[(0, 4)] = 1200.0 * 0.001;
+    m[(1, 3)] = -1200.0 * 0.002;
+    m[(2, 5)] = 400.0 * 0.003;
+    m[(0, 5)] = -400.0 * 0.003;
+    m
+}
+
+#[test]
+#[ignore = "issue 47 §5: the acceptance statistic, expected to fail until the white-noise widening is fixed (the fix is not done yet)"]
+fn white_noise_se_over_true_per_axis_within_the_contract() {
+    let mut worst = Vec::new();
+    for (name, mix) in [
+        ("independent", Mat6::identity()),
+        ("link-like", link_like_mix()),
+    ] {
+        for (n, seed) in [(60usize, 4760u64), (140, 4761)] {
+            let r = white_per_axis(seed, n, &mix);
+            eprintln!("{name} n {n}: per-axis mean SE/true {r:.3?}");
+            worst.extend(
+                r.iter()
+                    .filter(|&&v| v > 1.5)
+                    .map(|v| format!("{name} n {n}: {v:.3}")),
+            );
+        }
+    }
+    assert!(
+        worst.is_empty(),
+        "per-axis mean SE / true SE > 1.5: {worst:?}"
+    );
+}
