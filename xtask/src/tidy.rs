@@ -16,6 +16,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
     ("crashrig-plot", &[]),
     ("crashrig-camera", &[]),
     ("crashrig-outdir", &[]),
+    ("crashrig-frames", &["crashrig-outdir"]),
     ("crashrig-input", &["crashrig-geometry"]),
     (
         "crashrig-colmap",
@@ -118,6 +119,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
         "crashrig-cli",
         &[
             "crashrig-merge",
+            "crashrig-frames",
             "crashrig-place",
             "crashrig-geometry",
             "crashrig-grid",
