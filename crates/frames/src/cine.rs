@@ -80,7 +80,7 @@ fn read_part(
     n: usize,
     part: &'static str,
 ) -> Result<Vec<u8>> {
-    let end = at.checked_add(n as u64).unwrap_or(u64::MAX);
+    let end = at.saturating_add(n as u64);
     if end > len {
         return Err(truncated(path, part, end, len));
     }
@@ -286,7 +286,7 @@ pub(crate) fn open(path: &Path) -> Result<Opened> {
             let min_row = u64::from(width) * if layout == PixelLayout::U8 { 1 } else { 2 };
             // Rows may be padded: biSizeImage / height when it divides evenly and is large enough.
             let row = if bi_size_image > 0
-                && bi_size_image % u64::from(height) == 0
+                && bi_size_image.is_multiple_of(u64::from(height))
                 && bi_size_image / u64::from(height) >= min_row
             {
                 bi_size_image / u64::from(height)

@@ -159,8 +159,8 @@ impl PixelLayout {
             PixelLayout::ImageFiles => None,
             PixelLayout::U8 => Some(n),
             PixelLayout::U16Le => n.checked_mul(2),
-            PixelLayout::Packed10 => (n % 4 == 0).then(|| n / 4 * 5),
-            PixelLayout::Packed12 => (n % 2 == 0).then(|| n / 2 * 3),
+            PixelLayout::Packed10 => n.is_multiple_of(4).then(|| n / 4 * 5),
+            PixelLayout::Packed12 => n.is_multiple_of(2).then(|| n / 2 * 3),
         }
     }
 }

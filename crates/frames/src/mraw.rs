@@ -154,12 +154,10 @@ fn cihx_fields(path: &Path, bytes: &[u8]) -> Result<BTreeMap<String, String>> {
             Event::End(_) => {
                 stack.pop();
             }
-            Event::Text(t) => {
-                if stack.len() >= 2 {
-                    let key = stack[1..].join("/");
-                    map.entry(key)
-                        .or_insert_with(|| t.xml10_content().trim().to_string());
-                }
+            Event::Text(t) if stack.len() >= 2 => {
+                let key = stack[1..].join("/");
+                map.entry(key)
+                    .or_insert_with(|| t.xml10_content().trim().to_string());
             }
             Event::Eof => break,
             _ => {}

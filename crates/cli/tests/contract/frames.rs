@@ -287,3 +287,26 @@ fn frames_info_bad_input_is_one_line() {
     let r = run(["frames", "info", "/nonexistent/x.cine"]);
     assert_clean_error(&r, &["/nonexistent/x.cine"]);
 }
+
+/// An export stopped after its second frame (the outdir fault hook aborts the process as a
+/// SIGKILL would) leaves no `--out`; the next export cleans up and completes.
+#[test]
+fn frames_export_interrupted_leaves_nothing() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("x");
+    let src = fixture("frames/real/cine_781_first4.cine");
+    let r = crate::contract::common::run_env(
+        ["frames", "export", s(&src), "--out", s(&out)],
+        &[("CRASHRIG_OUTDIR_FAULT", "abort-after-file:2")],
+    );
+    assert!(!r.success);
+    assert!(!out.exists(), "an interrupted export left {out:?}");
+    let r = run(["frames", "export", s(&src), "--out", s(&out)]);
+    assert!(r.success, "{}", r.stderr);
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 5);
+    assert_eq!(
+        std::fs::read_dir(d.path()).unwrap().count(),
+        1,
+        "no staging directory left"
+    );
+}
