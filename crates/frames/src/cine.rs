@@ -158,17 +158,7 @@ pub(crate) fn open(path: &Path) -> Result<Opened> {
             "not a Phantom cine file (it does not start with `CI`)",
         ));
     }
-    match h.u16(4)? {
-        0 => {}
-        1 => return Err(unsupported(path, "compression 1 (JPEG-compressed cine)")),
-        2 => {
-            return Err(unsupported(
-                path,
-                "compression 2 (uninterpolated colour-filter-array raw)",
-            ));
-        }
-        c => return Err(unsupported(path, format!("compression {c}"))),
-    }
+    check_compression(path, h.u16(4)?)?;
     let first_image_no = h.i32(16)?;
     let image_count = h.u32(20)?;
     let off_image_header = u64::from(h.u32(24)?);
@@ -215,42 +205,13 @@ pub(crate) fn open(path: &Path) -> Result<Opened> {
     }
     let (width, height) = (width as u32, height as u32);
 
-    // SETUP: the fields lying inside its own Length.
-    let mark = read_part(
-        &file,
-        path,
-        len,
-        off_setup + SETUP_MARK as u64,
-        4,
-        "the setup",
-    )?;
-    if &mark[0..2] != b"ST" {
-        return Err(header_err(
-            path,
-            "Setup.Mark",
-            "the setup block has no `ST` mark (cine files before 1999 are not read)",
-        ));
-    }
-    let setup_len = u16::from_le_bytes([mark[2], mark[3]]) as usize;
-    let setup = read_part(&file, path, len, off_setup, setup_len, "the setup")?;
-    let s = Le {
-        bytes: &setup,
-        path,
-        file_len: len,
-        base: off_setup,
-        part: "the setup",
-    };
-    let field = |at: usize| -> Result<Option<u32>> {
-        if at + 4 <= setup_len {
-            s.u32(at).map(Some)
-        } else {
-            Ok(None)
-        }
-    };
-    let frame_rate = field(SETUP_FRAME_RATE)?.filter(|&r| r > 0);
-    let cfa = field(SETUP_CFA)?.unwrap_or(0);
-    let real_bpp = field(SETUP_REAL_BPP)?;
-    let shutter_ns = field(SETUP_SHUTTER_NS)?.filter(|&t| t > 0);
+    let Setup {
+        len: setup_len,
+        frame_rate,
+        cfa,
+        real_bpp,
+        shutter_ns,
+    } = read_setup(&file, path, len, off_setup)?;
     if cfa != 0 || matches!(bit_count, 24 | 48) {
         return Err(unsupported(
             path,
@@ -280,110 +241,19 @@ pub(crate) fn open(path: &Path) -> Result<Opened> {
         PixelLayout::Packed10 => 10,
         _ => 12,
     };
-    let pixels = u64::from(width) * u64::from(height);
-    let (image_bytes, row_bytes) = match layout {
-        PixelLayout::U8 | PixelLayout::U16Le => {
-            let min_row = u64::from(width) * if layout == PixelLayout::U8 { 1 } else { 2 };
-            // Rows may be padded: biSizeImage / height when it divides evenly and is large enough.
-            let row = if bi_size_image > 0
-                && bi_size_image.is_multiple_of(u64::from(height))
-                && bi_size_image / u64::from(height) >= min_row
-            {
-                bi_size_image / u64::from(height)
-            } else {
-                min_row
-            };
-            (row * u64::from(height), row)
-        }
-        _ => {
-            let Some(n) = layout.bytes_for(pixels) else {
-                return Err(unsupported(
-                    path,
-                    format!(
-                        "{} with {width}x{height} pixels (not a whole number of bytes)",
-                        layout.name()
-                    ),
-                ));
-            };
-            (n, 0)
-        }
-    };
+    let (image_bytes, row_bytes) = image_size(path, layout, width, height, bi_size_image)?;
 
-    // Tagged blocks between SETUP and the image offsets.
-    let mut times_block: Option<(u64, u64)> = None;
-    let mut old_times_block: Option<(u64, u64)> = None;
-    let mut pos = off_setup + setup_len as u64;
-    while pos + 8 <= off_image_offsets && pos + 8 <= len {
-        let mut tag = [0u8; 8];
-        read_at(&file, path, pos, &mut tag)?;
-        let size = u64::from(u32::from_le_bytes([tag[0], tag[1], tag[2], tag[3]]));
-        let kind = u16::from_le_bytes([tag[4], tag[5]]);
-        if size < 8 || pos + size > off_image_offsets {
-            break;
-        }
-        match kind {
-            TAG_TIME_ONLY => times_block = Some((pos + 8, size - 8)),
-            TAG_IMAGE_TIME => old_times_block = Some((pos + 8, size - 8)),
-            _ => {}
-        }
-        pos += size;
+    let (offsets, times_s, time_source) = Table {
+        file: &file,
+        path,
+        len,
+        blocks_from: off_setup + setup_len as u64,
+        off_image_offsets,
+        image_count,
+        image_bytes,
     }
-
-    // The image offsets, checked against the file's length before they are allocated.
-    let n = image_count as usize;
-    let table_end = off_image_offsets + 8 * u64::from(image_count);
-    if table_end > len {
-        return Err(truncated(path, "the image offsets", table_end, len));
-    }
-    let mut table = vec![0u8; 8 * n];
-    read_at(&file, path, off_image_offsets, &mut table)?;
-    let mut offsets = Vec::with_capacity(n);
-    for (i, o) in table.chunks_exact(8).enumerate() {
-        let o = i64::from_le_bytes(o.try_into().expect("8 bytes"));
-        // Each image needs at least its two size fields and its pixels.
-        let end = u64::try_from(o)
-            .ok()
-            .and_then(|o| o.checked_add(8 + image_bytes));
-        match end {
-            Some(end) if end <= len => offsets.push(o as u64),
-            Some(end) => return Err(truncated(path, format!("frame {i}"), end, len)),
-            None => {
-                return Err(header_err(
-                    path,
-                    "ImageOffsets",
-                    format!("frame {i}: offset {o} lies outside the file"),
-                ));
-            }
-        }
-    }
-    drop(table);
-
-    // Times: the camera's per-image stamps minus the trigger; else image number / frame rate.
-    let stamps = times_block
-        .into_iter()
-        .chain(old_times_block)
-        .find(|&(_, size)| size >= 8 * u64::from(image_count));
-    let (times_s, time_source) = match stamps {
-        Some((at, _)) => {
-            let raw = read_part(&file, path, len, at, 8 * n, "the time block")?;
-            let t = raw
-                .chunks_exact(8)
-                .map(|b| Time64::from_le(b).minus_s(trigger))
-                .collect::<Vec<_>>();
-            (Some(t), TimeSource::Timestamps)
-        }
-        None => match frame_rate {
-            Some(rate) => (
-                Some(
-                    (0..n)
-                        .map(|i| (i64::from(first_image_no) + i as i64) as f64 / f64::from(rate))
-                        .collect(),
-                ),
-                TimeSource::FrameRate,
-            ),
-            None => (None, TimeSource::None),
-        },
-    };
+    .read(trigger, frame_rate, first_image_no)?;
+    let n = offsets.len();
 
     let info = SequenceInfo {
         path: path.to_path_buf(),
@@ -418,6 +288,224 @@ pub(crate) fn open(path: &Path) -> Result<Opened> {
             bottom_up: matches!(layout, PixelLayout::U8 | PixelLayout::U16Le),
         }),
     })
+}
+
+/// The header's `Compression`: 0 is read, the others are refused saying which.
+fn check_compression(path: &Path, compression: u16) -> Result<()> {
+    match compression {
+        0 => {}
+        1 => return Err(unsupported(path, "compression 1 (JPEG-compressed cine)")),
+        2 => {
+            return Err(unsupported(
+                path,
+                "compression 2 (uninterpolated colour-filter-array raw)",
+            ));
+        }
+        c => return Err(unsupported(path, format!("compression {c}"))),
+    }
+    Ok(())
+}
+
+/// The SETUP fields read (each `None` when it lies beyond the block's `Length`).
+struct Setup {
+    len: usize,
+    frame_rate: Option<u32>,
+    cfa: u32,
+    real_bpp: Option<u32>,
+    shutter_ns: Option<u32>,
+}
+
+fn read_setup(file: &File, path: &Path, len: u64, off_setup: u64) -> Result<Setup> {
+    // SETUP: the fields lying inside its own Length.
+    let mark = read_part(
+        file,
+        path,
+        len,
+        off_setup + SETUP_MARK as u64,
+        4,
+        "the setup",
+    )?;
+    if &mark[0..2] != b"ST" {
+        return Err(header_err(
+            path,
+            "Setup.Mark",
+            "the setup block has no `ST` mark (cine files before 1999 are not read)",
+        ));
+    }
+    let setup_len = u16::from_le_bytes([mark[2], mark[3]]) as usize;
+    let setup = read_part(file, path, len, off_setup, setup_len, "the setup")?;
+    let s = Le {
+        bytes: &setup,
+        path,
+        file_len: len,
+        base: off_setup,
+        part: "the setup",
+    };
+    let field = |at: usize| -> Result<Option<u32>> {
+        if at + 4 <= setup_len {
+            s.u32(at).map(Some)
+        } else {
+            Ok(None)
+        }
+    };
+    let frame_rate = field(SETUP_FRAME_RATE)?.filter(|&r| r > 0);
+    let cfa = field(SETUP_CFA)?.unwrap_or(0);
+    let real_bpp = field(SETUP_REAL_BPP)?;
+    let shutter_ns = field(SETUP_SHUTTER_NS)?.filter(|&t| t > 0);
+    Ok(Setup {
+        len: setup_len,
+        frame_rate,
+        cfa,
+        real_bpp,
+        shutter_ns,
+    })
+}
+
+/// Bytes of one image and of one stored row (0 for packed layouts, one bit stream).
+fn image_size(
+    path: &Path,
+    layout: PixelLayout,
+    width: u32,
+    height: u32,
+    bi_size_image: u64,
+) -> Result<(u64, u64)> {
+    let pixels = u64::from(width) * u64::from(height);
+    Ok(match layout {
+        PixelLayout::U8 | PixelLayout::U16Le => {
+            let min_row = u64::from(width) * if layout == PixelLayout::U8 { 1 } else { 2 };
+            // Rows may be padded: biSizeImage / height when it divides evenly and is large enough.
+            let row = if bi_size_image > 0
+                && bi_size_image.is_multiple_of(u64::from(height))
+                && bi_size_image / u64::from(height) >= min_row
+            {
+                bi_size_image / u64::from(height)
+            } else {
+                min_row
+            };
+            (row * u64::from(height), row)
+        }
+        _ => {
+            let Some(n) = layout.bytes_for(pixels) else {
+                return Err(unsupported(
+                    path,
+                    format!(
+                        "{} with {width}x{height} pixels (not a whole number of bytes)",
+                        layout.name()
+                    ),
+                ));
+            };
+            (n, 0)
+        }
+    })
+}
+
+/// Where the tagged blocks and the image offsets lie.
+struct Table<'a> {
+    file: &'a File,
+    path: &'a Path,
+    len: u64,
+    blocks_from: u64,
+    off_image_offsets: u64,
+    image_count: u32,
+    image_bytes: u64,
+}
+
+impl Table<'_> {
+    /// The image offsets (each checked to lie inside the file) and the times.
+    fn read(
+        &self,
+        trigger: Time64,
+        frame_rate: Option<u32>,
+        first_image_no: i32,
+    ) -> Result<(Vec<u64>, Option<Vec<f64>>, TimeSource)> {
+        let Table {
+            file,
+            path,
+            len,
+            blocks_from,
+            off_image_offsets,
+            image_count,
+            image_bytes,
+        } = *self;
+        // Tagged blocks between SETUP and the image offsets.
+        let mut times_block: Option<(u64, u64)> = None;
+        let mut old_times_block: Option<(u64, u64)> = None;
+        let mut pos = blocks_from;
+        while pos + 8 <= off_image_offsets && pos + 8 <= len {
+            let mut tag = [0u8; 8];
+            read_at(file, path, pos, &mut tag)?;
+            let size = u64::from(u32::from_le_bytes([tag[0], tag[1], tag[2], tag[3]]));
+            let kind = u16::from_le_bytes([tag[4], tag[5]]);
+            if size < 8 || pos + size > off_image_offsets {
+                break;
+            }
+            match kind {
+                TAG_TIME_ONLY => times_block = Some((pos + 8, size - 8)),
+                TAG_IMAGE_TIME => old_times_block = Some((pos + 8, size - 8)),
+                _ => {}
+            }
+            pos += size;
+        }
+
+        // The image offsets, checked against the file's length before they are allocated.
+        let n = image_count as usize;
+        let table_end = off_image_offsets + 8 * u64::from(image_count);
+        if table_end > len {
+            return Err(truncated(path, "the image offsets", table_end, len));
+        }
+        let mut table = vec![0u8; 8 * n];
+        read_at(file, path, off_image_offsets, &mut table)?;
+        let mut offsets = Vec::with_capacity(n);
+        for (i, o) in table.chunks_exact(8).enumerate() {
+            let o = i64::from_le_bytes(o.try_into().expect("8 bytes"));
+            // Each image needs at least its two size fields and its pixels.
+            let end = u64::try_from(o)
+                .ok()
+                .and_then(|o| o.checked_add(8 + image_bytes));
+            match end {
+                Some(end) if end <= len => offsets.push(o as u64),
+                Some(end) => return Err(truncated(path, format!("frame {i}"), end, len)),
+                None => {
+                    return Err(header_err(
+                        path,
+                        "ImageOffsets",
+                        format!("frame {i}: offset {o} lies outside the file"),
+                    ));
+                }
+            }
+        }
+        drop(table);
+
+        // Times: the camera's per-image stamps minus the trigger; else image number / frame rate.
+        let stamps = times_block
+            .into_iter()
+            .chain(old_times_block)
+            .find(|&(_, size)| size >= 8 * u64::from(image_count));
+        let (times_s, time_source) = match stamps {
+            Some((at, _)) => {
+                let raw = read_part(file, path, len, at, 8 * n, "the time block")?;
+                let t = raw
+                    .chunks_exact(8)
+                    .map(|b| Time64::from_le(b).minus_s(trigger))
+                    .collect::<Vec<_>>();
+                (Some(t), TimeSource::Timestamps)
+            }
+            None => match frame_rate {
+                Some(rate) => (
+                    Some(
+                        (0..n)
+                            .map(|i| {
+                                (i64::from(first_image_no) + i as i64) as f64 / f64::from(rate)
+                            })
+                            .collect(),
+                    ),
+                    TimeSource::FrameRate,
+                ),
+                None => (None, TimeSource::None),
+            },
+        };
+        Ok((offsets, times_s, time_source))
+    }
 }
 
 impl CineSource {

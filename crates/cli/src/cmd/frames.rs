@@ -1,5 +1,4 @@
 //! `crashrig frames info|export`: what a camera file holds, and its frames as 16-bit grey PNGs.
-//!
 //! Arguments → [`crashrig_frames::Sequence::open`] / [`crashrig_frames::export::ExportConfig`] →
 //! one library call → the report. Formats and fields: `docs/FRAMES.md`.
 
@@ -41,53 +40,20 @@ pub struct ExportArgs {
     pub last: Option<String>,
 }
 
-#[derive(Debug, Serialize)]
-struct InfoReport {
-    path: PathBuf,
-    source: &'static str,
-    frames: usize,
-    width: u32,
-    height: u32,
-    bits: u8,
-    layout: &'static str,
-    frame_rate_hz: Option<f64>,
-    exposure_s: Option<f64>,
-    trigger_utc: Option<String>,
-    trigger_frame: Option<i64>,
-    first_image_number: Option<i64>,
-    frame_step: Option<u32>,
-    camera: Option<String>,
-    time_source: &'static str,
-    first_epoch: String,
-    last_epoch: String,
-    first_time_s: Option<f64>,
-    last_time_s: Option<f64>,
-}
-
-fn info_report(seq: &Sequence) -> InfoReport {
+/// The `info --json` document (fields: docs/REFERENCE.md).
+fn info_json(seq: &Sequence) -> serde_json::Value {
     let i: &SequenceInfo = seq.info();
     let last = seq.len() - 1;
-    InfoReport {
-        path: i.path.clone(),
-        source: i.kind.name(),
-        frames: i.frames,
-        width: i.width,
-        height: i.height,
-        bits: i.bits,
-        layout: i.layout.name(),
-        frame_rate_hz: i.frame_rate_hz,
-        exposure_s: i.exposure_s,
-        trigger_utc: i.trigger_utc.clone(),
-        trigger_frame: i.trigger_frame,
-        first_image_number: i.first_image_number,
-        frame_step: i.frame_step,
-        camera: i.camera.clone(),
-        time_source: i.time_source.name(),
-        first_epoch: seq.epoch(0).to_string(),
-        last_epoch: seq.epoch(last).to_string(),
-        first_time_s: seq.time_s(0),
-        last_time_s: seq.time_s(last),
-    }
+    serde_json::json!({
+        "path": i.path, "source": i.kind.name(), "frames": i.frames,
+        "width": i.width, "height": i.height, "bits": i.bits, "layout": i.layout.name(),
+        "frame_rate_hz": i.frame_rate_hz, "exposure_s": i.exposure_s,
+        "trigger_utc": i.trigger_utc, "trigger_frame": i.trigger_frame,
+        "first_image_number": i.first_image_number, "frame_step": i.frame_step,
+        "camera": i.camera, "time_source": i.time_source.name(),
+        "first_epoch": seq.epoch(0), "last_epoch": seq.epoch(last),
+        "first_time_s": seq.time_s(0), "last_time_s": seq.time_s(last),
+    })
 }
 
 #[derive(Debug, Serialize)]
@@ -104,11 +70,10 @@ pub fn run(c: FramesCommand, g: &Global) -> anyhow::Result<()> {
     match c {
         FramesCommand::Info(a) => {
             let seq = Sequence::open(&a.source)?;
-            let r = info_report(&seq);
             if g.json {
-                crate::output::print_json(&r)?;
+                crate::output::print_json(&info_json(&seq))?;
             } else {
-                print_info(&r);
+                print_info(&seq);
             }
         }
         FramesCommand::Export(a) => {
@@ -141,42 +106,44 @@ pub fn run(c: FramesCommand, g: &Global) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn print_info(r: &InfoReport) {
+fn print_info(seq: &Sequence) {
+    let (i, last) = (seq.info(), seq.len() - 1);
     let opt = |v: Option<String>| v.unwrap_or_else(|| "not stated".to_string());
-    println!("{} ({})", r.path.display(), r.source);
-    println!("  frames              {}", r.frames);
-    println!("  size                {} x {} px", r.width, r.height);
-    println!("  bits                {} ({})", r.bits, r.layout);
-    println!(
-        "  frame rate          {}",
-        opt(r.frame_rate_hz.map(|f| format!("{f} Hz")))
-    );
-    println!(
-        "  exposure            {}",
-        opt(r.exposure_s.map(|e| format!("{e} s")))
-    );
-    if let Some(t) = &r.trigger_utc {
-        println!("  trigger             {t}");
-    }
-    if let Some(t) = r.trigger_frame {
-        println!("  trigger frame       {t}");
-    }
-    println!(
-        "  first image number  {}",
-        opt(r.first_image_number.map(|n| n.to_string()))
-    );
-    if let Some(s) = r.frame_step.filter(|&s| s != 1) {
-        println!("  frame step          {s}");
-    }
-    if let Some(c) = &r.camera {
-        println!("  camera              {c}");
-    }
-    println!("  epochs              {} … {}", r.first_epoch, r.last_epoch);
-    match (r.first_time_s, r.last_time_s) {
-        (Some(a), Some(b)) => println!(
-            "  times               {a} s … {b} s relative to the trigger (from {})",
-            r.time_source
+    let times = match (seq.time_s(0), seq.time_s(last)) {
+        (Some(a), Some(b)) => format!("{a} s … {b} s from the trigger ({})", i.time_source.name()),
+        _ => "none".to_string(),
+    };
+    let rows = [
+        ("frames", Some(i.frames.to_string())),
+        ("size", Some(format!("{} x {} px", i.width, i.height))),
+        ("bits", Some(format!("{} ({})", i.bits, i.layout.name()))),
+        (
+            "frame rate",
+            Some(opt(i.frame_rate_hz.map(|f| format!("{f} Hz")))),
         ),
-        _ => println!("  times               none"),
+        (
+            "exposure",
+            Some(opt(i.exposure_s.map(|e| format!("{e} s")))),
+        ),
+        ("trigger", i.trigger_utc.clone()),
+        ("trigger frame", i.trigger_frame.map(|t| t.to_string())),
+        (
+            "first image number",
+            Some(opt(i.first_image_number.map(|n| n.to_string()))),
+        ),
+        (
+            "frame step",
+            i.frame_step.filter(|&s| s != 1).map(|s| s.to_string()),
+        ),
+        ("camera", i.camera.clone()),
+        (
+            "epochs",
+            Some(format!("{} … {}", seq.epoch(0), seq.epoch(last))),
+        ),
+        ("times", Some(times)),
+    ];
+    println!("{} ({})", i.path.display(), i.kind.name());
+    for (k, v) in rows.iter().filter_map(|(k, v)| v.as_ref().map(|v| (k, v))) {
+        println!("  {k:<19} {v}");
     }
 }
