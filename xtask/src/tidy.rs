@@ -17,6 +17,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
     ("crashrig-stats", &[]),
     ("crashrig-plot", &[]),
     ("crashrig-outdir", &[]),
+    ("crashrig-frames", &["crashrig-outdir"]),
     ("crashrig-input", &["crashrig-geometry"]),
     ("crashrig-rig", &["crashrig-geometry", "crashrig-stats"]),
     (
@@ -143,6 +144,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
     (
         "crashrig-cli",
         &[
+            "crashrig-frames",
             "crashrig-geometry",
             "crashrig-stats",
             "crashrig-outdir",

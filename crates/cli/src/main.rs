@@ -63,6 +63,9 @@ enum Command {
     Merge(cmd::merge::MergeArgs),
     /// Where to mount the cameras: choose K observers from candidates (Monte Carlo confirmed).
     Place(cmd::place::PlaceArgs),
+    /// Camera files (Phantom .cine, Photron .cihx/.cih + .mraw, PNG/TIFF directories): info and export.
+    #[command(subcommand)]
+    Frames(cmd::frames::FramesCommand),
 }
 
 /// The error line of a failed run: the context chain joined with ": " (every library error
@@ -132,6 +135,7 @@ fn main() -> std::process::ExitCode {
         Command::Covariance(a) => cmd::covariance::run(a, &cli.global),
         Command::Merge(a) => cmd::merge::run(a, &cli.global),
         Command::Place(a) => cmd::place::run(a, &cli.global),
+        Command::Frames(c) => cmd::frames::run(c, &cli.global),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -70,6 +70,8 @@ mod units;
 
 mod shard;
 
+#[path = "contract/frames.rs"]
+mod frames;
 /// `cargo xtask shards` (std + anyhow only), run here with the built binary.
 #[path = "../../../xtask/src/shards.rs"]
 #[allow(dead_code)]

@@ -5,6 +5,7 @@ pub mod calibrate;
 pub mod colmap;
 pub mod covariance;
 pub mod export;
+pub mod frames;
 pub mod grid;
 pub mod measure;
 pub mod measure_options;
