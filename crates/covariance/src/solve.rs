@@ -178,66 +178,81 @@ pub(crate) fn reduced_information(p: &Problem, pixel_sigma: f64) -> Mat<f64> {
                 pt_rows.jp[(rows - 3 + c) * 3 + c] = 1.0 / sigma;
             }
         }
-        // Q: the left singular vectors of the point columns above the floor.
-        let jp = nalgebra::DMatrix::from_row_slice(rows, 3, &pt_rows.jp);
-        let svd = jp.svd(true, false);
-        let Some(u) = svd.u else { continue };
-        let top = svd.singular_values.max();
-        let keep: Vec<usize> = (0..svd.singular_values.len())
-            .filter(|&k| {
-                let sv = svd.singular_values[k];
-                top > 0.0 && sv * sv > POINT_EIGEN_FLOOR * top * top
-            })
-            .collect();
-        // Z = Qᵀ J_c (keep × cols), Y = J_c − Q Z (rows × cols).
-        z.clear();
-        z.resize(keep.len() * cols, 0.0);
-        for (q, &k) in keep.iter().enumerate() {
-            let zq = &mut z[q * cols..(q + 1) * cols];
-            for r in 0..rows {
-                let uq = u[(r, k)];
-                let jr = &pt_rows.jc[r * cols..(r + 1) * cols];
-                for (zc, jc) in zq.iter_mut().zip(jr) {
-                    *zc += uq * jc;
-                }
-            }
-        }
-        // Yᵀ (cols × rows), so that each entry of YᵀY is a contiguous dot product.
-        y.clear();
-        y.resize(cols * rows, 0.0);
-        for r in 0..rows {
-            for c in 0..cols {
-                let mut v = pt_rows.jc[r * cols + c];
-                for (q, &k) in keep.iter().enumerate() {
-                    v -= u[(r, k)] * z[q * cols + c];
-                }
-                y[c * rows + r] = v;
-            }
-        }
-        // S += YᵀY (upper triangle of the reduced system).
-        global.clear();
-        global.resize(cols, 0);
-        for &(offset, width, first) in &pt_rows.blocks {
-            for c in 0..width {
-                global[first + c] = offset + c;
-            }
-        }
-        for a in 0..cols {
-            for b in 0..cols {
-                let (ga, gb) = (global[a], global[b]);
-                if gb < ga || (ga == gb && b != a) {
-                    continue;
-                }
-                let (ya, yb) = (&y[a * rows..(a + 1) * rows], &y[b * rows..(b + 1) * rows]);
-                s[ga * n + gb] += ya.iter().zip(yb).map(|(p, q)| p * q).sum::<f64>();
-            }
-        }
+        add_point_share(&mut s, n, &pt_rows, &mut y, &mut z, &mut global);
     }
     Mat::from_fn(
         n,
         n,
         |i, j| if i <= j { s[i * n + j] } else { s[j * n + i] },
     )
+}
+
+/// Adds one eliminated point's share `YᵀY` (`Y = (I − Q Qᵀ)·J_c`) to the upper triangle of
+/// the row-major `n×n` reduced system `s` (see [`reduced_information`]); `y`, `z` and `global`
+/// are scratch buffers reused across points.
+fn add_point_share(
+    s: &mut [f64],
+    n: usize,
+    pt_rows: &PointRows,
+    y: &mut Vec<f64>,
+    z: &mut Vec<f64>,
+    global: &mut Vec<usize>,
+) {
+    let (rows, cols) = (pt_rows.rows, pt_rows.cols);
+    // Q: the left singular vectors of the point columns above the floor.
+    let jp = nalgebra::DMatrix::from_row_slice(rows, 3, &pt_rows.jp);
+    let svd = jp.svd(true, false);
+    let Some(u) = svd.u else { return };
+    let top = svd.singular_values.max();
+    let keep: Vec<usize> = (0..svd.singular_values.len())
+        .filter(|&k| {
+            let sv = svd.singular_values[k];
+            top > 0.0 && sv * sv > POINT_EIGEN_FLOOR * top * top
+        })
+        .collect();
+    // Z = Qᵀ J_c (keep × cols), Y = J_c − Q Z (rows × cols).
+    z.clear();
+    z.resize(keep.len() * cols, 0.0);
+    for (q, &k) in keep.iter().enumerate() {
+        let zq = &mut z[q * cols..(q + 1) * cols];
+        for r in 0..rows {
+            let uq = u[(r, k)];
+            let jr = &pt_rows.jc[r * cols..(r + 1) * cols];
+            for (zc, jc) in zq.iter_mut().zip(jr) {
+                *zc += uq * jc;
+            }
+        }
+    }
+    // Yᵀ (cols × rows), so that each entry of YᵀY is a contiguous dot product.
+    y.clear();
+    y.resize(cols * rows, 0.0);
+    for r in 0..rows {
+        for c in 0..cols {
+            let mut v = pt_rows.jc[r * cols + c];
+            for (q, &k) in keep.iter().enumerate() {
+                v -= u[(r, k)] * z[q * cols + c];
+            }
+            y[c * rows + r] = v;
+        }
+    }
+    // S += YᵀY (upper triangle of the reduced system).
+    global.clear();
+    global.resize(cols, 0);
+    for &(offset, width, first) in &pt_rows.blocks {
+        for c in 0..width {
+            global[first + c] = offset + c;
+        }
+    }
+    for a in 0..cols {
+        for b in 0..cols {
+            let (ga, gb) = (global[a], global[b]);
+            if gb < ga || (ga == gb && b != a) {
+                continue;
+            }
+            let (ya, yb) = (&y[a * rows..(a + 1) * rows], &y[b * rows..(b + 1) * rows]);
+            s[ga * n + gb] += ya.iter().zip(yb).map(|(p, q)| p * q).sum::<f64>();
+        }
+    }
 }
 
 /// The relative tolerance of the rank test for `n` unknowns ([`RANK_TOLERANCE`]).
