@@ -97,8 +97,13 @@ pub struct Settings {
     pub pixel_sigma_px: f64,
     /// Reference epoch of the displacements (key or name); `None`: the first measured epoch.
     pub reference_epoch: Option<String>,
-    /// Frame rate (Hz) for velocities; `None`: no velocities.
+    /// Frame rate (Hz) for velocities; `None`: no velocities. With
+    /// [`Settings::frame_times`], the rate of their mean interval (the CFC filter's).
     pub frame_rate_hz: Option<f64>,
+    /// Each frame's time from the camera's clock (`--frame-times`): the epochs' times and
+    /// frame numbers (the index in the file) instead of `frame / frame_rate_hz`; needs
+    /// [`Settings::frame_rate_hz`] (the rate of the mean interval).
+    pub frame_times: Option<crate::input::FrameTimes>,
     /// Rows with σ_max above this (mm) are flagged.
     pub threshold_mm: f64,
     /// Rows whose largest reprojection residual exceeds this (px) are flagged; `None`: the
@@ -840,7 +845,8 @@ fn check_settings(s: &Settings) -> Result<(), Error> {
     }
 }
 
-/// Prepares a view: the undistorted normalized observation and `σ·J⁻¹`.
+/// Prepares a view: the undistorted normalized observation and `J⁻¹·L` (`L·Lᵀ` = the
+/// observation's own Σ, else `σ·I` with `σ` = `sigma`).
 fn prep_view(
     camera: &Camera,
     cam: usize,
@@ -867,11 +873,12 @@ fn prep_view(
     let inv = j2
         .try_inverse()
         .ok_or_else(|| fail("the lens Jacobian is singular".into()))?;
-    Ok(ViewPrep {
-        cam,
-        n0,
-        m: inv * sigma,
-    })
+    // The observation's own Σ = L·Lᵀ (draw L·ε), else σ on each axis as ever (same bits).
+    let m = match &obs.sigma {
+        Some(s) => inv * s.factor(),
+        None => inv * sigma,
+    };
+    Ok(ViewPrep { cam, n0, m })
 }
 
 /// Measures every observed (epoch, marker): nominal DLT position, reprojection check, and the

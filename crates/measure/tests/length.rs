@@ -410,6 +410,7 @@ fn synthetic(s: Scenario, n: usize, samples: usize, trial: u64) -> LengthCheck {
                         camera,
                         marker: marker.clone(),
                         pixel: project(pose, x) + noise,
+                        sigma: None,
                         line: obs.len() as u64 + 2,
                     });
                 }
@@ -427,6 +428,7 @@ fn synthetic(s: Scenario, n: usize, samples: usize, trial: u64) -> LengthCheck {
         pixel_sigma_px: s.pixel_given,
         reference_epoch: None,
         frame_rate_hz: None,
+        frame_times: None,
         threshold_mm: 5.0,
         max_reprojection_px: None,
         cfc: None,

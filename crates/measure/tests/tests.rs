@@ -5,6 +5,8 @@ mod isomme;
 mod joint;
 mod kinematics;
 mod length;
+mod observation_sigma;
+mod pixel_check;
 mod progress;
 mod sequence;
 mod shard;
