@@ -88,6 +88,32 @@ pub struct MeasureOptions {
 }
 
 impl MeasureOptions {
+    /// σ of each pixel coordinate when none is given (px): the default of
+    /// [`MeasureOptions::pixel_sigma_px`] and of the study file's `[measure] pixel_sigma_px`.
+    pub const DEFAULT_PIXEL_SIGMA_PX: f64 = 0.5;
+
+    /// σ_max above which rows are flagged when no threshold is given (mm): the default of
+    /// [`MeasureOptions::threshold_mm`] and of the study file's `[measure] threshold_mm`.
+    pub const DEFAULT_THRESHOLD_MM: f64 = 5.0;
+
+    /// The rule of a pixel σ: finite and not negative (px). The measurement refuses any
+    /// other ([`crate::measure`]), and the study file's `[measure] pixel_sigma_px` too.
+    pub fn pixel_sigma_px_is_valid(sigma_px: f64) -> bool {
+        sigma_px.is_finite() && sigma_px >= 0.0
+    }
+
+    /// The rule of camera A's σ: one source. An A-covariance file excludes the σ of A's centre
+    /// and of its rotation; `true` when the file is given with either σ. Both
+    /// [`MeasureOptions::config`] and the study file's `[measure]` refuse that, each naming its
+    /// own keys.
+    pub fn a_sources_conflict(
+        a_covariance: bool,
+        sigma_a_position_mm: bool,
+        sigma_a_angles_deg: bool,
+    ) -> bool {
+        a_covariance && (sigma_a_position_mm || sigma_a_angles_deg)
+    }
+
     /// The required inputs with every other option at the command's default.
     pub fn new(
         model: impl Into<PathBuf>,
@@ -109,12 +135,12 @@ impl MeasureOptions {
             sigma_a_position_mm: None,
             sigma_a_angles_deg: None,
             a_covariance: None,
-            pixel_sigma_px: 0.5,
+            pixel_sigma_px: MeasureOptions::DEFAULT_PIXEL_SIGMA_PX,
             samples: 2000,
             seed: None,
             reference_epoch: None,
             frame_rate_hz: None,
-            threshold_mm: 5.0,
+            threshold_mm: MeasureOptions::DEFAULT_THRESHOLD_MM,
             max_reprojection_px: None,
             cfc: None,
             cfc_standard: None,
@@ -150,8 +176,13 @@ impl MeasureOptions {
                 name("tie")
             )));
         }
+        let conflict = MeasureOptions::a_sources_conflict(
+            self.a_covariance.is_some(),
+            self.sigma_a_position_mm.is_some(),
+            self.sigma_a_angles_deg.is_some(),
+        );
         if let Some(p) = &self.a_covariance
-            && (self.sigma_a_position_mm.is_some() || self.sigma_a_angles_deg.is_some())
+            && conflict
         {
             return Err(Error::Usage(format!(
                 "{} ({}) excludes {} and {}",
