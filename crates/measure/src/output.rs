@@ -697,8 +697,11 @@ pub struct Summary {
     pub seed: u64,
     /// Reference epoch of the displacements.
     pub reference_epoch: String,
-    /// Frame rate (Hz), if given.
+    /// Frame rate (Hz), if given (with frame times: the rate of their mean interval).
     pub frame_rate_hz: Option<f64>,
+    /// The frame times' time axis (with `--frame-times`; absent otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frame_times: Option<FrameTimesSummary>,
     /// σ of each pixel coordinate (px).
     pub pixel_sigma_px: f64,
     /// Reprojection limit used for the outlier flag (px).
@@ -738,6 +741,33 @@ pub struct Summary {
     /// and C; absent otherwise). Set by [`crate::run`].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pixel_sigma_check: Option<PixelCheckSummary>,
+}
+
+/// `summary.json` → `frame_times`: the time axis of `--frame-times`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FrameTimesSummary {
+    /// The file.
+    pub file: String,
+    /// Frames in the file.
+    pub frames: usize,
+    /// The first frame's time (s).
+    pub first_time_s: f64,
+    /// The mean interval (s): `frame_rate_hz` is its inverse.
+    pub mean_interval_s: f64,
+    /// The largest deviation of an interval from the mean, relative to it.
+    pub max_interval_deviation: f64,
+}
+
+impl FrameTimesSummary {
+    fn new(f: &crate::input::FrameTimes) -> FrameTimesSummary {
+        FrameTimesSummary {
+            file: f.path.display().to_string(),
+            frames: f.frames.len(),
+            first_time_s: f.frames[0].1,
+            mean_interval_s: f.mean_interval_s().unwrap_or(f64::NAN),
+            max_interval_deviation: f.largest_deviation().map_or(0.0, |d| d.0),
+        }
+    }
 }
 
 /// `summary.json` → `pixel_sigma_check` (or one camera's part of it under `per_camera`).
@@ -846,6 +876,7 @@ impl Summary {
             seed: settings.seed,
             reference_epoch: m.epochs[m.reference_epoch].name.clone(),
             frame_rate_hz: settings.frame_rate_hz,
+            frame_times: settings.frame_times.as_ref().map(FrameTimesSummary::new),
             pixel_sigma_px: settings.pixel_sigma_px,
             max_reprojection_px: m.reprojection_limit_px,
             mm_per_unit,

@@ -102,6 +102,18 @@ pub(super) fn check_settings(s: &Settings) -> Result<(), Error> {
             "needs --frame-rate-hz (the offset shifts A's pose in time)".into(),
         );
     }
+    if let Some(ft) = &s.frame_times {
+        if s.frame_rate_hz.is_none() {
+            return bad(
+                "--frame-times",
+                "needs the rate of its mean interval as the frame rate (MeasureOptions sets it)"
+                    .into(),
+            );
+        }
+        if s.cfc.is_some() {
+            ft.uniform_interval()?;
+        }
+    }
     match (s.cfc, s.frame_rate_hz) {
         (Some(spec), None) => bad(
             "--cfc",
