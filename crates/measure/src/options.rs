@@ -285,7 +285,7 @@ impl MeasureOptions {
         if self.frame_rate_hz.is_some() {
             return Err(Error::Usage(format!(
                 "{} ({}) and {} exclude each other: the frame times are the time axis",
-                spelling.name("frame_times"),
+                frame_times_name(spelling),
                 path.display(),
                 spelling.name("frame_rate_hz")
             )));
@@ -320,7 +320,7 @@ impl MeasureOptions {
         let (rate, rate_name) = match self.frame_times {
             Some(_) => (
                 run.summary.numbers.frame_rate_hz,
-                spelling.name("frame_times"),
+                frame_times_name(spelling),
             ),
             None => (self.frame_rate_hz, spelling.name("frame_rate_hz")),
         };
@@ -431,5 +431,14 @@ mod tests {
             message(&mpe, Spelling::Keyword),
             "mpe_mm: -1 is not a number > 0 (mm)"
         );
+    }
+}
+
+/// `--frame-times` / `frame_times` as `spelling` names options.
+fn frame_times_name(spelling: Spelling) -> &'static str {
+    if spelling.name("frame_rate_hz").starts_with("--") {
+        "--frame-times"
+    } else {
+        "frame_times"
     }
 }
