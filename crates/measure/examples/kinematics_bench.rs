@@ -68,6 +68,7 @@ fn main() {
                     camera,
                     marker: format!("m{k:02}"),
                     pixel: Vector2::new(1000.0 * p.x / p.z + 500.0, 1000.0 * p.y / p.z + 500.0),
+                    sigma: None,
                     line: obs.len() as u64 + 2,
                 });
             }
@@ -79,6 +80,7 @@ fn main() {
         pixel_sigma_px: 0.2,
         reference_epoch: None,
         frame_rate_hz: Some(hz),
+        frame_times: None,
         threshold_mm: 5.0,
         max_reprojection_px: None,
         cfc: cfc.map(|standard| CfcSpec {

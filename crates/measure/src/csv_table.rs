@@ -34,6 +34,27 @@ pub(crate) fn for_each_row<const N: usize>(
     columns: &[&str; N],
     mut row: impl FnMut(u64, [&str; N]) -> Result<(), Error>,
 ) -> Result<(), Error> {
+    for_each_row_with(
+        path,
+        columns,
+        &[],
+        |_| Ok(()),
+        |line, fields, []| row(line, fields),
+    )
+}
+
+/// [`for_each_row`] with `optional` columns besides the required `columns`: the header names
+/// every required column once and any of the optional ones at most once (nothing else);
+/// `header(present)` is called with which optional columns the header holds (an `Err` is a
+/// problem of line 1), and `row(line, fields, optional)` gets each optional column's field,
+/// `None` where the header lacks the column.
+pub(crate) fn for_each_row_with<const N: usize, const M: usize>(
+    path: &Path,
+    columns: &[&str; N],
+    optional: &[&str; M],
+    header: impl FnOnce([bool; M]) -> Result<(), String>,
+    mut row: impl FnMut(u64, [&str; N], [Option<&str>; M]) -> Result<(), Error>,
+) -> Result<(), Error> {
     let bytes =
         input_file::read_limited(path, input_file::MAX_CSV_BYTES).map_err(|source| Error::Io {
             path: path.to_path_buf(),
@@ -50,30 +71,50 @@ pub(crate) fn for_each_row<const N: usize>(
     let headers = reader
         .headers()
         .map_err(|e| csv_error(path, 1, format!("cannot read the header: {e}")))?;
-    let index = column_index(headers, columns).map_err(|p| csv_error(path, 1, p))?;
+    let (index, extra) =
+        column_index(headers, columns, optional).map_err(|p| csv_error(path, 1, p))?;
+    header(extra.map(|i| i.is_some())).map_err(|p| csv_error(path, 1, p))?;
     for record in reader.records() {
         let record = record.map_err(|e| {
             let line = e.position().map_or(0, |p| p.line());
             csv_error(path, line, format!("malformed CSV: {e}"))
         })?;
         let line = record.position().map_or(0, |p| p.line());
-        row(line, index.map(|i| record.get(i).unwrap_or("")))?;
+        row(
+            line,
+            index.map(|i| record.get(i).unwrap_or("")),
+            extra.map(|i| i.map(|i| record.get(i).unwrap_or(""))),
+        )?;
     }
     Ok(())
 }
 
-/// The position in `headers` of each of `columns`: each exactly once, nothing else.
-fn column_index<const N: usize>(
+/// The position in `headers` of each of `columns` (each exactly once) and of each of
+/// `optional` (at most once); nothing else.
+fn column_index<const N: usize, const M: usize>(
     headers: &csv::StringRecord,
     columns: &[&str; N],
-) -> Result<[usize; N], String> {
+    optional: &[&str; M],
+) -> Result<([usize; N], [Option<usize>; M]), String> {
     let mut index = [usize::MAX; N];
-    let all = columns.join(",");
+    let mut extra = [None; M];
+    let mut all = columns.join(",");
+    if M > 0 {
+        all = format!("{all} and optionally {}", optional.join(","));
+    }
     for (i, h) in headers.iter().enumerate() {
-        match columns.iter().position(|c| *c == h) {
-            Some(k) if index[k] == usize::MAX => index[k] = i,
-            Some(_) => return Err(format!("column `{h}` appears twice")),
-            None => return Err(format!("unknown column `{h}` (the columns are {all})")),
+        if let Some(k) = columns.iter().position(|c| *c == h) {
+            if index[k] != usize::MAX {
+                return Err(format!("column `{h}` appears twice"));
+            }
+            index[k] = i;
+        } else if let Some(k) = optional.iter().position(|c| *c == h) {
+            if extra[k].is_some() {
+                return Err(format!("column `{h}` appears twice"));
+            }
+            extra[k] = Some(i);
+        } else {
+            return Err(format!("unknown column `{h}` (the columns are {all})"));
         }
     }
     match index.iter().position(|&i| i == usize::MAX) {
@@ -81,7 +122,7 @@ fn column_index<const N: usize>(
             "missing column `{}` (the columns are {all})",
             columns[k]
         )),
-        None => Ok(index),
+        None => Ok((index, extra)),
     }
 }
 

@@ -2,11 +2,11 @@
 //! outward camera's pose covariance (JSON).
 
 use crate::Error;
-use crate::csv_table::{csv_error, for_each_row, not_utf8};
+use crate::csv_table::{csv_error, for_each_row, for_each_row_with, not_utf8};
 use crashrig_geometry::uncertain::COVARIANCE_RELATIVE_TOLERANCE;
 use crashrig_geometry::{Mat6, Rigid3, UncertainPose};
 use crashrig_input::file as input_file;
-use nalgebra::Vector2;
+use nalgebra::{Matrix2, Vector2};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
@@ -41,8 +41,73 @@ pub struct Observation {
     pub marker: String,
     /// Pixel position, COLMAP convention (centre of the upper-left pixel at (0.5, 0.5)).
     pub pixel: Vector2<f64>,
+    /// This observation's own pixel noise (the `sigma_u_px,sigma_v_px[,rho_uv]` columns);
+    /// `None`: the measurement's `pixel_sigma_px` on each axis.
+    pub sigma: Option<PixelSigma>,
     /// 1-based line in the file (for messages).
     pub line: u64,
+}
+
+/// One observation's pixel noise: σ of u and of v (px, > 0) and their correlation ρ
+/// (|ρ| < 1), i.e. the covariance `Σ = [[σu², ρσuσv], [ρσuσv, σv²]]` (px²).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PixelSigma {
+    /// σ of the u coordinate (px).
+    pub sigma_u_px: f64,
+    /// σ of the v coordinate (px).
+    pub sigma_v_px: f64,
+    /// Correlation of the u and v errors (0 when the file has no `rho_uv`).
+    pub rho_uv: f64,
+}
+
+impl PixelSigma {
+    /// σ on both axes, uncorrelated.
+    pub fn isotropic(sigma_px: f64) -> PixelSigma {
+        PixelSigma {
+            sigma_u_px: sigma_px,
+            sigma_v_px: sigma_px,
+            rho_uv: 0.0,
+        }
+    }
+
+    /// The covariance Σ (px²).
+    pub fn covariance(&self) -> Matrix2<f64> {
+        let c = self.rho_uv * self.sigma_u_px * self.sigma_v_px;
+        Matrix2::new(
+            self.sigma_u_px * self.sigma_u_px,
+            c,
+            c,
+            self.sigma_v_px * self.sigma_v_px,
+        )
+    }
+
+    /// The lower Cholesky factor `L` of Σ (`L·Lᵀ = Σ`): `L·ε` with `ε ~ N(0, I₂)` is one
+    /// draw of the pixel noise.
+    pub fn factor(&self) -> Matrix2<f64> {
+        let (su, sv, rho) = (self.sigma_u_px, self.sigma_v_px, self.rho_uv);
+        Matrix2::new(su, 0.0, rho * sv, sv * (1.0 - rho * rho).sqrt())
+    }
+
+    /// Checks σ > 0 and finite, |ρ| < 1 and finite; the problem in words otherwise.
+    pub fn check(&self) -> Result<(), String> {
+        for (name, v) in [
+            ("sigma_u_px", self.sigma_u_px),
+            ("sigma_v_px", self.sigma_v_px),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!(
+                    "{name} is {v}: a pixel σ must be a finite number > 0 (px)"
+                ));
+            }
+        }
+        if !(self.rho_uv.is_finite() && self.rho_uv.abs() < 1.0) {
+            return Err(format!(
+                "rho_uv is {}: a correlation must be a finite number with |ρ| < 1",
+                self.rho_uv
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// How the `camera` column names the inward cameras: the letters `B`/`C` always, and the
@@ -92,79 +157,147 @@ impl CameraNames {
 /// The columns of the observations CSV, in any order.
 pub const OBSERVATION_COLUMNS: [&str; 5] = ["epoch", "camera", "marker", "u_px", "v_px"];
 
-/// Reads the observations CSV (`epoch,camera,marker,u_px,v_px`; see `docs/MEASURE.md`).
+/// The optional columns of the observations CSV: each observation's own pixel σ
+/// (`sigma_u_px` and `sigma_v_px` together, or neither) and their correlation `rho_uv`
+/// (needs the two σ).
+pub const OBSERVATION_SIGMA_COLUMNS: [&str; 3] = ["sigma_u_px", "sigma_v_px", "rho_uv"];
+
+/// Reads the observations CSV (`epoch,camera,marker,u_px,v_px` and optionally
+/// `sigma_u_px,sigma_v_px[,rho_uv]`; see `docs/MEASURE.md`).
 ///
-/// The header must hold exactly the five columns (any order); the `camera` column holds `B`,
-/// `C` or the COLMAP camera id of B or C ([`CameraNames`]); pixels must be finite; an
-/// `(epoch, camera, marker)` may appear once.
+/// The header must hold the five columns (any order), and may hold `sigma_u_px` and
+/// `sigma_v_px` (both or neither) and `rho_uv` (only with them); the `camera` column holds
+/// `B`, `C` or the COLMAP camera id of B or C ([`CameraNames`]); pixels must be finite; an
+/// `(epoch, camera, marker)` may appear once. A row whose two σ cells are empty (and whose
+/// `rho_uv` is empty) has no σ of its own ([`Observation::sigma`] `None`); otherwise both σ
+/// must be finite numbers > 0 and ρ (empty: 0) a finite number with |ρ| < 1
+/// ([`PixelSigma::check`]).
 ///
 /// # Errors
 /// [`Error::Io`], and [`Error::Csv`] naming the line for every problem above (an empty file is
-/// line 1).
+/// line 1; a σ column without the other, or `rho_uv` without them, is line 1).
 pub fn read_observations(path: &Path, names: &CameraNames) -> Result<Vec<Observation>, Error> {
     let bad = |line: u64, problem: String| csv_error(path, line, problem);
     let mut out = Vec::new();
     let mut seen: HashMap<(String, Inward, String), u64> = HashMap::new();
-    for_each_row(path, &OBSERVATION_COLUMNS, |line, fields| {
-        let [epoch, camera, marker, _, _] = fields;
-        if epoch.is_empty() {
-            return Err(bad(line, "empty epoch".into()));
-        }
-        let camera = names.parse(camera).ok_or_else(|| {
-            bad(
-                line,
-                format!(
-                    "unknown camera `{camera}` (expected one of {})",
-                    names.expected()
-                ),
-            )
-        })?;
-        if marker.is_empty() {
-            return Err(bad(line, "empty marker name".into()));
-        }
-        let mut px = [0.0; 2];
-        for (j, k) in [3, 4].into_iter().enumerate() {
-            let text = fields[k];
-            let v: f64 = text.parse().map_err(|_| {
+    let header = |[u, v, rho]: [bool; 3]| match (u, v, rho) {
+        (true, false, _) => Err(
+            "column `sigma_u_px` without `sigma_v_px` (give both σ columns, or neither)"
+                .to_string(),
+        ),
+        (false, true, _) => Err(
+            "column `sigma_v_px` without `sigma_u_px` (give both σ columns, or neither)"
+                .to_string(),
+        ),
+        (false, false, true) => Err(
+            "column `rho_uv` without `sigma_u_px` and `sigma_v_px` (the correlation of the two σ)"
+                .to_string(),
+        ),
+        _ => Ok(()),
+    };
+    for_each_row_with(
+        path,
+        &OBSERVATION_COLUMNS,
+        &OBSERVATION_SIGMA_COLUMNS,
+        header,
+        |line, fields, sigma_fields| {
+            let [epoch, camera, marker, _, _] = fields;
+            if epoch.is_empty() {
+                return Err(bad(line, "empty epoch".into()));
+            }
+            let camera = names.parse(camera).ok_or_else(|| {
                 bad(
                     line,
-                    format!("{} `{text}` is not a number", OBSERVATION_COLUMNS[k]),
+                    format!(
+                        "unknown camera `{camera}` (expected one of {})",
+                        names.expected()
+                    ),
                 )
             })?;
-            if !v.is_finite() {
+            if marker.is_empty() {
+                return Err(bad(line, "empty marker name".into()));
+            }
+            let mut px = [0.0; 2];
+            for (j, k) in [3, 4].into_iter().enumerate() {
+                let text = fields[k];
+                let v: f64 = text.parse().map_err(|_| {
+                    bad(
+                        line,
+                        format!("{} `{text}` is not a number", OBSERVATION_COLUMNS[k]),
+                    )
+                })?;
+                if !v.is_finite() {
+                    return Err(bad(
+                        line,
+                        format!(
+                            "{} is {text}: pixels must be finite",
+                            OBSERVATION_COLUMNS[k]
+                        ),
+                    ));
+                }
+                px[j] = v;
+            }
+            let sigma = pixel_sigma(sigma_fields).map_err(|p| bad(line, p))?;
+            let key = (epoch.to_string(), camera, marker.to_string());
+            if let Some(first) = seen.insert(key, line) {
                 return Err(bad(
                     line,
                     format!(
-                        "{} is {text}: pixels must be finite",
-                        OBSERVATION_COLUMNS[k]
+                        "marker `{marker}` seen by camera {} in epoch `{epoch}` again (first on line {first})",
+                        camera.letter()
                     ),
                 ));
             }
-            px[j] = v;
-        }
-        let key = (epoch.to_string(), camera, marker.to_string());
-        if let Some(first) = seen.insert(key, line) {
-            return Err(bad(
+            out.push(Observation {
+                epoch: epoch.to_string(),
+                camera,
+                marker: marker.to_string(),
+                pixel: Vector2::new(px[0], px[1]),
+                sigma,
                 line,
-                format!(
-                    "marker `{marker}` seen by camera {} in epoch `{epoch}` again (first on line {first})",
-                    camera.letter()
-                ),
-            ));
-        }
-        out.push(Observation {
-            epoch: epoch.to_string(),
-            camera,
-            marker: marker.to_string(),
-            pixel: Vector2::new(px[0], px[1]),
-            line,
-        });
-        Ok(())
-    })?;
+            });
+            Ok(())
+        },
+    )?;
     if out.is_empty() {
         return Err(bad(1, "no observations".into()));
     }
     Ok(out)
+}
+
+/// One row's σ cells (`None` where the header lacks the column) → its own pixel σ, `None` when
+/// every cell is empty (the measurement's `pixel_sigma_px` applies).
+fn pixel_sigma([u, v, rho]: [Option<&str>; 3]) -> Result<Option<PixelSigma>, String> {
+    let (u, v, rho) = (u.unwrap_or(""), v.unwrap_or(""), rho.unwrap_or(""));
+    if u.is_empty() && v.is_empty() {
+        return match rho.is_empty() {
+            true => Ok(None),
+            false => Err(format!(
+                "rho_uv is `{rho}` but sigma_u_px and sigma_v_px are empty (a correlation needs its two σ)"
+            )),
+        };
+    }
+    let number = |name: &str, text: &str| -> Result<f64, String> {
+        if text.is_empty() {
+            return Err(format!(
+                "{name} is empty but the other σ of the row is given (give both, or neither for --pixel-sigma-px)"
+            ));
+        }
+        text.parse()
+            .map_err(|_| format!("{name} `{text}` is not a number"))
+    };
+    let s = PixelSigma {
+        sigma_u_px: number("sigma_u_px", u)?,
+        sigma_v_px: number("sigma_v_px", v)?,
+        rho_uv: match rho.is_empty() {
+            true => 0.0,
+            false => rho
+                .parse()
+                .map_err(|_| format!("rho_uv `{rho}` is not a number"))?,
+        },
+    };
+    s.check()?;
+    Ok(Some(s))
 }
 
 /// Reads the text file `path` through [`input_file::read_text_limited`]: a FIFO, device or
@@ -591,4 +724,164 @@ pub fn model_scale(
             problem: "missing: the model's units are never guessed; give mm per model unit (1000 for a model in metres, 1 for millimetres), or an A covariance from `crashrig covariance` that states mm_per_unit".into(),
         }),
     }
+}
+
+/// The columns of a frame-times CSV (`track`'s `frames.csv`).
+pub const FRAME_TIME_COLUMNS: [&str; 2] = ["epoch", "time_s"];
+
+/// Most relative deviation of a frame interval from the mean interval that the CFC filter
+/// accepts ([`FrameTimes::uniform_interval`]): SAE J211-1 and ISO 6487 filter a record of one
+/// sampling interval; a camera clock's jitter of up to 1 % of the interval moves a sample by
+/// at most 1 % of one frame's motion.
+pub const MAX_INTERVAL_DEVIATION: f64 = 0.01;
+
+/// Each frame's time from the camera's own clock (`--frame-times`, header `epoch,time_s`, as
+/// `crashrig track` writes `frames.csv`): the time axis of velocities, the CFC filter and the
+/// ISO-MME export instead of `frame / --frame-rate-hz`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameTimes {
+    /// The file (for messages).
+    pub path: PathBuf,
+    /// `(epoch, time_s)` in file order, times strictly increasing.
+    pub frames: Vec<(String, f64)>,
+    index: HashMap<String, usize>,
+}
+
+impl FrameTimes {
+    /// Frame times from `(epoch, time_s)` pairs in their order (the index of a pair is its
+    /// frame number); `None` for no pair, a repeated epoch, a time that is not finite or that
+    /// does not increase.
+    pub fn new(path: PathBuf, frames: Vec<(String, f64)>) -> Option<FrameTimes> {
+        let mut index = HashMap::new();
+        for (i, (e, t)) in frames.iter().enumerate() {
+            if !t.is_finite() || index.insert(e.clone(), i).is_some() {
+                return None;
+            }
+            if i > 0 && frames[i - 1].1 >= *t {
+                return None;
+            }
+        }
+        (!frames.is_empty()).then_some(FrameTimes {
+            path,
+            frames,
+            index,
+        })
+    }
+
+    /// The frame number (index in the file) and time of the epoch known by `names` (any
+    /// spelling: name or key).
+    pub fn lookup(&self, names: &[&str]) -> Option<(u64, f64)> {
+        names
+            .iter()
+            .find_map(|n| self.index.get(*n))
+            .map(|&i| (i as u64, self.frames[i].1))
+    }
+
+    /// The mean interval (s) between the file's frames, `(t_last − t_first) / (n − 1)`;
+    /// `None` for a single frame.
+    pub fn mean_interval_s(&self) -> Option<f64> {
+        let n = self.frames.len();
+        (n >= 2).then(|| (self.frames[n - 1].1 - self.frames[0].1) / (n - 1) as f64)
+    }
+
+    /// The file's largest deviation of an interval from the mean interval, relative to it,
+    /// with the two epochs of that interval.
+    pub fn largest_deviation(&self) -> Option<(f64, &str, &str, f64)> {
+        let mean = self.mean_interval_s()?;
+        self.frames
+            .windows(2)
+            .map(|w| {
+                let dt = w[1].1 - w[0].1;
+                (
+                    (dt - mean).abs() / mean,
+                    w[0].0.as_str(),
+                    w[1].0.as_str(),
+                    dt,
+                )
+            })
+            .max_by(|a, b| a.0.total_cmp(&b.0))
+    }
+
+    /// The one sampling interval (s) of the file for the CFC filter: the mean interval, when
+    /// every interval is within [`MAX_INTERVAL_DEVIATION`] of it.
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming the file, the interval that deviates most and why the filter
+    /// needs one interval.
+    pub fn uniform_interval(&self) -> Result<f64, Error> {
+        let mean = self.mean_interval_s().ok_or_else(|| {
+            Error::Input(format!(
+                "{}: one frame time: the CFC filter needs a sampling interval",
+                self.path.display()
+            ))
+        })?;
+        match self.largest_deviation() {
+            Some((dev, a, b, dt)) if dev > MAX_INTERVAL_DEVIATION => Err(Error::Input(format!(
+                "{}: the frame interval from epoch `{a}` to `{b}` is {:.6} ms, {:.1} % off the mean interval of {:.6} ms: the CFC filter of SAE J211-1 / ISO 6487 is a recursive digital filter of one sampling interval and is defined only for equally spaced samples (at most {:.0} % deviation accepted); measure without --cfc (velocities then use the real frame times) or resample the series",
+                self.path.display(),
+                dt * 1e3,
+                100.0 * dev,
+                mean * 1e3,
+                100.0 * MAX_INTERVAL_DEVIATION
+            ))),
+            _ => Ok(mean),
+        }
+    }
+}
+
+/// Reads a frame-times CSV (`epoch,time_s`, any column order; `crashrig track`'s
+/// `frames.csv`): one line per frame in frame order, times in seconds strictly increasing.
+///
+/// # Errors
+/// [`Error::Io`], and [`Error::Csv`] naming the line: a missing or unknown column, an empty
+/// epoch, an epoch named twice, an empty `time_s` (frames from an image directory have no
+/// clock: use `--frame-rate-hz`), a time that is not a finite number or not greater than the
+/// previous line's, no frame at all.
+pub fn read_frame_times(path: &Path) -> Result<FrameTimes, Error> {
+    let bad = |line: u64, problem: String| csv_error(path, line, problem);
+    let mut frames: Vec<(String, f64)> = Vec::new();
+    let mut seen: HashMap<String, u64> = HashMap::new();
+    let mut last: Option<(f64, u64)> = None;
+    crate::csv_table::for_each_row(path, &FRAME_TIME_COLUMNS, |line, [epoch, time]| {
+        if epoch.is_empty() {
+            return Err(bad(line, "empty epoch".into()));
+        }
+        if time.is_empty() {
+            return Err(bad(
+                line,
+                format!(
+                    "time_s of epoch `{epoch}` is empty (frames without a clock: give --frame-rate-hz instead)"
+                ),
+            ));
+        }
+        let t: f64 = time
+            .parse()
+            .map_err(|_| bad(line, format!("time_s `{time}` is not a number (s)")))?;
+        if !t.is_finite() {
+            return Err(bad(
+                line,
+                format!("time_s is {time}: times must be finite (s)"),
+            ));
+        }
+        if let Some((prev, prev_line)) = last
+            && t <= prev
+        {
+            return Err(bad(
+                line,
+                format!(
+                    "time_s {t} s of epoch `{epoch}` does not increase (line {prev_line} has {prev} s): frame times must increase along the sequence"
+                ),
+            ));
+        }
+        if let Some(first) = seen.insert(epoch.to_string(), line) {
+            return Err(bad(
+                line,
+                format!("epoch `{epoch}` again (first on line {first})"),
+            ));
+        }
+        last = Some((t, line));
+        frames.push((epoch.to_string(), t));
+        Ok(())
+    })?;
+    FrameTimes::new(path.to_path_buf(), frames).ok_or_else(|| bad(1, "no frame times".into()))
 }

@@ -186,7 +186,15 @@ pub fn export(cfg: &ExportConfig) -> Result<Export, Error> {
     } else {
         ("displacements.csv", dir.join("displacements.csv"))
     };
-    let rows = read_rows(&csv_path, hz)?;
+    // With frame times (`measure --frame-times`): the axis starts at the file's first frame
+    // and steps by its mean interval; every row must sit on that axis.
+    let axis = summary.get("frame_times").and_then(|f| {
+        Some((
+            f.get("first_time_s")?.as_f64()?,
+            f.get("mean_interval_s")?.as_f64()?,
+        ))
+    });
+    let rows = read_rows(&csv_path, hz, axis)?;
     let filter_class = match cfc {
         Some(1000) => 'A',
         Some(600) => 'B',
@@ -264,7 +272,10 @@ pub fn export(cfg: &ExportConfig) -> Result<Export, Error> {
         t: &cfg.test_number,
         source,
         hz,
-        first_time: first as f64 / hz,
+        first_time: match axis {
+            Some((t0, dt)) => t0 + first as f64 * dt,
+            None => first as f64 / hz,
+        },
         cfc,
         filtered: filtered.as_deref(),
         filter_class,
@@ -391,7 +402,10 @@ struct Row {
     s_mm: Option<Vec3>,
 }
 
-fn read_rows(path: &Path, hz: f64) -> Result<Vec<Row>, Error> {
+/// The displacement rows of `path`; each row's frame is `time_s · hz`, or with `axis`
+/// (`(first_time_s, interval_s)` of the frame times) `(time_s − first) / interval`, which must
+/// be a whole frame to within [`crate::input::MAX_INTERVAL_DEVIATION`] of an interval.
+fn read_rows(path: &Path, hz: f64, axis: Option<(f64, f64)>) -> Result<Vec<Row>, Error> {
     let text = read_text(path, input_file::MAX_CSV_BYTES)?;
     let bad = |line: u64, problem: String| Error::Csv {
         path: path.to_path_buf(),
@@ -433,7 +447,23 @@ fn read_rows(path: &Path, hz: f64) -> Result<Vec<Row>, Error> {
             }
         };
         let time = num(1)?.ok_or_else(|| bad(line, "time_s is empty".into()))?;
-        let frame = (time * hz).round();
+        let frame = match axis {
+            Some((t0, dt)) => {
+                let f = ((time - t0) / dt).round();
+                let off = (time - (t0 + f * dt)).abs() / dt;
+                if off > crate::input::MAX_INTERVAL_DEVIATION {
+                    return Err(bad(
+                        line,
+                        format!(
+                            "time_s {time} lies {:.1} % of an interval off the frame axis {t0} s + k · {dt} s of the measure run's frame times: an ISO-MME channel has one sampling interval",
+                            100.0 * off
+                        ),
+                    ));
+                }
+                f
+            }
+            None => (time * hz).round(),
+        };
         if !(0.0..=9.0e15).contains(&frame) {
             return Err(bad(line, format!("time_s {time} is not a frame time ≥ 0")));
         }

@@ -76,6 +76,7 @@
 //!             camera,
 //!             marker: "head".into(),
 //!             pixel: Vector2::new(u, 500.0),
+//!             sigma: None,
 //!             line: 2 + obs.len() as u64,
 //!         });
 //!     }
@@ -86,6 +87,7 @@
 //!     pixel_sigma_px: 0.1,
 //!     reference_epoch: None,
 //!     frame_rate_hz: Some(1000.0),
+//!     frame_times: None,
 //!     threshold_mm: 5.0,
 //!     max_reprojection_px: None,
 //!     cfc: None,
@@ -115,6 +117,7 @@ pub mod kinematics;
 pub mod length;
 mod options;
 pub mod output;
+pub mod pixel_check;
 pub mod plausible;
 mod run;
 pub mod sequence;

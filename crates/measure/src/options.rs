@@ -81,6 +81,10 @@ pub struct MeasureOptions {
     /// [`MeasureOptions::scale_bars`].
     #[serde(default)]
     pub mpe_mm: Option<f64>,
+    /// Each frame's time (CSV `epoch,time_s`): the time axis instead of
+    /// [`MeasureOptions::frame_rate_hz`], which it excludes.
+    #[serde(default)]
+    pub frame_times: Option<PathBuf>,
 }
 
 impl MeasureOptions {
@@ -143,6 +147,7 @@ impl MeasureOptions {
             sync_sigma_ms: 0.0,
             scale_bars: None,
             mpe_mm: None,
+            frame_times: None,
         }
     }
 
@@ -210,6 +215,7 @@ impl MeasureOptions {
             }
             _ => {}
         }
+        let (frame_rate_hz, frame_times) = self.time_axis(spelling)?;
         let given = self
             .mm_per_unit
             .map(|f| check_mm_per_unit(f, name("mm_per_unit")))
@@ -251,7 +257,8 @@ impl MeasureOptions {
                 seed: self.seed.unwrap_or(DEFAULT_SEED),
                 pixel_sigma_px: self.pixel_sigma_px,
                 reference_epoch: self.reference_epoch.clone(),
-                frame_rate_hz: self.frame_rate_hz,
+                frame_rate_hz,
+                frame_times,
                 threshold_mm: self.threshold_mm,
                 max_reprojection_px: self.max_reprojection_px,
                 cfc,
@@ -263,6 +270,37 @@ impl MeasureOptions {
             }),
             out: self.out.clone(),
         })
+    }
+
+    /// The time axis: [`MeasureOptions::frame_rate_hz`] as given, or the frame times read
+    /// with the rate of their mean interval (with a CFC filter: the one interval the filter
+    /// runs on, [`input::FrameTimes::uniform_interval`]).
+    fn time_axis(
+        &self,
+        spelling: Spelling,
+    ) -> Result<(Option<f64>, Option<input::FrameTimes>), Error> {
+        let Some(path) = &self.frame_times else {
+            return Ok((self.frame_rate_hz, None));
+        };
+        if self.frame_rate_hz.is_some() {
+            return Err(Error::Usage(format!(
+                "{} ({}) and {} exclude each other: the frame times are the time axis",
+                frame_times_name(spelling),
+                path.display(),
+                spelling.name("frame_rate_hz")
+            )));
+        }
+        let times = input::read_frame_times(path)?;
+        let interval = match self.cfc {
+            Some(_) => times.uniform_interval()?,
+            None => times.mean_interval_s().ok_or_else(|| {
+                Error::Input(format!(
+                    "{}: one frame time is no time axis (velocities need two frames)",
+                    path.display()
+                ))
+            })?,
+        };
+        Ok((Some(1.0 / interval), Some(times)))
     }
 
     /// The warnings of a finished run, in the order the command prints them: A treated as
@@ -278,10 +316,18 @@ impl MeasureOptions {
             ));
         }
         all.extend(run.warnings.iter().cloned());
+        // With frame times, the rate of their mean interval, named by the file's flag.
+        let (rate, rate_name) = match self.frame_times {
+            Some(_) => (
+                run.summary.numbers.frame_rate_hz,
+                frame_times_name(spelling),
+            ),
+            None => (self.frame_rate_hz, spelling.name("frame_rate_hz")),
+        };
         all.extend(crate::plausible::warnings(
             &run.measurement,
-            self.frame_rate_hz,
-            spelling.name("frame_rate_hz"),
+            rate,
+            rate_name,
             spelling.name("mm_per_unit"),
         ));
         all
@@ -385,5 +431,14 @@ mod tests {
             message(&mpe, Spelling::Keyword),
             "mpe_mm: -1 is not a number > 0 (mm)"
         );
+    }
+}
+
+/// `--frame-times` / `frame_times` as `spelling` names options.
+fn frame_times_name(spelling: Spelling) -> &'static str {
+    if spelling.name("frame_rate_hz").starts_with("--") {
+        "--frame-times"
+    } else {
+        "frame_times"
     }
 }

@@ -34,7 +34,7 @@
 //! for e in &epochs {
 //!     for (camera, u) in [(Inward::B, 625.0), (Inward::C, 375.0)] {
 //!         let line = 2 + obs.len() as u64;
-//!         obs.push(Observation { epoch: e.name.clone(), camera, marker: "head".into(), pixel: Vector2::new(u, 500.0), line });
+//!         obs.push(Observation { epoch: e.name.clone(), camera, marker: "head".into(), pixel: Vector2::new(u, 500.0), sigma: None, line });
 //!     }
 //! }
 //! let settings = Settings {
@@ -43,6 +43,7 @@
 //!     pixel_sigma_px: 0.0,
 //!     reference_epoch: None,
 //!     frame_rate_hz: None,
+//!     frame_times: None,
 //!     threshold_mm: 5.0,
 //!     max_reprojection_px: None,
 //!     cfc: None,
@@ -696,8 +697,11 @@ pub struct Summary {
     pub seed: u64,
     /// Reference epoch of the displacements.
     pub reference_epoch: String,
-    /// Frame rate (Hz), if given.
+    /// Frame rate (Hz), if given (with frame times: the rate of their mean interval).
     pub frame_rate_hz: Option<f64>,
+    /// The frame times' time axis (with `--frame-times`; absent otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frame_times: Option<FrameTimesSummary>,
     /// σ of each pixel coordinate (px).
     pub pixel_sigma_px: f64,
     /// Reprojection limit used for the outlier flag (px).
@@ -733,6 +737,121 @@ pub struct Summary {
     /// The length check, one entry per scale bar (with `--scale-bars`; absent otherwise).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub length_check: Option<Vec<BarSummary>>,
+    /// The pixel σ checked on the sequence's own residuals ([`crate::pixel_check`]; with B
+    /// and C; absent otherwise). Set by [`crate::run`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pixel_sigma_check: Option<PixelCheckSummary>,
+}
+
+/// `summary.json` → `frame_times`: the time axis of `--frame-times`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FrameTimesSummary {
+    /// The file.
+    pub file: String,
+    /// Frames in the file.
+    pub frames: usize,
+    /// The first frame's time (s).
+    pub first_time_s: f64,
+    /// The mean interval (s): `frame_rate_hz` is its inverse.
+    pub mean_interval_s: f64,
+    /// The largest deviation of an interval from the mean, relative to it.
+    pub max_interval_deviation: f64,
+}
+
+impl FrameTimesSummary {
+    fn new(f: &crate::input::FrameTimes) -> FrameTimesSummary {
+        FrameTimesSummary {
+            file: f.path.display().to_string(),
+            frames: f.frames.len(),
+            first_time_s: f.frames[0].1,
+            mean_interval_s: f.mean_interval_s().unwrap_or(f64::NAN),
+            max_interval_deviation: f.largest_deviation().map_or(0.0, |d| d.0),
+        }
+    }
+}
+
+/// `summary.json` → `pixel_sigma_check` (or one camera's part of it under `per_camera`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SigmaRatioSummary {
+    /// Degrees of freedom: `N − r` (common; an integer), or the effective ν per camera.
+    pub redundancy: f64,
+    /// The residuals' size against the stated σ's prediction (1 on honest σ).
+    pub sigma_ratio: f64,
+    /// Its two-sided 99 % band for this redundancy, `[low, high]`.
+    pub sigma_ratio_band_99: [f64; 2],
+    /// The true pixel σ (px): `sigma_ratio` × the stated σ.
+    pub estimate_px: f64,
+    /// Its 95 % interval (px), `[low, high]`.
+    pub estimate_95_px: [f64; 2],
+    /// The stated σ the ratio refers to (px; the RMS of per-observation σ).
+    pub stated_px: f64,
+    /// `consistent`, `sigma_too_small` or `sigma_too_large`.
+    pub verdict: &'static str,
+}
+
+impl SigmaRatioSummary {
+    fn new(r: &crate::pixel_check::SigmaRatio) -> SigmaRatioSummary {
+        SigmaRatioSummary {
+            redundancy: r.redundancy,
+            sigma_ratio: r.sigma_ratio,
+            sigma_ratio_band_99: [r.sigma_ratio_band_99.0, r.sigma_ratio_band_99.1],
+            estimate_px: r.estimate_px,
+            estimate_95_px: [r.estimate_95_px.0, r.estimate_95_px.1],
+            stated_px: r.stated_px,
+            verdict: r.verdict.name(),
+        }
+    }
+}
+
+/// B's and C's own checks (`per_camera`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PerCameraSummary {
+    /// Camera B.
+    #[serde(rename = "B")]
+    pub b: SigmaRatioSummary,
+    /// Camera C.
+    #[serde(rename = "C")]
+    pub c: SigmaRatioSummary,
+}
+
+/// `summary.json` → `pixel_sigma_check` ([`crate::pixel_check`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PixelCheckSummary {
+    /// The common check over both cameras.
+    #[serde(flatten)]
+    pub common: SigmaRatioSummary,
+    /// Marker-epochs seen by B and C.
+    pub marker_epochs: usize,
+    /// Directions of the tie's effect projected out.
+    pub tie_directions: usize,
+    /// Where the stated σ came from: `pixel_sigma_px`, `observations` (every observation its
+    /// own), `observations_and_pixel_sigma_px` (some).
+    pub stated_from: &'static str,
+    /// Per camera, where the geometry separates them; `null` otherwise.
+    pub per_camera: Option<PerCameraSummary>,
+    /// Why `per_camera` is `null`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub per_camera_note: Option<String>,
+}
+
+impl PixelCheckSummary {
+    /// The summary of `c`; `stated_from` as [`PixelCheckSummary::stated_from`].
+    pub fn new(
+        c: &crate::pixel_check::PixelSigmaCheck,
+        stated_from: &'static str,
+    ) -> PixelCheckSummary {
+        PixelCheckSummary {
+            common: SigmaRatioSummary::new(&c.common),
+            marker_epochs: c.marker_epochs,
+            tie_directions: c.tie_directions,
+            stated_from,
+            per_camera: c.per_camera.as_ref().map(|[b, cc]| PerCameraSummary {
+                b: SigmaRatioSummary::new(b),
+                c: SigmaRatioSummary::new(cc),
+            }),
+            per_camera_note: c.per_camera_note.clone(),
+        }
+    }
 }
 
 impl Summary {
@@ -757,6 +876,7 @@ impl Summary {
             seed: settings.seed,
             reference_epoch: m.epochs[m.reference_epoch].name.clone(),
             frame_rate_hz: settings.frame_rate_hz,
+            frame_times: settings.frame_times.as_ref().map(FrameTimesSummary::new),
             pixel_sigma_px: settings.pixel_sigma_px,
             max_reprojection_px: m.reprojection_limit_px,
             mm_per_unit,
@@ -778,6 +898,7 @@ impl Summary {
                     .map(|b| BarSummary::new(b, lc.mpe_mm.is_some()))
                     .collect()
             }),
+            pixel_sigma_check: None,
         }
     }
 }

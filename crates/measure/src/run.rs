@@ -26,6 +26,7 @@
 //!         pixel_sigma_px: 0.1,
 //!         reference_epoch: None,
 //!         frame_rate_hz: None,
+//!         frame_times: None,
 //!         threshold_mm: 5.0,
 //!         max_reprojection_px: None,
 //!         cfc: None,
@@ -125,6 +126,8 @@ pub struct MeasureConfig {
 pub struct MeasureRun {
     /// The rows, epochs and markers (typed).
     pub measurement: Measurement,
+    /// The pixel σ checked on the sequence's residuals (with B and C; [`crate::pixel_check`]).
+    pub pixel_sigma_check: Option<crate::pixel_check::PixelSigmaCheck>,
     /// `summary.json` (its numbers, skipped epochs, names, the files written, the time).
     pub summary: SummaryDocument,
     /// Warnings for the user (epochs of the observations without a pose of camera A, scale
@@ -231,7 +234,25 @@ pub(crate) fn run_parts(
     if let Some(lc) = &measurement.length_check {
         warnings.extend(lc.warnings());
     }
+    let check = crate::pixel_check::pixel_sigma_check(
+        &epochs,
+        &rig,
+        &observations,
+        config.settings.pixel_sigma_px,
+    );
+    if let Some(w) = check.as_ref().and_then(|c| c.warning()) {
+        warnings.push(w);
+    }
     let mut summary = summary_document(&measurement, config, &warnings);
+    summary.numbers.pixel_sigma_check = check.as_ref().map(|c| {
+        let own = observations.iter().filter(|o| o.sigma.is_some()).count();
+        let from = match own {
+            0 => "pixel_sigma_px",
+            n if n == observations.len() => "observations",
+            _ => "observations_and_pixel_sigma_px",
+        };
+        output::PixelCheckSummary::new(c, from)
+    });
     if let Some(out) = &config.out {
         let mut files = output_files(&measurement, out.plots)?;
         summary.files = files.iter().map(|(n, _)| n.clone()).collect();
@@ -243,6 +264,7 @@ pub(crate) fn run_parts(
     }
     let r = MeasureRun {
         measurement,
+        pixel_sigma_check: check,
         summary,
         warnings,
     };

@@ -78,6 +78,7 @@ fn scene() -> (Vec<Epoch>, Rig, Vec<Observation>) {
                 camera,
                 marker: "head".into(),
                 pixel: Vector2::new(u, 500.0),
+                sigma: None,
                 line: 2 + obs.len() as u64,
             });
         }
@@ -92,6 +93,7 @@ fn settings(samples: usize) -> Settings {
         pixel_sigma_px: 0.0,
         reference_epoch: None,
         frame_rate_hz: None,
+        frame_times: None,
         threshold_mm: 5.0,
         max_reprojection_px: None,
         cfc: None,

@@ -62,6 +62,7 @@ fn observe(i: usize, world_from_a: &Rigid3, x: Vec3, noise: [f64; 4], obs: &mut 
             camera,
             marker: "head".into(),
             pixel,
+            sigma: None,
             line,
         });
     }
@@ -81,6 +82,7 @@ fn settings(
         pixel_sigma_px: pixel,
         reference_epoch: None,
         frame_rate_hz: Some(HZ),
+        frame_times: None,
         threshold_mm: 5.0,
         max_reprojection_px: None,
         cfc: Some(CfcSpec { class, standard }),

@@ -33,6 +33,7 @@ fn config(samples: usize, sync_sigma_ms: f64, out: Option<PathBuf>) -> MeasureCo
             pixel_sigma_px: 0.1,
             reference_epoch: None,
             frame_rate_hz: (sync_sigma_ms > 0.0).then_some(1000.0),
+            frame_times: None,
             threshold_mm: 5.0,
             max_reprojection_px: None,
             cfc: None,

@@ -73,6 +73,7 @@ fn settings(samples: usize, seed: u64) -> Settings {
         pixel_sigma_px: PIXEL_SIGMA,
         reference_epoch: None,
         frame_rate_hz: Some(FRAME_RATE),
+        frame_times: None,
         threshold_mm: 5.0,
         max_reprojection_px: None,
         cfc: None,

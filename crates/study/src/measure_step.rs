@@ -165,6 +165,7 @@ pub fn run_measure(
             pixel_sigma_px: s.pixel_sigma_px,
             reference_epoch: s.reference_epoch.clone(),
             frame_rate_hz: s.frame_rate_hz,
+            frame_times: None,
             threshold_mm: s.threshold_mm,
             max_reprojection_px: s.max_reprojection_px,
             cfc: s.cfc,

@@ -140,6 +140,7 @@ fn the_study_computes_a_from_the_bundle_and_measures_with_it() {
             pixel_sigma_px: sec.pixel_sigma_px,
             reference_epoch: None,
             frame_rate_hz: sec.frame_rate_hz,
+            frame_times: None,
             threshold_mm: sec.threshold_mm,
             max_reprojection_px: None,
             cfc: None,

@@ -44,6 +44,11 @@ pub struct KinematicsArgs {
         allow_negative_numbers = true
     )]
     pub sync_sigma_ms: f64,
+    /// Each frame's time from the camera's clock: CSV `epoch,time_s` (as `crashrig track`
+    /// writes frames.csv), the time axis of velocities, the CFC filter and ISO-MME instead of
+    /// --frame-rate-hz (which it excludes).
+    #[arg(long, value_name = "CSV")]
+    pub frame_times: Option<PathBuf>,
 }
 
 /// The length check of scale bars fixed to the car body.
@@ -79,6 +84,7 @@ impl KinematicsArgs {
         o.cfc = self.cfc;
         o.cfc_standard = self.cfc_standard.clone();
         o.sync_sigma_ms = self.sync_sigma_ms;
+        o.frame_times = self.frame_times.clone();
     }
 }
 

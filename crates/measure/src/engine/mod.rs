@@ -371,7 +371,9 @@ fn draw_moments(
         .map(|j| joint_factor(j, input.epochs, &work.measured))
         .transpose()?;
     let track = match settings.frame_rate_hz {
-        Some(hz) if settings.sync_sigma_ms > 0.0 => ATrack::new(input.epochs, hz),
+        Some(hz) if settings.sync_sigma_ms > 0.0 => {
+            ATrack::new(input.epochs, hz, settings.frame_times.as_ref())
+        }
         _ => None,
     };
     let link = LinkPrep::new(input.rig);

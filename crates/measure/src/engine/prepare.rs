@@ -17,7 +17,8 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 pub(super) struct ViewPrep {
     pub(super) cam: usize,
     pub(super) n0: Vector2<f64>,
-    /// `σ_px · J⁻¹`: normalized perturbation per unit normal.
+    /// `J⁻¹·L` (`L·Lᵀ` the observation's Σ; `σ_px·J⁻¹` with one σ): normalized perturbation
+    /// per unit normal.
     pub(super) m: Matrix2<f64>,
 }
 
@@ -64,8 +65,13 @@ pub(super) struct ATrack {
 }
 
 impl ATrack {
-    /// The track of the epochs with a frame number (times `frame / hz`, increasing).
-    pub(super) fn new(epochs: &[Epoch], hz: f64) -> Option<ATrack> {
+    /// The track of the epochs with a frame number (times `frame / hz`, increasing), or with
+    /// `times` the epochs that have a frame time.
+    pub(super) fn new(
+        epochs: &[Epoch],
+        hz: f64,
+        times: Option<&crate::input::FrameTimes>,
+    ) -> Option<ATrack> {
         let mut t = ATrack {
             times: Vec::new(),
             r: Vec::new(),
@@ -73,10 +79,16 @@ impl ATrack {
             w: Vec::new(),
         };
         for e in epochs {
-            let Some(f) = frame_number(&e.name) else {
-                continue;
+            let time = match times {
+                Some(ft) => match ft.lookup(&[&e.name, &e.key]) {
+                    Some((_, t)) => t,
+                    None => continue,
+                },
+                None => match frame_number(&e.name) {
+                    Some(f) => f as f64 / hz,
+                    None => continue,
+                },
             };
-            let time = f as f64 / hz;
             if t.times.last().is_some_and(|&last| last >= time) {
                 continue;
             }
@@ -153,7 +165,8 @@ pub(super) fn velocity_pair(
     }
 }
 
-/// Prepares a view: the undistorted normalized observation and `σ·J⁻¹`.
+/// Prepares a view: the undistorted normalized observation and `J⁻¹·L` (`L·Lᵀ` = the
+/// observation's own Σ, else `σ·I`).
 fn prep_view(
     camera: &Camera,
     cam: usize,
@@ -180,11 +193,12 @@ fn prep_view(
     let inv = j2
         .try_inverse()
         .ok_or_else(|| fail("the lens Jacobian is singular".into()))?;
-    Ok(ViewPrep {
-        cam,
-        n0,
-        m: inv * sigma,
-    })
+    // The observation's own Σ = L·Lᵀ (draw L·ε), else σ on each axis as ever (same bits).
+    let m = match &obs.sigma {
+        Some(s) => inv * s.factor(),
+        None => inv * sigma,
+    };
+    Ok(ViewPrep { cam, n0, m })
 }
 
 /// Every scale bar prepared for the draws: its markers' indices (`None`: a marker seen only
@@ -290,9 +304,22 @@ pub(super) fn measured_epochs(
     let mut measured: Vec<MeasuredEpoch> = Vec::new();
     for &e in groups.by_epoch.keys() {
         let ep = &epochs[e];
-        let frame = frame_number(&ep.name);
-        let time_s = match settings.frame_rate_hz {
-            Some(hz) => {
+        let mut frame = frame_number(&ep.name);
+        let time_s = match (&settings.frame_times, settings.frame_rate_hz) {
+            // The camera's own clock: the time from the file, the frame number its line's
+            // index (runs of the CFC filter break where a frame of the file is not measured).
+            (Some(ft), _) => {
+                let (f, t) = ft.lookup(&[&ep.name, &ep.key]).ok_or_else(|| {
+                    Error::Sequence(format!(
+                        "epoch `{}` has no time in {} (--frame-times): every measured epoch needs its frame time",
+                        ep.name,
+                        ft.path.display()
+                    ))
+                })?;
+                frame = Some(f);
+                Some(t)
+            }
+            (None, Some(hz)) => {
                 let f = frame.ok_or_else(|| {
                     Error::Sequence(format!(
                         "epoch `{}` has no frame number (digits in its name), needed for velocities",
@@ -301,15 +328,24 @@ pub(super) fn measured_epochs(
                 })?;
                 Some(f as f64 / hz)
             }
-            None => None,
+            (None, None) => None,
         };
         if let (Some(t), Some(last)) = (time_s, measured.last())
             && last.time_s.is_some_and(|lt| lt >= t)
         {
-            return Err(Error::Sequence(format!(
-                "frame numbers do not increase along the sequence: epoch `{}` follows `{}` (zero-pad the image names)",
-                ep.name, last.name
-            )));
+            return Err(Error::Sequence(match &settings.frame_times {
+                Some(ft) => format!(
+                    "frame times do not increase along the sequence: epoch `{}` ({t} s in {}) follows `{}` ({} s)",
+                    ep.name,
+                    ft.path.display(),
+                    last.name,
+                    last.time_s.unwrap_or(f64::NAN)
+                ),
+                None => format!(
+                    "frame numbers do not increase along the sequence: epoch `{}` follows `{}` (zero-pad the image names)",
+                    ep.name, last.name
+                ),
+            }));
         }
         measured.push(MeasuredEpoch {
             key: ep.key.clone(),

@@ -16,6 +16,10 @@ pub struct Settings {
     pub reference_epoch: Option<String>,
     /// Frame rate (Hz) for velocities; `None`: no velocities.
     pub frame_rate_hz: Option<f64>,
+    /// Each frame's time from the camera's clock (`--frame-times`): the epochs' times and
+    /// frame numbers (the index in the file) instead of `frame / frame_rate_hz`; needs
+    /// [`Settings::frame_rate_hz`] (the rate of the mean interval).
+    pub frame_times: Option<crate::input::FrameTimes>,
     /// Rows with σ_max above this (mm) are flagged.
     pub threshold_mm: f64,
     /// Rows whose largest reprojection residual exceeds this (px) are flagged; `None`: the
@@ -97,6 +101,18 @@ pub(super) fn check_settings(s: &Settings) -> Result<(), Error> {
             "--sync-sigma-ms",
             "needs --frame-rate-hz (the offset shifts A's pose in time)".into(),
         );
+    }
+    if let Some(ft) = &s.frame_times {
+        if s.frame_rate_hz.is_none() {
+            return bad(
+                "--frame-times",
+                "needs the rate of its mean interval as the frame rate (MeasureOptions sets it)"
+                    .into(),
+            );
+        }
+        if s.cfc.is_some() {
+            ft.uniform_interval()?;
+        }
     }
     match (s.cfc, s.frame_rate_hz) {
         (Some(spec), None) => bad(
