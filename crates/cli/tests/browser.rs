@@ -131,7 +131,8 @@ fn report_in_a_real_browser() {
             "toc link {k}"
         );
         assert!(
-            html.contains(&format!(" id=\"sec{k}\"><summary>")),
+            html.contains(&format!(" id=\"sec{k}\"><summary>"))
+                || html.contains(&format!(" id=\"sec{k}\" open><summary>")),
             "section {k}"
         );
     }
@@ -350,7 +351,7 @@ fn view3d(chromium: &str, profile: &Path, tmp: &Path, url: &str, html: &str, sho
         "<div id=\"v3d-fallback\"><p id=\"v3d-why\" class=\"note\">This browser offers no WebGL"
     ));
 
-    // Screenshots of the section (the URL fragment scrolls to it).
+    // Screenshots of the section (the fragment `#v3d-shot` hides the rest of the page).
     for width in [1400u32, 800] {
         let png = shots.join(format!("view3d-{width}.png"));
         let mut extra: Vec<String> = WEBGL.iter().map(|f| f.to_string()).collect();
@@ -359,7 +360,7 @@ fn view3d(chromium: &str, profile: &Path, tmp: &Path, url: &str, html: &str, sho
             format!("--screenshot={}", png.display()),
             "--virtual-time-budget=8000".into(),
         ]);
-        let o = headless(chromium, profile, &extra, &format!("{url}#v3d"));
+        let o = headless(chromium, profile, &extra, &format!("{url}#v3d-shot"));
         let shot = std::fs::read(&png).unwrap_or_else(|_| {
             panic!(
                 "no screenshot {}: {}",

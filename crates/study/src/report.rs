@@ -96,6 +96,7 @@ pub fn write_outputs(
             "grid.csv",
             grids::layout_csv(&l.grid, &l.result).as_bytes(),
         )?;
+        files::write(&d, "grid.ply", &grids::grid_ply(&l.result))?;
         files::write(&d, "summary.json", &json_pretty(lj))?;
         let m = grids::heat_maps(&l.grid, &l.result, &scale)?;
         for h in &m {

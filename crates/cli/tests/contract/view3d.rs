@@ -163,7 +163,7 @@ fn report_3d_blob_equals_results_json_and_the_csv_files() {
     assert!(bl[0]["cameras"][0]["world_from_cam"]["angles_deg"].is_null());
 
     // Cameras: the chain's world poses of results.json.
-    let chain = results["chain"]["cameras"]
+    let chain = results["propagation"]["cameras"]
         .as_array()
         .expect("chain cameras");
     let bc = b["cameras"].as_array().expect("blob cameras");

@@ -2,7 +2,10 @@
 // <script type="application/json" id="crashrig-3d"> and draws it with the three.js bundle inlined
 // before this script (global THREE_VIEW). Loads nothing; without WebGL it shows the static
 // picture beside it. Sets data-v3d-* attributes on <body> for `cargo xtask report-check`.
-(function () {
+// It draws just after the page's load event, so the page opens (and its other figures show)
+// before the WebGL set-up runs.
+window.addEventListener('load', function () { setTimeout(view3d, 0); });
+function view3d() {
   'use strict';
   var body = document.body;
   var root = document.getElementById('v3d');
@@ -166,14 +169,14 @@
   var centre = lo.clone().add(hi).multiplyScalar(0.5);
   var size = Math.max(hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, 100);
 
-  // ---- the σ ellipsoids' enlargement: the largest semi-axis drawn at ~4 % of the scene ------
+  // ---- the σ ellipsoids' enlargement: the largest semi-axis drawn at ~2.5 % of the scene ------
   var maxAxis = 0;
   data.trajectories.forEach(function (t) {
     (t.ellipsoids || []).forEach(function (e) {
       e.semi_axes_mm.forEach(function (a) { maxAxis = Math.max(maxAxis, Math.hypot(a[0], a[1], a[2])); });
     });
   });
-  var ellScale = maxAxis > 0 ? niceCeil(0.04 * size / maxAxis) : 1;
+  var ellScale = maxAxis > 0 ? niceCeil(0.025 * size / maxAxis) : 1;
 
   function showLayout(k) {
     while (content.children.length) {
@@ -320,7 +323,7 @@
     });
   }
   function home() {
-    var d = 0.62 * size / Math.tan(camera.fov * Math.PI / 360);
+    var d = 0.45 * size / Math.tan(camera.fov * Math.PI / 360);
     var dir = new T.Vector3(-0.55, -0.75, 0.55).normalize();
     camera.position.copy(centre).addScaledVector(dir, d);
     controls.target.copy(centre);
@@ -328,6 +331,12 @@
     camera.far = d * 100;
     camera.updateProjectionMatrix();
     controls.update();
+  }
+  if (location.hash === '#v3d-shot') {
+    // The section alone (the screenshots of `cargo xtask report-check`).
+    Array.prototype.forEach.call(body.children, function (c) {
+      if (!c.contains(root) && c.tagName !== 'SCRIPT') { c.style.display = 'none'; }
+    });
   }
   controls.addEventListener('change', render);
   window.addEventListener('resize', render);
@@ -389,4 +398,4 @@
     }
     body.setAttribute('data-v3d-selftest', 'done');
   }
-})();
+}

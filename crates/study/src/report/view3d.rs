@@ -155,7 +155,7 @@ fn trajectories_json(r: &StudyResult) -> Vec<Value> {
 /// The data blob of the 3-D view (docs/REFERENCE.md, "report.html: the 3-D view's data"):
 /// `layouts` (name, threshold, points `[x, y, z, σ_worst or null]` as in `grid/<layout>/grid.csv`,
 /// the layout's observers under `cameras`, whether the rig stands in its frame), `cameras` (the
-/// chain's world poses as in `results.json` → `chain`) and `trajectories` (per marker its
+/// chain's world poses as in `results.json` → `propagation.cameras`) and `trajectories` (per marker its
 /// position per measured epoch, null where not measured, and the σ ellipsoids at the reference
 /// epoch and at the epoch of its largest σ).
 pub fn blob(r: &StudyResult) -> Value {
@@ -392,7 +392,7 @@ pub(crate) fn section(rep: &mut Report, r: &StudyResult) {
     );
     let _ = write!(
         h,
-        "</ul></div><p class=\"meta\">Drawn in the page by three.js {THREE_VERSION}, MIT licence, © three.js authors (crashrig's repository: crates/study/assets/three/LICENSE), embedded in this file: nothing is loaded from the network. The numbers are those of results.json and grid/&lt;layout&gt;/grid.csv, also in grid.ply for CloudCompare, Open3D or MeshLab.</p>"
+        "</ul></div><p class=\"meta\">Drawn in the page by three.js {THREE_VERSION}, MIT licence, © three.js authors (crashrig's repository: crates/study/assets/three/LICENSE), embedded in this file: nothing is loaded from the network. The numbers are those of results.json and grid/&lt;layout&gt;/grid.csv, also in grid/&lt;layout&gt;/grid.ply for CloudCompare, Open3D or MeshLab.</p>"
     );
     let _ = write!(
         h,
