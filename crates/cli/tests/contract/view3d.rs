@@ -175,9 +175,9 @@ fn report_3d_blob_equals_results_json_and_the_csv_files() {
     }
 
     // Trajectories: every row of measure/trajectories.csv, null where not measured.
+    // The study's measure/summary.json names no markers or epochs: trajectories.csv does
+    // (epoch-major, markers sorted by name).
     let summary = read_json(&out.join("measure/summary.json"));
-    let markers = summary["marker_names"].as_array().expect("markers");
-    let epochs = summary["epoch_names"].as_array().expect("epochs");
     let (h, rows) = csv(&out.join("measure/trajectories.csv"));
     let [ce, cm, cx, cy, cz, csx, csy, csz, csm] = [
         "epoch",
@@ -191,14 +191,26 @@ fn report_3d_blob_equals_results_json_and_the_csv_files() {
         "sigma_max_mm",
     ]
     .map(|n| col(&h, n));
+    let mut markers: Vec<Value> = Vec::new();
+    let mut epochs: Vec<Value> = Vec::new();
+    for r in &rows {
+        for (list, v) in [(&mut markers, &r[cm]), (&mut epochs, &r[ce])] {
+            if !list.iter().any(|x| x == v.as_str()) {
+                list.push(Value::from(v.as_str()));
+            }
+        }
+    }
+    markers.sort_by(|a, b| a.as_str().cmp(&b.as_str()));
+    assert_eq!(summary["markers"], markers.len());
+    assert_eq!(summary["epochs"], epochs.len());
     let bt = b["trajectories"].as_array().expect("trajectories");
     assert_eq!(bt.len(), markers.len());
     let mut measured = 0;
     for (t, name) in bt.iter().zip(markers) {
-        assert_eq!(&t["marker"], name);
+        assert_eq!(&t["marker"], &name);
         let te = t["epochs"].as_array().expect("epochs");
         assert_eq!(te.len(), epochs.len());
-        let mine: Vec<&Vec<String>> = rows.iter().filter(|r| r[cm] == *name).collect();
+        let mine: Vec<&Vec<String>> = rows.iter().filter(|r| name == r[cm].as_str()).collect();
         for (k, e) in epochs.iter().enumerate() {
             let row = mine.iter().find(|r| r[ce] == e.as_str().unwrap());
             match row.and_then(|r| cell(&r[cx]).map(|x| (r, x))) {
