@@ -238,9 +238,9 @@ fn page_requests(netlog: &Path) -> Vec<String> {
         .as_array()
         .expect("events")
         .iter()
-        .filter(|e| e["type"] == start)
+        .filter(|e| e["type"] == start && e["params"]["url"].is_string())
         .filter(|e| e["params"]["initiator"].as_str() != Some("not an origin"))
-        .map(|e| e["params"]["url"].as_str().unwrap_or("?").to_string())
+        .map(|e| e["params"]["url"].as_str().unwrap_or_default().to_string())
         .collect()
 }
 
@@ -271,10 +271,11 @@ fn view3d(chromium: &str, profile: &Path, tmp: &Path, url: &str, html: &str, sho
         ],
         &format!("file://{}", leak.display()),
     );
-    assert_eq!(
-        page_requests(&log).len(),
-        2,
-        "the net log check sees a page's requests"
+    // (a failed request may be retried: at least the two, every one of them the page's)
+    let leaked = page_requests(&log);
+    assert!(
+        leaked.len() >= 2 && leaked.iter().all(|u| u.contains("example.invalid")),
+        "the net log check sees a page's requests: {leaked:?}"
     );
 
     for width in [1400u32, 800] {
@@ -318,7 +319,12 @@ fn view3d(chromium: &str, profile: &Path, tmp: &Path, url: &str, html: &str, sho
             "0",
             "{width} px: errors on the page"
         );
-        let console: Vec<&str> = stderr.lines().filter(|l| l.contains(":CONSOLE")).collect();
+        // Every console message but the GL driver's performance note on the self-test's own
+        // readPixels ("GPU stall due to ReadPixels").
+        let console: Vec<&str> = stderr
+            .lines()
+            .filter(|l| l.contains(":CONSOLE") && !l.contains("GPU stall due to ReadPixels"))
+            .collect();
         assert!(
             console.is_empty(),
             "{width} px: console messages {console:?}"
