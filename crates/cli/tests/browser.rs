@@ -131,7 +131,8 @@ fn report_in_a_real_browser() {
             "toc link {k}"
         );
         assert!(
-            html.contains(&format!(" id=\"sec{k}\"><summary>")),
+            html.contains(&format!(" id=\"sec{k}\"><summary>"))
+                || html.contains(&format!(" id=\"sec{k}\" open><summary>")),
             "section {k}"
         );
     }
@@ -216,8 +217,163 @@ fn report_in_a_real_browser() {
         });
         assert!(shot.starts_with(b"\x89PNG"), "{} is a PNG", png.display());
     }
+    view3d(&chromium, &profile, tmp.path(), &url, &html, &shots);
     eprintln!(
         "report_in_a_real_browser: {bytes} bytes, loaded in {load_ms} ms, {links} sections; screenshots in {}",
         shots.display()
     );
+}
+
+/// WebGL through SwiftShader (software), as on a machine without a GPU.
+const WEBGL: [&str; 2] = ["--use-angle=swiftshader", "--enable-unsafe-swiftshader"];
+
+/// The page-initiated requests of a net log (`--log-net-log`): URL requests whose initiator is
+/// a page (a `file://` page's origin is `null`), not the browser's own background requests
+/// (initiator "not an origin").
+fn page_requests(netlog: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(netlog).expect("net log written");
+    let v: serde_json::Value = serde_json::from_str(&text).expect("net log is JSON");
+    let start = v["constants"]["logEventTypes"]["URL_REQUEST_START_JOB"].clone();
+    v["events"]
+        .as_array()
+        .expect("events")
+        .iter()
+        .filter(|e| e["type"] == start && e["params"]["url"].is_string())
+        .filter(|e| e["params"]["initiator"].as_str() != Some("not an origin"))
+        .map(|e| e["params"]["url"].as_str().unwrap_or_default().to_string())
+        .collect()
+}
+
+/// The 3-D view (issue 46): the canvas draws (non-background pixels), a drag rotates it (pixels
+/// change), the selector switches layouts (pixels change), no console error, no request from
+/// the page (net log; checked first on a page that does request something), without WebGL the
+/// static picture; screenshots `view3d-1400.png` and `view3d-800.png` of the section.
+fn view3d(chromium: &str, profile: &Path, tmp: &Path, url: &str, html: &str, shots: &Path) {
+    assert!(
+        html.contains("<script type=\"application/json\" id=\"crashrig-3d\">"),
+        "the 3-D view's data"
+    );
+    // The request check finds requests where there are some.
+    let leak = tmp.join("leak.html");
+    std::fs::write(
+        &leak,
+        "<img src=\"http://example.invalid/x.png\"><script>fetch('https://example.invalid/y');</script>",
+    )
+    .expect("leak.html");
+    let log = tmp.join("leak-netlog.json");
+    headless(
+        chromium,
+        profile,
+        &[
+            format!("--log-net-log={}", log.display()),
+            "--virtual-time-budget=3000".into(),
+            "--dump-dom".into(),
+        ],
+        &format!("file://{}", leak.display()),
+    );
+    // (a failed request may be retried: at least the two, every one of them the page's)
+    let leaked = page_requests(&log);
+    assert!(
+        leaked.len() >= 2 && leaked.iter().all(|u| u.contains("example.invalid")),
+        "the net log check sees a page's requests: {leaked:?}"
+    );
+
+    for width in [1400u32, 800] {
+        let log = tmp.join(format!("netlog-{width}.json"));
+        let mut extra: Vec<String> = WEBGL.iter().map(|f| f.to_string()).collect();
+        extra.extend([
+            format!("--window-size={width},1400"),
+            format!("--log-net-log={}", log.display()),
+            "--enable-logging=stderr".into(),
+            "--v=0".into(),
+            "--virtual-time-budget=8000".into(),
+            "--dump-dom".into(),
+        ]);
+        let o = headless(chromium, profile, &extra, &format!("{url}#v3d-selftest"));
+        let d = String::from_utf8_lossy(&o.stdout);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(attr(&d, "data-v3d"), "webgl", "{width} px: WebGL runs");
+        assert_eq!(attr(&d, "data-v3d-selftest"), "done", "{width} px");
+        // Drawn: ≥ 1 % of the canvas is not background (the grid points, cameras, axes).
+        let (w, h) = (num(&d, "data-v3d-canvas-w"), num(&d, "data-v3d-canvas-h"));
+        let drawn = num(&d, "data-v3d-drawn");
+        assert!(
+            drawn >= 0.01 * w * h,
+            "{width} px: {drawn} of {w}×{h} pixels drawn"
+        );
+        let rotated = num(&d, "data-v3d-rotated");
+        assert!(
+            rotated >= 0.005 * w * h,
+            "{width} px: a drag changed {rotated} pixels"
+        );
+        if num(&d, "data-v3d-layouts") > 1.0 {
+            let switched = num(&d, "data-v3d-switched");
+            assert!(
+                switched > 0.0,
+                "{width} px: the selector changed {switched} pixels"
+            );
+            assert!(!attr(&d, "data-v3d-layout").is_empty());
+        }
+        assert_eq!(
+            attr(&d, "data-v3d-errors"),
+            "0",
+            "{width} px: errors on the page"
+        );
+        // Every console message but the GL driver's performance note on the self-test's own
+        // readPixels ("GPU stall due to ReadPixels").
+        let console: Vec<&str> = stderr
+            .lines()
+            .filter(|l| l.contains(":CONSOLE") && !l.contains("GPU stall due to ReadPixels"))
+            .collect();
+        assert!(
+            console.is_empty(),
+            "{width} px: console messages {console:?}"
+        );
+        let requests = page_requests(&log);
+        assert!(
+            requests.is_empty(),
+            "{width} px: the page requested {requests:?}"
+        );
+        eprintln!(
+            "report_in_a_real_browser: 3-D view at {width} px: canvas {w}×{h}, {drawn} pixels drawn, {rotated} changed by a drag, no console message, no request"
+        );
+    }
+
+    // Without WebGL: the static picture and why.
+    let o = headless(
+        chromium,
+        profile,
+        &[
+            "--disable-3d-apis".into(),
+            "--window-size=1400,1400".into(),
+            "--virtual-time-budget=5000".into(),
+            "--dump-dom".into(),
+        ],
+        url,
+    );
+    let d = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(attr(&d, "data-v3d"), "fallback", "without WebGL");
+    assert!(d.contains(
+        "<div id=\"v3d-fallback\"><p id=\"v3d-why\" class=\"note\">This browser offers no WebGL"
+    ));
+
+    // Screenshots of the section (the fragment `#v3d-shot` hides the rest of the page).
+    for width in [1400u32, 800] {
+        let png = shots.join(format!("view3d-{width}.png"));
+        let mut extra: Vec<String> = WEBGL.iter().map(|f| f.to_string()).collect();
+        extra.extend([
+            format!("--window-size={width},1100"),
+            format!("--screenshot={}", png.display()),
+            "--virtual-time-budget=8000".into(),
+        ]);
+        let o = headless(chromium, profile, &extra, &format!("{url}#v3d-shot"));
+        let shot = std::fs::read(&png).unwrap_or_else(|_| {
+            panic!(
+                "no screenshot {}: {}",
+                png.display(),
+                String::from_utf8_lossy(&o.stderr)
+            )
+        });
+        assert!(shot.starts_with(b"\x89PNG"), "{} is a PNG", png.display());
+    }
 }

@@ -67,6 +67,8 @@ mod pinned;
 mod place;
 #[path = "contract/units.rs"]
 mod units;
+#[path = "contract/view3d.rs"]
+mod view3d;
 
 mod shard;
 

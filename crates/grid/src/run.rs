@@ -228,7 +228,7 @@ pub fn resolve_samples(option: Option<usize>, scenario: &Scenario) -> Result<usi
 /// an old result may be replaced as a whole): its CSV, JSON and heat-map files, and the `.tmp*`
 /// files an interrupted older version could leave.
 pub(crate) fn replaceable(name: &str) -> bool {
-    [".csv", ".json", ".png", ".svg"]
+    [".csv", ".json", ".png", ".svg", ".ply"]
         .iter()
         .any(|ext| name.ends_with(ext))
         || name.starts_with(".tmp")
@@ -446,6 +446,7 @@ pub(crate) fn finish(
     let with_fixed = crashrig_mc::coverage::has_fixed(&grid);
     files.write("grid.csv", &main_csv(&result, &angles, with_fixed)?)?;
     files.write("grid_detail.csv", &detail_csv(&result, &angles)?)?;
+    files.write("grid.ply", &crate::summary::grid_ply(&result))?;
     if plots {
         for h in crate::summary::level_maps(&grid, &result, &grid_specs(&grid), &GRID_STYLE)? {
             files.write(&h.file, &h.png)?;

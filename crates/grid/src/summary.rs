@@ -234,6 +234,40 @@ pub fn layout_csv(grid: &Grid, result: &GridResult) -> String {
     s
 }
 
+/// `grid.ply` (PLY 1.0, binary little-endian; docs/REFERENCE.md): one vertex per grid point in
+/// the order of `grid.csv`, `double x y z` (mm) and `float sigma_x sigma_y sigma_z sigma_max
+/// sigma_worst` (mm) — the values of `grid.csv` rounded to `f32`, NaN where its cell is blank
+/// (a point not measurable or degenerate).
+pub fn grid_ply(result: &GridResult) -> Vec<u8> {
+    use crashrig_plot::ply::{PlyType, PlyVertices};
+    let f = PlyType::Float;
+    let mut ply = PlyVertices::new(&[
+        ("x", PlyType::Double),
+        ("y", PlyType::Double),
+        ("z", PlyType::Double),
+        ("sigma_x", f),
+        ("sigma_y", f),
+        ("sigma_z", f),
+        ("sigma_max", f),
+        ("sigma_worst", f),
+    ]);
+    ply.comment("crashrig grid points (mm): sigma_* = Monte Carlo standard uncertainty, sigma_worst = along the worst direction; NaN = not measurable");
+    for p in &result.points {
+        let m = |v: f64| if p.is_measurable() { v } else { f64::NAN };
+        ply.push(&[
+            p.point.x,
+            p.point.y,
+            p.point.z,
+            m(p.sigma_mm.x),
+            m(p.sigma_mm.y),
+            m(p.sigma_mm.z),
+            m(p.sigma_max_mm),
+            m(p.sigma_worst_mm()),
+        ]);
+    }
+    ply.to_bytes()
+}
+
 /// One heat map of a layout: file stem, z index and its PNG.
 pub struct HeatMapPng {
     /// `sigma_max`, `sigma_worst`, `sigma_x`, `sigma_y`, `sigma_z` or `observers_seen`.

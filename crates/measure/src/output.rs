@@ -125,6 +125,46 @@ pub fn trajectories_csv(m: &Measurement) -> String {
     s
 }
 
+/// `trajectories.ply` (PLY 1.0, binary little-endian; docs/REFERENCE.md): one vertex per row of
+/// `trajectories.csv`, in its order: `double x y z` (mm), `float sigma_x sigma_y sigma_z
+/// sigma_max` (mm; NaN where the CSV cell is blank), `int epoch_index marker_index`; comment
+/// lines `markers [...]` and `epochs [...]` name them in index order (JSON arrays).
+pub fn trajectories_ply(m: &Measurement) -> Vec<u8> {
+    use crashrig_plot::ply::{PlyType, PlyVertices};
+    let (d, f, i) = (PlyType::Double, PlyType::Float, PlyType::Int);
+    let mut ply = PlyVertices::new(&[
+        ("x", d),
+        ("y", d),
+        ("z", d),
+        ("sigma_x", f),
+        ("sigma_y", f),
+        ("sigma_z", f),
+        ("sigma_max", f),
+        ("epoch_index", i),
+        ("marker_index", i),
+    ]);
+    ply.comment(
+        "crashrig measured marker positions (mm) and their Monte Carlo sigma; NaN = not measured",
+    );
+    let names = |v: Vec<&str>| serde_json::to_string(&v).unwrap_or_default();
+    ply.comment(&format!(
+        "markers {}",
+        names(m.markers.iter().map(String::as_str).collect())
+    ));
+    ply.comment(&format!(
+        "epochs {}",
+        names(m.epochs.iter().map(|e| e.name.as_str()).collect())
+    ));
+    let nan3 = |v: Option<Vec3>| v.map_or([f64::NAN; 3], |v| [v.x, v.y, v.z]);
+    for r in &m.rows {
+        let [x, y, z] = nan3(r.position_mm);
+        let [sx, sy, sz] = nan3(r.sigma_mm);
+        let smax = r.sigma_max_mm().unwrap_or(f64::NAN);
+        ply.push(&[x, y, z, sx, sy, sz, smax, r.epoch as f64, r.marker as f64]);
+    }
+    ply.to_bytes()
+}
+
 /// `displacements.csv`: [`DISPLACEMENTS_HEADER`], then one line per row of `m` (time,
 /// displacement from the reference epoch, velocity, their σ, the largest reprojection residual
 /// and the flags joined by `;`).
@@ -983,6 +1023,7 @@ fn replaceable(name: &str) -> bool {
     matches!(
         name,
         "trajectories.csv"
+            | "trajectories.ply"
             | "displacements.csv"
             | "kinematics.csv"
             | LENGTH_CHECK_CSV

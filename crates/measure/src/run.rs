@@ -380,6 +380,7 @@ fn output_files(m: &Measurement, plots: bool) -> Result<Vec<(String, Vec<u8>)>, 
             "displacements.csv".to_string(),
             output::displacements_csv(m).into_bytes(),
         ),
+        ("trajectories.ply".to_string(), output::trajectories_ply(m)),
     ];
     if let Some(k) = output::kinematics_csv(m) {
         files.push(("kinematics.csv".to_string(), k.into_bytes()));

@@ -23,6 +23,7 @@
 //!   scale key.
 //! - [`Overlay`]: hatched missing cells, outlines, cell labels, context lines (a car outline)
 //!   and an integer colour bar for counts.
+//! - [`ply`]: a PLY 1.0 (binary little-endian) writer for point clouds with scalar properties.
 //! - [`Format`]: PNG or SVG; [`Format::from_path`] picks it from a file extension.
 //!
 //! # Features
@@ -59,6 +60,7 @@ mod contour;
 mod ellipses;
 mod error;
 mod overlay;
+pub mod ply;
 
 pub use contour::contour_segments;
 pub use ellipses::{Ellipse, EllipsePlot, ellipse_axes, ellipses};

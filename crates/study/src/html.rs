@@ -11,6 +11,8 @@ pub enum Block {
     /// A section heading (`<h2>`): starts a collapsible section (`<details>`) that runs to the
     /// next heading, listed in the table of contents.
     Heading(String),
+    /// A section heading like [`Block::Heading`] whose section is open when the page opens.
+    HeadingOpen(String),
     /// A subsection heading (`<h3>`): a collapsible subsection inside the current section,
     /// listed in the table of contents under it.
     SubHeading(String),
@@ -104,7 +106,7 @@ impl Report {
         let (mut k, mut in_sub) = (0usize, false);
         for b in &self.blocks {
             let (text, sub) = match b {
-                Block::Heading(h) => (h, false),
+                Block::Heading(h) | Block::HeadingOpen(h) => (h, false),
                 Block::SubHeading(h) => (h, true),
                 _ => continue,
             };
@@ -135,7 +137,7 @@ impl Report {
         let mut s = String::new();
         let _ = write!(
             s,
-            "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n<title>{}</title>\n<style>{}</style>\n</head>\n<body>\n<h1>{}</h1>\n",
+            "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n<meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; img-src data:; style-src 'unsafe-inline'; script-src 'unsafe-inline'\">\n<title>{}</title>\n<style>{}</style>\n</head>\n<body>\n<h1>{}</h1>\n",
             escape(&self.title),
             CSS,
             escape(&self.title)
@@ -143,8 +145,9 @@ impl Report {
         let mut st = RenderState::default();
         for b in &self.blocks {
             match b {
-                Block::Heading(h) => st.open(&mut s, h, false),
-                Block::SubHeading(h) => st.open(&mut s, h, true),
+                Block::Heading(h) => st.open(&mut s, h, false, false),
+                Block::HeadingOpen(h) => st.open(&mut s, h, false, true),
+                Block::SubHeading(h) => st.open(&mut s, h, true, false),
                 Block::Toc => s.push_str(&self.toc()),
                 other => render_block(&mut s, other, &mut st.wide),
             }
@@ -178,15 +181,16 @@ impl RenderState {
         }
     }
 
-    /// Opens a section (`sub` = false) or a subsection.
-    fn open(&mut self, s: &mut String, title: &str, sub: bool) {
+    /// Opens a section (`sub` = false) or a subsection, `open` on arrival or collapsed.
+    fn open(&mut self, s: &mut String, title: &str, sub: bool, open: bool) {
         self.close(s, sub);
         self.headings += 1;
         let (class, tag) = if sub { ("sub", "h3") } else { ("sec", "h2") };
         let _ = writeln!(
             s,
-            "<details class=\"{class}\" id=\"{}\"><summary><{tag}>{}</{tag}></summary>",
+            "<details class=\"{class}\" id=\"{}\"{}><summary><{tag}>{}</{tag}></summary>",
             anchor(self.headings),
+            if open { " open" } else { "" },
             escape(title)
         );
         if sub {
@@ -200,7 +204,7 @@ impl RenderState {
 /// Renders one content block (not a heading nor the table of contents).
 fn render_block(s: &mut String, b: &Block, wide: &mut usize) {
     match b {
-        Block::Heading(_) | Block::SubHeading(_) | Block::Toc => {}
+        Block::Heading(_) | Block::HeadingOpen(_) | Block::SubHeading(_) | Block::Toc => {}
         Block::Paragraph(p) => {
             let _ = writeln!(s, "<p>{}</p>", escape(p));
         }

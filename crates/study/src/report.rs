@@ -96,6 +96,7 @@ pub fn write_outputs(
             "grid.csv",
             grids::layout_csv(&l.grid, &l.result).as_bytes(),
         )?;
+        files::write(&d, "grid.ply", &grids::grid_ply(&l.result))?;
         files::write(&d, "summary.json", &json_pretty(lj))?;
         let m = grids::heat_maps(&l.grid, &l.result, &scale)?;
         for h in &m {
@@ -710,6 +711,7 @@ pub fn report_html(
     verdicts(&mut rep, r, paper, &r.unit_warnings(study));
     rep.push(Block::Raw(meta_html(study, r, prov)));
     rep.push(Block::Toc);
+    view3d::section(&mut rep, r);
     rep.push(Block::Heading("Verdict per layout".into()));
     rep.push(Block::Table(Table {
         caption: "Fraction of the grid with σ_max below the threshold (per axis) and with the worst-direction σ below it (every direction), where the worst region is, and which input dominates (one at a time: the input whose halved σ lowers the median σ_max most)".into(),
@@ -1460,3 +1462,5 @@ fn ellipse_figures(rep: &mut Report, l: &LayoutResult) {
 /// A study with a CFC filter: its kinematics files and report subsection.
 #[cfg(test)]
 mod kinematics_tests;
+/// The section "3-D view" (three.js, the data blob `crashrig-3d`).
+mod view3d;

@@ -111,14 +111,21 @@ fn fnv1a64(data: &[u8]) -> u64 {
     })
 }
 
-/// JSON (and stdout) without the lines of timing fields, and without the lines of the
-/// `"pixel_sigma_check"` object (issue 44 added it to every measure summary with B and C;
-/// everything else stays pinned byte for byte).
+/// JSON (and stdout) without the lines of timing fields, without the lines of the
+/// `"pixel_sigma_check"` object (issue 44 added it to every measure summary with B and C) and
+/// without the names of the PLY files added after the pin (issue 46: `grid.ply`,
+/// `trajectories.ply`, checked in `view3d.rs`) in a `files` list — every other byte as pinned.
 fn normalise(name: &str, data: Vec<u8>) -> Vec<u8> {
     if !(name.ends_with(".json") || name.ends_with("stdout")) {
         return data;
     }
-    let timing: [&[u8]; 3] = [b"\"elapsed_s\"", b"\"samples_per_second\"", b"\"threads\""];
+    let timing: [&[u8]; 5] = [
+        b"\"elapsed_s\"",
+        b"\"samples_per_second\"",
+        b"\"threads\"",
+        b"\"grid.ply\",",
+        b"\"trajectories.ply\",",
+    ];
     let check: &[u8] = b"\"pixel_sigma_check\": ";
     let mut depth = 0_i64;
     data.split(|b| *b == b'\n')
@@ -149,6 +156,9 @@ fn hash_dir(run: &str, dir: &Path, rel: &Path, out: &mut BTreeMap<String, String
         }
         let name = r.to_string_lossy().replace('\\', "/");
         if run == "study" && !(name.starts_with("grid/") || name.starts_with("measure/")) {
+            continue;
+        }
+        if name.ends_with(".ply") {
             continue;
         }
         let data = normalise(&name, std::fs::read(e.path()).unwrap());

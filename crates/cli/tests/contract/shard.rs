@@ -85,7 +85,7 @@ fn merge_of_all_shards_equals_the_unsharded_run() {
         "--no-plots",
     ]);
     assert!(r.success, "{}", r.stderr);
-    for f in ["grid.csv", "grid_detail.csv"] {
+    for f in ["grid.csv", "grid_detail.csv", "grid.ply"] {
         assert_eq!(
             std::fs::read(whole.join(f)).unwrap(),
             std::fs::read(merged.join(f)).unwrap(),
@@ -180,7 +180,7 @@ fn xtask_shards_runs_xargs_and_merges_to_the_unsharded_output() {
     for d in &dirs {
         assert!(d.join("shard.json").is_file(), "{}", d.display());
     }
-    for f in ["grid.csv", "grid_detail.csv"] {
+    for f in ["grid.csv", "grid_detail.csv", "grid.ply"] {
         assert_eq!(
             std::fs::read(whole.join(f)).unwrap(),
             std::fs::read(out.join(f)).unwrap(),
@@ -399,6 +399,7 @@ fn measure_shards_merge_to_the_unsharded_run() {
     assert!(r.stdout.starts_with("measured "), "{}", r.stdout);
     for f in [
         "trajectories.csv",
+        "trajectories.ply",
         "displacements.csv",
         "kinematics.csv",
         "plots/head_l.png",
@@ -462,7 +463,12 @@ fn xtask_shards_runs_measure_shards_and_merges() {
     let dirs = crate::contract::xtask_shards::run(&plan, Path::new(env!("CARGO_BIN_EXE_crashrig")))
         .unwrap();
     assert_eq!(dirs.len(), 2);
-    for f in ["trajectories.csv", "displacements.csv", "kinematics.csv"] {
+    for f in [
+        "trajectories.csv",
+        "trajectories.ply",
+        "displacements.csv",
+        "kinematics.csv",
+    ] {
         assert!(
             std::fs::read(whole.join(f)).unwrap() == std::fs::read(out.join(f)).unwrap(),
             "{f}"
