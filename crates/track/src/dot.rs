@@ -22,7 +22,7 @@
 
 use crate::centre::{Centre, FitOptions, Reject, centre_sigma};
 use crate::image::GreyView;
-use crate::lm::{Model, Sample, erf_and_derivative, solve};
+use crate::lm::{Model, Sample, adjacent_pairs, erf_and_derivative, solve};
 
 /// The model of the module doc; parameters `[a, b, u, v, r₁, r₂, φ, s]`.
 pub(crate) struct DotModel;
@@ -283,7 +283,8 @@ pub fn fit_dot(
     for _pass in 0..4 {
         let m = margin(p[7]);
         let samples = ellipse_samples(img, &p, m).ok_or(Reject::OutsideImage)?;
-        let s = solve(&DotModel, &samples, p).ok_or(Reject::NotConverged)?;
+        let pairs = adjacent_pairs(&samples);
+        let s = solve(&DotModel, &samples, p, Some(&pairs)).ok_or(Reject::NotConverged)?;
         let before = p;
         p = s.params;
         solution = Some((s, samples.len()));

@@ -29,12 +29,10 @@ pub(crate) struct Sample {
 pub(crate) struct Solution<const P: usize> {
     /// The parameters at the minimum.
     pub params: [f64; P],
-    /// Their covariance: `s² (JᵀJ)⁻¹` with `s² = RSS / (n − P)`.
+    /// Their covariance `s² (JᵀJ)⁻¹` (see [`solve`]).
     pub covariance: SMatrix<f64, P, P>,
     /// Root mean square residual, `sqrt(RSS / (n − P))`.
     pub residual_rms: f64,
-    /// Iterations taken.
-    pub iterations: usize,
 }
 
 /// Step of the centre (pixels) below which the fit has converged.
@@ -83,10 +81,15 @@ fn rss_of<M: Model<P>, const P: usize>(model: &M, samples: &[Sample], p: &[f64; 
 /// Minimises the sum of squared residuals of `model` over `samples` from `p0`. `None` when the
 /// problem is degenerate (fewer samples than twice the parameters, a singular normal matrix)
 /// or the iterations run out before the centre settles.
+///
+/// The covariance is `s² (JᵀJ)⁻¹`; `s²` is the white-noise variance of the residuals
+/// ([`white_noise_variance`]) when `neighbours` lists runs of adjacent pixels, else
+/// `RSS / (n − P)`.
 pub(crate) fn solve<M: Model<P>, const P: usize>(
     model: &M,
     samples: &[Sample],
     p0: [f64; P],
+    neighbours: Option<&[[u32; 3]]>,
 ) -> Option<Solution<P>> {
     if samples.len() < 2 * P {
         return None;
@@ -115,10 +118,11 @@ pub(crate) fn solve<M: Model<P>, const P: usize>(
         if model.constrain(&mut q) && q.iter().all(|v| v.is_finite()) {
             let rss_q = rss_of(model, samples, &q);
             if rss_q <= rss {
+                let settled = rss - rss_q <= 1e-10 * rss;
                 p = q;
                 lambda = (lambda * 0.2).max(1e-9);
                 (jtj, jtr, rss) = normal_equations(model, samples, &p);
-                if centre_step < CENTRE_STEP_PX {
+                if centre_step < CENTRE_STEP_PX || (settled && centre_step < 1e-3) {
                     converged = true;
                     break;
                 }
@@ -139,14 +143,66 @@ pub(crate) fn solve<M: Model<P>, const P: usize>(
         return None;
     }
     let dof = (samples.len() - P) as f64;
-    let s2 = rss / dof;
+    let s2_fit = rss / dof;
+    let s2 = match neighbours {
+        Some(pairs) => white_noise_variance(model, samples, &p, pairs).unwrap_or(s2_fit),
+        None => s2_fit,
+    };
     let inv = jtj.cholesky()?.inverse();
     Some(Solution {
         params: p,
         covariance: inv * s2,
-        residual_rms: s2.sqrt(),
-        iterations,
+        residual_rms: s2_fit.sqrt(),
     })
+}
+
+/// The variance of the white (pixel-to-pixel) part of the residuals from their second
+/// differences along rows and columns, `r(i−1) − 2 r(i) + r(i+1)` (variance 6σ² for white
+/// noise): what the model misses varies smoothly across an edge's blur width and largely
+/// cancels in them; the noise does not. `triples` holds the indices of three consecutive
+/// pixels in `samples`. `None` with fewer than 16 triples.
+fn white_noise_variance<M: Model<P>, const P: usize>(
+    model: &M,
+    samples: &[Sample],
+    p: &[f64; P],
+    triples: &[[u32; 3]],
+) -> Option<f64> {
+    if triples.len() < 16 {
+        return None;
+    }
+    let mut g = [0.0; P];
+    let r: Vec<f64> = samples
+        .iter()
+        .map(|s| s.z - model.eval(p, s.x, s.y, &mut g))
+        .collect();
+    let sum: f64 = triples
+        .iter()
+        .map(|&[a, b, c]| (r[a as usize] - 2.0 * r[b as usize] + r[c as usize]).powi(2))
+        .sum();
+    // The fit removed P of the n degrees of freedom.
+    let n = samples.len() as f64;
+    Some(sum / (6.0 * triples.len() as f64) * n / (n - P as f64))
+}
+
+/// The runs of three consecutive pixels along rows and columns among `samples` (pixel centres
+/// on the integer-plus-half grid).
+pub(crate) fn adjacent_pairs(samples: &[Sample]) -> Vec<[u32; 3]> {
+    let key = |s: &Sample| ((s.x - 0.5).round() as i64, (s.y - 0.5).round() as i64);
+    let index: std::collections::HashMap<(i64, i64), u32> = samples
+        .iter()
+        .enumerate()
+        .map(|(k, s)| (key(s), k as u32))
+        .collect();
+    let mut out = Vec::with_capacity(2 * samples.len());
+    for (k, s) in samples.iter().enumerate() {
+        let (i, j) = key(s);
+        for (a, b) in [((i - 1, j), (i + 1, j)), ((i, j - 1), (i, j + 1))] {
+            if let (Some(&ia), Some(&ib)) = (index.get(&a), index.get(&b)) {
+                out.push([ia, k as u32, ib]);
+            }
+        }
+    }
+    out
 }
 
 /// `erf(x)` (Abramowitz & Stegun 7.1.26, |error| ≤ 1.5·10⁻⁷) and its exact derivative

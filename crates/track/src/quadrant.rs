@@ -21,7 +21,7 @@
 
 use crate::centre::{Centre, FitOptions, Reject, centre_sigma, disc_samples};
 use crate::image::GreyView;
-use crate::lm::{Model, Sample, erf_and_derivative, solve};
+use crate::lm::{Model, Sample, adjacent_pairs, erf_and_derivative, solve};
 
 /// The model of the module doc; parameters `[a, b, u, v, θ₁, θ₂, s₁, s₂]`.
 pub(crate) struct QuadrantModel;
@@ -136,7 +136,8 @@ pub fn fit_quadrant(
             p[0] = a;
             p[1] = b;
         }
-        let s = solve(&QuadrantModel, &samples, p).ok_or(Reject::NotConverged)?;
+        let pairs = adjacent_pairs(&samples);
+        let s = solve(&QuadrantModel, &samples, p, Some(&pairs)).ok_or(Reject::NotConverged)?;
         p = s.params;
         let moved = (p[2] - window.0).hypot(p[3] - window.1);
         solution = Some((s, samples.len()));
@@ -163,7 +164,8 @@ fn accept(
     pixels: usize,
     opts: &FitOptions,
 ) -> Result<Centre, Reject> {
-    let contrast = p[1].abs();
+    // The step between the two shades: the model spans a − |b| … a + |b|.
+    let contrast = 2.0 * p[1].abs();
     if contrast < opts.min_contrast * f64::from(img.full_scale()) {
         return Err(Reject::LowContrast);
     }

@@ -133,8 +133,8 @@ pub fn random_marker(rng: &mut impl Rng, size: usize, r: f64, tilt: f64, dot: bo
     let angle = rng.random_range(0.0..std::f64::consts::PI);
     let skew = rng.random_range(0.0..0.2);
     let p = (
-        rng.random_range(-tilt..tilt) / (r * 20.0),
-        rng.random_range(-tilt..tilt) / (r * 20.0),
+        tilt * rng.random_range(-1.0..1.0) / (r * 20.0),
+        tilt * rng.random_range(-1.0..1.0) / (r * 20.0),
     );
     let mut m = Marker::new(u, v, r, angle, skew, p, dot);
     let lo = rng.random_range(20.0..60.0);
