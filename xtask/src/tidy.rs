@@ -134,6 +134,16 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-measure",
             "crashrig-outdir",
             "crashrig-covariance",
+            "crashrig-track",
+        ],
+    ),
+    (
+        "crashrig-track",
+        &[
+            "crashrig-frames",
+            "crashrig-input",
+            "crashrig-outdir",
+            "crashrig-stats",
         ],
     ),
     (

@@ -63,6 +63,8 @@ enum Command {
     Merge(cmd::merge::MergeArgs),
     /// Where to mount the cameras: choose K observers from candidates (Monte Carlo confirmed).
     Place(cmd::place::PlaceArgs),
+    /// Markers followed through one camera's frames: observations with each centre's own σ.
+    Track(cmd::track::TrackArgs),
 }
 
 /// The error line of a failed run: the context chain joined with ": " (every library error
@@ -132,6 +134,7 @@ fn main() -> std::process::ExitCode {
         Command::Covariance(a) => cmd::covariance::run(a, &cli.global),
         Command::Merge(a) => cmd::merge::run(a, &cli.global),
         Command::Place(a) => cmd::place::run(a, &cli.global),
+        Command::Track(a) => cmd::track::run(a, &cli.global),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

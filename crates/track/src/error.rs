@@ -54,6 +54,9 @@ pub enum Error {
         /// What is wrong.
         reason: String,
     },
+    /// The camera-file reader's error (names the file and the frame).
+    #[error(transparent)]
+    FrameFile(#[from] crashrig_frames::FramesError),
     /// The output directory.
     #[error(transparent)]
     OutDir(#[from] crashrig_outdir::Error),

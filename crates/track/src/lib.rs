@@ -56,6 +56,8 @@ mod error;
 pub mod image;
 mod lm;
 pub mod quadrant;
+pub mod run;
+pub mod seeds;
 pub mod tracker;
 
 pub use centre::{Centre, FitOptions, Reject};
@@ -63,4 +65,5 @@ pub use dot::{find_dot, fit_dot};
 pub use error::Error;
 pub use image::GreyView;
 pub use quadrant::{QuadrantStart, find_quadrant, fit_quadrant};
+pub use run::{MarkerSummary, Observation, TrackConfig, TrackRun, TrackSummary, run};
 pub use tracker::{MarkerKind, Seed, SeedMiss, Tracker, TrackerOptions};

@@ -185,14 +185,19 @@ pub fn run(config: &TrackConfig, monitor: Option<&dyn Monitor>) -> Result<TrackR
     to_f32(&cur, &mut cur_f);
     for k in 0..n {
         check(monitor)?;
-        let img = GreyView::new(w, h, full_scale, &cur_f)
-            .ok_or_else(|| frames_error(config, format!("frame {} has the wrong size", seq.epoch(i0 + k))))?;
+        let img = GreyView::new(w, h, full_scale, &cur_f).ok_or_else(|| {
+            frames_error(
+                config,
+                format!("frame {} has the wrong size", seq.epoch(i0 + k)),
+            )
+        })?;
         // Decode the next frame while this one is tracked.
         let (step, read) = rayon::join(
             || tracker.step(k, &img),
             || {
                 if k + 1 < n {
-                    seq.read(i0 + k + 1, &mut next).map(|()| to_f32(&next, &mut next_f))
+                    seq.read(i0 + k + 1, &mut next)
+                        .map(|()| to_f32(&next, &mut next_f))
                 } else {
                     Ok(())
                 }

@@ -25,9 +25,9 @@ pub struct SeedLine {
 pub fn read_seeds(path: &Path) -> Result<Vec<SeedLine>, Error> {
     let text = crashrig_input::file::read_text_limited(path, crashrig_input::file::MAX_CSV_BYTES)
         .map_err(|source| Error::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        path: path.to_path_buf(),
+        source,
+    })?;
     let bad = |line: usize, reason: String| Error::Seeds {
         path: path.to_path_buf(),
         line,

@@ -3,3 +3,4 @@
 mod support;
 
 mod fit_stats;
+mod fixtures;
