@@ -67,3 +67,8 @@ pub use image::GreyView;
 pub use quadrant::{QuadrantStart, find_quadrant, fit_quadrant};
 pub use run::{MarkerSummary, Observation, TrackConfig, TrackRun, TrackSummary, run};
 pub use tracker::{MarkerKind, Seed, SeedMiss, Tracker, TrackerOptions};
+
+/// The crate's README (its crates.io page), compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;
