@@ -144,8 +144,17 @@ fn test(slow: bool) -> Result<()> {
     t.args(["test", "--workspace"]);
     if slow {
         // The Slurm test needs a running cluster: `cargo test -p crashrig-cli --test tests
-        // slurm -- --ignored` (docs/SCALE.md).
-        t.args(["--release", "--", "--ignored", "--skip", "slurm_"]);
+        // slurm -- --ignored` (docs/SCALE.md). Tests named `open_*` state a figure of an open
+        // issue that is not reached yet (#[ignore = "open: ..."]): run them by name.
+        t.args([
+            "--release",
+            "--",
+            "--ignored",
+            "--skip",
+            "slurm_",
+            "--skip",
+            "open_",
+        ]);
     }
     let tmp = target_dir().join("xtask-test-tmp");
     if tmp.exists() {

@@ -160,6 +160,16 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-study",
             "crashrig-place",
             "crashrig-merge",
+            "crashrig-track",
+        ],
+    ),
+    (
+        "crashrig-track",
+        &[
+            "crashrig-frames",
+            "crashrig-input",
+            "crashrig-outdir",
+            "crashrig-stats",
         ],
     ),
     (

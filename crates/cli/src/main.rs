@@ -66,6 +66,8 @@ enum Command {
     /// Camera files (Phantom .cine, Photron .cihx/.cih + .mraw, PNG/TIFF directories): info and export.
     #[command(subcommand)]
     Frames(cmd::frames::FramesCommand),
+    /// Markers followed through one camera's frames: observations with each centre's own σ.
+    Track(cmd::track::TrackArgs),
 }
 
 /// The error line of a failed run: the context chain joined with ": " (every library error
@@ -136,6 +138,7 @@ fn main() -> std::process::ExitCode {
         Command::Merge(a) => cmd::merge::run(a, &cli.global),
         Command::Place(a) => cmd::place::run(a, &cli.global),
         Command::Frames(c) => cmd::frames::run(c, &cli.global),
+        Command::Track(a) => cmd::track::run(a, &cli.global),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -428,7 +428,7 @@ fn the_power_table_of_measure_md_is_its_formula() {
 /// `sigma_too_small`, B `consistent`, each estimate's interval covers its camera's truth.
 #[test]
 #[ignore = "not verified: the opposed geometry of the generator still puts markers outside C's image (its assertion fails); the per-camera split is untested"]
-fn opposed_cameras_are_checked_apart() {
+fn open_opposed_cameras_are_checked_apart() {
     let s = Scene {
         sigma_true: [0.2, 0.3],
         sigma_stated: [0.2, 0.15],

@@ -14,3 +14,4 @@ pub mod paper;
 pub mod place;
 pub mod propagate;
 pub mod study;
+pub mod track;
