@@ -271,7 +271,7 @@ pub struct Study {
     /// `[measure]`: a test sequence to measure with the calibrated link, if any.
     pub measure: Option<MeasureSection>,
     /// Plausibility warnings found on reading (units are never guessed: a length or σ that
-    /// looks typed in metres; [`units`]), one line each naming the file, line, key and unit,
-    /// without the `warning: ` prefix. The study's warnings and its report repeat them.
+    /// looks typed in metres; [`units`](super::units)), one line each naming the file, line, key
+    /// and unit, without the `warning: ` prefix. The study's warnings and its report repeat them.
     pub warnings: Vec<String>,
 }
