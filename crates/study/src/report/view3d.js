@@ -188,7 +188,10 @@ function view3d() {
     var l = data.layouts[k];
     var thr = l.threshold_mm;
     var finite = l.points.map(function (p) { return p[3]; }).filter(function (s) { return s !== null; });
-    var top = niceCeil(Math.max(Math.max.apply(null, finite.concat([0])), 1.25 * thr));
+    // The bar ends at 3× the threshold at most (as the heat maps do), so that the part below the
+    // threshold stays readable when a few points have a far larger σ; beyond it the colour is the
+    // bar's last ("… mm and more").
+    var top = niceCeil(Math.min(Math.max(Math.max.apply(null, finite.concat([0])), 1.25 * thr), 3 * thr));
     var pos = [], colr = [], hollow = [], above = 0;
     l.points.forEach(function (p) {
       if (p[3] === null) { hollow.push(p[0], p[1], p[2]); return; }
