@@ -2,7 +2,7 @@
 //! outward camera's pose covariance (JSON).
 
 use crate::Error;
-use crate::csv_table::{csv_error, for_each_row, for_each_row_with, not_utf8};
+use crate::csv_table::{csv_error, for_each_row_with, not_utf8};
 use crashrig_geometry::uncertain::COVARIANCE_RELATIVE_TOLERANCE;
 use crashrig_geometry::{Mat6, Rigid3, UncertainPose};
 use crashrig_input::file as input_file;
