@@ -166,6 +166,8 @@ fn reached(case: &str, run: &TrackRun) -> Reached {
 /// The contract's common figures: no row > 1 px, no swap, no row where the marker is hidden,
 /// recall ≥ 99 % where fully visible, σ honest.
 fn common(r: &Reached) {
+    // A case with no row would pass every bound below vacuously.
+    assert!(r.rows > 0, "{r:?}");
     assert!(r.max_px <= 1.0, "{r:?}");
     assert_eq!(r.swaps, 0, "{r:?}");
     assert_eq!(r.ghosts, 0, "{r:?}");
