@@ -20,6 +20,9 @@
 //! - [`run()`]: `crashrig track` — frames (crate `crashrig-frames`) and a seeds file in,
 //!   `observations.csv`, `frames.csv`, `summary.json` out ([`TrackConfig`], [`TrackRun`]).
 //!
+//! # Features
+//! None: the crate has no cargo features.
+//!
 //! # Example
 //! A quadrant target drawn with a sub-pixel centre, found from a seed 2 px off (`no_run`: in
 //! this session the fit refused this example; the cause is open, see docs/TRACK.md):

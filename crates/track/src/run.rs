@@ -235,33 +235,8 @@ pub fn run(config: &TrackConfig, monitor: Option<&dyn Monitor>) -> Result<TrackR
 
     let names: Vec<String> = lines.iter().map(|s| s.marker.clone()).collect();
     let epoch = |k: usize| seq.epoch(i0 + k);
-    let mut csv = String::from("epoch,camera,marker,u_px,v_px,sigma_u_px,sigma_v_px,rho_uv\n");
-    for o in &observations {
-        let c = &o.centre;
-        let _ = writeln!(
-            csv,
-            "{},{},{},{:.6},{:.6},{:.7},{:.7},{:.4}",
-            epoch(o.frame),
-            config.camera,
-            csv_field(&names[o.marker]),
-            c.u_px,
-            c.v_px,
-            c.sigma_u_px,
-            c.sigma_v_px,
-            c.rho_uv
-        );
-    }
-    let mut times = String::from("epoch,time_s\n");
-    for k in 0..n {
-        match seq.time_s(i0 + k) {
-            Some(t) => {
-                let _ = writeln!(times, "{},{t}", epoch(k));
-            }
-            None => {
-                let _ = writeln!(times, "{},", epoch(k));
-            }
-        }
-    }
+    let csv = observations_csv(config, &names, &observations, &epoch);
+    let times = frames_csv(&seq, i0, n);
     let markers = names
         .iter()
         .enumerate()
@@ -297,6 +272,48 @@ pub fn run(config: &TrackConfig, monitor: Option<&dyn Monitor>) -> Result<TrackR
         markers: names,
         files: 3,
     })
+}
+
+/// `observations.csv`: one row per marker and frame in which it was found.
+fn observations_csv<'a>(
+    config: &TrackConfig,
+    names: &[String],
+    observations: &[Observation],
+    epoch: &dyn Fn(usize) -> &'a str,
+) -> String {
+    let mut csv = String::from("epoch,camera,marker,u_px,v_px,sigma_u_px,sigma_v_px,rho_uv\n");
+    for o in observations {
+        let c = &o.centre;
+        let _ = writeln!(
+            csv,
+            "{},{},{},{:.6},{:.6},{:.7},{:.7},{:.4}",
+            epoch(o.frame),
+            config.camera,
+            csv_field(&names[o.marker]),
+            c.u_px,
+            c.v_px,
+            c.sigma_u_px,
+            c.sigma_v_px,
+            c.rho_uv
+        );
+    }
+    csv
+}
+
+/// `frames.csv`: each tracked frame's epoch and its time (empty for a directory).
+fn frames_csv(seq: &Sequence, i0: usize, n: usize) -> String {
+    let mut times = String::from("epoch,time_s\n");
+    for k in 0..n {
+        match seq.time_s(i0 + k) {
+            Some(t) => {
+                let _ = writeln!(times, "{},{t}", seq.epoch(i0 + k));
+            }
+            None => {
+                let _ = writeln!(times, "{},", seq.epoch(i0 + k));
+            }
+        }
+    }
+    times
 }
 
 /// A marker name as one CSV field (quoted when it holds a comma, quote or line break).

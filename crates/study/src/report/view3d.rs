@@ -8,7 +8,8 @@ use crate::html::{Block, Report, escape};
 use crate::pipeline::{LayoutResult, StudyResult};
 use crate::study_file::ObserverNoise;
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
-use serde_json::{Value, json};
+use serde::Serialize;
+use serde_json::Value;
 use std::fmt::Write as _;
 
 /// three.js r187 with OrbitControls, bundled by `assets/three/vendor.sh` (checked against
@@ -39,46 +40,101 @@ fn deg3(v: Vector3<f64>) -> [f64; 3] {
     v.map(f64::to_degrees).into()
 }
 
-fn layout_json(l: &LayoutResult, r: &StudyResult) -> Value {
-    let points: Vec<Value> = l
+/// `world_from_cam` of a camera in the blob (angles null for an aimed observer).
+#[derive(Serialize)]
+struct PoseView {
+    position_mm: [f64; 3],
+    angles_deg: Option<[f64; 3]>,
+}
+
+/// A camera of the blob: a chain camera, or a layout's observer (with `from`).
+#[derive(Serialize)]
+struct CameraView<'a> {
+    name: &'a str,
+    world_from_cam: PoseView,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    from: Option<Option<&'a str>>,
+}
+
+/// A layout of the blob: points `[x, y, z, σ_worst or null]`.
+#[derive(Serialize)]
+struct LayoutView<'a> {
+    name: &'a str,
+    threshold_mm: f64,
+    points: Vec<(f64, f64, f64, Option<f64>)>,
+    cameras: Vec<CameraView<'a>>,
+    rig_in_frame: bool,
+}
+
+/// A σ ellipsoid of a marker at one epoch.
+#[derive(Serialize)]
+struct EllipsoidView<'a> {
+    role: &'a str,
+    epoch_index: usize,
+    epoch: &'a str,
+    position_mm: [f64; 3],
+    sigma_max_mm: Option<f64>,
+    semi_axes_mm: [[f64; 3]; 3],
+}
+
+/// A marker's trajectory: its position per epoch, null where not measured.
+#[derive(Serialize)]
+struct TrajectoryView<'a> {
+    marker: &'a str,
+    epochs: Vec<Option<[f64; 3]>>,
+    ellipsoids: Vec<EllipsoidView<'a>>,
+}
+
+/// The whole blob (docs/REFERENCE.md).
+#[derive(Serialize)]
+struct Blob<'a> {
+    layouts: Vec<LayoutView<'a>>,
+    cameras: Vec<CameraView<'a>>,
+    trajectories: Vec<TrajectoryView<'a>>,
+}
+
+fn layout_view<'a>(l: &'a LayoutResult, r: &StudyResult) -> LayoutView<'a> {
+    let points = l
         .result
         .points
         .iter()
         .map(|p| {
             let w = p.sigma_worst_mm();
-            let s = if p.is_measurable() && w.is_finite() {
-                json!(w)
-            } else {
-                Value::Null
-            };
-            json!([p.point.x, p.point.y, p.point.z, s])
+            let s = (p.is_measurable() && w.is_finite()).then_some(w);
+            (p.point.x, p.point.y, p.point.z, s)
         })
         .collect();
-    let cameras: Vec<Value> = l
+    let cameras = l
         .grid
         .observers
         .iter()
         .zip(&l.layout.observers)
         .map(|(o, lo)| {
-            let angles = match &o.aim {
-                crashrig_mc::Aim::Fixed(f) => json!(deg3(f.angles_rad)),
-                crashrig_mc::Aim::Point => Value::Null,
+            let angles_deg = match &o.aim {
+                crashrig_mc::Aim::Fixed(f) => Some(deg3(f.angles_rad)),
+                crashrig_mc::Aim::Point => None,
             };
-            let p: [f64; 3] = o.position_mm.into();
             let from = match lo.noise {
-                ObserverNoise::From(c) => json!(c.name()),
-                ObserverNoise::Given(_) => Value::Null,
+                ObserverNoise::From(c) => Some(c.name()),
+                ObserverNoise::Given(_) => None,
             };
-            json!({"name": o.name, "world_from_cam": {"position_mm": p, "angles_deg": angles}, "from": from})
+            CameraView {
+                name: &o.name,
+                world_from_cam: PoseView {
+                    position_mm: o.position_mm.into(),
+                    angles_deg,
+                },
+                from: Some(from),
+            }
         })
         .collect();
-    json!({
-        "name": l.layout.name,
-        "threshold_mm": l.layout.threshold_mm,
-        "points": points,
-        "cameras": cameras,
-        "rig_in_frame": rig_in_frame(l, r),
-    })
+    LayoutView {
+        name: &l.layout.name,
+        threshold_mm: l.layout.threshold_mm,
+        points,
+        cameras,
+        rig_in_frame: rig_in_frame(l, r),
+    }
 }
 
 /// The semi-axes of the 1σ ellipsoid of `c` (mm): √λᵢ·vᵢ, largest first.
@@ -92,7 +148,7 @@ pub(crate) fn semi_axes_mm(c: &Matrix3<f64>) -> [[f64; 3]; 3] {
     })
 }
 
-fn trajectories_json(r: &StudyResult) -> Vec<Value> {
+fn trajectories_view(r: &StudyResult) -> Vec<TrajectoryView<'_>> {
     let Some(m) = &r.measure else {
         return Vec::new();
     };
@@ -101,11 +157,11 @@ fn trajectories_json(r: &StudyResult) -> Vec<Value> {
         .iter()
         .enumerate()
         .map(|(k, name)| {
-            let mut epochs = vec![Value::Null; ms.epochs.len()];
+            let mut epochs = vec![None; ms.epochs.len()];
             let rows: Vec<_> = ms.rows.iter().filter(|row| row.marker == k).collect();
             for row in &rows {
                 if let Some(p) = row.position_mm {
-                    epochs[row.epoch] = json!([p.x, p.y, p.z]);
+                    epochs[row.epoch] = Some([p.x, p.y, p.z]);
                 }
             }
             let with_cov = |row: &crashrig_measure::Row| {
@@ -127,16 +183,16 @@ fn trajectories_json(r: &StudyResult) -> Vec<Value> {
                         .total_cmp(&b.sigma_max_mm().unwrap_or(0.0))
                 });
             let mut ellipsoids = Vec::new();
-            let mut push = |row: &crashrig_measure::Row, role: &str| {
+            let mut push = |row: &crashrig_measure::Row, role: &'static str| {
                 if let (Some(p), Some(c)) = (row.position_mm, row.covariance_mm2) {
-                    ellipsoids.push(json!({
-                        "role": role,
-                        "epoch_index": row.epoch,
-                        "epoch": ms.epochs[row.epoch].name,
-                        "position_mm": [p.x, p.y, p.z],
-                        "sigma_max_mm": row.sigma_max_mm(),
-                        "semi_axes_mm": semi_axes_mm(&c),
-                    }));
+                    ellipsoids.push(EllipsoidView {
+                        role,
+                        epoch_index: row.epoch,
+                        epoch: &ms.epochs[row.epoch].name,
+                        position_mm: [p.x, p.y, p.z],
+                        sigma_max_mm: row.sigma_max_mm(),
+                        semi_axes_mm: semi_axes_mm(&c),
+                    });
                 }
             };
             if let Some(row) = reference {
@@ -147,7 +203,11 @@ fn trajectories_json(r: &StudyResult) -> Vec<Value> {
             {
                 push(row, "largest");
             }
-            json!({"marker": name, "epochs": epochs, "ellipsoids": ellipsoids})
+            TrajectoryView {
+                marker: name,
+                epochs,
+                ellipsoids,
+            }
         })
         .collect()
 }
@@ -159,22 +219,25 @@ fn trajectories_json(r: &StudyResult) -> Vec<Value> {
 /// position per measured epoch, null where not measured, and the σ ellipsoids at the reference
 /// epoch and at the epoch of its largest σ).
 pub fn blob(r: &StudyResult) -> Value {
-    let cameras: Vec<Value> = r
+    let cameras = r
         .chain
         .iter()
-        .map(|c| {
-            let p: [f64; 3] = c.mc.nominal.position_mm.into();
-            json!({
-                "name": c.camera.name(),
-                "world_from_cam": {"position_mm": p, "angles_deg": deg3(c.mc.nominal.angles_rad())},
-            })
+        .map(|c| CameraView {
+            name: c.camera.name(),
+            world_from_cam: PoseView {
+                position_mm: c.mc.nominal.position_mm.into(),
+                angles_deg: Some(deg3(c.mc.nominal.angles_rad())),
+            },
+            from: None,
         })
         .collect();
-    json!({
-        "layouts": r.layouts.iter().map(|l| layout_json(l, r)).collect::<Vec<_>>(),
-        "cameras": cameras,
-        "trajectories": trajectories_json(r),
-    })
+    let blob = Blob {
+        layouts: r.layouts.iter().map(|l| layout_view(l, r)).collect(),
+        cameras,
+        trajectories: trajectories_view(r),
+    };
+    // Every field is a number, string, bool or null: serialising cannot fail.
+    serde_json::to_value(&blob).unwrap_or(Value::Null)
 }
 
 /// JSON safe inside `<script>`: every `<` escaped (it occurs only inside strings).
@@ -410,6 +473,7 @@ pub(crate) fn section(rep: &mut Report, r: &StudyResult) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use serde_json::json;
     use sha2::{Digest, Sha256};
 
     #[test]
