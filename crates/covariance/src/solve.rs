@@ -69,6 +69,11 @@ impl PointRows {
     }
 }
 
+/// One observation of an eliminated point: the first local column of its frame block and of
+/// its camera's intrinsics block, the number of free intrinsics, its `[du, dv]` per active
+/// parameter (pose, then intrinsics) and its 2×3 point Jacobian.
+type ObsRow = (usize, usize, usize, Vec<[f64; 2]>, [[f64; 3]; 2]);
+
 /// The reduced information matrix `S = U − W V⁻¹ Wᵀ` over frames (6 each) and free
 /// intrinsics, for pixel weight `1/σ²`.
 ///
@@ -95,7 +100,7 @@ pub(crate) fn reduced_information(p: &Problem, pixel_sigma: f64) -> Mat<f64> {
     for pt in &p.points {
         pt_rows.clear();
         // First pass: the column blocks of this point (frames, then cameras, in order seen).
-        let mut obs_rows: Vec<(usize, usize, usize, Vec<[f64; 2]>, [[f64; 3]; 2])> = Vec::new();
+        let mut obs_rows: Vec<ObsRow> = Vec::new();
         for o in &p.obs[pt.start..pt.end] {
             let im = &p.images[o.image];
             let cam = &p.cameras[im.camera];
@@ -161,8 +166,8 @@ pub(crate) fn reduced_information(p: &Problem, pixel_sigma: f64) -> Mat<f64> {
         for (k, (pose, intr, nf, jc, jp)) in obs_rows.iter().enumerate() {
             for r in 0..2 {
                 let row = 2 * k + r;
-                for c in 0..3 {
-                    pt_rows.jp[row * 3 + c] = w * jp[r][c];
+                for (dst, j) in pt_rows.jp[row * 3..row * 3 + 3].iter_mut().zip(jp[r]) {
+                    *dst = w * j;
                 }
                 let out = &mut pt_rows.jc[row * cols..(row + 1) * cols];
                 for c in 0..6 {

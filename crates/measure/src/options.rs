@@ -346,6 +346,15 @@ fn sigmas(v: Option<[f64; 3]>, name: &str) -> Result<Vec3, Error> {
     }
 }
 
+/// `--frame-times` / `frame_times` as `spelling` names options.
+fn frame_times_name(spelling: Spelling) -> &'static str {
+    if spelling.name("frame_rate_hz").starts_with("--") {
+        "--frame-times"
+    } else {
+        "frame_times"
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -431,14 +440,5 @@ mod tests {
             message(&mpe, Spelling::Keyword),
             "mpe_mm: -1 is not a number > 0 (mm)"
         );
-    }
-}
-
-/// `--frame-times` / `frame_times` as `spelling` names options.
-fn frame_times_name(spelling: Spelling) -> &'static str {
-    if spelling.name("frame_rate_hz").starts_with("--") {
-        "--frame-times"
-    } else {
-        "frame_times"
     }
 }

@@ -235,8 +235,9 @@ fn position_covariance_follows_each_observations_own_sigma() {
     }
     // The blurred copy: 10× the σ of every pixel → 10× the σ of every axis (first order
     // exactly; the two rows' draws are independent, so the ratio's SE is √2 × 0.5 % × 10).
-    for k in 0..3 {
-        let ratio = sigma_of["knee_blurred"][k] / sigma_of["knee"][k];
+    let (blurred, sharp) = (sigma_of["knee_blurred"], sigma_of["knee"]);
+    for (k, (b, s)) in blurred.iter().zip(sharp.iter()).enumerate() {
+        let ratio = b / s;
         let se = 10.0 * (2.0_f64 / (2.0 * (n - 1.0))).sqrt();
         assert!(
             (ratio - 10.0).abs() < 4.0 * se,

@@ -343,7 +343,7 @@ fn marker_summary<'a>(
     let mut lost = 0;
     let mut run: Option<usize> = None;
     for k in 0..=n {
-        let is_lost = k < n && tracker.started(m, k) && !found[k];
+        let is_lost = found.get(k).is_some_and(|&f| !f) && tracker.started(m, k);
         if is_lost {
             lost += 1;
             run.get_or_insert(k);

@@ -76,6 +76,8 @@ impl Marker {
 
 /// Renders `markers` into a `w × h` 8-bit-valued frame (as f32) with `ss × ss` samples per
 /// pixel, `sub` sub-exposures, noise σ `noise` (grey levels), then rounded to integers.
+// A test renderer's knobs, each named at the call sites.
+#[allow(clippy::too_many_arguments)]
 pub fn render(
     w: usize,
     h: usize,
