@@ -48,9 +48,9 @@ use nalgebra::{DMatrix, Matrix2, Matrix2x3, Matrix4x3, Vector2, Vector4};
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 use std::collections::{BTreeMap, HashMap};
 
-/// The level of the band of [`PixelSigmaCheck::sigma_ratio_band_99`].
+/// The level of the band of [`SigmaRatio::sigma_ratio_band_99`].
 pub const BAND_LEVEL: f64 = 0.99;
-/// The level of the estimate's interval ([`PixelSigmaCheck::estimate_95_px`]).
+/// The level of the estimate's interval ([`SigmaRatio::estimate_95_px`]).
 pub const INTERVAL_LEVEL: f64 = 0.95;
 /// The per-camera estimates are reported only where the geometry separates the cameras: the
 /// standard error of each camera's variance ratio `k̂²` (on honest σ) at most this.

@@ -13,7 +13,7 @@ use std::path::PathBuf;
 pub enum FramesCommand {
     /// What a frame source holds: frames, size, bits, frame rate, trigger, first image number, exposure.
     Info(InfoArgs),
-    /// Each frame as a 16-bit grey PNG DIR/<epoch>.png (the camera's values unscaled) plus DIR/frames.csv.
+    /// Each frame as a 16-bit grey PNG DIR/EPOCH.png, the camera's values unscaled (EPOCH: the file stem in a directory, the index from 0 in a movie file), plus DIR/frames.csv.
     Export(ExportArgs),
 }
 

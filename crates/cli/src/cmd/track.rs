@@ -1,5 +1,5 @@
 //! `crashrig track`: markers followed through one camera's frames. Arguments →
-//! [`TrackConfig`] → [`crashrig_track::run`] → print.
+//! [`TrackConfig`] → [`crashrig_track::run()`] → print.
 
 use crate::Global;
 use crashrig_track::{MarkerKind, TrackConfig};

@@ -132,7 +132,7 @@ pub struct SkippedEpoch {
     pub observations: usize,
 }
 
-/// The result of [`measure`].
+/// The result of [`measure`](crate::engine::measure).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Measurement {
     /// Measured epochs in sequence order (those with observations and a pose of A).

@@ -23,7 +23,7 @@ pub struct Settings {
     /// Rows with σ_max above this (mm) are flagged.
     pub threshold_mm: f64,
     /// Rows whose largest reprojection residual exceeds this (px) are flagged; `None`: the
-    /// robust limit of the sequence, [`robust_reprojection_limit`].
+    /// robust limit of the sequence, [`robust_reprojection_limit`](crate::engine::robust_reprojection_limit).
     pub max_reprojection_px: Option<f64>,
     /// CFC filter of the kinematics ([`crate::kinematics`]; needs a frame rate); `None`: no
     /// kinematics.
