@@ -73,6 +73,7 @@ pub const ALLOWED: &[(&str, &[&str])] = &[
             "crashrig-geometry",
             "crashrig-stats",
             "crashrig-plot",
+            "crashrig-outdir",
             "crashrig-input",
             "crashrig-rig",
             "crashrig-colmap",

@@ -157,16 +157,10 @@ pub enum Error {
         /// What failed.
         source: crashrig_plot::Error,
     },
-    /// A plot file could not be written.
-    #[error("{}: {what}", path.display())]
-    Io {
-        /// The file or directory.
-        path: PathBuf,
-        /// What was being done.
-        what: &'static str,
-        /// The I/O error.
-        source: std::io::Error,
-    },
+    /// The plot directory could not be staged, written or swapped in (the message names the
+    /// path), or it holds files that are not this command's plots.
+    #[error(transparent)]
+    Write(#[from] crashrig_outdir::Error),
     /// The caller's monitor cancelled the calibration.
     #[error(transparent)]
     Cancelled(#[from] Cancelled),

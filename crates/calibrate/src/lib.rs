@@ -919,11 +919,12 @@ impl CalibrationResult {
         Ok(out)
     }
 
-    /// Writes [`CalibrationResult::plots`] into `dir` (created if needed); each file is
-    /// written to a temporary name first and renamed into place.
+    /// Writes [`CalibrationResult::plots`] as the directory `dir`, replaced as a whole
+    /// ([`crashrig_outdir::Staged`]): an existing `dir` may hold only these plots' names (empty
+    /// or an earlier run's), and a kill leaves the old plots, none or the new ones, never a mix.
     ///
     /// # Errors
-    /// [`Error::Plot`] or [`Error::Io`].
+    /// [`Error::Plot`] or [`Error::Write`] (including `dir` holding other files).
     pub fn write_plots(&self, dir: &Path) -> Result<(), Error> {
         let plots = self.plots().map_err(|e| match e {
             Error::Plot { what, source, .. } => Error::Plot {
@@ -933,25 +934,14 @@ impl CalibrationResult {
             },
             e => e,
         })?;
-        std::fs::create_dir_all(dir).map_err(|source| Error::Io {
-            path: dir.to_path_buf(),
-            what: "cannot create the plot directory",
-            source,
-        })?;
-        for (name, bytes) in plots {
-            let path = dir.join(&name);
-            let tmp = dir.join(format!(".{name}.tmp"));
-            std::fs::write(&tmp, &bytes).map_err(|source| Error::Io {
-                path: tmp.clone(),
-                what: "write failed",
-                source,
-            })?;
-            std::fs::rename(&tmp, &path).map_err(|source| Error::Io {
-                path: path.clone(),
-                what: "cannot rename into place",
-                source,
-            })?;
+        // The directory is replaced as a whole (crashrig_outdir::Staged): a kill leaves the old
+        // plots, none or the new ones, never a mix; a directory holding other files is refused.
+        let mut staged =
+            crashrig_outdir::Staged::new(dir, |name| plots.iter().any(|(n, _)| n == name))?;
+        for (name, bytes) in &plots {
+            staged.write(name, bytes)?;
         }
+        staged.commit()?;
         Ok(())
     }
 }

@@ -160,14 +160,31 @@ fn calibration_plots_are_written() {
             }
         }
     }
-    // No temporary file left behind.
-    assert!(
-        std::fs::read_dir(dir.path()).unwrap().all(|e| !e
-            .unwrap()
-            .file_name()
+    // Exactly the 36 plots: no temporary or staging file left behind, in it or beside it.
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 36);
+    let parent = dir.path().parent().unwrap();
+    let stem = dir
+        .path()
+        .file_name()
+        .unwrap()
+        .to_string_lossy()
+        .into_owned();
+    assert!(std::fs::read_dir(parent).unwrap().flatten().all(|e| {
+        !e.file_name()
             .to_string_lossy()
-            .ends_with(".tmp"))
+            .contains(&format!(".{stem}.crashrig-staging"))
+    }));
+    // An earlier run's plots are replaced as a whole; a directory holding anything else is
+    // refused and left exactly as it was.
+    r.write_plots(dir.path()).unwrap();
+    std::fs::write(dir.path().join("notes.txt"), b"mine").unwrap();
+    let e = r.write_plots(dir.path()).unwrap_err();
+    assert!(e.to_string().contains("notes.txt"), "{e}");
+    assert_eq!(
+        std::fs::read(dir.path().join("notes.txt")).unwrap(),
+        b"mine"
     );
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 37);
 }
 
 #[test]

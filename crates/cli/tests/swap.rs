@@ -3,13 +3,13 @@
 //! "removed the unfinished output" when the new result was already in place).
 //!
 //! Each command that writes a directory (`grid`, `colmap convert` to bin and to txt, `study`
-//! with its study file inside `--out`) runs over an older complete result with the test hook
-//! `CRASHRIG_OUTDIR_FAULT=stop-POINT` (`crashrig_outdir`): the process stops itself (SIGSTOP)
-//! right after each file, before the swap, inside the swap (after the exchange; with
-//! `no-exchange`, between the two renames of the fallback) and after it. At that instant the
-//! test looks at `OUT`, then sends SIGINT, SIGTERM or SIGKILL to the process group (the child
-//! runs in its own group, with SIGINT at its default disposition, as a shell's Ctrl-C finds
-//! it) and SIGCONT. The promise:
+//! with its study file inside `--out`, `calibrate --plots`, `bootstrap --plots`) runs over an
+//! older complete result with the test hook `CRASHRIG_OUTDIR_FAULT=stop-POINT` (`crashrig_outdir`):
+//! the process stops itself (SIGSTOP) right after each file, before the swap, inside the swap
+//! (after the exchange; with `no-exchange`, between the two renames of the fallback) and after it.
+//! At that instant the test looks at `OUT`, then sends SIGINT, SIGTERM or SIGKILL to the process
+//! group (the child runs in its own group, with SIGINT at its default disposition, as a shell's
+//! Ctrl-C finds it) and SIGCONT. The promise:
 //! - at the stop, `OUT` is the whole old result or the whole new one (absent only between the
 //!   two renames of the fallback swap);
 //! - SIGINT / SIGTERM: exit 128 + signal (or 0 when the command had finished); `OUT` is the
@@ -393,6 +393,75 @@ fn interrupt(judge: &Judge<'_>, dir: &Path, point: &str, fallback: bool, sig: &s
     }
 }
 
+fn calibrate_args(out: &Path, mm_per_unit: &str) -> Vec<OsString> {
+    let mut a = os(&["calibrate"]);
+    a.push(fixtures().join("rig/paper").into_os_string());
+    a.extend(os(&[
+        "--camera-a",
+        "cam_out/",
+        "--camera-b",
+        "cam_in/",
+        "--mm-per-unit",
+        mm_per_unit,
+        "--plots",
+    ]));
+    a.push(out.as_os_str().to_owned());
+    a
+}
+
+/// `calibrate --plots OUT` over an earlier run's plots (another scale: other axes, other bytes).
+/// It writes 36 files; the fault points after the first two stand for the rest (each is the
+/// same `Staged::write`), the swap's points are all taken.
+fn calibrate_plots_case(template: PathBuf) -> Case {
+    Case {
+        name: "calibrate --plots",
+        args: |out| calibrate_args(out, "1000"),
+        files: 2,
+        inputs_inside: false,
+        old: Box::new(move |out| copy_tree(&template, out)),
+        exact: |_| true,
+    }
+}
+
+fn bootstrap_args(out: &Path, seed: &str) -> Vec<OsString> {
+    let mut a = os(&["bootstrap"]);
+    a.push(
+        fixtures()
+            .join("paper/twoview/database.db")
+            .into_os_string(),
+    );
+    a.push("--model".into());
+    a.push(fixtures().join("paper/twoview/model").into_os_string());
+    a.extend(os(&[
+        "--image-a",
+        "cam_in/000001.png",
+        "--image-b",
+        "cam_door/000001.png",
+        "--iterations",
+        "40",
+        "--mm-per-unit",
+        "1000",
+        "--seed",
+        seed,
+        "--plots",
+    ]));
+    a.push(out.as_os_str().to_owned());
+    a
+}
+
+/// `bootstrap --plots OUT` over an earlier run's histograms (another seed); 12 files, the
+/// first two fault points standing for the rest as for `calibrate`.
+fn bootstrap_plots_case(template: PathBuf) -> Case {
+    Case {
+        name: "bootstrap --plots",
+        args: |out| bootstrap_args(out, "2"),
+        files: 2,
+        inputs_inside: false,
+        old: Box::new(move |out| copy_tree(&template, out)),
+        exact: |_| true,
+    }
+}
+
 /// Runs `case` without a signal into `dir/reference/out` (over its old result) for the
 /// reference of "new", then interrupts it at every point with each signal.
 fn every_point(case: &Case, dir: &Path, signals: &[&str]) -> usize {
@@ -468,6 +537,24 @@ fn grid_and_convert_interrupted_at_every_point_of_the_swap() {
     runs += every_point(&convert_case("bin"), tmp.path(), &all);
     runs += every_point(&convert_case("txt"), tmp.path(), &["INT", "KILL"]);
     assert_eq!(runs, (9 + 4) * 3 + (5 + 4) * 3 + (5 + 4) * 2);
+}
+
+/// The plot directories of `calibrate` and `bootstrap` are replaced as a whole, too: never
+/// one run's plots beside another's.
+#[test]
+fn calibrate_and_bootstrap_plots_interrupted_at_every_point_of_the_swap() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let old_cal = tmp.path().join("old_calibrate");
+    let old_cal = template(&old_cal, |_| {}, &calibrate_args(&old_cal, "1"));
+    let old_boot = tmp.path().join("old_bootstrap");
+    let old_boot = template(&old_boot, |_| {}, &bootstrap_args(&old_boot, "1"));
+    let mut runs = every_point(&calibrate_plots_case(old_cal), tmp.path(), &["INT", "KILL"]);
+    runs += every_point(
+        &bootstrap_plots_case(old_boot),
+        tmp.path(),
+        &["INT", "KILL"],
+    );
+    assert_eq!(runs, (2 + 4) * 2 * 2);
 }
 
 #[test]

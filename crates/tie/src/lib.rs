@@ -853,8 +853,10 @@ impl TieResult {
     }
 
     /// Writes what `crashrig bootstrap --plots DIR --replicates FILE` writes (each optional):
-    /// the histograms ([`TieResult::plots`]) into `plots` (created if missing) and the
-    /// replicates ([`TieResult::replicates_csv`]) to `replicates`, every file atomically
+    /// the histograms ([`TieResult::plots`]) as the directory `plots`, replaced as a whole
+    /// ([`crashrig_outdir::Staged`]: an existing one may hold only these plots' names, and a kill
+    /// leaves old, none or new, never a mix), and the replicates
+    /// ([`TieResult::replicates_csv`]) to `replicates` atomically
     /// ([`crashrig_outdir::write_file`]). The command and the Python module both call it.
     ///
     /// # Errors
@@ -865,14 +867,14 @@ impl TieResult {
         replicates: Option<&std::path::Path>,
     ) -> Result<(), Error> {
         if let Some(dir) = plots {
-            std::fs::create_dir_all(dir).map_err(|source| crashrig_outdir::Error::Io {
-                path: dir.to_path_buf(),
-                what: "cannot create the plot directory",
-                source,
-            })?;
-            for (name, bytes) in self.plots()? {
-                crashrig_outdir::write_file(&dir.join(name), &bytes)?;
+            // Replaced as a whole (crashrig_outdir::Staged): never a mix of two runs' plots.
+            let plots = self.plots()?;
+            let mut staged =
+                crashrig_outdir::Staged::new(dir, |name| plots.iter().any(|(n, _)| n == name))?;
+            for (name, bytes) in &plots {
+                staged.write(name, bytes)?;
             }
+            staged.commit()?;
         }
         if let Some(path) = replicates {
             crashrig_outdir::write_file(path, self.replicates_csv().as_bytes())?;

@@ -38,7 +38,7 @@ pub struct MeasureArgs {
     #[command(flatten)]
     pub a_noise: super::measure_options::ANoiseArgs,
     /// σ of each pixel coordinate of an observation (px).
-    #[arg(long, value_name = "PX", default_value_t = 0.5)]
+    #[arg(long, value_name = "PX", default_value_t = crashrig_measure::MeasureOptions::DEFAULT_PIXEL_SIGMA_PX)]
     pub pixel_sigma_px: f64,
     /// Monte Carlo replicates per row.
     #[arg(long, value_name = "N", default_value_t = 2000, value_parser = crate::limits::parse_measure_samples)]
@@ -50,7 +50,7 @@ pub struct MeasureArgs {
     #[arg(long, value_name = "HZ")]
     pub frame_rate_hz: Option<f64>,
     /// Rows whose σ_max exceeds this are flagged (mm).
-    #[arg(long, value_name = "MM", default_value_t = 5.0)]
+    #[arg(long, value_name = "MM", default_value_t = crashrig_measure::MeasureOptions::DEFAULT_THRESHOLD_MM)]
     pub threshold_mm: f64,
     /// Rows whose largest reprojection residual exceeds this are flagged (px; default: the
     /// robust limit median + 5·1.4826·MAD of the sequence's residuals).
