@@ -869,8 +869,14 @@ impl TieResult {
         if let Some(dir) = plots {
             // Replaced as a whole (crashrig_outdir::Staged): never a mix of two runs' plots.
             let plots = self.plots()?;
-            let mut staged =
-                crashrig_outdir::Staged::new(dir, |name| plots.iter().any(|(n, _)| n == name))?;
+            // A replicates file kept inside the plot directory is this command's too.
+            let replicates_inside = replicates
+                .filter(|r| r.parent() == Some(dir))
+                .and_then(|r| r.file_name())
+                .and_then(|n| n.to_str());
+            let mut staged = crashrig_outdir::Staged::new(dir, |name| {
+                plots.iter().any(|(n, _)| n == name) || replicates_inside == Some(name)
+            })?;
             for (name, bytes) in &plots {
                 staged.write(name, bytes)?;
             }

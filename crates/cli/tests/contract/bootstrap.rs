@@ -176,3 +176,31 @@ fn bootstrap_same_seed_any_thread_count() {
         );
     }
 }
+
+/// `--plots DIR` is replaced as a whole: a second run over the first run's plots succeeds (with
+/// the replicates file kept inside `DIR`, which is the command's own too), and a directory
+/// holding another file is refused with one `error:` line and left as it was.
+#[test]
+fn bootstrap_plots_directory_is_replaced_whole_or_refused() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let plots = tmp.path().join("plots");
+    let mut a = args("absolute", 4, 3, None);
+    a.extend([
+        "--plots".into(),
+        plots.display().to_string(),
+        "--replicates".into(),
+        plots.join("replicates.csv").display().to_string(),
+    ]);
+    for _ in 0..2 {
+        json_of(&run(&a));
+        assert_eq!(std::fs::read_dir(&plots).expect("plots").count(), 13);
+    }
+    std::fs::write(plots.join("notes.txt"), b"mine").expect("a foreign file");
+    let r = run(&a);
+    crate::contract::common::assert_clean_error(&r, &["notes.txt"]);
+    assert_eq!(
+        std::fs::read(plots.join("notes.txt")).expect("kept"),
+        b"mine"
+    );
+    assert_eq!(std::fs::read_dir(&plots).expect("plots").count(), 14);
+}
