@@ -60,6 +60,9 @@ pub enum Error {
     /// The output directory.
     #[error(transparent)]
     OutDir(#[from] crashrig_outdir::Error),
+    /// The run's summary could not be serialised (kept as an error, not a panic).
+    #[error("summary.json: {0}")]
+    Summary(#[source] serde_json::Error),
     /// The caller cancelled the run; nothing was written.
     #[error(transparent)]
     Cancelled(#[from] crashrig_stats::progress::Cancelled),

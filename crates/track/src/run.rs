@@ -261,7 +261,7 @@ pub fn run(config: &TrackConfig, monitor: Option<&dyn Monitor>) -> Result<TrackR
         elapsed_s,
         observations_per_second: observations.len() as f64 / elapsed_s.max(1e-9),
     };
-    let json = serde_json::to_string_pretty(&summary).expect("the summary serialises");
+    let json = serde_json::to_string_pretty(&summary).map_err(Error::Summary)?;
     staged.write("observations.csv", csv.as_bytes())?;
     staged.write("frames.csv", times.as_bytes())?;
     staged.write("summary.json", format!("{json}\n").as_bytes())?;

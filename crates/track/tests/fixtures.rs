@@ -277,4 +277,15 @@ fn output_is_bit_identical_for_any_thread_count() {
             "{f}"
         );
     }
+    // summary.json too, but for its two wall-clock fields.
+    let summary = |d: &tempfile::TempDir| {
+        let text = std::fs::read_to_string(d.path().join("out/summary.json")).unwrap();
+        let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let o = v.as_object_mut().unwrap();
+        for k in ["elapsed_s", "observations_per_second"] {
+            assert!(o.remove(k).is_some_and(|x| x.is_number()), "{k}");
+        }
+        v
+    };
+    assert_eq!(summary(&a), summary(&b));
 }
