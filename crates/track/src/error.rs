@@ -61,7 +61,7 @@ pub enum Error {
     #[error(transparent)]
     OutDir(#[from] crashrig_outdir::Error),
     /// The run's summary could not be serialised (kept as an error, not a panic).
-    #[error("summary.json: {0}")]
+    #[error("summary.json: the run's summary cannot be serialised")]
     Summary(#[source] serde_json::Error),
     /// The caller cancelled the run; nothing was written.
     #[error(transparent)]
