@@ -920,7 +920,7 @@ impl CalibrationResult {
     }
 
     /// Writes [`CalibrationResult::plots`] as the directory `dir`, replaced as a whole
-    /// ([`crashrig_outdir::Staged`]): an existing `dir` may hold only these plots' names (empty
+    /// ([`crashrig_outdir::write_dir`]): an existing `dir` may hold only these plots' names (empty
     /// or an earlier run's), and a kill leaves the old plots, none or the new ones, never a mix.
     ///
     /// # Errors
@@ -934,14 +934,7 @@ impl CalibrationResult {
             },
             e => e,
         })?;
-        // The directory is replaced as a whole (crashrig_outdir::Staged): a kill leaves the old
-        // plots, none or the new ones, never a mix; a directory holding other files is refused.
-        let mut staged =
-            crashrig_outdir::Staged::new(dir, |name| plots.iter().any(|(n, _)| n == name))?;
-        for (name, bytes) in &plots {
-            staged.write(name, bytes)?;
-        }
-        staged.commit()?;
+        crashrig_outdir::write_dir(dir, &plots)?;
         Ok(())
     }
 }

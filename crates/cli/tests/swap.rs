@@ -409,20 +409,6 @@ fn calibrate_args(out: &Path, mm_per_unit: &str) -> Vec<OsString> {
     a
 }
 
-/// `calibrate --plots OUT` over an earlier run's plots (another scale: other axes, other bytes).
-/// It writes 36 files; the fault points after the first two stand for the rest (each is the
-/// same `Staged::write`), the swap's points are all taken.
-fn calibrate_plots_case(template: PathBuf) -> Case {
-    Case {
-        name: "calibrate --plots",
-        args: |out| calibrate_args(out, "1000"),
-        files: 2,
-        inputs_inside: false,
-        old: Box::new(move |out| copy_tree(&template, out)),
-        exact: |_| true,
-    }
-}
-
 fn bootstrap_args(out: &Path, seed: &str) -> Vec<OsString> {
     let mut a = os(&["bootstrap"]);
     a.push(
@@ -449,12 +435,13 @@ fn bootstrap_args(out: &Path, seed: &str) -> Vec<OsString> {
     a
 }
 
-/// `bootstrap --plots OUT` over an earlier run's histograms (another seed); 12 files, the
-/// first two fault points standing for the rest as for `calibrate`.
-fn bootstrap_plots_case(template: PathBuf) -> Case {
+/// `calibrate --plots OUT` (36 files) or `bootstrap --plots OUT` (12) over an earlier run's
+/// plots (another scale, another seed: other bytes). The fault points after the first two files
+/// stand for the rest (each is the same `Staged::write`); the swap's points are all taken.
+fn plots_case(name: &'static str, args: fn(&Path) -> Vec<OsString>, template: PathBuf) -> Case {
     Case {
-        name: "bootstrap --plots",
-        args: |out| bootstrap_args(out, "2"),
+        name,
+        args,
         files: 2,
         inputs_inside: false,
         old: Box::new(move |out| copy_tree(&template, out)),
@@ -548,12 +535,10 @@ fn calibrate_and_bootstrap_plots_interrupted_at_every_point_of_the_swap() {
     let old_cal = template(&old_cal, |_| {}, &calibrate_args(&old_cal, "1"));
     let old_boot = tmp.path().join("old_bootstrap");
     let old_boot = template(&old_boot, |_| {}, &bootstrap_args(&old_boot, "1"));
-    let mut runs = every_point(&calibrate_plots_case(old_cal), tmp.path(), &["INT", "KILL"]);
-    runs += every_point(
-        &bootstrap_plots_case(old_boot),
-        tmp.path(),
-        &["INT", "KILL"],
-    );
+    let calibrate = plots_case("calibrate --plots", |o| calibrate_args(o, "1000"), old_cal);
+    let bootstrap = plots_case("bootstrap --plots", |o| bootstrap_args(o, "2"), old_boot);
+    let mut runs = every_point(&calibrate, tmp.path(), &["INT", "KILL"]);
+    runs += every_point(&bootstrap, tmp.path(), &["INT", "KILL"]);
     assert_eq!(runs, (2 + 4) * 2 * 2);
 }
 

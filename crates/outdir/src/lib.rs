@@ -388,6 +388,22 @@ pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
     Ok(())
 }
 
+/// Writes a set of files held in memory, `(name, bytes)`, as the directory `out`, replaced as a
+/// whole ([`Staged`]): an existing `out` may hold only these names (empty, or an earlier run of
+/// the same writer), anything else is refused before a file is written. For plot directories
+/// such as `calibrate --plots` and `bootstrap --plots`.
+///
+/// # Errors
+/// [`Staged::new`]'s (including [`Error::NotOurs`]), [`Staged::write`]'s and
+/// [`Staged::commit`]'s.
+pub fn write_dir(out: &Path, files: &[(String, Vec<u8>)]) -> Result<()> {
+    let mut staged = Staged::new(out, |name| files.iter().any(|(n, _)| n == name))?;
+    for (name, bytes) in files {
+        staged.write(name, bytes)?;
+    }
+    staged.commit()
+}
+
 // ------------------------------------------------------------- fault hook ---
 
 /// Where the fault hook can stop the process.
@@ -793,6 +809,30 @@ mod tests {
         assert_eq!(listing(&out), ["sub", "x.csv"]);
         assert_eq!(std::fs::read(out.join("sub/y.json")).unwrap(), b"2");
         assert_eq!(listing(&tmp.path().join("a/b")), ["out"]);
+    }
+
+    #[test]
+    fn write_dir_replaces_its_own_names_and_refuses_others() {
+        let tmp = tempfile::tempdir().unwrap();
+        let out = tmp.path().join("plots");
+        let files = |b: &[u8]| {
+            vec![
+                ("a.png".to_string(), b.to_vec()),
+                ("b.svg".into(), b.into()),
+            ]
+        };
+        write_dir(&out, &files(b"1")).unwrap();
+        write_dir(&out, &files(b"2")).unwrap();
+        assert_eq!(listing(&out), ["a.png", "b.svg"]);
+        assert_eq!(std::fs::read(out.join("a.png")).unwrap(), b"2");
+        std::fs::write(out.join("notes.txt"), b"mine").unwrap();
+        let e = write_dir(&out, &files(b"3")).unwrap_err();
+        assert!(
+            matches!(e, Error::NotOurs { ref entry, .. } if entry == "notes.txt"),
+            "{e}"
+        );
+        assert_eq!(std::fs::read(out.join("a.png")).unwrap(), b"2");
+        assert_eq!(listing(tmp.path()), ["plots"]);
     }
 
     #[test]

@@ -854,10 +854,11 @@ impl TieResult {
 
     /// Writes what `crashrig bootstrap --plots DIR --replicates FILE` writes (each optional):
     /// the histograms ([`TieResult::plots`]) as the directory `plots`, replaced as a whole
-    /// ([`crashrig_outdir::Staged`]: an existing one may hold only these plots' names, and a kill
+    /// ([`crashrig_outdir::write_dir`]: an existing one may hold only these files, and a kill
     /// leaves old, none or new, never a mix), and the replicates
     /// ([`TieResult::replicates_csv`]) to `replicates` atomically
-    /// ([`crashrig_outdir::write_file`]). The command and the Python module both call it.
+    /// ([`crashrig_outdir::write_file`]; a `replicates` inside `plots` is swapped in with the
+    /// plots). The command and the Python module both call it.
     ///
     /// # Errors
     /// [`Error::Write`] naming the file or folder, and [`TieResult::plots`]'s errors.
@@ -866,24 +867,23 @@ impl TieResult {
         plots: Option<&std::path::Path>,
         replicates: Option<&std::path::Path>,
     ) -> Result<(), Error> {
+        let csv = || self.replicates_csv().into_bytes();
+        let mut replicates_left = replicates;
         if let Some(dir) = plots {
-            // Replaced as a whole (crashrig_outdir::Staged): never a mix of two runs' plots.
-            let plots = self.plots()?;
-            // A replicates file kept inside the plot directory is this command's too.
-            let replicates_inside = replicates
+            let mut files = self.plots()?;
+            // A replicates file inside the plot directory is one of its files, swapped in with
+            // them.
+            let inside = replicates
                 .filter(|r| r.parent() == Some(dir))
-                .and_then(|r| r.file_name())
-                .and_then(|n| n.to_str());
-            let mut staged = crashrig_outdir::Staged::new(dir, |name| {
-                plots.iter().any(|(n, _)| n == name) || replicates_inside == Some(name)
-            })?;
-            for (name, bytes) in &plots {
-                staged.write(name, bytes)?;
+                .and_then(|r| r.file_name()?.to_str());
+            if let Some(name) = inside {
+                files.push((name.to_string(), csv()));
+                replicates_left = None;
             }
-            staged.commit()?;
+            crashrig_outdir::write_dir(dir, &files)?;
         }
-        if let Some(path) = replicates {
-            crashrig_outdir::write_file(path, self.replicates_csv().as_bytes())?;
+        if let Some(path) = replicates_left {
+            crashrig_outdir::write_file(path, &csv())?;
         }
         Ok(())
     }
