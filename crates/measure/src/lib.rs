@@ -119,6 +119,7 @@ mod options;
 pub mod output;
 pub mod pixel_check;
 pub mod plausible;
+pub mod rules;
 mod run;
 pub mod sequence;
 pub mod shard;

@@ -18,8 +18,8 @@
 //! # Ok::<(), crashrig_measure::Error>(())
 //! ```
 
-use crate::filter::{CfcSpec, Standard};
-use crate::{ANoise, Error, MeasureConfig, MeasureRun, OutputDir, Settings, input};
+use crate::filter::CfcSpec;
+use crate::{ANoise, Error, MeasureConfig, MeasureRun, OutputDir, Settings, input, rules};
 use crashrig_geometry::Vec3;
 use crashrig_input::options::{Spelling, check_mm_per_unit};
 use std::path::PathBuf;
@@ -88,19 +88,14 @@ pub struct MeasureOptions {
 }
 
 impl MeasureOptions {
-    /// σ of each pixel coordinate when none is given (px): the default of
-    /// [`MeasureOptions::pixel_sigma_px`] and of the study file's `[measure] pixel_sigma_px`.
-    pub const DEFAULT_PIXEL_SIGMA_PX: f64 = 0.5;
+    /// σ of each pixel coordinate when none is given (px): [`rules::DEFAULT_PIXEL_SIGMA_PX`],
+    /// the default of [`MeasureOptions::pixel_sigma_px`] and of the study file's `[measure]
+    /// pixel_sigma_px`.
+    pub const DEFAULT_PIXEL_SIGMA_PX: f64 = rules::DEFAULT_PIXEL_SIGMA_PX;
 
-    /// σ_max above which rows are flagged when no threshold is given (mm): the default of
-    /// [`MeasureOptions::threshold_mm`] and of the study file's `[measure] threshold_mm`.
-    pub const DEFAULT_THRESHOLD_MM: f64 = 5.0;
-
-    /// The rule of a pixel σ: finite and not negative (px). The measurement refuses any
-    /// other ([`crate::measure`]), and the study file's `[measure] pixel_sigma_px` too.
-    pub fn pixel_sigma_px_is_valid(sigma_px: f64) -> bool {
-        sigma_px.is_finite() && sigma_px >= 0.0
-    }
+    /// σ_max above which rows are flagged when no threshold is given (mm):
+    /// [`rules::DEFAULT_THRESHOLD_MM`].
+    pub const DEFAULT_THRESHOLD_MM: f64 = rules::DEFAULT_THRESHOLD_MM;
 
     /// The rule of camera A's σ: one source. An A-covariance file excludes the σ of A's centre
     /// and of its rotation; `true` when the file is given with either σ. Both
@@ -163,7 +158,7 @@ impl MeasureOptions {
     /// # Errors
     /// [`Error::Usage`] (names in `spelling`) for options that do not fit together or a σ or
     /// scale out of range; the errors of [`crate::check_out`], [`input::read_a_covariance`],
-    /// [`input::model_scale`], [`input::load_link`] and [`Standard::parse`].
+    /// [`input::model_scale`] and [`input::load_link`]; a setting against its [`rules`].
     pub fn config(&self, spelling: Spelling) -> Result<MeasureConfig, Error> {
         let name = |k| spelling.name(k);
         if let Some(out) = &self.out {
@@ -192,28 +187,14 @@ impl MeasureOptions {
                 name("sigma_a_angles_deg")
             )));
         }
-        if self.cfc.is_none() && self.cfc_standard.is_some() {
-            return Err(Error::Usage(format!(
-                "{} needs {}",
-                name("cfc_standard"),
-                name("cfc")
-            )));
-        }
-        match (self.mpe_mm, &self.scale_bars) {
-            (Some(_), None) => {
-                return Err(Error::Usage(format!(
-                    "{} needs {} (the maximum permissible error of the bars' lengths)",
-                    name("mpe_mm"),
-                    name("scale_bars")
-                )));
-            }
-            (Some(e), Some(_)) if !(e.is_finite() && e > 0.0) => {
-                return Err(Error::Usage(format!(
-                    "{}: {e} is not a number > 0 (mm)",
-                    name("mpe_mm")
-                )));
-            }
-            _ => {}
+        let spelled = |k| spelling.name(k).to_string();
+        let usage = |key, problem: String| Error::Usage(format!("{}: {problem}", name(key)));
+        let standard =
+            rules::cfc_standard(self.cfc_standard.as_deref(), self.cfc.is_some(), &spelled)
+                .map_err(|p| usage("cfc_standard", p))?;
+        if let Some(e) = self.mpe_mm {
+            rules::mpe_mm(e, self.scale_bars.is_some(), &spelled)
+                .map_err(|p| usage("mpe_mm", p))?;
         }
         let (frame_rate_hz, frame_times) = self.time_axis(spelling)?;
         let given = self
@@ -235,13 +216,7 @@ impl MeasureOptions {
                 angles_deg: sigmas(self.sigma_a_angles_deg, name("sigma_a_angles_deg"))?,
             },
         };
-        let cfc = self
-            .cfc
-            .map(|class| {
-                let standard = Standard::parse(self.cfc_standard.as_deref().unwrap_or("j211"))?;
-                Ok::<_, Error>(CfcSpec { class, standard })
-            })
-            .transpose()?;
+        let cfc = self.cfc.map(|class| CfcSpec { class, standard });
         Ok(MeasureConfig {
             model: self.model.clone(),
             camera_a: self.camera_a.clone(),
@@ -402,7 +377,7 @@ mod tests {
         };
         assert_eq!(
             message(&standard, Spelling::Flag),
-            "--cfc-standard needs --cfc"
+            "--cfc-standard: needs --cfc (it names the standard of a CFC filter)"
         );
         let units = MeasureOptions {
             mm_per_unit: Some(0.0),
@@ -429,7 +404,7 @@ mod tests {
         };
         assert_eq!(
             message(&mpe, Spelling::Flag),
-            "--mpe-mm needs --scale-bars (the maximum permissible error of the bars' lengths)"
+            "--mpe-mm: needs --scale-bars (the maximum permissible error of the bars' lengths)"
         );
         let mpe = MeasureOptions {
             mpe_mm: Some(-1.0),

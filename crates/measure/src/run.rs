@@ -278,13 +278,11 @@ pub(crate) fn run_parts(
 /// [`length::read_scale_bars`]'s; [`Error::Setting`] for a maximum permissible error that is
 /// not a finite number > 0.
 fn scale_bars(f: &ScaleBarsFile, observations: &[input::Observation]) -> Result<ScaleBars, Error> {
-    if let Some(e) = f.mpe_mm
-        && !(e.is_finite() && e > 0.0)
-    {
-        return Err(Error::Setting {
+    if let Some(e) = f.mpe_mm {
+        crate::rules::mpe_mm(e, true, &|k| k.to_string()).map_err(|problem| Error::Setting {
             name: "--mpe-mm",
-            problem: format!("{e} (a number > 0, mm)"),
-        });
+            problem,
+        })?;
     }
     Ok(ScaleBars {
         path: f.path.clone(),

@@ -159,7 +159,7 @@ def test_measure_scale_bars_equals_cli(cli, tmp_path):
         crashrig.measure(SEQ / "model", scale_bars=bad, **kwargs)
     assert str(e.value).startswith(f"{bad}:2: ") and "to itself" in str(e.value)
     # mpe_mm alone: named as Python spells it.
-    with pytest.raises(crashrig.Error, match="mpe_mm needs scale_bars"):
+    with pytest.raises(crashrig.Error, match="mpe_mm: needs scale_bars"):
         crashrig.measure(SEQ / "model", mpe_mm=1.0, **kwargs)
 
 

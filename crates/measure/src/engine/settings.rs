@@ -1,7 +1,8 @@
 //! The settings of a measurement and their checks.
 
-use crate::filter::{Cfc, CfcSpec};
-use crate::{Error, MeasureOptions};
+use crate::filter::CfcSpec;
+use crate::{Error, rules};
+use crashrig_input::options::Spelling;
 
 /// Settings of a measurement.
 #[derive(Debug, Clone, PartialEq)]
@@ -33,8 +34,8 @@ pub struct Settings {
     pub sync_sigma_ms: f64,
 }
 
-/// The largest `--sync-sigma-ms` accepted (ms): an offset of a second is not a trigger offset.
-pub const MAX_SYNC_SIGMA_MS: f64 = 1000.0;
+/// The largest `--sync-sigma-ms` accepted (ms): [`rules::MAX_SYNC_SIGMA_MS`].
+pub const MAX_SYNC_SIGMA_MS: f64 = rules::MAX_SYNC_SIGMA_MS;
 
 /// Largest number of Monte Carlo replicates per row (`--samples`, `[measure] samples`).
 pub const MAX_SAMPLES: usize = 10_000_000;
@@ -57,74 +58,53 @@ pub(super) fn check_draws(rows: usize, samples: usize) -> Result<(), Error> {
     Ok(())
 }
 
+/// The settings against their [`rules`] (the CLI's spelling in the messages).
 pub(super) fn check_settings(s: &Settings) -> Result<(), Error> {
-    let bad = |name, problem: String| Err(Error::Setting { name, problem });
+    let flag = |k| Spelling::Flag.name(k).to_string();
+    let check = |name, r: Result<f64, String>| {
+        r.map(|_| ())
+            .map_err(|problem| Error::Setting { name, problem })
+    };
     if !(2..=MAX_SAMPLES).contains(&s.samples) {
-        return bad(
-            "--samples",
-            format!("{} (from 2 to {})", s.samples, MAX_SAMPLES),
-        );
+        return Err(Error::Setting {
+            name: "--samples",
+            problem: format!("{} (from 2 to {})", s.samples, MAX_SAMPLES),
+        });
     }
-    if !MeasureOptions::pixel_sigma_px_is_valid(s.pixel_sigma_px) {
-        return bad(
-            "--pixel-sigma-px",
-            format!("{} (a number ≥ 0)", s.pixel_sigma_px),
-        );
+    check("--pixel-sigma-px", rules::pixel_sigma_px(s.pixel_sigma_px))?;
+    check("--threshold-mm", rules::threshold_mm(s.threshold_mm))?;
+    if let Some(p) = s.max_reprojection_px {
+        check("--max-reprojection-px", rules::max_reprojection_px(p))?;
     }
-    if !(s.threshold_mm.is_finite() && s.threshold_mm > 0.0) {
-        return bad(
-            "--threshold-mm",
-            format!("{} (a number > 0)", s.threshold_mm),
-        );
+    if let Some(f) = s.frame_rate_hz {
+        check("--frame-rate-hz", rules::frame_rate_hz(f))?;
     }
-    if let Some(p) = s.max_reprojection_px
-        && !(p.is_finite() && p > 0.0)
-    {
-        return bad("--max-reprojection-px", format!("{p} (a number > 0)"));
-    }
-    if let Some(f) = s.frame_rate_hz
-        && !(f.is_finite() && f > 0.0)
-    {
-        return bad("--frame-rate-hz", format!("{f} (a number > 0)"));
-    }
-    if !(s.sync_sigma_ms.is_finite() && (0.0..=MAX_SYNC_SIGMA_MS).contains(&s.sync_sigma_ms)) {
-        return bad(
-            "--sync-sigma-ms",
-            format!(
-                "{} (a number from 0 to {MAX_SYNC_SIGMA_MS} ms)",
-                s.sync_sigma_ms
-            ),
-        );
-    }
-    if s.sync_sigma_ms > 0.0 && s.frame_rate_hz.is_none() {
-        return bad(
-            "--sync-sigma-ms",
-            "needs --frame-rate-hz (the offset shifts A's pose in time)".into(),
-        );
-    }
+    check(
+        "--sync-sigma-ms",
+        rules::sync_sigma_ms(s.sync_sigma_ms, s.frame_rate_hz.is_some(), &flag),
+    )?;
     if let Some(ft) = &s.frame_times {
         if s.frame_rate_hz.is_none() {
-            return bad(
-                "--frame-times",
-                "needs the rate of its mean interval as the frame rate (MeasureOptions sets it)"
-                    .into(),
-            );
+            return Err(Error::Setting {
+                name: "--frame-times",
+                problem:
+                    "needs the rate of its mean interval as the frame rate (MeasureOptions sets it)"
+                        .into(),
+            });
         }
         if s.cfc.is_some() {
             ft.uniform_interval()?;
         }
     }
-    match (s.cfc, s.frame_rate_hz) {
-        (Some(spec), None) => bad(
-            "--cfc",
-            format!(
-                "CFC {} needs --frame-rate-hz (the filter's sampling rate)",
-                spec.class
-            ),
-        ),
-        (Some(spec), Some(hz)) => Cfc::new(spec.class, spec.standard, hz).map(|_| ()),
-        _ => Ok(()),
+    if let Some(spec) = s.cfc {
+        rules::cfc(spec.class.into(), spec.standard, s.frame_rate_hz, &flag).map_err(
+            |problem| Error::Setting {
+                name: "--cfc",
+                problem,
+            },
+        )?;
     }
+    Ok(())
 }
 
 #[cfg(test)]

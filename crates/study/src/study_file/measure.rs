@@ -5,7 +5,7 @@ use super::validate::Ctx;
 use super::{ABundle, MeasureANoise, MeasureSection};
 use crate::Error;
 use crashrig_geometry::Vec3;
-use crashrig_measure::MeasureOptions;
+use crashrig_measure::{MeasureOptions, rules};
 use std::path::{Path, PathBuf};
 use toml::Spanned;
 
@@ -131,21 +131,16 @@ pub(super) fn measure_section(
             "missing: the model's units are never guessed; give mm per model unit (1000 for a model in metres, 1 for millimetres), or an a_covariance from `crashrig covariance` that states mm_per_unit",
         );
     }
-    let pixel_sigma_px = match &m.pixel_sigma_px {
-        None => MeasureOptions::DEFAULT_PIXEL_SIGMA_PX,
-        Some(v) if MeasureOptions::pixel_sigma_px_is_valid(*v.get_ref()) => *v.get_ref(),
-        Some(v) => {
-            return cx.err(
-                Some(v.span()),
-                "measure.pixel_sigma_px",
-                "must be finite and not negative",
-            );
-        }
-    };
+    let pixel_sigma_px = m
+        .pixel_sigma_px
+        .as_ref()
+        .map_or(Ok(rules::DEFAULT_PIXEL_SIGMA_PX), |v| {
+            cx.rule(v, "measure.pixel_sigma_px", rules::pixel_sigma_px)
+        })?;
     let frame_rate_hz = m
         .frame_rate_hz
         .as_ref()
-        .map(|v| cx.positive(v, "measure.frame_rate_hz"))
+        .map(|v| cx.rule(v, "measure.frame_rate_hz", rules::frame_rate_hz))
         .transpose()?;
     let (cfc, sync_sigma_ms) = kinematics_keys(cx, m, frame_rate_hz)?;
     let (scale_bars, mpe_mm) = length_check_keys(cx, m)?;
@@ -175,13 +170,13 @@ pub(super) fn measure_section(
         threshold_mm: m
             .threshold_mm
             .as_ref()
-            .map_or(Ok(MeasureOptions::DEFAULT_THRESHOLD_MM), |v| {
-                cx.positive(v, "measure.threshold_mm")
+            .map_or(Ok(rules::DEFAULT_THRESHOLD_MM), |v| {
+                cx.rule(v, "measure.threshold_mm", rules::threshold_mm)
             })?,
         max_reprojection_px: m
             .max_reprojection_px
             .as_ref()
-            .map(|v| cx.positive(v, "measure.max_reprojection_px"))
+            .map(|v| cx.rule(v, "measure.max_reprojection_px", rules::max_reprojection_px))
             .transpose()?,
         cfc,
         sync_sigma_ms,
@@ -217,8 +212,13 @@ fn bundle_companions(cx: &Ctx<'_>, m: &RawMeasure) -> Result<(), Error> {
     }
 }
 
+/// How a study file names a setting of `[measure]` in a problem.
+fn key(k: &'static str) -> String {
+    format!("measure.{k}")
+}
+
 /// `[measure]`'s length-check keys: `scale_bars` (an existing file, relative to the study
-/// file) and `mpe_mm` (> 0 mm, only with `scale_bars`); each error names the key and its line.
+/// file) and `mpe_mm` ([`rules::mpe_mm`]); each error names the key and its line.
 fn length_check_keys(
     cx: &Ctx<'_>,
     m: &RawMeasure,
@@ -228,94 +228,47 @@ fn length_check_keys(
         .as_ref()
         .map(|v| cx.existing_path(v, "measure.scale_bars", false))
         .transpose()?;
-    let mpe_mm = match (&m.mpe_mm, &scale_bars) {
-        (Some(v), None) => {
-            return cx.err(
-                Some(v.span()),
-                "measure.mpe_mm",
-                "needs measure.scale_bars (the maximum permissible error of the bars' lengths)",
-            );
-        }
-        (Some(v), Some(_)) => Some(cx.positive(v, "measure.mpe_mm")?),
-        (None, _) => None,
-    };
+    let mpe_mm = m
+        .mpe_mm
+        .as_ref()
+        .map(|v| {
+            cx.rule(v, "measure.mpe_mm", |x| {
+                rules::mpe_mm(x, scale_bars.is_some(), &key)
+            })
+        })
+        .transpose()?;
     Ok((scale_bars, mpe_mm))
 }
 
-/// `[measure]`'s kinematics keys: `cfc` (a class of [`crashrig_measure::filter::CLASSES`] whose
-/// corner is well below the Nyquist frequency of `frame_rate_hz`, checked here by
-/// [`crashrig_measure::filter::Cfc::new`]), `cfc_standard` (`j211`, default, or `iso6487`; only
-/// with `cfc`) and `sync_sigma_ms` (0 … [`crashrig_measure::engine::MAX_SYNC_SIGMA_MS`]); each
-/// error names the key and its line.
+/// `[measure]`'s kinematics keys: `cfc` ([`rules::cfc`]), `cfc_standard`
+/// ([`rules::cfc_standard`]) and `sync_sigma_ms` ([`rules::sync_sigma_ms`]); each error names
+/// the key and its line.
 fn kinematics_keys(
     cx: &Ctx<'_>,
     m: &RawMeasure,
     frame_rate_hz: Option<f64>,
 ) -> Result<(Option<crashrig_measure::filter::CfcSpec>, f64), Error> {
-    use crashrig_measure::filter::{Cfc, CfcSpec, Standard};
-    let problem = |e: crashrig_measure::Error| match e {
-        crashrig_measure::Error::Setting { problem, .. } => problem,
-        other => crashrig_input::message::error_line(&other),
-    };
-    let standard = match &m.cfc_standard {
-        None => Standard::J211,
-        Some(v) if m.cfc.is_none() => {
-            return cx.err(
-                Some(v.span()),
-                "measure.cfc_standard",
-                "names the standard of a CFC filter: give `cfc` too",
-            );
-        }
-        Some(v) => Standard::parse(v.get_ref())
-            .or_else(|e| cx.err(Some(v.span()), "measure.cfc_standard", problem(e)))?,
-    };
-    let cfc = match &m.cfc {
-        None => None,
-        Some(v) => {
-            let Ok(class) = u32::try_from(*v.get_ref()) else {
-                return cx.err(
-                    Some(v.span()),
-                    "measure.cfc",
-                    format!(
-                        "{} is not a channel frequency class (60, 180, 600, 1000)",
-                        v.get_ref()
-                    ),
-                );
-            };
-            let Some(hz) = frame_rate_hz else {
-                return cx.err(
-                    Some(v.span()),
-                    "measure.cfc",
-                    "needs measure.frame_rate_hz (the filter is defined in frames per second)",
-                );
-            };
-            Cfc::new(class, standard, hz)
-                .map_err(problem)
-                .or_else(|p| cx.err(Some(v.span()), "measure.cfc", p))?;
-            Some(CfcSpec { class, standard })
-        }
-    };
-    let sync = match &m.sync_sigma_ms {
-        None => 0.0,
-        Some(v) => {
-            let x = *v.get_ref();
-            let max = crashrig_measure::engine::MAX_SYNC_SIGMA_MS;
-            if !(x.is_finite() && (0.0..=max).contains(&x)) {
-                return cx.err(
-                    Some(v.span()),
-                    "measure.sync_sigma_ms",
-                    format!("must be a number from 0 to {max} (ms), got {x}"),
-                );
-            }
-            if x > 0.0 && frame_rate_hz.is_none() {
-                return cx.err(
-                    Some(v.span()),
-                    "measure.sync_sigma_ms",
-                    "needs measure.frame_rate_hz (A's pose is interpolated between frames)",
-                );
-            }
-            x
-        }
-    };
+    let standard = rules::cfc_standard(
+        m.cfc_standard.as_ref().map(|v| v.get_ref().as_str()),
+        m.cfc.is_some(),
+        &key,
+    )
+    .or_else(|p| {
+        let span = m.cfc_standard.as_ref().map(|v| v.span());
+        cx.err(span, "measure.cfc_standard", p)
+    })?;
+    let cfc = m
+        .cfc
+        .as_ref()
+        .map(|v| {
+            rules::cfc(*v.get_ref(), standard, frame_rate_hz, &key)
+                .or_else(|p| cx.err(Some(v.span()), "measure.cfc", p))
+        })
+        .transpose()?;
+    let sync = m.sync_sigma_ms.as_ref().map_or(Ok(0.0), |v| {
+        cx.rule(v, "measure.sync_sigma_ms", |x| {
+            rules::sync_sigma_ms(x, frame_rate_hz.is_some(), &key)
+        })
+    })?;
     Ok((cfc, sync))
 }

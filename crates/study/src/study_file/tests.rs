@@ -205,7 +205,7 @@ fn measure_kinematics_keys_and_their_errors() {
             "cfc_standard",
             "`sae` is not a filter standard",
         ),
-        ("cfc_standard = \"j211\"", "cfc_standard", "give `cfc` too"),
+        ("cfc_standard = \"j211\"", "cfc_standard", "needs measure.cfc"),
         (
             "sync_sigma_ms = -1.0",
             "sync_sigma_ms",
@@ -409,10 +409,12 @@ fn measure_defaults_and_rules_are_the_commands() {
             "pixel_sigma_px = 0.3\n",
             &format!("pixel_sigma_px = {bad}\n"),
         );
+        // The problem is the rule's own words, the line and key the study file's.
+        let problem = crashrig_measure::rules::pixel_sigma_px(bad.parse().unwrap()).unwrap_err();
         ends(
             &t,
             &format!("pixel_sigma_px = {bad}"),
-            "`measure.pixel_sigma_px`: must be finite and not negative",
+            &format!("`measure.pixel_sigma_px`: {problem}"),
         );
     }
     let t = text().replace(

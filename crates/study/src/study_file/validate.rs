@@ -93,8 +93,28 @@ impl Ctx<'_> {
                 format!("must be a positive number, got {x}"),
             );
         }
+        self.length_limit(v, key)
+    }
+
+    /// A number through one of `measure`'s [`crashrig_measure::rules`] (its problem at the
+    /// key's line), and a length (a key ending in `_mm`) at most
+    /// [`crashrig_mc::limits::MAX_ABS_LENGTH_MM`] as every length of a study file.
+    pub(super) fn rule(
+        &self,
+        v: &Spanned<f64>,
+        key: &str,
+        rule: impl FnOnce(f64) -> Result<f64, String>,
+    ) -> Result<f64, Error> {
+        rule(*v.get_ref()).or_else(|p| self.err(Some(v.span()), key, p))?;
+        self.length_limit(v, key)
+    }
+
+    /// `v` itself when it is no length (its key does not end in `_mm`) or a length at most
+    /// [`crashrig_mc::limits::MAX_ABS_LENGTH_MM`] (the scenario's bound, docs/LIMITS.md).
+    fn length_limit(&self, v: &Spanned<f64>, key: &str) -> Result<f64, Error> {
+        let x = *v.get_ref();
         let max = crashrig_mc::limits::MAX_ABS_LENGTH_MM;
-        if key.ends_with("_mm") && x > max {
+        if key.ends_with("_mm") && x.abs() > max {
             return self.err(
                 Some(v.span()),
                 key,
