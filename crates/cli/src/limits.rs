@@ -6,8 +6,6 @@
 pub const MAX_THREADS: usize = 1024;
 /// Largest `bootstrap --iterations`.
 pub const MAX_BOOTSTRAP_ITERATIONS: usize = crashrig_bootstrap::MAX_ITERATIONS;
-/// Smallest and largest `--mm-per-unit` (a model in nanometre … kilometre-scale units).
-pub const MM_PER_UNIT_RANGE: (f64, f64) = crashrig_measure::input::MM_PER_UNIT_RANGE;
 /// Largest `measure --samples` (replicates per row).
 pub const MAX_MEASURE_SAMPLES: usize = crashrig_measure::plausible::MAX_SAMPLES;
 
@@ -20,20 +18,14 @@ pub fn parse_shard(s: &str) -> Result<crashrig_outdir::shard::Shard, String> {
         })
 }
 
-/// clap value parser of `--mm-per-unit`: a finite number within [`MM_PER_UNIT_RANGE`].
+/// clap value parser of `--mm-per-unit`: every command's rule,
+/// [`crashrig_input::options::mm_per_unit_problem`].
 pub fn parse_mm_per_unit(s: &str) -> Result<f64, String> {
     let v: f64 = s
         .trim()
         .parse()
         .map_err(|_| format!("`{s}` is not a number"))?;
-    let (lo, hi) = MM_PER_UNIT_RANGE;
-    if v.is_finite() && (lo..=hi).contains(&v) {
-        Ok(v)
-    } else {
-        Err(format!(
-            "must be a number from {lo:e} to {hi:e} mm per model unit"
-        ))
-    }
+    crashrig_input::options::mm_per_unit_problem(v).map_or(Ok(v), Err)
 }
 
 /// clap value parser of `bootstrap --iterations`: 2 ..= [`MAX_BOOTSTRAP_ITERATIONS`].

@@ -611,17 +611,9 @@ pub fn read_a_covariance(path: &Path) -> Result<ACovariance, Error> {
     if let Some(v) = doc.get("mm_per_unit") {
         let f = v
             .as_f64()
-            .filter(|f| f.is_finite() && (MM_PER_UNIT_RANGE.0..=MM_PER_UNIT_RANGE.1).contains(f))
-            .ok_or_else(|| {
-                json_err(
-                    path,
-                    "mm_per_unit",
-                    format!(
-                        "must be a number from {:e} to {:e} (mm per model unit)",
-                        MM_PER_UNIT_RANGE.0, MM_PER_UNIT_RANGE.1
-                    ),
-                )
-            })?;
+            .ok_or_else(|| "is not a number".to_string())
+            .and_then(|f| crashrig_input::options::mm_per_unit_problem(f).map_or(Ok(f), Err))
+            .map_err(|p| json_err(path, "mm_per_unit", p))?;
         out.mm_per_unit = Some(f);
     }
     if let Some(v) = doc.get("joint") {

@@ -205,7 +205,11 @@ fn measure_kinematics_keys_and_their_errors() {
             "cfc_standard",
             "`sae` is not a filter standard",
         ),
-        ("cfc_standard = \"j211\"", "cfc_standard", "needs measure.cfc"),
+        (
+            "cfc_standard = \"j211\"",
+            "cfc_standard",
+            "needs measure.cfc",
+        ),
         (
             "sync_sigma_ms = -1.0",
             "sync_sigma_ms",

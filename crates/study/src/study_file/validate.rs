@@ -127,18 +127,14 @@ impl Ctx<'_> {
         Ok(x)
     }
 
-    /// A model scale (mm per model unit) within [`crashrig_measure::input::MM_PER_UNIT_RANGE`].
+    /// A model scale (mm per model unit) within [`crashrig_measure::input::MM_PER_UNIT_RANGE`]
+    /// ([`crashrig_input::options::mm_per_unit_problem`], every command's rule).
     pub(super) fn scale(&self, v: &Spanned<f64>, key: &str) -> Result<f64, Error> {
-        let (lo, hi) = crashrig_measure::input::MM_PER_UNIT_RANGE;
         let x = *v.get_ref();
-        if !(x.is_finite() && (lo..=hi).contains(&x)) {
-            return self.err(
-                Some(v.span()),
-                key,
-                format!("must be a number from {lo:e} to {hi:e} (mm per model unit), got {x}"),
-            );
+        match crashrig_input::options::mm_per_unit_problem(x) {
+            Some(p) => self.err(Some(v.span()), key, format!("{p}, got {x}")),
+            None => Ok(x),
         }
-        Ok(x)
     }
 
     /// A count of work `min ..= max` (checked before anything is allocated or run).
