@@ -147,3 +147,51 @@ mod tests {
         assert!(parse_threads("0").is_err());
     }
 }
+
+/// `--pixel-sigma-px`: a σ (px) or `estimate`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PixelSigmaArg {
+    /// A stated σ (px).
+    Px(f64),
+    /// The pixel σ check's estimate.
+    Estimate,
+}
+
+impl PixelSigmaArg {
+    /// The stated σ: as given, or with `estimate` the default the check compares with.
+    pub fn px(self) -> f64 {
+        match self {
+            PixelSigmaArg::Px(x) => x,
+            PixelSigmaArg::Estimate => crashrig_measure::rules::DEFAULT_PIXEL_SIGMA_PX,
+        }
+    }
+
+    /// Where the Monte Carlo's pixel σ comes from.
+    pub fn from(self) -> crashrig_measure::pixel_check::PixelSigmaFrom {
+        match self {
+            PixelSigmaArg::Px(_) => crashrig_measure::pixel_check::PixelSigmaFrom::Stated,
+            PixelSigmaArg::Estimate => crashrig_measure::pixel_check::PixelSigmaFrom::Estimate,
+        }
+    }
+}
+
+impl std::fmt::Display for PixelSigmaArg {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            PixelSigmaArg::Px(x) => write!(f, "{x}"),
+            PixelSigmaArg::Estimate => f.write_str("estimate"),
+        }
+    }
+}
+
+/// clap value parser of `--pixel-sigma-px`: `estimate`, or a number (its range is checked by
+/// [`crashrig_measure::rules::pixel_sigma_px`] when the run starts).
+pub fn parse_pixel_sigma(s: &str) -> Result<PixelSigmaArg, String> {
+    match s.trim() {
+        "estimate" => Ok(PixelSigmaArg::Estimate),
+        t => t
+            .parse()
+            .map(PixelSigmaArg::Px)
+            .map_err(|_| format!("`{s}` is neither a number (px) nor `estimate`")),
+    }
+}

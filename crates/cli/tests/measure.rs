@@ -644,3 +644,86 @@ fn bad_scale_bars_are_one_error_line_and_nothing_written() {
         assert!(!out.exists(), "{extra:?}");
     }
 }
+
+/// `base_args` with `--pixel-sigma-px` set to `value`.
+fn with_pixel_sigma(mut args: Vec<String>, value: &str) -> Vec<String> {
+    let i = args.iter().position(|a| a == "--pixel-sigma-px").unwrap();
+    args[i + 1] = value.into();
+    args
+}
+
+/// `--pixel-sigma-px estimate`: the Monte Carlo uses the pixel σ check's estimate, and says so
+/// in `summary.json` (`pixel_sigma_estimate`, its scale the check's ratio). On this side-by-side
+/// pair (one common estimate) every other file is byte for byte the run that states that
+/// estimate as `--pixel-sigma-px`. Without camera C, or with a word that is not `estimate`:
+/// one error line, nothing written.
+#[test]
+fn pixel_sigma_estimate_is_the_check_s_estimate_used() {
+    let tmp = tempfile::tempdir().unwrap();
+    let obs = fixture().join("observations.csv");
+    let (est, typed) = (tmp.path().join("estimate"), tmp.path().join("typed"));
+    let o = run(&with_pixel_sigma(base_args(&est, &obs), "estimate"), &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(est.join("summary.json")).unwrap()).unwrap();
+    let check = &summary["pixel_sigma_check"];
+    let used = &summary["pixel_sigma_estimate"];
+    assert_eq!(used["per_camera"], false, "{used}");
+    assert_eq!(check["stated_from"], "pixel_sigma_px");
+    for cam in ["B", "C"] {
+        assert_eq!(used[cam]["scale"], check["sigma_ratio"]);
+        assert_eq!(used[cam]["estimate_px"], check["estimate_px"]);
+        assert_eq!(used[cam]["estimate_95_px"], check["estimate_95_px"]);
+    }
+    // The fixture's pixels carry 0.1 px of noise: the estimate's interval covers it.
+    let interval = check["estimate_95_px"].as_array().unwrap();
+    let (lo, hi) = (interval[0].as_f64().unwrap(), interval[1].as_f64().unwrap());
+    assert!(lo < 0.1 && 0.1 < hi, "{lo} … {hi}");
+    // No warning that the stated (default) σ is wrong: the run does not use it.
+    assert!(!stderr(&o).contains("pixel_sigma_check:"), "{}", stderr(&o));
+    let px = check["estimate_px"].as_f64().unwrap().to_string();
+    let o = run(&with_pixel_sigma(base_args(&typed, &obs), &px), &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let files = |d: &Path| -> Vec<PathBuf> {
+        let mut all = Vec::new();
+        let mut todo = vec![d.to_path_buf()];
+        while let Some(p) = todo.pop() {
+            for e in std::fs::read_dir(&p).unwrap() {
+                let e = e.unwrap().path();
+                if e.is_dir() {
+                    todo.push(e);
+                } else {
+                    all.push(e.strip_prefix(d).unwrap().to_path_buf());
+                }
+            }
+        }
+        all.sort();
+        all
+    };
+    let names = files(&est);
+    assert_eq!(names, files(&typed));
+    assert!(names.len() >= 3, "{names:?}");
+    for n in names.iter().filter(|n| n.as_os_str() != "summary.json") {
+        let same = std::fs::read(est.join(n)).unwrap() == std::fs::read(typed.join(n)).unwrap();
+        assert!(same, "{n:?} differs");
+    }
+    // Without camera C: nothing to estimate from.
+    let mut no_c = with_pixel_sigma(base_args(&tmp.path().join("no_c"), &obs), "estimate");
+    for flag in ["--camera-c", "--tie"] {
+        let i = no_c.iter().position(|a| a == flag).unwrap();
+        no_c.drain(i..i + 2);
+    }
+    for (args, needle) in [
+        (no_c, "--pixel-sigma-px estimate needs --camera-c and --tie"),
+        (
+            with_pixel_sigma(base_args(&tmp.path().join("word"), &obs), "estimated"),
+            "neither a number (px) nor `estimate`",
+        ),
+    ] {
+        let o = run(&args, &[]);
+        let err = stderr(&o);
+        assert!(!o.status.success() && err.contains(needle), "{err}");
+        assert!(err.lines().next().unwrap().starts_with("error: "), "{err}");
+    }
+    assert!(!tmp.path().join("no_c").exists() && !tmp.path().join("word").exists());
+}

@@ -32,6 +32,7 @@ const NAMES: &[(&str, &str)] = &[
     ("frame_rate_hz", "--frame-rate-hz"),
     ("mm_per_unit", "--mm-per-unit"),
     ("mpe_mm", "--mpe-mm"),
+    ("pixel_sigma_px", "--pixel-sigma-px"),
     ("scale_bars", "--scale-bars"),
     ("scale_length_mm", "--scale-length-mm"),
     ("scale_points", "--scale-points"),

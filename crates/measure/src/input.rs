@@ -821,6 +821,28 @@ impl FrameTimes {
     }
 }
 
+/// The time axis of a `--frame-times` file: the frame times and the frame rate of their mean
+/// interval — with a CFC filter (`cfc`) the one interval the filter runs on,
+/// [`FrameTimes::uniform_interval`].
+///
+/// # Errors
+/// [`read_frame_times`]'s; [`FrameTimes::uniform_interval`]'s with `cfc`; [`Error::Input`] for
+/// a file of one frame (velocities need two).
+pub fn read_time_axis(path: &Path, cfc: bool) -> Result<(f64, FrameTimes), Error> {
+    let times = read_frame_times(path)?;
+    let interval = if cfc {
+        times.uniform_interval()?
+    } else {
+        times.mean_interval_s().ok_or_else(|| {
+            Error::Input(format!(
+                "{}: one frame time is no time axis (velocities need two frames)",
+                path.display()
+            ))
+        })?
+    };
+    Ok((1.0 / interval, times))
+}
+
 /// Reads a frame-times CSV (`epoch,time_s`, any column order; `crashrig track`'s
 /// `frames.csv`): one line per frame in frame order, times in seconds strictly increasing.
 ///

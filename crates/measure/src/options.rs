@@ -19,6 +19,7 @@
 //! ```
 
 use crate::filter::CfcSpec;
+use crate::pixel_check::PixelSigmaFrom;
 use crate::{ANoise, Error, MeasureConfig, MeasureRun, OutputDir, Settings, input, rules};
 use crashrig_geometry::Vec3;
 use crashrig_input::options::{Spelling, check_mm_per_unit};
@@ -54,8 +55,13 @@ pub struct MeasureOptions {
     pub sigma_a_angles_deg: Option<[f64; 3]>,
     /// A's pose covariance per epoch (JSON); excludes the σ.
     pub a_covariance: Option<PathBuf>,
-    /// σ of each pixel coordinate (px).
+    /// σ of each pixel coordinate (px); with [`PixelSigmaFrom::Estimate`] the σ the check
+    /// compares the residuals with before its estimate replaces it.
     pub pixel_sigma_px: f64,
+    /// The stated pixel σ, or the check's estimate (`--pixel-sigma-px estimate`,
+    /// `pixel_sigma_px="estimate"`; needs camera C).
+    #[serde(default)]
+    pub pixel_sigma_from: PixelSigmaFrom,
     /// Monte Carlo replicates per row.
     pub samples: usize,
     /// The seed ([`DEFAULT_SEED`] when `None`).
@@ -131,6 +137,7 @@ impl MeasureOptions {
             sigma_a_angles_deg: None,
             a_covariance: None,
             pixel_sigma_px: MeasureOptions::DEFAULT_PIXEL_SIGMA_PX,
+            pixel_sigma_from: PixelSigmaFrom::Stated,
             samples: 2000,
             seed: None,
             reference_epoch: None,
@@ -167,6 +174,14 @@ impl MeasureOptions {
         if self.camera_c.is_some() != self.tie.is_some() {
             return Err(Error::Usage(format!(
                 "{} and {} go together (give both for a tied-in camera C, or neither)",
+                name("camera_c"),
+                name("tie")
+            )));
+        }
+        if self.pixel_sigma_from == PixelSigmaFrom::Estimate && self.camera_c.is_none() {
+            return Err(Error::Usage(format!(
+                "{} estimate needs {} and {} (the estimate comes from the rays of B and C missing each other)",
+                name("pixel_sigma_px"),
                 name("camera_c"),
                 name("tie")
             )));
@@ -239,6 +254,7 @@ impl MeasureOptions {
                 cfc,
                 sync_sigma_ms: self.sync_sigma_ms,
             },
+            pixel_sigma_from: self.pixel_sigma_from,
             scale_bars: self.scale_bars.clone().map(|path| crate::ScaleBarsFile {
                 path,
                 mpe_mm: self.mpe_mm,
@@ -265,17 +281,8 @@ impl MeasureOptions {
                 spelling.name("frame_rate_hz")
             )));
         }
-        let times = input::read_frame_times(path)?;
-        let interval = match self.cfc {
-            Some(_) => times.uniform_interval()?,
-            None => times.mean_interval_s().ok_or_else(|| {
-                Error::Input(format!(
-                    "{}: one frame time is no time axis (velocities need two frames)",
-                    path.display()
-                ))
-            })?,
-        };
-        Ok((Some(1.0 / interval), Some(times)))
+        let (rate, times) = input::read_time_axis(path, self.cfc.is_some())?;
+        Ok((Some(rate), Some(times)))
     }
 
     /// The warnings of a finished run, in the order the command prints them: A treated as

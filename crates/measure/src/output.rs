@@ -781,6 +781,55 @@ pub struct Summary {
     /// and C; absent otherwise). Set by [`crate::run`].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pixel_sigma_check: Option<PixelCheckSummary>,
+    /// The pixel σ the Monte Carlo used instead of the stated one (with `--pixel-sigma-px
+    /// estimate`; absent otherwise). Set by [`crate::run`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pixel_sigma_estimate: Option<EstimateSummary>,
+}
+
+/// `summary.json` → `pixel_sigma_estimate` / its `B` and `C`: one camera's estimate as used.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct EstimateCameraSummary {
+    /// The factor the camera's stated σ (each observation's own, else `pixel_sigma_px`) was
+    /// multiplied by: its `sigma_ratio`.
+    pub scale: f64,
+    /// The estimated pixel σ (px).
+    pub estimate_px: f64,
+    /// Its 95 % interval (px), `[low, high]`.
+    pub estimate_95_px: [f64; 2],
+    /// The redundancy behind it.
+    pub redundancy: f64,
+}
+
+/// `summary.json` → `pixel_sigma_estimate` ([`crate::pixel_check::PixelSigmaFrom::Estimate`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct EstimateSummary {
+    /// `true`: each camera its own estimate (`pixel_sigma_check.per_camera`); `false`: the
+    /// common one for both.
+    pub per_camera: bool,
+    /// Camera B.
+    #[serde(rename = "B")]
+    pub b: EstimateCameraSummary,
+    /// Camera C.
+    #[serde(rename = "C")]
+    pub c: EstimateCameraSummary,
+}
+
+impl EstimateSummary {
+    /// The summary of `u`.
+    pub fn new(u: &crate::pixel_check::EstimateUsed) -> EstimateSummary {
+        let cam = |i: usize| EstimateCameraSummary {
+            scale: u.scale[i],
+            estimate_px: u.estimate_px[i],
+            estimate_95_px: [u.estimate_95_px[i].0, u.estimate_95_px[i].1],
+            redundancy: u.redundancy[i],
+        };
+        EstimateSummary {
+            per_camera: u.per_camera,
+            b: cam(0),
+            c: cam(1),
+        }
+    }
 }
 
 /// `summary.json` → `frame_times`: the time axis of `--frame-times`.
@@ -939,6 +988,7 @@ impl Summary {
                     .collect()
             }),
             pixel_sigma_check: None,
+            pixel_sigma_estimate: None,
         }
     }
 }

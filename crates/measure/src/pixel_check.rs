@@ -473,3 +473,152 @@ pub fn pixel_sigma_check(
     }
     check(&residuals(epochs, rig, observations, pixel_sigma_px))
 }
+
+/// Where the Monte Carlo's pixel σ comes from ([`crate::MeasureConfig::pixel_sigma_from`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PixelSigmaFrom {
+    /// The stated σ: each observation's own, else `pixel_sigma_px` (the default).
+    #[default]
+    Stated,
+    /// The check's estimate (`--pixel-sigma-px estimate`): every observation's stated σ scaled
+    /// by its camera's `sigma_ratio` ([`apply_estimate`]).
+    Estimate,
+}
+
+/// Below this redundancy the estimate used by [`PixelSigmaFrom::Estimate`] earns a warning: its
+/// 95 % interval is then wider than −20 % … +34 % of the σ (`√(ν/χ²_ν)` at ν = 30).
+pub const MIN_ESTIMATE_REDUNDANCY: f64 = 30.0;
+
+/// What [`PixelSigmaFrom::Estimate`] used, per camera (B, C).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EstimateUsed {
+    /// `true`: each camera's own estimate; `false`: the common one for both.
+    pub per_camera: bool,
+    /// The factor each camera's stated σ was multiplied by (its `sigma_ratio`).
+    pub scale: [f64; 2],
+    /// The estimated pixel σ of each camera (px; its `estimate_px`).
+    pub estimate_px: [f64; 2],
+    /// Its 95 % interval (px).
+    pub estimate_95_px: [(f64, f64); 2],
+    /// The redundancy behind each estimate.
+    pub redundancy: [f64; 2],
+}
+
+/// The observations with the check's estimate as their σ: each observation's stated Σ (its own,
+/// else `pixel_sigma_px` on each axis) scaled by its camera's ratio — the per-camera one where
+/// `check` separates the cameras and both are above 0, else the common one. `None` when the
+/// ratio to use is not above 0 (residuals of exactly 0: nothing to estimate from).
+pub fn apply_estimate(
+    check: &PixelSigmaCheck,
+    observations: &[Observation],
+    pixel_sigma_px: f64,
+) -> Option<(Vec<Observation>, EstimateUsed)> {
+    let per = check
+        .per_camera
+        .filter(|[b, c]| b.sigma_ratio > 0.0 && c.sigma_ratio > 0.0);
+    let [b, c] = per.unwrap_or([check.common; 2]);
+    if !(b.sigma_ratio > 0.0 && c.sigma_ratio > 0.0) {
+        return None;
+    }
+    let used = EstimateUsed {
+        per_camera: per.is_some(),
+        scale: [b.sigma_ratio, c.sigma_ratio],
+        estimate_px: [b.estimate_px, c.estimate_px],
+        estimate_95_px: [b.estimate_95_px, c.estimate_95_px],
+        redundancy: [b.redundancy, c.redundancy],
+    };
+    let scaled = observations
+        .iter()
+        .map(|o| {
+            let k = used.scale[usize::from(o.camera == Inward::C)];
+            let s = o.sigma.unwrap_or(PixelSigma::isotropic(pixel_sigma_px));
+            Observation {
+                sigma: Some(PixelSigma {
+                    sigma_u_px: k * s.sigma_u_px,
+                    sigma_v_px: k * s.sigma_v_px,
+                    rho_uv: s.rho_uv,
+                }),
+                ..o.clone()
+            }
+        })
+        .collect();
+    Some((scaled, used))
+}
+
+impl EstimateUsed {
+    /// The `warning:` sentence when an estimate rests on fewer than
+    /// [`MIN_ESTIMATE_REDUNDANCY`] redundant coordinates.
+    pub fn warning(&self) -> Option<String> {
+        let i = usize::from(self.redundancy[1] < self.redundancy[0]);
+        let least = self.redundancy[i];
+        (least < MIN_ESTIMATE_REDUNDANCY).then(|| {
+            let (lo, hi) = self.estimate_95_px[i];
+            format!(
+                "pixel σ estimate: it rests on a redundancy of only {least:.0} (fewer than {MIN_ESTIMATE_REDUNDANCY:.0}): {:.3} px with a 95 % interval of {lo:.3} … {hi:.3} px, and every σ of this run is as uncertain; measure more markers or epochs seen by both B and C",
+                self.estimate_px[i]
+            )
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A ratio `k` with redundancy `dof` against a stated 0.5 px.
+    fn ratio(k: f64, dof: f64) -> SigmaRatio {
+        sigma_ratio(k * k, dof, dof, 0.5)
+    }
+
+    fn obs(camera: Inward, sigma: Option<PixelSigma>) -> Observation {
+        Observation {
+            epoch: "e".into(),
+            camera,
+            marker: "m".into(),
+            pixel: Vector2::new(1.0, 2.0),
+            sigma,
+            line: 2,
+        }
+    }
+
+    /// Each camera's σ scaled by its own ratio where the check separates them, by the common
+    /// one where it does not or where a camera's ratio is 0; ρ kept.
+    #[test]
+    fn the_estimate_scales_each_camera_by_its_ratio() {
+        let own = PixelSigma {
+            sigma_u_px: 0.2,
+            sigma_v_px: 0.4,
+            rho_uv: 0.3,
+        };
+        let observations = [obs(Inward::B, None), obs(Inward::C, Some(own))];
+        let mut check = PixelSigmaCheck {
+            marker_epochs: 40,
+            tie_directions: 5,
+            common: ratio(1.5, 35.0),
+            per_camera: Some([ratio(2.0, 20.0), ratio(0.5, 18.0)]),
+            per_camera_note: None,
+        };
+        let (o, used) = apply_estimate(&check, &observations, 0.5).unwrap();
+        assert!(used.per_camera);
+        assert_eq!(used.scale, [2.0, 0.5]);
+        assert_eq!(o[0].sigma, Some(PixelSigma::isotropic(1.0)));
+        assert_eq!(
+            o[1].sigma,
+            Some(PixelSigma {
+                sigma_u_px: 0.1,
+                sigma_v_px: 0.2,
+                rho_uv: 0.3
+            })
+        );
+        assert!(used.warning().unwrap().contains("redundancy of only 18"));
+        check.per_camera = Some([ratio(2.0, 20.0), ratio(0.0, 18.0)]);
+        let (o, used) = apply_estimate(&check, &observations, 0.5).unwrap();
+        assert!(!used.per_camera);
+        assert_eq!(o[0].sigma, Some(PixelSigma::isotropic(0.75)));
+        assert_eq!(used.warning(), None);
+        check.per_camera = None;
+        check.common = ratio(0.0, 35.0);
+        assert!(apply_estimate(&check, &observations, 0.5).is_none());
+    }
+}

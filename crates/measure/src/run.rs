@@ -32,6 +32,7 @@
 //!         cfc: None,
 //!         sync_sigma_ms: 0.0,
 //!     },
+//!     pixel_sigma_from: Default::default(),
 //!     scale_bars: None,
 //!     out: None,
 //! };
@@ -115,6 +116,9 @@ pub struct MeasureConfig {
     pub a_noise: ANoise,
     /// Replicates, seed, pixel σ, reference epoch, frame rate, thresholds.
     pub settings: Settings,
+    /// The stated pixel σ, or the pixel σ check's estimate (`--pixel-sigma-px estimate`;
+    /// needs camera C).
+    pub pixel_sigma_from: crate::pixel_check::PixelSigmaFrom,
     /// The scale bars of the length check, if any.
     pub scale_bars: Option<ScaleBarsFile>,
     /// The output directory; `None`: compute only.
@@ -203,6 +207,18 @@ pub(crate) fn run_parts(
         camera_b,
         c: c.map(|(_, tie, cam)| (tie, cam)),
     };
+    let check = crate::pixel_check::pixel_sigma_check(
+        &epochs,
+        &rig,
+        &observations,
+        config.settings.pixel_sigma_px,
+    );
+    let stated_from = match observations.iter().filter(|o| o.sigma.is_some()).count() {
+        0 => "pixel_sigma_px",
+        n if n == observations.len() => "observations",
+        _ => "observations_and_pixel_sigma_px",
+    };
+    let (observations, estimate) = pixel_noise(config, &check, observations)?;
     let input = Input {
         epochs: &epochs,
         joint: joint.as_ref(),
@@ -234,25 +250,16 @@ pub(crate) fn run_parts(
     if let Some(lc) = &measurement.length_check {
         warnings.extend(lc.warnings());
     }
-    let check = crate::pixel_check::pixel_sigma_check(
-        &epochs,
-        &rig,
-        &observations,
-        config.settings.pixel_sigma_px,
-    );
-    if let Some(w) = check.as_ref().and_then(|c| c.warning()) {
-        warnings.push(w);
+    match &estimate {
+        Some(used) => warnings.extend(used.warning()),
+        None => warnings.extend(check.as_ref().and_then(|c| c.warning())),
     }
     let mut summary = summary_document(&measurement, config, &warnings);
-    summary.numbers.pixel_sigma_check = check.as_ref().map(|c| {
-        let own = observations.iter().filter(|o| o.sigma.is_some()).count();
-        let from = match own {
-            0 => "pixel_sigma_px",
-            n if n == observations.len() => "observations",
-            _ => "observations_and_pixel_sigma_px",
-        };
-        output::PixelCheckSummary::new(c, from)
-    });
+    summary.numbers.pixel_sigma_estimate = estimate.as_ref().map(output::EstimateSummary::new);
+    summary.numbers.pixel_sigma_check = check
+        .as_ref()
+        .map(|c| output::PixelCheckSummary::new(c, stated_from));
+
     if let Some(out) = &config.out {
         let mut files = output_files(&measurement, out.plots)?;
         summary.files = files.iter().map(|(n, _)| n.clone()).collect();
@@ -339,6 +346,48 @@ fn a_epochs(poses: &[APose], noise: &ANoise) -> Result<(Vec<Epoch>, Option<Joint
 }
 
 /// `summary.json` without the files and the time (filled in by [`run`] when it writes).
+/// The observations the Monte Carlo draws from: as read, or with
+/// [`PixelSigmaFrom::Estimate`](crate::pixel_check::PixelSigmaFrom) each one's σ scaled by the
+/// check's estimate ([`crate::pixel_check::apply_estimate`]).
+///
+/// # Errors
+/// [`Error::Setting`] (`--pixel-sigma-px`) when there is nothing to estimate from: no camera C,
+/// no marker-epoch seen by both B and C, or residuals of exactly 0.
+fn pixel_noise(
+    config: &MeasureConfig,
+    check: &Option<crate::pixel_check::PixelSigmaCheck>,
+    observations: Vec<input::Observation>,
+) -> Result<
+    (
+        Vec<input::Observation>,
+        Option<crate::pixel_check::EstimateUsed>,
+    ),
+    Error,
+> {
+    if config.pixel_sigma_from == crate::pixel_check::PixelSigmaFrom::Stated {
+        return Ok((observations, None));
+    }
+    let bad = |problem: &str| Error::Setting {
+        name: "--pixel-sigma-px",
+        problem: format!("estimate: {problem}"),
+    };
+    if config.camera_c.is_none() {
+        return Err(bad(
+            "needs camera C and its tie (the estimate comes from the rays of B and C missing each other)",
+        ));
+    }
+    let Some(check) = check else {
+        return Err(bad(
+            "no marker-epoch seen by both B and C has rays to check (too few, or degenerate): nothing to estimate the pixel σ from",
+        ));
+    };
+    crate::pixel_check::apply_estimate(check, &observations, config.settings.pixel_sigma_px)
+        .map(|(o, used)| (o, Some(used)))
+        .ok_or_else(|| {
+            bad("the residuals of B and C are exactly 0: nothing to estimate the pixel σ from")
+        })
+}
+
 fn summary_document(
     m: &Measurement,
     config: &MeasureConfig,

@@ -235,6 +235,7 @@ fn a_fully_correlated_file_cancels_in_the_displacements() {
         mm_per_unit: 1000.0,
         a_noise,
         settings: settings(2_000),
+        pixel_sigma_from: Default::default(),
         scale_bars: None,
         out: None,
     };

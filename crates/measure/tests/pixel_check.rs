@@ -476,3 +476,37 @@ fn no_camera_c_no_check() {
     q.observations.retain(|o| o.camera == Inward::B);
     assert!(pixel_check::pixel_sigma_check(&q.epochs, &q.rig, &q.observations, 0.2).is_none());
 }
+
+/// `--pixel-sigma-px estimate` ([`pixel_check::apply_estimate`]): the observations with the
+/// estimate as their σ are, checked again, exactly consistent (ratio 1: scaling every σ by the
+/// common ratio k scales every whitened residual by 1/k), and the estimate does not depend on
+/// the σ that was stated. Stated at half the truth (typed) and at double (per observation).
+#[test]
+fn the_estimate_used_checks_out_as_honest() {
+    for (stated, per_observation) in [(0.1, false), (0.4, true)] {
+        let s = Scene {
+            sigma_stated: [stated; 2],
+            per_observation,
+            ..SEQUENCE
+        };
+        let q = generate(&s, 7);
+        let check = pixel_check::pixel_sigma_check(&q.epochs, &q.rig, &q.observations, stated)
+            .expect("B and C");
+        let (scaled, used) =
+            pixel_check::apply_estimate(&check, &q.observations, stated).expect("ratio > 0");
+        assert!(!used.per_camera, "a side-by-side pair is not split");
+        assert_eq!(used.scale, [check.common.sigma_ratio; 2]);
+        assert!(scaled.iter().all(|o| o.sigma.is_some()));
+        // A different typed σ afterwards changes nothing: every observation has its own now.
+        let again = pixel_check::pixel_sigma_check(&q.epochs, &q.rig, &scaled, 9.0).unwrap();
+        let c = again.common;
+        assert!((c.sigma_ratio - 1.0).abs() < 1e-9, "{}", c.sigma_ratio);
+        assert_eq!(c.verdict, Verdict::Consistent);
+        let rel = |a: f64, b: f64| (a - b).abs() / b;
+        assert!(rel(c.estimate_px, check.common.estimate_px) < 1e-9);
+        assert!(rel(c.stated_px, check.common.estimate_px) < 1e-12);
+        // The truth is 0.2 px; this sequence's estimate is within its 95 % interval of it.
+        let (lo, hi) = check.common.estimate_95_px;
+        assert!((lo..=hi).contains(&0.2), "{lo} … {hi}");
+    }
+}

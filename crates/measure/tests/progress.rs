@@ -39,6 +39,7 @@ fn config(samples: usize, sync_sigma_ms: f64, out: Option<PathBuf>) -> MeasureCo
             cfc: None,
             sync_sigma_ms,
         },
+        pixel_sigma_from: Default::default(),
         scale_bars: None,
         out: out.map(|dir| OutputDir { dir, plots: false }),
     }

@@ -300,9 +300,10 @@ fn grid<'py>(
 #[pyfunction]
 #[pyo3(signature = (model, camera_a, camera_b, link, observations, *, out=None, camera_c=None,
     tie=None, mm_per_unit=None, sigma_a_position_mm=None, sigma_a_angles_deg=None,
-    a_covariance=None, pixel_sigma_px=0.5, samples=2000, seed=None, reference_epoch=None,
+    a_covariance=None, pixel_sigma_px=None, samples=2000, seed=None, reference_epoch=None,
     frame_rate_hz=None, threshold_mm=5.0, max_reprojection_px=None, plots=true, cfc=None,
-    cfc_standard=None, sync_sigma_ms=0.0, scale_bars=None, mpe_mm=None, progress=None))]
+    cfc_standard=None, sync_sigma_ms=0.0, scale_bars=None, mpe_mm=None, frame_times=None,
+    progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn measure<'py>(
     py: Python<'py>,
@@ -318,7 +319,7 @@ fn measure<'py>(
     sigma_a_position_mm: Option<[f64; 3]>,
     sigma_a_angles_deg: Option<[f64; 3]>,
     a_covariance: Option<&Bound<'py, PyAny>>,
-    pixel_sigma_px: f64,
+    pixel_sigma_px: Option<&Bound<'py, PyAny>>,
     samples: usize,
     seed: Option<u64>,
     reference_epoch: Option<String>,
@@ -331,9 +332,30 @@ fn measure<'py>(
     sync_sigma_ms: f64,
     scale_bars: Option<&Bound<'py, PyAny>>,
     mpe_mm: Option<f64>,
+    frame_times: Option<&Bound<'py, PyAny>>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    use crashrig_measure::pixel_check::PixelSigmaFrom;
     use crashrig_measure::{MeasureOptions, OutputDir};
+    // A number (px) or "estimate" (the pixel σ check's estimate); None: the default.
+    let (pixel_sigma_px, pixel_sigma_from) = match pixel_sigma_px.filter(|v| !v.is_none()) {
+        None => (
+            MeasureOptions::DEFAULT_PIXEL_SIGMA_PX,
+            PixelSigmaFrom::Stated,
+        ),
+        Some(v) => match v.extract::<String>() {
+            Ok(word) if word == "estimate" => (
+                MeasureOptions::DEFAULT_PIXEL_SIGMA_PX,
+                PixelSigmaFrom::Estimate,
+            ),
+            Ok(word) => {
+                return Err(py_error(format!(
+                    "pixel_sigma_px: `{word}` is neither a number (px) nor \"estimate\""
+                )));
+            }
+            Err(_) => (v.extract::<f64>()?, PixelSigmaFrom::Stated),
+        },
+    };
     let out = args::opt_path(out, "out")?;
     let camera_c = camera_c
         .filter(|c| !c.is_none())
@@ -348,6 +370,7 @@ fn measure<'py>(
         sigma_a_angles_deg,
         a_covariance: args::opt_path(a_covariance, "a_covariance")?,
         pixel_sigma_px,
+        pixel_sigma_from,
         samples,
         seed,
         reference_epoch,
@@ -359,6 +382,7 @@ fn measure<'py>(
         sync_sigma_ms,
         scale_bars: args::opt_path(scale_bars, "scale_bars")?,
         mpe_mm,
+        frame_times: args::opt_path(frame_times, "frame_times")?,
         ..MeasureOptions::new(
             args::path(model, "model")?,
             args::camera(camera_a, "camera_a")?,

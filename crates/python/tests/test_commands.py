@@ -133,6 +133,29 @@ def test_measure_equals_cli(cli, tmp_path):
     assert py_csv == (tmp_path / "cli" / "trajectories.csv").read_bytes()
 
 
+def test_measure_estimate_and_frame_times_equal_cli(cli, tmp_path):
+    # pixel_sigma_px="estimate" and frame_times= are --pixel-sigma-px estimate and --frame-times.
+    times = tmp_path / "frames.csv"
+    epochs = [line.split(",")[0] for line in (SEQ / "observations.csv").read_text().splitlines()[1:]]
+    names = list(dict.fromkeys(epochs))
+    times.write_text("epoch,time_s\n" + "".join(f"{e},{i * 0.001}\n" for i, e in enumerate(names)))
+    kwargs = measure_kwargs()
+    del kwargs["frame_rate_hz"]
+    kwargs["pixel_sigma_px"] = "estimate"
+    got = crashrig.measure(SEQ / "model", out=tmp_path / "py", frame_times=times, **kwargs)
+    want = cli("measure", SEQ / "model", "--camera-a", "cam_out/", "--camera-b", "2",
+               "--camera-c", "3", "--link", SEQ / "link.json", "--tie", SEQ / "tie.json",
+               "--observations", SEQ / "observations.csv", "--a-covariance",
+               SEQ / "a_covariance.json", "--mm-per-unit", "1000", "--pixel-sigma-px", "estimate",
+               "--frame-times", times, "--samples", "300", "--seed", "9",
+               "--out", tmp_path / "cli")
+    assert strip_timing(got) == strip_timing(want)
+    assert got["pixel_sigma_estimate"]["B"]["scale"] == got["pixel_sigma_check"]["sigma_ratio"]
+    assert got["frame_times"]["frames"] == len(names)
+    with pytest.raises(crashrig.Error, match="pixel_sigma_px: `guess` is neither"):
+        crashrig.measure(SEQ / "model", **{**kwargs, "pixel_sigma_px": "guess"})
+
+
 def test_measure_scale_bars_equals_cli(cli, tmp_path):
     kwargs = dict(measure_kwargs(), observations=SEQ / "observations_scale_bars.csv")
     got = crashrig.measure(SEQ / "model", out=tmp_path / "py", scale_bars=SEQ / "scale_bars.csv",

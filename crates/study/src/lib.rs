@@ -52,6 +52,7 @@ mod length_report;
 mod measure_step;
 mod paper_study;
 mod pipeline;
+mod pixel_report;
 mod quality_report;
 mod report;
 pub mod study_file;

@@ -165,12 +165,13 @@ pub fn run_measure(
             pixel_sigma_px: s.pixel_sigma_px,
             reference_epoch: s.reference_epoch.clone(),
             frame_rate_hz: s.frame_rate_hz,
-            frame_times: None,
+            frame_times: s.frame_times.clone(),
             threshold_mm: s.threshold_mm,
             max_reprojection_px: s.max_reprojection_px,
             cfc: s.cfc,
             sync_sigma_ms: s.sync_sigma_ms,
         },
+        pixel_sigma_from: s.pixel_sigma_from,
         scale_bars: s
             .scale_bars
             .clone()
@@ -185,7 +186,11 @@ pub fn run_measure(
     warnings.extend(crashrig_measure::plausible::warnings(
         &r.measurement,
         s.frame_rate_hz,
-        "measure.frame_rate_hz",
+        if s.frame_times.is_some() {
+            "measure.frame_times"
+        } else {
+            "measure.frame_rate_hz"
+        },
         "measure.mm_per_unit",
     ));
     Ok(MeasureResult {

@@ -220,8 +220,9 @@ fn measure_report(
             ),
         ]],
     }));
-    if m.measurement.length_check.is_some() {
-        crate::length_report::section(rep, m, length_plot);
+    crate::length_report::section(rep, m, length_plot);
+    crate::pixel_report::section(rep, m);
+    if m.measurement.length_check.is_some() || m.summary.pixel_sigma_check.is_some() {
         rep.push(Block::SubHeading("Trajectories".into()));
     }
     let per_marker: Vec<Vec<String>> = ms
@@ -810,6 +811,9 @@ fn verdicts(rep: &mut Report, r: &StudyResult, paper: bool, unit_warnings: &[Str
         &r.calibration,
     )));
     if let Some(v) = r.measure.as_ref().and_then(crate::length_report::verdict) {
+        rep.push(Block::Verdict(v));
+    }
+    if let Some(v) = r.measure.as_ref().and_then(crate::pixel_report::verdict) {
         rep.push(Block::Verdict(v));
     }
     rep.push(Block::Raw("</div>".into()));

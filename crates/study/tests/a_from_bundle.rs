@@ -146,6 +146,7 @@ fn the_study_computes_a_from_the_bundle_and_measures_with_it() {
             cfc: None,
             sync_sigma_ms: 0.0,
         },
+        pixel_sigma_from: Default::default(),
         scale_bars: None,
         out: None,
     };

@@ -3,5 +3,6 @@
 mod a_from_bundle;
 mod contract_documents;
 mod length_report;
+mod pixel_report;
 mod progress;
 mod reference_keys;

@@ -37,9 +37,10 @@ pub struct MeasureArgs {
     /// Camera A's pose uncertainty per epoch.
     #[command(flatten)]
     pub a_noise: super::measure_options::ANoiseArgs,
-    /// σ of each pixel coordinate of an observation (px).
-    #[arg(long, value_name = "PX", default_value_t = crashrig_measure::MeasureOptions::DEFAULT_PIXEL_SIGMA_PX)]
-    pub pixel_sigma_px: f64,
+    /// σ of each pixel coordinate of an observation (px), or `estimate`: the pixel σ check's
+    /// estimate from the rays of B and C (needs --camera-c).
+    #[arg(long, value_name = "PX|estimate", default_value_t = crate::limits::PixelSigmaArg::Px(crashrig_measure::MeasureOptions::DEFAULT_PIXEL_SIGMA_PX), value_parser = crate::limits::parse_pixel_sigma)]
+    pub pixel_sigma_px: crate::limits::PixelSigmaArg,
     /// Monte Carlo replicates per row.
     #[arg(long, value_name = "N", default_value_t = 2000, value_parser = crate::limits::parse_measure_samples)]
     pub samples: usize,
@@ -98,7 +99,8 @@ fn options(a: &MeasureArgs, seed: Option<u64>) -> MeasureOptions {
             plots: !a.no_plots,
         }),
         mm_per_unit: a.mm_per_unit,
-        pixel_sigma_px: a.pixel_sigma_px,
+        pixel_sigma_px: a.pixel_sigma_px.px(),
+        pixel_sigma_from: a.pixel_sigma_px.from(),
         samples: a.samples,
         seed,
         reference_epoch: a.reference_epoch.clone(),

@@ -1,7 +1,7 @@
 """Type stubs of the crashrig module (docs/PYTHON.md)."""
 
 import os
-from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Literal, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -167,7 +167,7 @@ def measure(
     sigma_a_position_mm: Optional[Sequence[float]] = None,
     sigma_a_angles_deg: Optional[Sequence[float]] = None,
     a_covariance: Optional[PathLike] = None,
-    pixel_sigma_px: float = 0.5,
+    pixel_sigma_px: Union[float, Literal["estimate"]] = 0.5,
     samples: int = 2000,
     seed: Optional[int] = None,
     reference_epoch: Optional[str] = None,
@@ -180,9 +180,15 @@ def measure(
     sync_sigma_ms: float = 0.0,
     scale_bars: Optional[PathLike] = None,
     mpe_mm: Optional[float] = None,
+    frame_times: Optional[PathLike] = None,
     progress: Optional[Progress] = None,
 ) -> Dict[str, Any]:
     """``crashrig measure --json`` (seed 1 when not given, as the command).
+
+    ``pixel_sigma_px="estimate"`` (with ``camera_c``) uses the pixel σ check's estimate in the
+    Monte Carlo (``s["numbers"]["pixel_sigma_estimate"]``, ``--pixel-sigma-px estimate``);
+    ``frame_times`` (CSV ``epoch,time_s``, as ``track`` writes it) is the time axis instead of
+    ``frame_rate_hz`` (``--frame-times``).
 
     ``scale_bars`` (CSV ``name,marker_1,marker_2,length_mm,sigma_mm``) adds the length check:
     ``s["length_check"]``, one dict per bar with its verdict (``--scale-bars``); ``mpe_mm`` the

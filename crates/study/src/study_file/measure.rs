@@ -5,6 +5,8 @@ use super::validate::Ctx;
 use super::{ABundle, MeasureANoise, MeasureSection};
 use crate::Error;
 use crashrig_geometry::Vec3;
+use crashrig_measure::input::FrameTimes;
+use crashrig_measure::pixel_check::PixelSigmaFrom;
 use crashrig_measure::{MeasureOptions, rules};
 use std::path::{Path, PathBuf};
 use toml::Spanned;
@@ -131,17 +133,8 @@ pub(super) fn measure_section(
             "missing: the model's units are never guessed; give mm per model unit (1000 for a model in metres, 1 for millimetres), or an a_covariance from `crashrig covariance` that states mm_per_unit",
         );
     }
-    let pixel_sigma_px = m
-        .pixel_sigma_px
-        .as_ref()
-        .map_or(Ok(rules::DEFAULT_PIXEL_SIGMA_PX), |v| {
-            cx.rule(v, "measure.pixel_sigma_px", rules::pixel_sigma_px)
-        })?;
-    let frame_rate_hz = m
-        .frame_rate_hz
-        .as_ref()
-        .map(|v| cx.rule(v, "measure.frame_rate_hz", rules::frame_rate_hz))
-        .transpose()?;
+    let (pixel_sigma_px, pixel_sigma_from) = pixel_sigma_key(cx, m)?;
+    let (frame_rate_hz, frame_times) = time_axis_keys(cx, m)?;
     let (cfc, sync_sigma_ms) = kinematics_keys(cx, m, frame_rate_hz)?;
     let (scale_bars, mpe_mm) = length_check_keys(cx, m)?;
     Ok(MeasureSection {
@@ -153,6 +146,7 @@ pub(super) fn measure_section(
         mm_per_unit,
         a_noise,
         pixel_sigma_px,
+        pixel_sigma_from,
         samples: m
             .samples
             .as_ref()
@@ -167,6 +161,7 @@ pub(super) fn measure_section(
             .transpose()?,
         reference_epoch: m.reference_epoch.clone(),
         frame_rate_hz,
+        frame_times,
         threshold_mm: m
             .threshold_mm
             .as_ref()
@@ -271,4 +266,65 @@ fn kinematics_keys(
         })
     })?;
     Ok((cfc, sync))
+}
+
+/// `pixel_sigma_px`: a number ([`rules::pixel_sigma_px`]) or `"estimate"` (the check's estimate;
+/// `[measure]` always has camera C), default [`rules::DEFAULT_PIXEL_SIGMA_PX`].
+fn pixel_sigma_key(cx: &Ctx<'_>, m: &RawMeasure) -> Result<(f64, PixelSigmaFrom), Error> {
+    const KEY: &str = "measure.pixel_sigma_px";
+    let Some(v) = &m.pixel_sigma_px else {
+        return Ok((rules::DEFAULT_PIXEL_SIGMA_PX, PixelSigmaFrom::Stated));
+    };
+    let number = match v.get_ref() {
+        toml::Value::Float(x) => Some(*x),
+        toml::Value::Integer(i) => Some(*i as f64),
+        _ => None,
+    };
+    match (number, v.get_ref().as_str()) {
+        (Some(x), _) => {
+            let spanned = Spanned::new(v.span(), x);
+            let x = cx.rule(&spanned, KEY, rules::pixel_sigma_px)?;
+            Ok((x, PixelSigmaFrom::Stated))
+        }
+        (None, Some("estimate")) => Ok((rules::DEFAULT_PIXEL_SIGMA_PX, PixelSigmaFrom::Estimate)),
+        _ => cx.err(
+            Some(v.span()),
+            KEY,
+            format!("must be a number (px) or \"estimate\", got {}", v.get_ref()),
+        ),
+    }
+}
+
+/// `frame_rate_hz` ([`rules::frame_rate_hz`]) or `frame_times` (an existing CSV `epoch,time_s`
+/// relative to the study file, read here: its mean interval gives the rate, with `cfc` its one
+/// interval, [`crashrig_measure::input::read_time_axis`]); the two exclude each other.
+fn time_axis_keys(
+    cx: &Ctx<'_>,
+    m: &RawMeasure,
+) -> Result<(Option<f64>, Option<FrameTimes>), Error> {
+    let rate = m
+        .frame_rate_hz
+        .as_ref()
+        .map(|v| cx.rule(v, "measure.frame_rate_hz", rules::frame_rate_hz))
+        .transpose()?;
+    let Some(v) = &m.frame_times else {
+        return Ok((rate, None));
+    };
+    if m.frame_rate_hz.is_some() {
+        return cx.err(
+            Some(v.span()),
+            "measure.frame_times",
+            "excludes measure.frame_rate_hz: the frame times are the time axis",
+        );
+    }
+    let path = cx.existing_path(v, "measure.frame_times", false)?;
+    let (rate, times) =
+        crashrig_measure::input::read_time_axis(&path, m.cfc.is_some()).or_else(|e| {
+            cx.err(
+                Some(v.span()),
+                "measure.frame_times",
+                crashrig_input::message::error_line(&e),
+            )
+        })?;
+    Ok((Some(rate), Some(times)))
 }

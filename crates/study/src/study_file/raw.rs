@@ -38,10 +38,12 @@ pub(super) struct RawMeasure {
     pub(super) a_control_points: Option<Spanned<String>>,
     pub(super) a_pixel_sigma_px: Option<Spanned<f64>>,
     pub(super) a_intrinsics: Option<Spanned<String>>,
-    pub(super) pixel_sigma_px: Option<Spanned<f64>>,
+    /// A number (px) or `"estimate"`.
+    pub(super) pixel_sigma_px: Option<Spanned<toml::Value>>,
     pub(super) samples: Option<Spanned<i64>>,
     pub(super) reference_epoch: Option<String>,
     pub(super) frame_rate_hz: Option<Spanned<f64>>,
+    pub(super) frame_times: Option<Spanned<String>>,
     pub(super) threshold_mm: Option<Spanned<f64>>,
     pub(super) max_reprojection_px: Option<Spanned<f64>>,
     pub(super) cfc: Option<Spanned<i64>>,

@@ -221,14 +221,22 @@ pub struct MeasureSection {
     pub mm_per_unit: Option<f64>,
     /// A's per-epoch uncertainty.
     pub a_noise: MeasureANoise,
-    /// σ of each pixel coordinate (px, default 0.5).
+    /// σ of each pixel coordinate (px, default 0.5); with `pixel_sigma_px = "estimate"` the
+    /// default, against which the check compares before its estimate replaces it.
     pub pixel_sigma_px: f64,
+    /// `pixel_sigma_px = "estimate"`: the Monte Carlo uses the pixel σ check's estimate
+    /// (needs camera C).
+    pub pixel_sigma_from: crashrig_measure::pixel_check::PixelSigmaFrom,
     /// Replicates per row (default: the study's `samples`, or `--samples`).
     pub samples: Option<usize>,
     /// Reference epoch of the displacements (default: the first measured epoch).
     pub reference_epoch: Option<String>,
-    /// Frame rate (Hz): times and velocities.
+    /// Frame rate (Hz): times and velocities; with `frame_times` the rate of their mean
+    /// interval.
     pub frame_rate_hz: Option<f64>,
+    /// `frame_times`: each frame's time from the camera's clock (CSV `epoch,time_s`, read when
+    /// the study file is), the time axis instead of `frame_rate_hz`.
+    pub frame_times: Option<crashrig_measure::input::FrameTimes>,
     /// Rows whose σ_max exceeds this are flagged (mm, default 5).
     pub threshold_mm: f64,
     /// Reprojection residual limit (px; default the robust limit of the sequence).

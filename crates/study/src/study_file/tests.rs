@@ -431,3 +431,66 @@ fn measure_defaults_and_rules_are_the_commands() {
         "`measure.a_covariance`: give either a_covariance or sigma_a_position_mm / sigma_a_angles_deg, not both",
     );
 }
+
+/// `[measure] pixel_sigma_px = "estimate"` is `--pixel-sigma-px estimate`; any other word is an
+/// error at its line.
+#[test]
+fn measure_pixel_sigma_estimate_reads() {
+    use crashrig_measure::pixel_check::PixelSigmaFrom;
+    let m = parse(&text()).unwrap().measure.unwrap();
+    assert_eq!(
+        (m.pixel_sigma_px, m.pixel_sigma_from),
+        (0.3, PixelSigmaFrom::Stated)
+    );
+    let t = text().replace("pixel_sigma_px = 0.3\n", "pixel_sigma_px = \"estimate\"\n");
+    let m = parse(&t).unwrap().measure.unwrap();
+    assert_eq!(m.pixel_sigma_from, PixelSigmaFrom::Estimate);
+    assert_eq!(
+        m.pixel_sigma_px,
+        crashrig_measure::rules::DEFAULT_PIXEL_SIGMA_PX
+    );
+    let t = text().replace("pixel_sigma_px = 0.3\n", "pixel_sigma_px = 1\n");
+    assert_eq!(parse(&t).unwrap().measure.unwrap().pixel_sigma_px, 1.0);
+    let t = text().replace("pixel_sigma_px = 0.3\n", "pixel_sigma_px = \"guess\"\n");
+    let m = message(&t);
+    let line = line_starting(&t, "pixel_sigma_px = \"guess\"");
+    assert!(
+        m.ends_with(&format!(
+            "study.toml:{line}: `measure.pixel_sigma_px`: must be a number (px) or \"estimate\", got \"guess\""
+        )),
+        "{m}"
+    );
+}
+
+/// `[measure] frame_times` (read with the study file): the time axis and the frame rate of its
+/// mean interval; with `frame_rate_hz` too, an error at its line; a file whose times do not
+/// increase, an error naming the file's line.
+#[test]
+fn measure_frame_times_key_reads() {
+    let tmp = tempfile::tempdir().unwrap();
+    let times = tmp.path().join("frames.csv");
+    std::fs::write(&times, "epoch,time_s\nf0,0.0\nf1,0.002\nf2,0.004\n").unwrap();
+    let key = format!("frame_times = \"{}\"\n", times.display());
+    let t = text().replace("frame_rate_hz = 1000.0\n", &key);
+    let m = parse(&t).unwrap().measure.unwrap();
+    let ft = m.frame_times.expect("read");
+    assert_eq!(ft.frames.len(), 3);
+    assert!((m.frame_rate_hz.unwrap() - 500.0).abs() < 1e-9);
+    let both = text().replace(
+        "frame_rate_hz = 1000.0\n",
+        &format!("frame_rate_hz = 1000.0\n{key}"),
+    );
+    let line = line_starting(&both, "frame_times =");
+    let e = message(&both);
+    assert!(
+        e.contains(&format!("study.toml:{line}: `measure.frame_times`"))
+            && e.contains("excludes measure.frame_rate_hz"),
+        "{e}"
+    );
+    std::fs::write(&times, "epoch,time_s\nf0,0.0\nf1,0.0\n").unwrap();
+    let e = message(&t);
+    assert!(
+        e.contains("`measure.frame_times`") && e.contains("frames.csv:3"),
+        "{e}"
+    );
+}
