@@ -39,7 +39,8 @@ verbs:
   report-check [DIR] [--docs]
                      the browser test on DIR/report.html (default out/paper) in headless Chromium:
                      figures, contents, sizes, text >= 9 px; screenshots report-1400.png and
-                     report-800.png into DIR (--docs: into docs/img/) (needs Debian's `chromium`)
+                     report-800.png into DIR (--docs: into docs/img/, in 256 colours by
+                     `pngquant` when installed) (needs Debian's `chromium`)
 ";
 
 fn main() -> Result<()> {
@@ -344,7 +345,7 @@ fn fixtures() -> Result<()> {
 /// The browser test (`crates/cli/tests/browser.rs`) on `DIR/report.html` (default
 /// `out/paper`): headless Chromium, every figure decoded, the table of contents, figure sizes, no
 /// text below 9 px, load time and size; screenshots at 1400 and 800 px into DIR, or with
-/// `--docs` into `docs/img/` (the README's figure).
+/// `--docs` into `docs/img/` (the README's figures; made smaller by [`shrink_screenshots`]).
 fn report_check(rest: &[String]) -> Result<()> {
     let docs = rest.iter().any(|a| a == "--docs");
     let dir = rest
@@ -376,7 +377,56 @@ fn report_check(rest: &[String]) -> Result<()> {
     .env("CRASHRIG_REPORT_DIR", &dir)
     .env("CRASHRIG_SCREENSHOT_DIR", &shots)
     .env("CI", "true");
-    run(t)
+    run(t)?;
+    if docs {
+        shrink_screenshots(&shots)?;
+    }
+    Ok(())
+}
+
+/// The committed screenshots in 256 colours (`pngquant`, Debian's package of that name; about a
+/// third of chromium's bytes, the text as sharp), each file kept as chromium wrote it when
+/// quantising would not make it smaller or `pngquant` is missing (said so).
+fn shrink_screenshots(shots: &Path) -> Result<()> {
+    let names = ["report-1400", "report-800", "view3d-1400", "view3d-800"]
+        .map(|n| shots.join(format!("{n}.png")));
+    let have = Command::new("pngquant")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !have {
+        eprintln!(
+            "xtask report-check: no `pngquant` on PATH (apt-get install pngquant): the screenshots stay as chromium wrote them"
+        );
+        return Ok(());
+    }
+    for png in &names {
+        let before = std::fs::metadata(png)
+            .with_context(|| png.display().to_string())?
+            .len();
+        // Exit status 98/99: not smaller / below the quality floor; the file is left as it was.
+        let st = Command::new("pngquant")
+            .args([
+                "--force",
+                "--skip-if-larger",
+                "--strip",
+                "--quality=70-95",
+                "--ext",
+                ".png",
+            ])
+            .arg(png)
+            .status()
+            .context("pngquant runs")?;
+        if !st.success() && !matches!(st.code(), Some(98 | 99)) {
+            bail!("pngquant failed on {}: {st}", png.display());
+        }
+        let after = std::fs::metadata(png)?.len();
+        eprintln!(
+            "xtask report-check: {}: {before} → {after} bytes",
+            png.display()
+        );
+    }
+    Ok(())
 }
 
 /// `cargo xtask test-python`: builds the release CLI and the `crashrig` wheel (maturin, in the

@@ -153,6 +153,13 @@ pub fn push(rep: &mut Report, r: &StudyResult, paper: bool) {
         "How to read it: the worst-direction σ is √ of the largest eigenvalue of the point's 3×3 covariance, never below the largest of σx, σy, σz, so \"σ < 5 mm in every direction\" holds where it is below 5 mm. Measurable: seen by two or more cameras under at least {}°. The share below the threshold counts the measurable points only. Why there: the largest angle between two cameras' lines of sight at the worst point (the error along the rays grows as 1/sin of it), against its median over the grid, and the input whose halved σ lowers the σ at that point most (one-at-a-time sensitivity); the dominant input does the same for the median σ over the grid.",
         crashrig_mc::degenerate::MIN_INTERSECTION_ANGLE_DEG
     )));
+    // The 3-D view (the first section, below the verdicts and the contents): linked from here,
+    // so that a reader of the first screen finds the picture of the whole study.
+    if !r.layouts.is_empty() {
+        rep.push(Block::Raw(
+            "<p><b>See it in 3-D:</b> <a href=\"#v3d\">the 3-D view</a> (the first section under the contents) shows the cameras and each layout's grid coloured by this σ, the threshold marked; drag to turn it.</p>".into(),
+        ));
+    }
     if paper {
         rep.push(Block::Paragraph(PAPER_LAYOUT_NAMES.into()));
     } else if r.layouts.iter().any(|l| !l.layout.description.is_empty()) {

@@ -26,10 +26,13 @@ function view3d() {
   }
   var renderer = null;
   try {
-    var probe = document.createElement('canvas');
-    var ok = probe.getContext('webgl2') || probe.getContext('webgl');
-    if (!T || !ok) { throw new Error('no WebGL'); }
-    renderer = new T.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+    // One WebGL 2 context (what three.js needs), made here and handed to the renderer: asking
+    // for it is the test, and a second context would double the set-up time.
+    var attrs = { alpha: false, depth: true, stencil: false, antialias: true, premultipliedAlpha: true, preserveDrawingBuffer: true };
+    var canvas = document.createElement('canvas');
+    var ctx = T ? canvas.getContext('webgl2', attrs) : null;
+    if (!ctx) { throw new Error('no WebGL'); }
+    renderer = new T.WebGLRenderer({ canvas: canvas, context: ctx, antialias: true, preserveDrawingBuffer: true });
   } catch (e) {
     useFallback('This browser offers no WebGL (it may be switched off, or the graphics driver is not supported), so the interactive 3-D view cannot run; this static picture shows the first layout from the same viewpoint.');
     return;
@@ -40,6 +43,16 @@ function view3d() {
   renderer.setPixelRatio(window.devicePixelRatio || 1);
   canvasBox.insertBefore(renderer.domElement, canvasBox.firstChild);
   var labels = document.getElementById('v3d-labels');
+  var SVG = 'http://www.w3.org/2000/svg';
+  var leaders = document.createElementNS(SVG, 'svg');
+  leaders.setAttribute('class', 'v3d-leaders');
+  var leaderPath = document.createElementNS(SVG, 'path');
+  leaderPath.setAttribute('stroke', '#555');
+  leaderPath.setAttribute('stroke-width', '1');
+  leaderPath.setAttribute('fill', 'none');
+  leaders.appendChild(leaderPath);
+  canvasBox.insertBefore(leaders, labels);
+  var hiddenNote = document.getElementById('v3d-hidden');
   var scene = new T.Scene();
   var camera = new T.PerspectiveCamera(40, 2, 1, 1e6);
   camera.up.set(0, 0, 1);
@@ -125,11 +138,17 @@ function view3d() {
     if (dashed) { l.computeLineDistances(); }
     return l;
   }
-  function addLabel(text, pos, cls) {
+  // Label priority when two would overlap: the rig's cameras, the layout's cameras, the axes,
+  // the markers (render() places them in this order and hides what finds no free place).
+  var RANK = { rig: 0, cam: 1, axis: 2, marker: 3 };
+  // `away`: a point the label keeps to the far side of (a camera's pyramid, an axis' origin);
+  // `shape`: the points whose screen box other labels keep clear of (a camera's pyramid).
+  function addLabel(text, pos, cls, away, shape) {
     // Two cameras at one place (an observer standing at a rig camera): one label for both.
     for (var i = 0; i < labelList.length; i++) {
       if (labelList[i].pos.distanceTo(pos) < 1 && labelList[i].el.className.indexOf('axis') < 0) {
         labelList[i].el.textContent += ' = ' + text;
+        labelList[i].w = 0;
         return;
       }
     }
@@ -137,7 +156,8 @@ function view3d() {
     el.className = 'v3d-label ' + (cls || '');
     el.textContent = text;
     labels.appendChild(el);
-    labelList.push({ el: el, pos: pos.clone() });
+    labelList.push({ el: el, pos: pos.clone(), rank: RANK[cls] === undefined ? 9 : RANK[cls], w: 0, h: 0,
+      away: away || null, shape: shape || [] });
   }
   function frustum(C, axes, size, colour, list) {
     var x = axes[0], y = axes[1], z = axes[2];
@@ -153,6 +173,7 @@ function view3d() {
     var t0 = corners[0], t1 = corners[1];
     var tm = t0.clone().add(t1).multiplyScalar(0.5).addScaledVector(y, -h * 0.5);
     list.push(t0.x, t0.y, t0.z, tm.x, tm.y, tm.z, tm.x, tm.y, tm.z, t1.x, t1.y, t1.z);
+    return corners.concat([C.clone().addScaledVector(z, d), tm]);
   }
 
   // ---- the scene's extent (every layout and camera: switching keeps the scale) --------------
@@ -231,18 +252,18 @@ function view3d() {
       var C = new T.Vector3().fromArray(c.world_from_cam.position_mm);
       var a = c.world_from_cam.angles_deg;
       var axes = a ? [0, 1, 2].map(function (j) { return col(rotOpk(a), j); }) : lookAt(C, gridCentre);
-      frustum(C, axes, fs, 0, blue);
+      var shape = frustum(C, axes, fs, 0, blue);
       var feed = ({ outward: 'A', inward: 'B', tie: 'C' })[c.from];
-      addLabel(c.name + (a ? ' (fixed)' : '') + (feed && !l.rig_in_frame ? ' · σ of ' + feed : ''), C, 'cam');
+      addLabel(c.name + (a ? ' (fixed)' : '') + (feed && !l.rig_in_frame ? ' · σ of ' + feed : ''), C, 'cam', shape[4], shape);
     });
     var rig = {};
     if (l.rig_in_frame) {
       data.cameras.forEach(function (c) {
         var C = new T.Vector3().fromArray(c.world_from_cam.position_mm);
         var R = rotOpk(c.world_from_cam.angles_deg);
-        frustum(C, [0, 1, 2].map(function (j) { return col(R, j); }), fs * 0.8, 0, orange);
+        var shape = frustum(C, [0, 1, 2].map(function (j) { return col(R, j); }), fs * 0.8, 0, orange);
         rig[c.name] = C;
-        addLabel(({ outward: 'A (outward)', inward: 'B (inward)', tie: 'C (tie)' })[c.name] || c.name, C, 'rig');
+        addLabel(({ outward: 'A (outward)', inward: 'B (inward)', tie: 'C (tie)' })[c.name] || c.name, C, 'rig', shape[4], shape);
       });
       [['outward', 'inward'], ['inward', 'tie']].forEach(function (p) {
         if (rig[p[0]] && rig[p[1]]) { link.push(rig[p[0]].x, rig[p[0]].y, rig[p[0]].z, rig[p[1]].x, rig[p[1]].y, rig[p[1]].z); }
@@ -253,12 +274,18 @@ function view3d() {
     if (link.length) { content.add(segments(link, 0xd06000, 0.01 * size)); }
     // Axes at the grid's lower corner.
     var o = isFinite(gl.x) ? gl : lo, al = 0.12 * size;
-    content.add(segments([o.x, o.y, o.z, o.x + al, o.y, o.z], 0xcc0000));
-    content.add(segments([o.x, o.y, o.z, o.x, o.y + al, o.z], 0x008800));
-    content.add(segments([o.x, o.y, o.z, o.x, o.y, o.z + al], 0x0000cc));
-    addLabel('x', new T.Vector3(o.x + al * 1.08, o.y, o.z), 'axis');
-    addLabel('y', new T.Vector3(o.x, o.y + al * 1.08, o.z), 'axis');
-    addLabel('z', new T.Vector3(o.x, o.y, o.z + al * 1.08), 'axis');
+    // Drawn over everything: they lie on the grid box's edges, with which they would otherwise
+    // fight for the same pixels and show as dashes.
+    [segments([o.x, o.y, o.z, o.x + al, o.y, o.z], 0xcc0000),
+      segments([o.x, o.y, o.z, o.x, o.y + al, o.z], 0x008800),
+      segments([o.x, o.y, o.z, o.x, o.y, o.z + al], 0x0000cc)].forEach(function (a) {
+      a.material.depthTest = false;
+      a.renderOrder = 2;
+      content.add(a);
+    });
+    addLabel('x', new T.Vector3(o.x + al, o.y, o.z), 'axis', o);
+    addLabel('y', new T.Vector3(o.x, o.y + al, o.z), 'axis', o);
+    addLabel('z', new T.Vector3(o.x, o.y, o.z + al), 'axis', o);
     // Measured markers: trajectories (the same in every layout) and their σ ellipsoids.
     var traj = [];
     data.trajectories.forEach(function (t) {
@@ -281,7 +308,8 @@ function view3d() {
       });
     });
     if (traj.length) { content.add(segments(traj, 0x333333)); }
-    status.textContent = l.points.length + ' grid points: ' + (l.points.length - hollow.length / 3) + ' measurable, ' + above + ' of them at or above the threshold of ' + thr + ' mm, ' + (hollow.length / 3) + ' not measurable.';
+    status.textContent = l.points.length + ' grid points: ' + (l.points.length - hollow.length / 3) + ' measurable, ' + above + ' of them at or above the threshold of ' + thr + ' mm, ' + (hollow.length / 3) + ' not measurable.' +
+      (!l.rig_in_frame && data.cameras.length ? ' The rig\'s cameras A, B and C are not drawn: no camera of this layout that takes its σ from one of them stands where the rig places that camera, so the rig\'s frame is not known to be this grid\'s frame.' : '');
     legendBar(thr, top);
     body.setAttribute('data-v3d-layout', l.name);
     render();
@@ -302,7 +330,12 @@ function view3d() {
     bar.style.background = 'linear-gradient(to right,' + stops.join(',') + ')';
     var tick = document.getElementById('v3d-thr');
     tick.style.left = f + '%';
-    document.getElementById('v3d-thr-text').textContent = 'threshold ' + thr + ' mm';
+    // The threshold's label centred under its mark, but kept within the bar near either end.
+    var text = document.getElementById('v3d-thr-text');
+    text.textContent = 'threshold ' + thr + ' mm';
+    text.style.left = f < 15 ? '-3px' : (f > 85 ? 'auto' : '');
+    text.style.right = f > 85 ? '0' : '';
+    text.style.textAlign = f < 15 ? 'left' : (f > 85 ? 'right' : '');
     document.getElementById('v3d-top').textContent = top + ' mm and more';
   }
 
@@ -314,22 +347,131 @@ function view3d() {
     camera.updateProjectionMatrix();
   }
   var v = new T.Vector3();
+  function screen(p, W, H) {
+    v.copy(p).project(camera);
+    return { x: (v.x + 1) / 2 * W, y: (1 - v.y) / 2 * H, z: v.z };
+  }
+  function hits(a, list) {
+    for (var i = 0; i < list.length; i++) {
+      var b = list[i];
+      if (a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3]) { return true; }
+    }
+    return false;
+  }
+  // The labels, placed so that none covers another: by rank (rig, cameras, axes, markers), each
+  // at the first free place of a few around its point (on the side away from its pyramid or
+  // axis first), keeping clear of the other labels, the other labelled points and, where it can,
+  // the other cameras' pyramids; farther out with a leader line; hidden (and counted under the
+  // view) when no place is free.
+  function placeLabels() {
+    var W = canvasBox.clientWidth, H = canvasBox.clientHeight;
+    var taken = [], pyramids = [], lines = [], shown = 0, hidden = 0;
+    labelList.forEach(function (L) {
+      var s = screen(L.pos, W, H);
+      L.x = s.x; L.y = s.y; L.depth = s.z;
+      L.vis = s.z < 1 && s.x >= -0.025 * W && s.x <= 1.025 * W && s.y >= -0.025 * H && s.y <= 1.025 * H;
+      L.box = null;
+      if (L.vis) { taken.push([L.x - 4, L.y - 4, L.x + 4, L.y + 4]); }
+      if (L.vis && L.shape.length) {
+        var b = [L.x, L.y, L.x, L.y];
+        L.shape.forEach(function (p) {
+          var q = screen(p, W, H);
+          b = [Math.min(b[0], q.x), Math.min(b[1], q.y), Math.max(b[2], q.x), Math.max(b[3], q.y)];
+        });
+        pyramids.push({ owner: L, box: b });
+      }
+    });
+    var order = labelList.slice().sort(function (a, b) { return a.rank - b.rank || a.depth - b.depth; });
+    order.forEach(function (L) {
+      if (!L.vis) { L.el.style.display = 'none'; return; }
+      L.el.style.display = '';
+      if (!L.w) { L.w = L.el.offsetWidth; L.h = L.el.offsetHeight; }
+      var w = L.w, h = L.h, ax = 1, ay = 0;
+      if (L.away) {
+        var a = screen(L.away, W, H), dx = L.x - a.x, dy = L.y - a.y, n = Math.hypot(dx, dy);
+        if (n > 1) { ax = dx / n; ay = dy / n; }
+      }
+      var others = pyramids.filter(function (p) { return p.owner !== L; }).map(function (p) { return p.box; });
+      var pick = null;
+      [[8, others], [8, []], [34, others], [34, []]].some(function (tier) {
+        var r = tier[0];
+        // Around the point at distance r: east, north-east, … (screen y down), the one
+        // pointing away from `away` first.
+        var d = 0.7 * r, spots = [
+          [1, 0, r, -h / 2], [0.7, -0.7, d, -h - d], [0, -1, -w / 2, -h - r], [-0.7, -0.7, -w - d, -h - d],
+          [-1, 0, -w - r, -h / 2], [-0.7, 0.7, -w - d, d], [0, 1, -w / 2, r], [0.7, 0.7, d, d]
+        ];
+        spots.sort(function (p, q) { return (q[0] * ax + q[1] * ay) - (p[0] * ax + p[1] * ay); });
+        return spots.some(function (sp) {
+          var x = Math.round(L.x + sp[2]), y = Math.round(L.y + sp[3]);
+          var box = [x - 1, y - 1, x + w + 1, y + h + 1];
+          if (x < 0 || y < 0 || x + w > W || y + h > H || hits(box, taken) || hits(box, tier[1])) { return false; }
+          pick = { box: box, x: x, y: y, far: r > 8 };
+          return true;
+        });
+      });
+      if (!pick) { L.el.style.display = 'none'; hidden++; return; }
+      taken.push(pick.box);
+      shown++;
+      L.box = pick.box;
+      L.el.style.transform = 'translate(' + pick.x + 'px,' + pick.y + 'px)';
+      if (pick.far) {
+        var ex = Math.min(Math.max(L.x, pick.x), pick.x + w), ey = Math.min(Math.max(L.y, pick.y), pick.y + h);
+        lines.push('M' + L.x.toFixed(1) + ' ' + L.y.toFixed(1) + 'L' + ex.toFixed(1) + ' ' + ey.toFixed(1));
+      }
+    });
+    leaders.setAttribute('viewBox', '0 0 ' + W + ' ' + H);
+    leaderPath.setAttribute('d', lines.join(''));
+    hiddenNote.textContent = hidden ? hidden + (hidden === 1 ? ' label' : ' labels') + ' hidden where ' + (hidden === 1 ? 'it' : 'they') + ' would cover another: rotate or zoom to see ' + (hidden === 1 ? 'it' : 'them') + '.' : '';
+    body.setAttribute('data-v3d-labels', shown + '/' + (shown + hidden));
+  }
   function render() {
     resize();
     renderer.render(scene, camera);
-    var w = canvasBox.clientWidth, h = canvasBox.clientHeight;
-    labelList.forEach(function (L) {
-      v.copy(L.pos).project(camera);
-      var vis = v.z < 1 && Math.abs(v.x) < 1.05 && Math.abs(v.y) < 1.05;
-      L.el.style.display = vis ? '' : 'none';
-      L.el.style.transform = 'translate(' + Math.round((v.x + 1) / 2 * w + 6) + 'px,' + Math.round((1 - v.y) / 2 * h - 8) + 'px)';
-    });
+    placeLabels();
   }
+  // The opening view: from the front left, above, at the distance at which every grid point,
+  // camera and marker of every layout (and the cameras' pyramids) fits in the canvas with a
+  // margin, whatever its aspect.
+  var fitPoints = [];
+  data.layouts.forEach(function (l) {
+    l.points.forEach(function (p) { fitPoints.push(new T.Vector3(p[0], p[1], p[2])); });
+    (l.cameras || []).forEach(function (c) { fitPoints.push(new T.Vector3().fromArray(c.world_from_cam.position_mm)); });
+    if (l.rig_in_frame) {
+      data.cameras.forEach(function (c) { fitPoints.push(new T.Vector3().fromArray(c.world_from_cam.position_mm)); });
+    }
+  });
+  data.trajectories.forEach(function (t) {
+    t.epochs.forEach(function (p) { if (p) { fitPoints.push(new T.Vector3(p[0], p[1], p[2])); } });
+  });
   function home() {
-    var d = 0.45 * size / Math.tan(camera.fov * Math.PI / 360);
+    resize();
     var dir = new T.Vector3(-0.55, -0.75, 0.55).normalize();
-    camera.position.copy(centre).addScaledVector(dir, d);
-    controls.target.copy(centre);
+    var right = new T.Vector3().crossVectors(dir, new T.Vector3(0, 0, 1)).normalize().negate();
+    var up = new T.Vector3().crossVectors(right, dir).negate();
+    var tv = Math.tan(camera.fov * Math.PI / 360), th = tv * camera.aspect, m = 0.95, pad = 0.05 * size;
+    // A point p (relative to the centre) is in the picture when its distance along the view
+    // axis, d − p·dir, is at least |p·right| / (th·m) and |p·up| / (tv·m).
+    var d = 0.45 * size / tv, rel = new T.Vector3(), target = centre.clone();
+    // Twice: the distance for the points around the target, then the target moved to the middle
+    // of what that picture shows, so that the margins left and right (above and below) are equal.
+    for (var pass = 0; pass < 2 && fitPoints.length; pass++) {
+      d = 0;
+      fitPoints.forEach(function (p) {
+        rel.subVectors(p, target);
+        var a = rel.dot(dir);
+        d = Math.max(d, a + (Math.abs(rel.dot(right)) + pad) / (th * m), a + (Math.abs(rel.dot(up)) + pad) / (tv * m));
+      });
+      var x0 = Infinity, x1 = -Infinity, y0 = Infinity, y1 = -Infinity;
+      fitPoints.forEach(function (p) {
+        rel.subVectors(p, target);
+        var z = d - rel.dot(dir), x = rel.dot(right) / z, y = rel.dot(up) / z;
+        x0 = Math.min(x0, x); x1 = Math.max(x1, x); y0 = Math.min(y0, y); y1 = Math.max(y1, y);
+      });
+      if (pass === 0) { target.addScaledVector(right, d * (x0 + x1) / 2).addScaledVector(up, d * (y0 + y1) / 2); }
+    }
+    camera.position.copy(target).addScaledVector(dir, d);
+    controls.target.copy(target);
     camera.near = d / 100;
     camera.far = d * 100;
     camera.updateProjectionMatrix();
@@ -371,12 +513,30 @@ function view3d() {
     for (var i = 0; i < px.length; i += 4) { if (px[i] < 250 || px[i + 1] < 250 || px[i + 2] < 250) { n++; } }
     return n;
   }
+  // Pairs of shown labels that overlap on screen, and labels not wholly inside the canvas.
+  function labelFaults() {
+    var c = canvasBox.getBoundingClientRect(), n = 0;
+    var r = labelList.filter(function (L) { return L.el.style.display !== 'none'; }).map(function (L) { return L.el.getBoundingClientRect(); });
+    r.forEach(function (a, i) {
+      if (a.left < c.left - 0.5 || a.top < c.top - 0.5 || a.right > c.right + 0.5 || a.bottom > c.bottom + 0.5) { n++; }
+      for (var j = i + 1; j < r.length; j++) {
+        var b = r[j];
+        if (a.left < b.right && b.left < a.right && a.top < b.bottom && b.top < a.bottom) { n++; }
+      }
+    });
+    return n;
+  }
+  function camLabelsHidden() {
+    return labelList.filter(function (L) { return L.rank <= RANK.cam && L.vis && L.el.style.display === 'none'; }).length;
+  }
   function differ(a, b) {
     var n = 0;
     for (var i = 0; i < a.length; i += 4) { if (a[i] !== b[i] || a[i + 1] !== b[i + 1] || a[i + 2] !== b[i + 2]) { n++; } }
     return n;
   }
   var before = pixels();
+  // Navigation start to the first picture drawn (readPixels waits for it), by the page's clock.
+  body.setAttribute('data-v3d-ms', String(Math.round(performance.now())));
   var gl0 = renderer.getContext();
   body.setAttribute('data-v3d-canvas-w', String(gl0.drawingBufferWidth));
   body.setAttribute('data-v3d-canvas-h', String(gl0.drawingBufferHeight));
@@ -392,13 +552,30 @@ function view3d() {
     for (var s = 1; s <= 10; s++) { ev('pointermove', x0 + 12 * s, y0 + 3 * s, 1); }
     ev('pointerup', x0 + 120, y0 + 30, 0);
     var rotated = pixels();
+    var faults = labelFaults();
     body.setAttribute('data-v3d-rotated', String(differ(before, rotated)));
     body.setAttribute('data-v3d-layouts', String(data.layouts.length));
     if (data.layouts.length > 1) {
       select.value = '1';
       select.dispatchEvent(new Event('change'));
       body.setAttribute('data-v3d-switched', String(differ(rotated, pixels())));
+      faults += labelFaults();
     }
+    // Every layout as it opens (Reset view): no two labels overlap, none sticks out of the
+    // canvas, every camera's label is shown.
+    var camHidden = 0, shownLabels = [];
+    data.layouts.forEach(function (l, k) {
+      select.value = String(k);
+      select.dispatchEvent(new Event('change'));
+      home();
+      render();
+      faults += labelFaults();
+      camHidden += camLabelsHidden();
+      shownLabels.push(body.getAttribute('data-v3d-labels'));
+    });
+    body.setAttribute('data-v3d-label-faults', String(faults));
+    body.setAttribute('data-v3d-cam-labels-hidden', String(camHidden));
+    body.setAttribute('data-v3d-labels-per-layout', shownLabels.join(' '));
     body.setAttribute('data-v3d-selftest', 'done');
   }
 }

@@ -368,7 +368,8 @@ const CSS: &str = "<style>\
 .v3d-help{color:#444;font-size:.9em}\
 .v3d-canvas{position:relative;width:100%;height:min(62vh,600px);min-height:360px;border:1px solid #ccc;overflow:hidden;background:#fff}\
 .v3d-canvas canvas{display:block;width:100%;height:100%}\
-.v3d-labels{position:absolute;left:0;top:0;width:100%;height:100%;pointer-events:none}\
+.v3d-labels,.v3d-leaders{position:absolute;left:0;top:0;width:100%;height:100%;pointer-events:none}\
+#v3d-hidden{min-height:1.3em;margin:.2em 0}\
 .v3d-label{position:absolute;left:0;top:0;font-size:13px;white-space:nowrap;padding:0 3px;border-radius:3px;background:rgba(255,255,255,.8)}\
 .v3d-label.cam{color:#0b4a94;font-weight:bold}.v3d-label.rig{color:#a04800;font-weight:bold}.v3d-label.axis{font-weight:bold;background:none}.v3d-label.marker{color:#333;font-size:12px}\
 .v3d-legend{display:flex;flex-wrap:wrap;gap:.5em 2em;font-size:.92em;margin:.4em 0}\
@@ -400,7 +401,7 @@ pub(crate) fn section(rep: &mut Report, r: &StudyResult) {
     h.push_str("<div id=\"v3d\">");
     h.push_str("<p>The grid points of one layout in the frame the grid is given in (mm), coloured by their <b>worst-direction σ</b>: the standard uncertainty along the direction in which a point is least certain, so it is never smaller than σ_max of the tables. Choose the layout below; drag to look around.</p>");
     h.push_str("<div id=\"v3d-controls\" class=\"v3d-controls\"><label>Layout: <select id=\"v3d-layout\"></select></label><button id=\"v3d-home\" type=\"button\">Reset view</button><span class=\"v3d-help\">drag = rotate · right-drag or Shift+drag = move · wheel = zoom</span></div>");
-    h.push_str("<div id=\"v3d-canvas\" class=\"v3d-canvas\"><div id=\"v3d-labels\" class=\"v3d-labels\"></div></div>");
+    h.push_str("<div id=\"v3d-canvas\" class=\"v3d-canvas\"><div id=\"v3d-labels\" class=\"v3d-labels\"></div></div><p id=\"v3d-hidden\" class=\"v3d-help\"></p>");
     let _ = write!(
         h,
         "<div id=\"v3d-fallback\" hidden><p id=\"v3d-why\" class=\"note\"></p>{}</div>",
