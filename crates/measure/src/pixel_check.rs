@@ -38,6 +38,10 @@
 //! not separate the cameras, and `per_camera` is `None` with the reason. The per-camera band
 //! and interval use Satterthwaite's `k̂²·ν_c/k² ≈ χ²_{ν_c}`, `ν_c = 2·k⁴/Var(k̂²)` (the variance
 //! of each quadratic form from its Gaussian moments, the projection's `r/N` neglected there).
+//! A camera's band is that of its null hypothesis `k_c = 1` with the other camera at its
+//! estimate (a nuisance parameter): a C stated at half its σ widens B's spread as well, and a
+//! band computed as if both were honest flagged an honest B in 4 of 30 opposed sequences
+//! (`tests/pixel_check.rs::opposed_cameras_are_checked_apart`; now 0 of 30).
 
 use crate::engine::{Epoch, Rig};
 use crate::input::{Inward, Observation, PixelSigma};
@@ -446,7 +450,14 @@ fn per_camera(
     let kc = k2[1].max(0.0);
     let at = cov_q(&|i| kb * a[i] + kc * (1.0 - a[i]));
     let out = [0, 1].map(|c| {
-        let band_dof = 2.0 / honest[(c, c)];
+        // The band tests this camera's σ with the other camera's at its estimate (a nuisance):
+        // under k_c = 1, k_other = k̂_other. A badly stated C widens B's spread too; a band
+        // from both honest would then cry wolf on an honest B.
+        let null = cov_q(&|i| {
+            let (kb0, kc0) = if c == 0 { (1.0, kc) } else { (kb, 1.0) };
+            kb0 * a[i] + kc0 * (1.0 - a[i])
+        });
+        let band_dof = 2.0 / null[(c, c)];
         let k = k2[c].max(0.0);
         let dof = if at[(c, c)] > 0.0 {
             2.0 * k * k / at[(c, c)]
