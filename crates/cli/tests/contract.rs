@@ -74,6 +74,9 @@ mod shard;
 
 #[path = "contract/frames.rs"]
 mod frames;
+/// `crashrig track`: its files, `--json` and bad input.
+#[path = "contract/track.rs"]
+mod track;
 /// `cargo xtask shards` (std + anyhow only), run here with the built binary.
 #[path = "../../../xtask/src/shards.rs"]
 #[allow(dead_code)]
