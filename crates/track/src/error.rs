@@ -17,7 +17,7 @@ pub enum Error {
         source: std::io::Error,
     },
     /// The seeds file is malformed at `line`.
-    #[error("{}: line {line}: {reason}", path.display())]
+    #[error("{}:{line}: {reason}", path.display())]
     Seeds {
         /// The seeds file.
         path: PathBuf,
@@ -27,7 +27,7 @@ pub enum Error {
         reason: String,
     },
     /// A seed names no marker of the kind within reach.
-    #[error("{}: line {line}: no {kind} marker within {radius_px} px of the seed of '{marker}' at ({u_px}, {v_px}) in epoch {epoch}", path.display())]
+    #[error("{}:{line}: no {kind} marker within {radius_px} px of the seed of '{marker}' at ({u_px}, {v_px}) in epoch {epoch}", path.display())]
     SeedNotFound {
         /// The seeds file.
         path: PathBuf,
