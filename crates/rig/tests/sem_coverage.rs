@@ -11,7 +11,8 @@
 //! - **A**, refusals counted as covered: covered or `reliable = false`;
 //! - **B**, refusals counted as misses: covered and `reliable = true`;
 //! - **refused**: share with `reliable = false`;
-//! - **SE/true**: mean SE over the true SE.
+//! - **SE/true**: the mean over the cell's sequences of SE / true SE, axis by axis, and of
+//!   the six axes the highest (the acceptance's statistic: one axis's mean over sequences).
 //!
 //! The contract per cell: A ≥ 90 %; refused ≤ 50 % where the true effective n
 //! (`n / f`, `f = n·Var(x̄)/E[s²]`) is ≥ 10, ≤ 10 % on white noise (ρ = 0 or s = 0); B ≥ 85 %
@@ -62,7 +63,8 @@ struct Tally {
     refused: usize,
     covered_or_refused: usize,
     covered_and_reliable: usize,
-    se_over_true: f64,
+    /// Per axis, the sum over sequences of SE / true SE.
+    se_over_true: [f64; 6],
 }
 
 impl Tally {
@@ -72,7 +74,9 @@ impl Tally {
         self.refused += o.refused;
         self.covered_or_refused += o.covered_or_refused;
         self.covered_and_reliable += o.covered_and_reliable;
-        self.se_over_true += o.se_over_true;
+        for (a, b) in self.se_over_true.iter_mut().zip(o.se_over_true) {
+            *a += b;
+        }
         self
     }
     fn share(&self, k: usize) -> f64 {
@@ -90,8 +94,17 @@ impl Tally {
     fn refused_share(&self) -> f64 {
         self.share(self.refused)
     }
+    /// The mean of SE / true SE over all intervals of the cell (the six axes pooled).
+    fn mean_ratio(&self) -> f64 {
+        self.se_over_true.iter().sum::<f64>() / self.intervals as f64
+    }
+    /// The highest over the six axes of the mean over sequences of SE / true SE.
     fn ratio(&self) -> f64 {
-        self.se_over_true / self.intervals as f64
+        let sequences = (self.intervals / 6) as f64;
+        self.se_over_true
+            .iter()
+            .map(|s| s / sequences)
+            .fold(f64::MIN, f64::max)
     }
 }
 
@@ -123,7 +136,7 @@ fn one(model: &SemModel, seed: u64, rep: u64, n: usize, rho: f64, share: f64) ->
         t.refused += usize::from(!s.reliable[j]);
         t.covered_or_refused += usize::from(covered || !s.reliable[j]);
         t.covered_and_reliable += usize::from(covered && s.reliable[j]);
-        t.se_over_true += se / true_se;
+        t.se_over_true[j] = se / true_se;
     }
     t
 }
@@ -178,7 +191,7 @@ fn pct(x: f64) -> String {
 /// The markdown table of docs/CALIBRATE.md from the 48 cells (in grid order).
 fn markdown(cells: &[((f64, f64, usize), u64, Tally)]) -> String {
     let mut s = String::from(
-        "| ρ | drift share | n | true effective n | sequences | ±2 SE covers | refusals as covered (A) | refusals as misses (B) | refused | mean SE / true SE | contract |\n\
+        "| ρ | drift share | n | true effective n | sequences | ±2 SE covers | refusals as covered (A) | refusals as misses (B) | refused | mean SE / true SE (highest axis) | contract |\n\
          |---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for &((rho, share, n), seqs, t) in cells {
@@ -210,7 +223,7 @@ fn markdown(cells: &[((f64, f64, usize), u64, Tally)]) -> String {
     s.push_str(&format!(
         "\nLowest A over all cells {} %; lowest B over the cells with n ≥ 140 {} %; most refused \
          where the true effective n ≥ 10 and the drift is real {} %; white noise (ρ = 0 or s = 0): \
-         most refused {} %, highest coverage {} %, highest mean SE / true SE {:.2}.\n",
+         most refused {} %, highest coverage {} %, highest mean SE / true SE of an axis {:.2}.\n",
         pct(worst(&Tally::a, &|_| true, false)),
         pct(worst(&Tally::b, &|c| c.2 >= 140, false)),
         pct(worst(
@@ -296,7 +309,7 @@ fn sem_coverage_key_cells_fast() {
     // intervals: 1.0 point near 90 %, 0.6 near 96 %.
     //
     // (ρ 0.95, s ¼, n 140), the issue's case: the former rule `ar1_noise_fit` covered 86.7 %
-    // and refused 39 %, so B was 49 %. This rule: B ≈ 90 % (slow grid: 90.1 %, the lowest B
+    // and refused 39 %, so B was 49 %. This rule: B ≈ 90 % (slow grid: 89.8 %, the lowest B
     // of the grid; the pooled step refuses 6 % there); ≥ 86 % is 4 SE below.
     let t = cell(36, 150, 140, 0.95, 0.25);
     assert!(t.b() >= 0.86, "(0.95, ¼, 140): {t:?}");
@@ -309,11 +322,66 @@ fn sem_coverage_key_cells_fast() {
     // 86.5 %): ±2 SE covers ≈ 98 % (slow grid); ≥ 93 % is more than 4 SE below.
     let t = cell(39, 150, 140, 0.95, 0.5);
     assert!(t.plain() >= 0.93, "(0.95, ½, 140): {t:?}");
-    // White noise, n = 60: honest and rarely refused. SE/true ≈ 1.42 (slow grid; its standard
-    // deviation over intervals is about 1, so the mean of 900 is within ±0.07 at 2 SE);
-    // refusals ≈ 2.5 % (≤ 6 % is 4 SE above); coverage 93–99.5 %.
+    // White noise, n = 60: honest and rarely refused. Mean SE/true over the six axes ≈ 1.22
+    // (its standard deviation over intervals is about 1.3, so the mean of 900 is within ±0.09
+    // at 2 SE; one axis's mean over 150 sequences scatters more: the per-axis statistic of the
+    // contract is `sem_white_noise_mean_se_per_axis_within_contract`'s); refusals ≈ 1 % (≤ 6 %
+    // is 4 SE above); coverage 93–99.5 %.
     let t = cell(38, 150, 60, 0.0, 0.0);
-    assert!(t.ratio() <= 1.5, "white noise 60: {t:?}");
+    assert!(t.mean_ratio() <= 1.5, "white noise 60: {t:?}");
     assert!(t.refused_share() <= 0.06, "white noise 60: {t:?}");
     assert!((0.93..=0.995).contains(&t.plain()), "white noise 60: {t:?}");
+}
+
+/// Per axis, the mean over `sequences` white-noise sequences (independent N(0, 1) epoch
+/// errors on six axes, stream `rep` of `seed`) of the printed SE over the true SE `1/√n`, and
+/// the standard deviation of that ratio over the sequences.
+fn white_noise_ratio_per_axis(seed: u64, sequences: u64, n: usize) -> [(f64, f64); 6] {
+    let model = SemModel::new(n);
+    let per: Vec<[f64; 6]> = (0..sequences)
+        .into_par_iter()
+        .map(|rep| one(&model, seed, rep, n, 0.0, 0.0).se_over_true)
+        .collect();
+    let m = sequences as f64;
+    std::array::from_fn(|j| {
+        let mean = per.iter().map(|r| r[j]).sum::<f64>() / m;
+        let var = per.iter().map(|r| (r[j] - mean).powi(2)).sum::<f64>() / (m - 1.0);
+        (mean, var.sqrt())
+    })
+}
+
+#[test]
+fn sem_white_noise_mean_se_per_axis_within_contract() {
+    // The acceptance's statistic (issue 47 item 5): 200 sequences of independent Gaussian
+    // epoch errors, no drift; per axis, the mean over the sequences of the printed SE (F·q and
+    // every widening included) over the true SE σ/√n. The contract allows ≤ 1.5 on every axis.
+    // The ratio is heavy-tailed (the few white axes whose drift fit or test fires carry several
+    // σ/√n; its standard deviation over sequences is 0.9–1.6), so one 200-sequence mean has a
+    // standard error of 0.06–0.12 (printed). Asserted, on two independent 200-sequence samples
+    // per n: every axis's mean ≤ 1.5, and the mean over the 2 × 6 axes ≤ 1.30 at n = 60 and
+    // ≤ 1.25 at n = 140 — the rule's expected value (1.22 and 1.17 over 30 samples) with
+    // 4 standard errors of that 2400-interval mean to spare, and 3 standard errors of one
+    // 200-sequence mean below the contract. With SEM_DRIFT_PENALTY 1 (the rule before) the
+    // expected value was 1.41 and 1.29 and one axis of a 200-sequence sample reached 1.68.
+    for (n, cap) in [(60usize, 1.30), (140, 1.25)] {
+        let mut sum = 0.0;
+        for seed in [4700u64, 4701] {
+            let axes = white_noise_ratio_per_axis(seed, 200, n);
+            let (top, sd) = axes
+                .iter()
+                .copied()
+                .fold((0.0f64, 0.0f64), |a, b| if b.0 > a.0 { b } else { a });
+            eprintln!(
+                "white noise n {n} seed {seed}: mean SE / true SE per axis {:.3?}; highest {top:.3} \
+                 (its SE over 200 sequences {:.3})",
+                axes.map(|a| a.0),
+                sd / 200f64.sqrt()
+            );
+            assert!(top <= 1.5, "n {n} seed {seed}: {axes:?}");
+            sum += axes.iter().map(|a| a.0).sum::<f64>();
+        }
+        let mean = sum / 12.0;
+        eprintln!("white noise n {n}: mean over the 12 per-axis means {mean:.3}");
+        assert!(mean <= cap, "n {n}: mean SE / true SE {mean:.3} > {cap}");
+    }
 }

@@ -294,13 +294,14 @@ fn sem_rule_coverage_ar1_fast() {
 fn sem_rule_white_noise_is_not_wildly_conservative_fast() {
     // Independent epochs, through `calibrate`: the true SE is σ/√n. Over 200 sequences × 6
     // axes (1200 intervals) ±2 SE covers 93–99.5 % (nominal ≥ 95.4 %; binomial SE at 96 % is
-    // 0.57 %), and the SE is on average at most 1.5 × the true SE (the slow table measures
-    // 1.26–1.34 at n = 140 on the white-noise cells).
+    // 0.57 %), and on every axis the SE is on average (over the 200 sequences: the contract's
+    // statistic) at most 1.5 × the true SE (the slow table measures 1.17–1.2 at n = 140 on the
+    // white-noise cells).
     let options = CalibrateOptions {
         refine: None,
         ..CalibrateOptions::default()
     };
-    let (mut covered, mut total, mut ratio) = (0usize, 0usize, 0.0);
+    let (mut covered, mut total, mut ratio) = (0usize, 0usize, [0.0; 6]);
     for rep in 0..200 {
         let (truth, links) = ar1_links(91, rep, 0.0);
         let c = calibrate(&epochs_of(&links), 1.0, &options, None).unwrap();
@@ -312,16 +313,19 @@ fn sem_rule_white_noise_is_not_wildly_conservative_fast() {
             } else {
                 SIGMA[j].to_radians()
             };
-            ratio += se / (sigma / (N as f64).sqrt());
+            ratio[j] += se / (sigma / (N as f64).sqrt()) / 200.0;
             total += 1;
             if e[j].abs() <= 2.0 * se {
                 covered += 1;
             }
         }
     }
-    let (cov, ratio) = (covered as f64 / total as f64, ratio / total as f64);
+    let cov = covered as f64 / total as f64;
     assert!((0.93..=0.995).contains(&cov), "±2 SE covers {cov:.4}");
-    assert!(ratio <= 1.5, "mean SE / true SE = {ratio:.3}");
+    assert!(
+        ratio.iter().all(|r| *r <= 1.5),
+        "mean SE / true SE per axis = {ratio:.3?}"
+    );
 }
 
 #[test]
