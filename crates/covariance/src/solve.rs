@@ -249,14 +249,35 @@ fn add_point_share(
             global[first + c] = offset + c;
         }
     }
+    // Four entries of a row at a time, each its own sum over the rows in row order (the bits of
+    // one `sum` per entry; the four independent sums keep the CPU's adders busy).
+    let mut bs: Vec<usize> = Vec::with_capacity(cols);
     for a in 0..cols {
-        for b in 0..cols {
-            let (ga, gb) = (global[a], global[b]);
-            if gb < ga || (ga == gb && b != a) {
-                continue;
+        let ga = global[a];
+        bs.clear();
+        bs.extend((0..cols).filter(|&b| {
+            let gb = global[b];
+            !(gb < ga || (ga == gb && b != a))
+        }));
+        let ya = &y[a * rows..(a + 1) * rows];
+        let col = |b: usize| &y[b * rows..(b + 1) * rows];
+        let mut quads = bs.chunks_exact(4);
+        for q in quads.by_ref() {
+            let (y0, y1, y2, y3) = (col(q[0]), col(q[1]), col(q[2]), col(q[3]));
+            let mut acc = [-0.0f64; 4];
+            for r in 0..rows {
+                let p = ya[r];
+                acc[0] += p * y0[r];
+                acc[1] += p * y1[r];
+                acc[2] += p * y2[r];
+                acc[3] += p * y3[r];
             }
-            let (ya, yb) = (&y[a * rows..(a + 1) * rows], &y[b * rows..(b + 1) * rows]);
-            s[ga * n + gb] += ya.iter().zip(yb).map(|(p, q)| p * q).sum::<f64>();
+            for (&b, v) in q.iter().zip(acc) {
+                s[ga * n + global[b]] += v;
+            }
+        }
+        for &b in quads.remainder() {
+            s[ga * n + global[b]] += ya.iter().zip(col(b)).map(|(p, q)| p * q).sum::<f64>();
         }
     }
 }
