@@ -70,9 +70,10 @@ impl PointRows {
 }
 
 /// One observation of an eliminated point: the first local column of its frame block and of
-/// its camera's intrinsics block, the number of free intrinsics, its `[du, dv]` per active
-/// parameter (pose, then intrinsics) and its 2×3 point Jacobian.
-type ObsRow = (usize, usize, usize, Vec<[f64; 2]>, [[f64; 3]; 2]);
+/// its camera's intrinsics block, the number of free intrinsics, where its `[du, dv]` per
+/// active parameter (pose, then intrinsics) start in the point's shared list of them, and its
+/// 2×3 point Jacobian.
+type ObsRow = (usize, usize, usize, usize, [[f64; 3]; 2]);
 
 /// The reduced information matrix `S = U − W V⁻¹ Wᵀ` over frames (6 each) and free
 /// intrinsics, for pixel weight `1/σ²`.
@@ -97,10 +98,14 @@ pub(crate) fn reduced_information(p: &Problem, pixel_sigma: f64) -> Mat<f64> {
     let mut y: Vec<f64> = Vec::new();
     let mut z: Vec<f64> = Vec::new();
     let mut global: Vec<usize> = Vec::new();
+    // One point's observations and their `[du, dv]` (buffers reused across points).
+    let mut obs_rows: Vec<ObsRow> = Vec::new();
+    let mut obs_j: Vec<[f64; 2]> = Vec::new();
     for pt in &p.points {
         pt_rows.clear();
         // First pass: the column blocks of this point (frames, then cameras, in order seen).
-        let mut obs_rows: Vec<ObsRow> = Vec::new();
+        obs_rows.clear();
+        obs_j.clear();
         for o in &p.obs[pt.start..pt.end] {
             let im = &p.images[o.image];
             let cam = &p.cameras[im.camera];
@@ -145,13 +150,8 @@ pub(crate) fn reduced_information(p: &Problem, pixel_sigma: f64) -> Mat<f64> {
                 [pr.d_point[(0, 0)], pr.d_point[(0, 1)], pr.d_point[(0, 2)]],
                 [pr.d_point[(1, 0)], pr.d_point[(1, 1)], pr.d_point[(1, 2)]],
             ];
-            obs_rows.push((
-                pose,
-                intr,
-                cam.free.len(),
-                active.iter().map(|x| x.1).collect(),
-                jp,
-            ));
+            obs_rows.push((pose, intr, cam.free.len(), obs_j.len(), jp));
+            obs_j.extend(active.iter().map(|x| x.1));
         }
         if pt.kind == PointKind::Fixed {
             continue;
@@ -163,7 +163,8 @@ pub(crate) fn reduced_information(p: &Problem, pixel_sigma: f64) -> Mat<f64> {
         pt_rows.rows = rows;
         pt_rows.jp.resize(rows * 3, 0.0);
         pt_rows.jc.resize(rows * cols, 0.0);
-        for (k, (pose, intr, nf, jc, jp)) in obs_rows.iter().enumerate() {
+        for (k, &(pose, intr, nf, j0, jp)) in obs_rows.iter().enumerate() {
+            let jc = &obs_j[j0..j0 + 6 + nf];
             for r in 0..2 {
                 let row = 2 * k + r;
                 for (dst, j) in pt_rows.jp[row * 3..row * 3 + 3].iter_mut().zip(jp[r]) {
@@ -173,7 +174,7 @@ pub(crate) fn reduced_information(p: &Problem, pixel_sigma: f64) -> Mat<f64> {
                 for c in 0..6 {
                     out[pose + c] = w * jc[c][r];
                 }
-                for c in 0..*nf {
+                for c in 0..nf {
                     out[intr + c] = w * jc[6 + c][r];
                 }
             }
@@ -248,14 +249,35 @@ fn add_point_share(
             global[first + c] = offset + c;
         }
     }
+    // Four entries of a row at a time, each its own sum over the rows in row order (the bits of
+    // one `sum` per entry; the four independent sums keep the CPU's adders busy).
+    let mut bs: Vec<usize> = Vec::with_capacity(cols);
     for a in 0..cols {
-        for b in 0..cols {
-            let (ga, gb) = (global[a], global[b]);
-            if gb < ga || (ga == gb && b != a) {
-                continue;
+        let ga = global[a];
+        bs.clear();
+        bs.extend((0..cols).filter(|&b| {
+            let gb = global[b];
+            !(gb < ga || (ga == gb && b != a))
+        }));
+        let ya = &y[a * rows..(a + 1) * rows];
+        let col = |b: usize| &y[b * rows..(b + 1) * rows];
+        let mut quads = bs.chunks_exact(4);
+        for q in quads.by_ref() {
+            let (y0, y1, y2, y3) = (col(q[0]), col(q[1]), col(q[2]), col(q[3]));
+            let mut acc = [-0.0f64; 4];
+            for r in 0..rows {
+                let p = ya[r];
+                acc[0] += p * y0[r];
+                acc[1] += p * y1[r];
+                acc[2] += p * y2[r];
+                acc[3] += p * y3[r];
             }
-            let (ya, yb) = (&y[a * rows..(a + 1) * rows], &y[b * rows..(b + 1) * rows]);
-            s[ga * n + gb] += ya.iter().zip(yb).map(|(p, q)| p * q).sum::<f64>();
+            for (&b, v) in q.iter().zip(acc) {
+                s[ga * n + global[b]] += v;
+            }
+        }
+        for &b in quads.remainder() {
+            s[ga * n + global[b]] += ya.iter().zip(col(b)).map(|(p, q)| p * q).sum::<f64>();
         }
     }
 }

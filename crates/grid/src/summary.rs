@@ -4,6 +4,7 @@
 use crate::Error;
 use crashrig_mc::{Grid, GridResult};
 use crashrig_stats::summary::median;
+use rayon::prelude::*;
 use serde::Serialize;
 
 /// Whether σ_max is at or above the threshold (a NaN σ counts as not below).
@@ -545,47 +546,59 @@ pub fn level_maps(
             }
             seen_overlay.integer_bar = true;
         }
-        for spec in specs.iter().chain(with_fixed.then_some(&seen_spec)) {
-            let values: Vec<f64> = pts.iter().map(spec.value).collect();
-            let all_missing = values.iter().all(|v| !v.is_finite());
-            let title = format!("{} at z = {z} mm", spec.title);
-            let map = crashrig_plot::HeatMap {
-                xs: &xs,
-                ys: &ys,
-                values: &values,
-                title: &title,
-                x_label: style.x_label,
-                y_label: if style.sketch {
-                    "y [mm] (left)"
+        // The maps of one z are independent: rendered and encoded in parallel (each file's
+        // bytes are its own rendering's), collected in the order of the specs.
+        let layer: Vec<&MapSpec> = specs
+            .iter()
+            .chain(with_fixed.then_some(&seen_spec))
+            .collect();
+        let maps = layer
+            .par_iter()
+            .map(|spec| {
+                let values: Vec<f64> = pts.iter().map(spec.value).collect();
+                let all_missing = values.iter().all(|v| !v.is_finite());
+                let title = format!("{} at z = {z} mm", spec.title);
+                let map = crashrig_plot::HeatMap {
+                    xs: &xs,
+                    ys: &ys,
+                    values: &values,
+                    title: &title,
+                    x_label: style.x_label,
+                    y_label: if style.sketch {
+                        "y [mm] (left)"
+                    } else {
+                        "y [mm]"
+                    },
+                    colorbar_label: &spec.bar,
+                    threshold: spec.threshold,
+                    markers: &markers,
+                    value_range: spec.range.or(all_missing.then_some((0.0, 1.0))),
+                };
+                let ov = if spec.stem == "observers_seen" {
+                    &seen_overlay
                 } else {
-                    "y [mm]"
-                },
-                colorbar_label: &spec.bar,
-                threshold: spec.threshold,
-                markers: &markers,
-                value_range: spec.range.or(all_missing.then_some((0.0, 1.0))),
-            };
-            let ov = if spec.stem == "observers_seen" {
-                &seen_overlay
-            } else {
-                &overlay
-            };
-            let draw = |f| {
-                crashrig_plot::heatmap_with(&map, ov, f).map_err(|source| Error::Plot {
-                    what: format!("heat map {} at z = {z} mm", spec.stem),
-                    source,
+                    &overlay
+                };
+                let draw = |f| {
+                    crashrig_plot::heatmap_with(&map, ov, f).map_err(|source| Error::Plot {
+                        what: format!("heat map {} at z = {z} mm", spec.stem),
+                        source,
+                    })
+                };
+                let (png, svg) = rayon::join(
+                    || draw(crashrig_plot::Format::Png),
+                    || draw(crashrig_plot::Format::Svg),
+                );
+                Ok(HeatMapPng {
+                    stem: spec.stem,
+                    z_mm: *z,
+                    file: format!("{}_z{iz:02}_{z}mm.png", spec.stem),
+                    png: png?,
+                    svg: svg?,
                 })
-            };
-            let png = draw(crashrig_plot::Format::Png)?;
-            let svg = draw(crashrig_plot::Format::Svg)?;
-            out.push(HeatMapPng {
-                stem: spec.stem,
-                z_mm: *z,
-                file: format!("{}_z{iz:02}_{z}mm.png", spec.stem),
-                png,
-                svg,
-            });
-        }
+            })
+            .collect::<Result<Vec<_>, Error>>()?;
+        out.extend(maps);
     }
     Ok(out)
 }

@@ -282,9 +282,8 @@ pub(crate) struct Scratch<T> {
     pub f: Vec<T>,
     pub v: Vec<T>,
     pub a: Vec<T>,
-    /// The Monte Carlo's gather: each run epoch's slot, and which replicates are taken.
+    /// The Monte Carlo's gather: each run epoch's slot.
     pub slots: Vec<usize>,
-    pub taken: Vec<bool>,
 }
 
 impl<T> Default for Scratch<T> {
@@ -296,7 +295,6 @@ impl<T> Default for Scratch<T> {
             v: Vec::new(),
             a: Vec::new(),
             slots: Vec::new(),
-            taken: Vec::new(),
         }
     }
 }

@@ -110,32 +110,31 @@ impl pulp::WithSimd for FeedRun<'_> {
         let diff = Differences::new(1.0 / filter.frame_rate_hz());
         let (len, groups) = (run.len, m.div_ceil(LANES));
         let xr = &bufs[reference][rs * m..rs * m + m];
-        // One pass over the chunk's positions (each epoch's replicates are contiguous): group `g`
-        // of replicates `g·LANES…` at run epoch `i` goes to `d[g·len + i]`.
-        // Every taken lane of `d` is overwritten below; a lane past `m` in the last group keeps
-        // whatever it held (it is filtered alongside but never fed), so `d` is only resized.
-        let mut d = std::mem::take(&mut scratch.d);
-        d.resize(groups * len, Lanes([0.0; 3 * LANES]));
         // The epochs' slots first, in a loop of independent lookups (the CPU overlaps their cache
         // misses), then the gather reads each epoch's replicates at a known address.
         let mut slots = std::mem::take(&mut scratch.slots);
         slots.clear();
         slots.extend((run.start..run.start + len).map(slot));
-        let mut taken = std::mem::take(&mut scratch.taken);
-        taken.clear();
-        taken.resize(m, true);
-        for (i, &s) in slots.iter().enumerate() {
-            let e = run.start + i;
-            for (r, (x, xr)) in bufs[e][s * m..s * m + m].iter().zip(xr).enumerate() {
-                let dx = x - xr;
-                taken[r] &= finite(&dx);
-                d[(r / LANES) * len + i].set_lane(r % LANES, &dx);
-            }
-        }
+        // Group by group: group `g` of replicates `g·LANES…` at run epoch `i` goes to `d[i]`,
+        // which is filtered and fed at once (one group's series stays in the core's cache,
+        // where all groups' series side by side did not). A lane past `m` in the last group
+        // keeps whatever it held (it is filtered alongside but never fed), so `d` is only
+        // resized.
+        let mut d = std::mem::take(&mut scratch.d);
+        d.resize(len, Lanes([0.0; 3 * LANES]));
         for g in 0..groups {
             let (r0, lanes) = (g * LANES, LANES.min(m - g * LANES));
-            let taken = &taken[r0..r0 + lanes];
-            scratch.filter(filter, &d[g * len..(g + 1) * len]);
+            let xr = &xr[r0..r0 + lanes];
+            let mut taken = [true; LANES];
+            for ((&s, e), di) in slots.iter().zip(run.start..).zip(d.iter_mut()) {
+                let b = s * m + r0;
+                for (l, (x, xr)) in bufs[e][b..b + lanes].iter().zip(xr).enumerate() {
+                    let dx = x - xr;
+                    taken[l] &= finite(&dx);
+                    di.set_lane(l, &dx);
+                }
+            }
+            scratch.filter(filter, &d);
             let mut inv_n = [0.0; LANES];
             for l in 0..lanes {
                 if taken[l] {
@@ -155,6 +154,5 @@ impl pulp::WithSimd for FeedRun<'_> {
         }
         scratch.d = d;
         scratch.slots = slots;
-        scratch.taken = taken;
     }
 }
