@@ -279,7 +279,21 @@ fn with_features(root: &Path) -> Result<Vec<String>> {
 
 /// `cargo package --workspace` of the publishable crates; `verify`: with its verification
 /// build (each `.crate` unpacked and built on its own against the others, as crates.io will).
+///
+/// The verification build takes each workspace dependency from a temporary registry
+/// (`target/package/tmp-registry`) that overlays crates.io, and cargo unpacks its crates into
+/// `$CARGO_HOME/registry/src/<that registry>/NAME-VERSION/` — skipping the unpacking when that
+/// directory already holds a complete earlier copy. Our versions do not change between
+/// commits, so a `$CARGO_HOME` kept from an earlier run (as CI keeps it) would verify a crate
+/// against its dependencies' *old* sources (stop 50's CI: study against a measure without
+/// `rules`). So every earlier unpacked copy of a workspace crate, and the temporary registry,
+/// go first (none of our names is on crates.io).
 pub fn package(root: &Path, verify: bool) -> Result<()> {
+    let (publishable, _) = packages(root)?;
+    let stale = stale_packaged_sources(&target_dir(root), cargo_home().as_deref(), &publishable)?;
+    for dir in stale {
+        std::fs::remove_dir_all(&dir).with_context(|| format!("removing {}", dir.display()))?;
+    }
     let mut c = cargo_in(root);
     c.args(["package", "--workspace", "--allow-dirty"])
         .args(excludes(root)?);
@@ -287,6 +301,62 @@ pub fn package(root: &Path, verify: bool) -> Result<()> {
         c.arg("--no-verify");
     }
     crate::run(c)
+}
+
+/// What [`package`] removes before it runs: `TARGET/package/tmp-registry` and every
+/// `CARGO_HOME/registry/src/*/NAME-VERSION` of a publishable workspace crate (`NAME` in
+/// `publishable`, any version), where cargo left an earlier verification's unpacked sources.
+fn stale_packaged_sources(
+    target: &Path,
+    cargo_home: Option<&Path>,
+    publishable: &[String],
+) -> Result<Vec<PathBuf>> {
+    let mut stale = Vec::new();
+    let tmp = target.join("package/tmp-registry");
+    if tmp.exists() {
+        stale.push(tmp);
+    }
+    let Some(home) = cargo_home else {
+        return Ok(stale);
+    };
+    let src = home.join("registry/src");
+    let Ok(registries) = std::fs::read_dir(&src) else {
+        return Ok(stale);
+    };
+    for registry in registries {
+        let registry = registry?.path();
+        let Ok(crates) = std::fs::read_dir(&registry) else {
+            continue;
+        };
+        for krate in crates {
+            let path = krate?.path();
+            let name = path
+                .file_name()
+                .and_then(|n| n.to_str())
+                .unwrap_or_default();
+            if is_unpacked_copy_of(name, publishable) && path.is_dir() {
+                stale.push(path);
+            }
+        }
+    }
+    stale.sort();
+    Ok(stale)
+}
+
+/// `dir` is `NAME-VERSION` for one of `names` (the version: digits first, as cargo writes it).
+fn is_unpacked_copy_of(dir: &str, names: &[String]) -> bool {
+    names.iter().any(|n| {
+        dir.strip_prefix(n.as_str())
+            .and_then(|rest| rest.strip_prefix('-'))
+            .is_some_and(|v| v.starts_with(|c: char| c.is_ascii_digit()))
+    })
+}
+
+/// `$CARGO_HOME`, else `$HOME/.cargo` (cargo's own default).
+fn cargo_home() -> Option<PathBuf> {
+    std::env::var_os("CARGO_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cargo")))
 }
 
 /// cargo-hack: `target/tools/bin/cargo-hack`, else on `PATH`, else installed into
@@ -473,6 +543,50 @@ mod tests {
     fn tidy_publishable_crates_carry_their_packaging_metadata() {
         let problems = check_packaging(&crate::project_root()).unwrap();
         assert!(problems.is_empty(), "{problems:#?}");
+    }
+
+    /// Only an unpacked copy of one of our crates is taken for stale.
+    #[test]
+    fn stale_unpacked_copies_are_ours_only() {
+        let names = ["crashrig-measure".to_string(), "crashrig-mc".to_string()];
+        assert!(is_unpacked_copy_of("crashrig-measure-0.1.0", &names));
+        assert!(is_unpacked_copy_of("crashrig-mc-0.2.0-rc.1", &names));
+        // A longer name that starts with ours, and crates.io's crates, are left alone.
+        assert!(!is_unpacked_copy_of("crashrig-measure-extra-0.1.0", &names));
+        assert!(!is_unpacked_copy_of("crashrig-mcx-0.1.0", &names));
+        assert!(!is_unpacked_copy_of("serde-1.0.229", &names));
+        assert!(!is_unpacked_copy_of("crashrig-measure", &names));
+    }
+
+    /// The copies cargo's overlay registry left under a kept `$CARGO_HOME` (the layout of
+    /// stop 50's CI log: `registry/src/-22c3805da5a543b4/crashrig-measure-0.1.0`) are found,
+    /// crates.io's are not.
+    #[test]
+    fn a_stale_unpacked_copy_is_found_under_cargo_home() {
+        let scratch = std::env::temp_dir().join(format!("xtask-stale-{}", std::process::id()));
+        let (home, target) = (scratch.join("cargo"), scratch.join("target"));
+        let overlay = home.join("registry/src/-22c3805da5a543b4");
+        let crates_io = home.join("registry/src/index.crates.io-1949cf8c6b5b557f");
+        for d in [
+            overlay.join("crashrig-measure-0.1.0"),
+            crates_io.join("serde-1.0.229"),
+            target.join("package/tmp-registry"),
+        ] {
+            std::fs::create_dir_all(d).unwrap();
+        }
+        std::fs::write(overlay.join("crashrig-mc-0.1.0"), "a file, not a copy").unwrap();
+        let names = ["crashrig-measure".to_string(), "crashrig-mc".to_string()];
+        let found = stale_packaged_sources(&target, Some(&home), &names).unwrap();
+        let without_home = stale_packaged_sources(&target, None, &names).unwrap();
+        std::fs::remove_dir_all(&scratch).unwrap();
+        assert_eq!(
+            found,
+            vec![
+                overlay.join("crashrig-measure-0.1.0"),
+                target.join("package/tmp-registry"),
+            ]
+        );
+        assert_eq!(without_home, vec![target.join("package/tmp-registry")]);
     }
 
     /// The check sees what it forbids, in a throw-away workspace: a crate without readme,
